@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs every Debian package photonbench needs. Idempotent: when all are present it only checks.
+set -euo pipefail
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc
+  libembree-dev embree-tools
+  libopenimageio-dev openimageio-tools libopenexr-dev
+  libyaml-cpp-dev libglm-dev libtbb-dev libgtest-dev libbenchmark-dev
+  libcli11-dev libfmt-dev libspdlog-dev libtinyobjloader-dev nlohmann-json3-dev
+  python3 python3-matplotlib python3-numpy python3-scipy
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}"
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "setup: all ${#packages[@]} packages present"
+fi
