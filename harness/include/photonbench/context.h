@@ -1,0 +1,100 @@
+// What a technique sees of the harness: the GPU, the frame being rendered, named pass scopes, counters,
+// warnings and the shared passes (G-buffer, shadow-mapped direct light, final shading). It never
+// reaches into the harness's internals; everything it needs is here.
+#pragma once
+
+#include <glm/glm.hpp>
+#include <string>
+#include <string_view>
+
+#include "photonbench/gpu.h"
+
+namespace pb {
+
+// Pass scopes: `auto scope = ctx.pass("splat");` times everything recorded and done until the scope
+// ends, on the GPU (a timestamp pair bracketed by full barriers) and on the CPU (a monotonic clock).
+// Scopes nest; a nested pass is reported as "outer/inner".
+class PassRecorder {
+ public:
+  virtual ~PassRecorder() = default;
+  virtual int begin_pass(std::string_view name) = 0;
+  virtual void end_pass(int pass) = 0;
+};
+
+class PassScope {
+ public:
+  PassScope(PassRecorder* recorder, int pass) : recorder_(recorder), pass_(pass) {}
+  PassScope(PassScope&& other) noexcept : recorder_(other.recorder_), pass_(other.pass_) { other.recorder_ = nullptr; }
+  PassScope(const PassScope&) = delete;
+  PassScope& operator=(const PassScope&) = delete;
+  ~PassScope() { end(); }
+  void end() {
+    if (recorder_) recorder_->end_pass(pass_);
+    recorder_ = nullptr;
+  }
+
+ private:
+  PassRecorder* recorder_;
+  int pass_;
+};
+
+struct CameraView {
+  glm::mat4 view, projection, view_projection, inverse_view_projection;
+  glm::vec3 position;
+  float fov_y;  // radians, vertical
+};
+
+struct FrameInfo {
+  uint32_t index;  // frame number in the animation (warm-up frames come first)
+  float time;      // seconds, = index / fps
+  bool warmup;     // warm-up frames are rendered but never counted
+  uint32_t width, height;
+  CameraView camera;
+};
+
+// The G-buffer: RGBA32F images, one texel per pixel.
+//   position: world xyz, w = distance to the camera (0: background)
+//   normal:   world shading normal facing the camera, w = material index
+//   albedo:   diffuse albedo rgb, w = material type (PB_MATERIAL_* of harness/shaders/scene_layout.h)
+struct GBuffer {
+  const gpu::Image* position;
+  const gpu::Image* normal;
+  const gpu::Image* albedo;
+  const gpu::Image* depth;
+};
+
+// Passes every technique reuses. Each records its own named pass scope.
+class SharedPasses {
+ public:
+  virtual ~SharedPasses() = default;
+  virtual void gbuffer() = 0;                                 // pass "gbuffer"
+  virtual void direct_light() = 0;                            // pass "direct-light" (shadow maps nested)
+  virtual void shade(const gpu::Image* indirect_radiance) = 0;  // pass "shade": final = emitted + direct + indirect
+  virtual GBuffer gbuffer_images() const = 0;
+  virtual const gpu::Image& direct_image() const = 0;
+  // Bindable scene data for a technique's own shaders (layouts in harness/shaders/scene_layout.h).
+  virtual const gpu::Buffer& frame_buffer() const = 0;     // GpuFrame
+  virtual const gpu::Buffer& material_buffer() const = 0;  // GpuMaterial[]
+  virtual const gpu::Buffer& light_buffer() const = 0;     // GpuLight[]
+};
+
+class Context {
+ public:
+  virtual ~Context() = default;
+  virtual gpu::Device& gpu() = 0;
+  // The frame's command buffer, recording. The harness submits it after render() and waits for it.
+  virtual vk::CommandBuffer cmd() = 0;
+  // Submits what is recorded so far and waits, then continues recording in a fresh buffer: for a
+  // technique that must read GPU results on the CPU within a frame.
+  virtual void flush() = 0;
+  virtual PassScope pass(std::string_view name) = 0;
+  // Counters are per frame: "photons_stored" etc. Warnings are recorded on the cell with the frame.
+  virtual void count(std::string_view name, double value) = 0;
+  virtual void warn(std::string_view message) = 0;
+  virtual const FrameInfo& frame() const = 0;
+  virtual SharedPasses& shared() = 0;
+  // The image the harness reads back and scores: RGBA32F, linear radiance. shade() writes it.
+  virtual const gpu::Image& output() = 0;
+};
+
+}  // namespace pb

@@ -1,0 +1,195 @@
+// The GPU services a technique gets: one headless Vulkan device (lavapipe by default), named RAII
+// buffers and images, and compute / graphics pipelines from SPIR-V embedded at build time. Resources are
+// bound with push descriptors (VK_KHR_push_descriptor), so a pipeline is just its binding list and a
+// technique never manages descriptor pools. Every image lives in VK_IMAGE_LAYOUT_GENERAL: one layout
+// for storage, sampling and attachments keeps barriers to plain memory dependencies.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <variant>
+#include <vector>
+#include <vulkan/vulkan_raii.hpp>
+
+namespace pb::gpu {
+
+enum class Memory { device_local, host_visible };  // host_visible: coherent and persistently mapped
+
+class Device;
+
+class Buffer {
+ public:
+  Buffer() = default;
+  Buffer(Buffer&&) = default;
+  Buffer& operator=(Buffer&&) = default;
+  ~Buffer();
+  vk::Buffer handle() const { return *buffer_; }
+  vk::DeviceSize size() const { return size_; }
+  const std::string& name() const { return name_; }
+  void* mapped() const { return mapped_; }  // null unless host_visible
+  template <class T>
+  std::span<T> view() const { return {static_cast<T*>(mapped_), size_t(size_ / sizeof(T))}; }
+  explicit operator bool() const { return size_ != 0; }
+
+ private:
+  friend class Device;
+  vk::raii::Buffer buffer_{nullptr};
+  vk::raii::DeviceMemory memory_{nullptr};
+  vk::DeviceSize size_ = 0;
+  void* mapped_ = nullptr;
+  std::string name_;
+  Device* device_ = nullptr;
+};
+
+class Image {
+ public:
+  Image() = default;
+  Image(Image&&) = default;
+  Image& operator=(Image&&) = default;
+  ~Image();
+  vk::Image handle() const { return *image_; }
+  vk::ImageView view() const { return *view_; }
+  vk::Format format() const { return format_; }
+  vk::Extent2D extent() const { return extent_; }
+  const std::string& name() const { return name_; }
+  vk::DeviceSize bytes() const { return bytes_; }
+
+ private:
+  friend class Device;
+  vk::raii::Image image_{nullptr};
+  vk::raii::DeviceMemory memory_{nullptr};
+  vk::raii::ImageView view_{nullptr};
+  vk::Format format_ = vk::Format::eUndefined;
+  vk::Extent2D extent_{};
+  vk::DeviceSize bytes_ = 0;
+  std::string name_;
+  Device* device_ = nullptr;
+};
+
+// What a pipeline binding receives, in binding order.
+struct Sampled {
+  const Image* image;
+};
+using Resource = std::variant<const Buffer*, const Image*, Sampled>;
+
+enum class Binding { storage_buffer, storage_image, sampled_image };
+
+class Pipeline {
+ public:
+  Pipeline() = default;
+  Pipeline(Pipeline&&) = default;
+  Pipeline& operator=(Pipeline&&) = default;
+  // Binds the pipeline and pushes its resources and push constants.
+  void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const void* push = nullptr,
+            uint32_t push_bytes = 0) const;
+  template <class T>
+  void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const T& push) const {
+    bind(cmd, resources, &push, sizeof(T));
+  }
+  const std::string& name() const { return name_; }
+
+ private:
+  friend class Device;
+  Device* device_ = nullptr;
+  std::string name_;
+  vk::PipelineBindPoint bind_point_ = vk::PipelineBindPoint::eCompute;
+  std::vector<Binding> bindings_;
+  vk::ShaderStageFlags push_stages_;
+  vk::raii::DescriptorSetLayout set_layout_{nullptr};
+  vk::raii::PipelineLayout layout_{nullptr};
+  vk::raii::Pipeline pipeline_{nullptr};
+};
+
+// A raster pipeline for dynamic rendering. Vertex input is one interleaved buffer of `vertex_stride`
+// bytes with the given attribute formats at consecutive binding-0 locations (offsets packed in order).
+struct GraphicsPipelineDesc {
+  std::string name;
+  std::span<const uint32_t> vertex_spirv;
+  std::span<const uint32_t> fragment_spirv;  // empty: depth-only
+  std::vector<Binding> bindings;
+  uint32_t push_bytes = 0;
+  uint32_t vertex_stride = 0;
+  std::vector<vk::Format> vertex_attributes;
+  std::vector<vk::Format> color_formats;
+  vk::Format depth_format = vk::Format::eUndefined;
+  vk::CullModeFlags cull = vk::CullModeFlagBits::eNone;
+  bool depth_bias = false;
+  vk::SampleCountFlagBits samples = vk::SampleCountFlagBits::e1;
+  std::vector<bool> additive_blend;  // per colour attachment; empty: no blending
+};
+
+class Device {
+ public:
+  struct Options {
+    std::string name_filter;  // substring of the device name; empty picks lavapipe, else the first
+    bool validation = false;  // enable VK_LAYER_KHRONOS_validation and count its errors
+  };
+  explicit Device(const Options& options);
+  ~Device();
+  Device(const Device&) = delete;
+  Device& operator=(const Device&) = delete;
+
+  static std::vector<std::string> list_devices();
+
+  const std::string& name() const { return name_; }
+  const std::string& driver() const { return driver_; }
+  const vk::raii::Device& device() const { return device_; }
+  const vk::raii::PhysicalDevice& physical() const { return physical_; }
+  vk::Queue queue() const { return *queue_; }
+  uint32_t queue_family() const { return queue_family_; }
+  double timestamp_period_ns() const { return timestamp_period_ns_; }
+  uint32_t timestamp_valid_bits() const { return timestamp_valid_bits_; }
+
+  Buffer create_buffer(std::string name, vk::DeviceSize size, vk::BufferUsageFlags usage, Memory memory);
+  Image create_image(std::string name, vk::Extent2D extent, vk::Format format, vk::ImageUsageFlags usage,
+                     vk::SampleCountFlagBits samples = vk::SampleCountFlagBits::e1);
+  Pipeline create_compute_pipeline(std::string name, std::span<const uint32_t> spirv,
+                                   std::vector<Binding> bindings, uint32_t push_bytes);
+  Pipeline create_graphics_pipeline(const GraphicsPipelineDesc& desc);
+
+  // Records with `record`, submits, waits. For set-up work and read-backs, never inside a frame.
+  void submit_and_wait(const std::function<void(vk::CommandBuffer)>& record);
+  void upload(const Buffer& dst, const void* data, vk::DeviceSize bytes, vk::DeviceSize offset = 0);
+  void download(const Buffer& src, void* data, vk::DeviceSize bytes, vk::DeviceSize offset = 0);
+  // Reads an RGBA32F image into `rgba` (width * height * 4 floats).
+  void read_image(const Image& image, std::vector<float>& rgba);
+
+  // Bytes in live buffers and images made through this device; the runner attributes them per cell.
+  uint64_t allocated_bytes() const { return allocated_bytes_; }
+  uint64_t validation_errors() const;
+  std::string first_validation_error() const;
+
+  void set_debug_name(uint64_t handle, vk::ObjectType type, const std::string& name) const;
+  void release(vk::DeviceSize bytes) { allocated_bytes_ -= bytes; }
+
+ private:
+  uint32_t find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags flags) const;
+  vk::raii::DeviceMemory allocate(vk::MemoryRequirements requirements, vk::MemoryPropertyFlags flags);
+
+  struct Messenger;
+  vk::raii::Context context_;
+  vk::raii::Instance instance_{nullptr};
+  std::unique_ptr<Messenger> messenger_;
+  vk::raii::PhysicalDevice physical_{nullptr};
+  vk::raii::Device device_{nullptr};
+  vk::raii::Queue queue_{nullptr};
+  vk::raii::CommandPool command_pool_{nullptr};
+  uint32_t queue_family_ = 0;
+  std::string name_, driver_;
+  double timestamp_period_ns_ = 1;
+  uint32_t timestamp_valid_bits_ = 64;
+  bool debug_names_ = false;
+  uint64_t allocated_bytes_ = 0;
+};
+
+// A full memory barrier between commands: every earlier write is visible to every later access. Passes
+// are separated by it; it is what a technique uses between dependent dispatches.
+void full_barrier(vk::CommandBuffer cmd);
+
+// Work groups needed to cover `n` items with groups of `group_size`.
+inline uint32_t groups_for(uint64_t n, uint32_t group_size) { return uint32_t((n + group_size - 1) / group_size); }
+
+}  // namespace pb::gpu

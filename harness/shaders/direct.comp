@@ -1,0 +1,139 @@
+#version 460
+// Direct lighting (path class C D L) at each G-buffer sample, with shadow-map visibility.
+// Point, spot and quad lights use a 6-face cube of atlas tiles around the light (the quad's from its
+// centre, so its shadows are hard: a documented approximation); directional lights one orthographic tile.
+// Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter et al. 2007) with
+// Schlick's Fresnel; smooth specular surfaces receive no direct light from delta or small lights here.
+#include "scene_layout.h"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
+layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial materials[]; };
+layout(std430, binding = 2) readonly buffer LightBlock { GpuLight lights[]; };
+layout(std430, binding = 3) readonly buffer TileBlock { mat4 tiles[]; };
+layout(binding = 4, rgba32f) readonly uniform image2D gbuffer_position;
+layout(binding = 5, rgba32f) readonly uniform image2D gbuffer_normal;
+layout(binding = 6) uniform sampler2D shadow_atlas;
+layout(binding = 7, rgba32f) writeonly uniform image2D direct_out;
+// relative_bias: a receiver is lit when its light-space depth * (1 - relative_bias) <= the stored depth.
+// Cube tiles are perspective (near/far given), directional tiles orthographic (depth already linear).
+layout(push_constant) uniform Push { float relative_bias; float normal_offset; float near; float far; } push;
+
+const float PI = 3.14159265358979;
+
+uint cube_face(vec3 d) {
+  vec3 a = abs(d);
+  if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0u : 1u;
+  if (a.y >= a.z) return d.y > 0.0 ? 2u : 3u;
+  return d.z > 0.0 ? 4u : 5u;
+}
+
+// Distance along the light's view axis from a stored [0,1] depth (perspectiveRH_ZO inverted).
+float linear_depth(float z, bool orthographic) {
+  if (orthographic) return z;
+  return push.far * push.near / (push.far - z * (push.far - push.near));
+}
+
+// 3x3 percentage-closer filtering inside one tile.
+float visibility(uint tile, vec3 p) {
+  vec4 clip = tiles[tile] * vec4(p, 1.0);
+  vec3 ndc = clip.xyz / clip.w;
+  if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0) return 1.0;
+  uint size = frame.size_lights.w;
+  uint per_row = frame.shadow_atlas.z;
+  ivec2 origin = ivec2((tile % per_row) * size, (tile / per_row) * size);
+  vec2 texel = (ndc.xy * 0.5 + 0.5) * float(size);
+  bool orthographic = tiles[tile][3][3] == 1.0;
+  float receiver = linear_depth(ndc.z, orthographic) * (1.0 - push.relative_bias);
+  float lit = 0.0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      ivec2 t = clamp(ivec2(texel) + ivec2(dx, dy), ivec2(0), ivec2(size - 1));
+      float stored = texelFetch(shadow_atlas, origin + t, 0).r;
+      lit += receiver <= linear_depth(stored, orthographic) ? 1.0 : 0.0;
+    }
+  return lit / 9.0;
+}
+
+// Irradiance at p (normal n) from a Lambertian quad of radiance L, by Lambert's polygon formula; zero
+// behind the quad. No horizon clipping: a quad crossing the tangent plane is slightly overestimated.
+float quad_form_factor(vec3 p, vec3 n, vec3 corner, vec3 eu, vec3 ev) {
+  vec3 qn = normalize(cross(eu, ev));
+  if (dot(p - corner, qn) <= 0.0) return 0.0;
+  vec3 v[4] = vec3[4](corner, corner + eu, corner + eu + ev, corner + ev);
+  float sum = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    vec3 a = normalize(v[i] - p), b = normalize(v[(i + 1) % 4] - p);
+    float angle = acos(clamp(dot(a, b), -1.0, 1.0));
+    vec3 c = cross(a, b);
+    float lc = length(c);
+    if (lc > 1e-8) sum += angle * dot(c / lc, n);
+  }
+  return max(0.5 * abs(sum), 0.0);
+}
+
+vec3 brdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
+  int type = int(m.albedo_type.w);
+  if (type == PB_MATERIAL_DIFFUSE || type == PB_MATERIAL_EMISSIVE) return m.albedo_type.rgb / PI;
+  if (type == PB_MATERIAL_ROUGH_CONDUCTOR) {
+    float alpha = max(m.emission_roughness.w, 1e-3);
+    vec3 h = normalize(wo + wi);
+    float nh = max(dot(n, h), 0.0), no = max(dot(n, wo), 1e-4), ni = max(dot(n, wi), 1e-4);
+    float a2 = alpha * alpha;
+    float d = a2 / (PI * pow(nh * nh * (a2 - 1.0) + 1.0, 2.0));
+    float lo = (-1.0 + sqrt(1.0 + a2 * (1.0 - no * no) / (no * no))) * 0.5;
+    float li = (-1.0 + sqrt(1.0 + a2 * (1.0 - ni * ni) / (ni * ni))) * 0.5;
+    float g = 1.0 / (1.0 + lo + li);
+    vec3 f0 = m.specular_ior.rgb;
+    vec3 f = f0 + (1.0 - f0) * pow(1.0 - max(dot(wi, h), 0.0), 5.0);
+    return f * d * g / (4.0 * no * ni);
+  }
+  return vec3(0.0);
+}
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  if (pixel.x >= int(frame.size_lights.x) || pixel.y >= int(frame.size_lights.y)) return;
+  vec4 pos = imageLoad(gbuffer_position, pixel);
+  if (pos.w <= 0.0) {
+    imageStore(direct_out, pixel, vec4(0.0));
+    return;
+  }
+  vec4 nm = imageLoad(gbuffer_normal, pixel);
+  vec3 p = pos.xyz, n = normalize(nm.xyz);
+  GpuMaterial m = materials[uint(nm.w)];
+  vec3 wo = normalize(frame.camera_position.xyz - p);
+  vec3 shadow_p = p + n * push.normal_offset;
+  vec3 result = vec3(0.0);
+  for (uint i = 0; i < frame.size_lights.z; ++i) {
+    GpuLight light = lights[i];
+    int type = int(light.position_type.w);
+    uint first_tile = uint(light.edge_v_first_tile.w);
+    vec3 wi;
+    vec3 irradiance_rgb;
+    uint tile;
+    if (type == PB_LIGHT_DIRECTIONAL) {
+      wi = -light.direction_cos_outer.xyz;
+      irradiance_rgb = light.radiant.rgb * max(dot(n, wi), 0.0);
+      tile = first_tile;
+    } else if (type == PB_LIGHT_QUAD) {
+      vec3 eu = light.edge_u_cos_inner.xyz, ev = light.edge_v_first_tile.xyz;
+      vec3 centre = light.position_type.xyz + 0.5 * (eu + ev);
+      wi = normalize(centre - p);
+      irradiance_rgb = light.radiant.rgb * quad_form_factor(p, n, light.position_type.xyz, eu, ev);
+      tile = first_tile + cube_face(shadow_p - centre);
+    } else {
+      vec3 to_light = light.position_type.xyz - p;
+      float r2 = max(dot(to_light, to_light), 1e-8);
+      wi = to_light * inversesqrt(r2);
+      float falloff = 1.0;
+      if (type == PB_LIGHT_SPOT)
+        falloff = smoothstep(light.direction_cos_outer.w, light.edge_u_cos_inner.w,
+                             dot(-wi, light.direction_cos_outer.xyz));
+      irradiance_rgb = light.radiant.rgb * falloff * max(dot(n, wi), 0.0) / r2;  // I cos(theta) / r^2
+      tile = first_tile + cube_face(shadow_p - light.position_type.xyz);
+    }
+    if (all(equal(irradiance_rgb, vec3(0.0)))) continue;
+    result += brdf(m, n, wo, wi) * irradiance_rgb * visibility(tile, shadow_p);
+  }
+  imageStore(direct_out, pixel, vec4(result, 1.0));
+}

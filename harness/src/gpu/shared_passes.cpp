@@ -1,0 +1,260 @@
+#include "gpu/shared_passes.h"
+
+#include <fmt/format.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "../../shaders/scene_layout.h"
+#include "photonbench/error.h"
+#include "shared_shaders.h"
+
+namespace pb::gpu {
+
+static_assert(sizeof(layout::GpuMaterial) == 48);
+static_assert(sizeof(layout::GpuLight) == 80);
+static_assert(sizeof(layout::GpuFrame) == 176);
+
+namespace {
+
+constexpr vk::Format kColor = vk::Format::eR32G32B32A32Sfloat;
+constexpr vk::Format kDepth = vk::Format::eD32Sfloat;
+constexpr float kShadowNear = 0.05f;
+constexpr uint32_t kGroup = 8;
+
+struct DrawPush {
+  glm::mat4 model;
+  uint32_t index;  // material (G-buffer) or tile (shadow)
+};
+
+layout::GpuMaterial to_gpu(const scene::Material& m) {
+  return {glm::vec4(m.albedo, float(int(m.type))), glm::vec4(m.emission, m.roughness), glm::vec4(m.specular, m.ior)};
+}
+
+// The 6 cube-face views around `p`, in the order the direct-light shader picks them (+x -x +y -y +z -z).
+void cube_views(glm::vec3 p, float far_plane, std::vector<glm::mat4>& out) {
+  const glm::vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  glm::mat4 projection = glm::perspectiveRH_ZO(glm::radians(90.f), 1.f, kShadowNear, far_plane);
+  for (int face = 0; face < 6; ++face) {
+    glm::vec3 up = face == 2 || face == 3 ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
+    out.push_back(projection * glm::lookAtRH(p, p + axes[face], up));
+  }
+}
+
+}  // namespace
+
+ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t width, uint32_t height,
+                         const SharedPassOptions& options, PassRecorder& recorder,
+                         std::function<vk::CommandBuffer()> cmd)
+    : device_(device), scene_(scene), width_(width), height_(height), options_(options), recorder_(recorder),
+      cmd_(std::move(cmd)) {
+  using U = vk::BufferUsageFlagBits;
+  using I = vk::ImageUsageFlagBits;
+  meshes_.resize(scene.objects.size());
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    upload_mesh(meshes_[i], scene.objects[i].mesh, "world/" + scene.objects[i].name);
+
+  std::vector<layout::GpuMaterial> materials;
+  for (const auto& m : scene.materials) materials.push_back(to_gpu(m));
+  if (materials.empty()) materials.push_back(to_gpu(scene::Material{}));
+  materials_ = device.create_buffer("world/materials", materials.size() * sizeof(layout::GpuMaterial),
+                                    U::eStorageBuffer, Memory::device_local);
+  device.upload(materials_, materials.data(), materials.size() * sizeof(layout::GpuMaterial));
+
+  for (const auto& track : scene.lights)
+    tile_count_ += track.light.type == scene::LightType::directional ? 1 : 6;
+  size_t light_count = std::max<size_t>(scene.lights.size(), 1);
+  frame_ = device.create_buffer("world/frame", sizeof(layout::GpuFrame), U::eStorageBuffer, Memory::host_visible);
+  lights_ = device.create_buffer("world/lights", light_count * sizeof(layout::GpuLight), U::eStorageBuffer,
+                                 Memory::host_visible);
+  tiles_ = device.create_buffer("world/shadow-views", std::max<uint32_t>(tile_count_, 1) * sizeof(glm::mat4),
+                                U::eStorageBuffer, Memory::host_visible);
+
+  vk::Extent2D extent{width, height};
+  auto storage = I::eStorage | I::eColorAttachment;
+  position_ = device.create_image("gbuffer/position", extent, kColor, storage);
+  normal_ = device.create_image("gbuffer/normal", extent, kColor, storage);
+  albedo_ = device.create_image("gbuffer/albedo", extent, kColor, storage);
+  depth_ = device.create_image("gbuffer/depth", extent, kDepth, I::eDepthStencilAttachment | I::eSampled);
+  direct_ = device.create_image("direct/radiance", extent, kColor, I::eStorage);
+  final_ = device.create_image("output/radiance", extent, kColor, I::eStorage);
+  uint32_t size = options.shadow_map_size;
+  uint32_t rows = std::max<uint32_t>((tile_count_ + tiles_per_row_ - 1) / tiles_per_row_, 1);
+  shadow_atlas_ = device.create_image("shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
+                                      I::eDepthStencilAttachment | I::eSampled);
+
+  GraphicsPipelineDesc gbuffer{"gbuffer", kgbuffer_vert_spv, kgbuffer_frag_spv,
+                               {Binding::storage_buffer, Binding::storage_buffer}, sizeof(DrawPush),
+                               6 * sizeof(float), {vk::Format::eR32G32B32Sfloat, vk::Format::eR32G32B32Sfloat},
+                               {kColor, kColor, kColor}, kDepth};
+  gbuffer_pipeline_ = device.create_graphics_pipeline(gbuffer);
+  GraphicsPipelineDesc shadow{"shadow-maps", kshadow_vert_spv, {}, {Binding::storage_buffer}, sizeof(DrawPush),
+                              6 * sizeof(float), {vk::Format::eR32G32B32Sfloat, vk::Format::eR32G32B32Sfloat},
+                              {}, kDepth};
+  shadow_pipeline_ = device.create_graphics_pipeline(shadow);
+  using B = Binding;
+  direct_pipeline_ = device.create_compute_pipeline(
+      "direct-light", kdirect_comp_spv,
+      {B::storage_buffer, B::storage_buffer, B::storage_buffer, B::storage_buffer, B::storage_image,
+       B::storage_image, B::sampled_image, B::storage_image},
+      4 * sizeof(float));
+  shade_pipeline_ = device.create_compute_pipeline(
+      "shade", kshade_comp_spv,
+      {B::storage_buffer, B::storage_buffer, B::storage_image, B::storage_image, B::storage_image, B::storage_image,
+       B::storage_image},
+      sizeof(uint32_t));
+}
+
+void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name) {
+  using U = vk::BufferUsageFlagBits;
+  std::vector<float> interleaved;
+  interleaved.reserve(mesh.positions.size() * 6);
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    glm::vec3 n = v < mesh.normals.size() ? mesh.normals[v] : glm::vec3(0, 1, 0);
+    interleaved.insert(interleaved.end(), {mesh.positions[v].x, mesh.positions[v].y, mesh.positions[v].z, n.x, n.y, n.z});
+  }
+  size_t vertex_bytes = interleaved.size() * sizeof(float);
+  size_t index_bytes = mesh.triangles.size() * sizeof(glm::uvec3);
+  if (!gpu_mesh.vertices || gpu_mesh.vertices.size() < vertex_bytes)
+    gpu_mesh.vertices = device_.create_buffer(name + "/vertices", vertex_bytes, U::eVertexBuffer, Memory::host_visible);
+  if (!gpu_mesh.indices || gpu_mesh.indices.size() < index_bytes)
+    gpu_mesh.indices = device_.create_buffer(name + "/indices", index_bytes, U::eIndexBuffer, Memory::host_visible);
+  device_.upload(gpu_mesh.vertices, interleaved.data(), vertex_bytes);
+  device_.upload(gpu_mesh.indices, mesh.triangles.data(), index_bytes);
+  gpu_mesh.index_count = uint32_t(mesh.triangles.size() * 3);
+}
+
+void ScenePasses::update(const scene::FrameState& state) {
+  object_to_world_ = state.object_to_world;
+  // Deformed meshes (the pool's water) are re-tessellated and re-uploaded; rigid motion is a matrix.
+  for (uint32_t i : state.deformed_objects)
+    upload_mesh(meshes_[i], scene_.mesh_at(i, state.time), "world/" + scene_.objects[i].name);
+
+  float aspect = float(width_) / float(height_);
+  camera_.view = state.camera.view();
+  camera_.projection = state.camera.projection(aspect);
+  camera_.view_projection = camera_.projection * camera_.view;
+  camera_.inverse_view_projection = glm::inverse(camera_.view_projection);
+  camera_.position = state.camera.position;
+  camera_.fov_y = state.camera.fov_y;
+
+  auto [lo, hi] = scene_.bounds();
+  glm::vec3 centre = 0.5f * (lo + hi);
+  float radius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
+  float shadow_far = 4.f * radius + 1.f;
+
+  std::vector<glm::mat4> tiles;
+  auto lights = std::span(static_cast<layout::GpuLight*>(lights_.mapped()), state.lights.size());
+  for (size_t i = 0; i < state.lights.size(); ++i) {
+    const scene::Light& light = state.lights[i];
+    layout::GpuLight& g = lights[i];
+    g.position_type = glm::vec4(light.position, float(int(light.type)));
+    g.radiant = glm::vec4(light.radiant, 0.f);
+    g.direction_cos_outer = glm::vec4(glm::normalize(light.direction), std::cos(light.spot_outer));
+    g.edge_u_cos_inner = glm::vec4(light.edge_u, std::cos(light.spot_inner));
+    g.edge_v_first_tile = glm::vec4(light.edge_v, float(tiles.size()));
+    if (light.type == scene::LightType::directional) {
+      glm::vec3 d = glm::normalize(light.direction);
+      glm::vec3 up = std::abs(d.y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+      glm::mat4 view = glm::lookAtRH(centre - d * 2.f * radius, centre, up);
+      tiles.push_back(glm::orthoRH_ZO(-radius, radius, -radius, radius, 0.f, 4.f * radius) * view);
+    } else {
+      glm::vec3 origin = light.type == scene::LightType::quad
+                             ? light.position + 0.5f * (light.edge_u + light.edge_v)
+                             : light.position;
+      cube_views(origin, shadow_far, tiles);
+    }
+  }
+  if (!tiles.empty()) std::memcpy(tiles_.mapped(), tiles.data(), tiles.size() * sizeof(glm::mat4));
+
+  layout::GpuFrame frame{};
+  frame.view_projection = camera_.view_projection;
+  frame.inverse_view_projection = camera_.inverse_view_projection;
+  frame.camera_position = glm::vec4(camera_.position, camera_.fov_y);
+  frame.size_lights = glm::uvec4(width_, height_, uint32_t(state.lights.size()), options_.shadow_map_size);
+  vk::Extent2D atlas = shadow_atlas_.extent();
+  frame.shadow_atlas = glm::uvec4(atlas.width, atlas.height, tiles_per_row_, tile_count_);
+  std::memcpy(frame_.mapped(), &frame, sizeof(frame));
+}
+
+void ScenePasses::gbuffer() {
+  auto scope = PassScope(&recorder_, recorder_.begin_pass("gbuffer"));
+  vk::CommandBuffer cmd = cmd_();
+  std::array<vk::RenderingAttachmentInfo, 3> colors;
+  const Image* targets[3] = {&position_, &normal_, &albedo_};
+  for (int i = 0; i < 3; ++i)
+    colors[i] = vk::RenderingAttachmentInfo{targets[i]->view(), vk::ImageLayout::eGeneral, {}, {}, {},
+                                            vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
+                                            vk::ClearColorValue(std::array<float, 4>{0, 0, 0, 0})};
+  vk::RenderingAttachmentInfo depth{depth_.view(), vk::ImageLayout::eGeneral, {}, {}, {},
+                                    vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
+                                    vk::ClearDepthStencilValue(1.f, 0)};
+  vk::Rect2D area{{0, 0}, {width_, height_}};
+  cmd.beginRendering(vk::RenderingInfo{{}, area, 1, 0, colors, &depth});
+  // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is plain.
+  cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
+  cmd.setScissor(0, area);
+  for (size_t i = 0; i < meshes_.size(); ++i) {
+    if (meshes_[i].index_count == 0) continue;
+    DrawPush push{object_to_world_[i], scene_.objects[i].material};
+    gbuffer_pipeline_.bind(cmd, {&frame_, &materials_}, push);
+    cmd.bindVertexBuffers(0, meshes_[i].vertices.handle(), vk::DeviceSize(0));
+    cmd.bindIndexBuffer(meshes_[i].indices.handle(), 0, vk::IndexType::eUint32);
+    cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
+  }
+  cmd.endRendering();
+}
+
+void ScenePasses::shadow_maps() {
+  auto scope = PassScope(&recorder_, recorder_.begin_pass("shadow-maps"));
+  vk::CommandBuffer cmd = cmd_();
+  vk::Extent2D atlas = shadow_atlas_.extent();
+  vk::RenderingAttachmentInfo depth{shadow_atlas_.view(), vk::ImageLayout::eGeneral, {}, {}, {},
+                                    vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
+                                    vk::ClearDepthStencilValue(1.f, 0)};
+  cmd.beginRendering(vk::RenderingInfo{{}, {{0, 0}, atlas}, 1, 0, {}, &depth});
+  uint32_t size = options_.shadow_map_size;
+  for (uint32_t tile = 0; tile < tile_count_; ++tile) {
+    int32_t x = int32_t((tile % tiles_per_row_) * size), y = int32_t((tile / tiles_per_row_) * size);
+    cmd.setViewport(0, vk::Viewport{float(x), float(y), float(size), float(size), 0, 1});
+    cmd.setScissor(0, vk::Rect2D{{x, y}, {size, size}});
+    for (size_t i = 0; i < meshes_.size(); ++i) {
+      if (meshes_[i].index_count == 0) continue;
+      DrawPush push{object_to_world_[i], tile};
+      shadow_pipeline_.bind(cmd, {&tiles_}, push);
+      cmd.bindVertexBuffers(0, meshes_[i].vertices.handle(), vk::DeviceSize(0));
+      cmd.bindIndexBuffer(meshes_[i].indices.handle(), 0, vk::IndexType::eUint32);
+      cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
+    }
+  }
+  cmd.endRendering();
+}
+
+void ScenePasses::direct_light() {
+  auto scope = PassScope(&recorder_, recorder_.begin_pass("direct-light"));
+  shadow_maps();
+  auto lighting = PassScope(&recorder_, recorder_.begin_pass("lighting"));
+  vk::CommandBuffer cmd = cmd_();
+  auto [lo, hi] = scene_.bounds();
+  float far_plane = 4.f * std::max(0.5f * glm::length(hi - lo), 1e-3f) + 1.f;
+  struct {
+    float relative_bias, normal_offset, near_plane, far_plane;
+  } push{options_.shadow_relative_bias, options_.shadow_normal_offset, kShadowNear, far_plane};
+  direct_pipeline_.bind(cmd,
+                        {&frame_, &materials_, &lights_, &tiles_, &position_, &normal_, Sampled{&shadow_atlas_},
+                         &direct_},
+                        push);
+  cmd.dispatch(groups_for(width_, kGroup), groups_for(height_, kGroup), 1);
+}
+
+void ScenePasses::shade(const Image* indirect_radiance) {
+  auto scope = PassScope(&recorder_, recorder_.begin_pass("shade"));
+  vk::CommandBuffer cmd = cmd_();
+  uint32_t has_indirect = indirect_radiance ? 1u : 0u;
+  shade_pipeline_.bind(cmd,
+                       {&frame_, &materials_, &position_, &normal_, &direct_,
+                        indirect_radiance ? indirect_radiance : &direct_, &final_},
+                       has_indirect);
+  cmd.dispatch(groups_for(width_, kGroup), groups_for(height_, kGroup), 1);
+}
+
+}  // namespace pb::gpu

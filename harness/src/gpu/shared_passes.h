@@ -1,0 +1,64 @@
+// The scene on the GPU and the passes every technique shares: G-buffer (rasterised), shadow maps,
+// direct light and final shading. Owned by the runner for one cell; handed to the technique as
+// pb::SharedPasses through the context.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "photonbench/context.h"
+#include "scene/scene.h"
+
+namespace pb::gpu {
+
+struct SharedPassOptions {
+  uint32_t shadow_map_size = 512;  // texels per tile side
+  float shadow_relative_bias = 0.01f;  // fraction of the light-space depth
+  float shadow_normal_offset = 0.01f;  // metres along the normal
+};
+
+class ScenePasses : public SharedPasses {
+ public:
+  // `recorder` opens pass scopes; `cmd` returns the frame's current command buffer.
+  ScenePasses(Device& device, const scene::Scene& scene, uint32_t width, uint32_t height,
+              const SharedPassOptions& options, PassRecorder& recorder, std::function<vk::CommandBuffer()> cmd);
+
+  // Uploads this frame's camera, lights, shadow views and moved or deformed geometry.
+  void update(const scene::FrameState& state);
+  CameraView camera_view() const { return camera_; }
+  const Image& output() const { return final_; }
+
+  void gbuffer() override;
+  void direct_light() override;
+  void shade(const Image* indirect_radiance) override;
+  GBuffer gbuffer_images() const override { return {&position_, &normal_, &albedo_, &depth_}; }
+  const Image& direct_image() const override { return direct_; }
+  const Buffer& frame_buffer() const override { return frame_; }
+  const Buffer& material_buffer() const override { return materials_; }
+  const Buffer& light_buffer() const override { return lights_; }
+
+ private:
+  struct GpuMesh {
+    Buffer vertices;  // interleaved position, normal (6 floats)
+    Buffer indices;
+    uint32_t index_count = 0;
+  };
+  void upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name);
+  void shadow_maps();
+
+  Device& device_;
+  const scene::Scene& scene_;
+  uint32_t width_, height_;
+  SharedPassOptions options_;
+  PassRecorder& recorder_;
+  std::function<vk::CommandBuffer()> cmd_;
+  std::vector<GpuMesh> meshes_;
+  std::vector<glm::mat4> object_to_world_;
+  CameraView camera_{};
+  uint32_t tiles_per_row_ = 6, tile_count_ = 0;
+  Buffer frame_, materials_, lights_, tiles_;
+  Image position_, normal_, albedo_, depth_, shadow_atlas_, direct_, final_;
+  Pipeline gbuffer_pipeline_, shadow_pipeline_, direct_pipeline_, shade_pipeline_;
+};
+
+}  // namespace pb::gpu
