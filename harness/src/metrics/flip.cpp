@@ -1,0 +1,602 @@
+// FLIP: LDR-FLIP (Andersson et al., HPG 2020) and HDR-FLIP (Andersson et al., EG 2021), matching the
+// NVIDIA reference tool v1.6 (its default viewing condition, tone mappers, exposure range and pooling).
+//
+// Per pixel, FLIP compares a colour difference (the images filtered by contrast sensitivity functions
+// in the YCxCz opponent space, then the HyAB distance of Hunt-adjusted CIELab values) with a feature
+// difference (edges and points found by first and second derivatives of a Gaussian on the
+// achromatic channel): error = colour_difference ^ (1 - feature_difference). HDR-FLIP tone maps
+// both images at several exposures and keeps each pixel's largest LDR-FLIP error.
+//
+// The work is one fused pass per image pair (and per exposure): for each output row the separable
+// filters run vertically (straight from the full-size YCxCz planes) and then horizontally (on one
+// padded row), and the per-pixel differences follow while the row is still in cache. Clamp-to-edge
+// borders in both directions make vertical-then-horizontal equal to the reference's opposite order.
+#include <fmt/format.h>
+#include <tbb/blocked_range2d.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "metrics/detail.h"
+#include "metrics/metrics.h"
+#include "photonbench/error.h"
+
+namespace pb::metrics {
+namespace {
+
+using detail::fast_cbrt;
+using detail::fast_pow;
+using detail::Planes;
+
+// HPG 2020, Section 4: colour-difference exponent q_c, the error p_c * cmax where the colour
+// error's remapping changes slope and the value p_t it maps to, feature filter width w (degrees)
+// and feature exponent q_f.
+constexpr float kQc = 0.7f, kPc = 0.4f, kPt = 0.95f, kW = 0.082f, kQf = 0.5f;
+constexpr float kPi = 3.14159265358979f;
+
+// The contrast sensitivity functions of Y, Cx and Cz as sums of two Gaussians
+// a1 sqrt(pi / b1) exp(-pi^2 x^2 / b1) + a2 sqrt(pi / b2) exp(-pi^2 x^2 / b2), x in degrees
+// (HPG 2020, Section 4.1 and its Table 1).
+struct Csf {
+  float a1, b1, a2, b2;
+};
+constexpr Csf kCsfY{1.f, 0.0047f, 0.f, 1e-5f};
+constexpr Csf kCsfCx{1.f, 0.0053f, 0.f, 1e-5f};
+constexpr Csf kCsfCz{34.1f, 0.04f, 13.5f, 0.025f};
+
+// CIE XYZ of the sRGB (D65) white, and its inverse: the reference white of YCxCz and CIELab.
+constexpr float kWhite[3] = {0.950428545f, 1.f, 1.088900371f};
+constexpr float kInvWhite[3] = {1.052156925f, 1.f, 0.918357670f};
+
+// Tone curves of HDR-FLIP (EG 2021, Section 4.1) as (c0 x^2 + c1 x + c2) / (c3 x^2 + c4 x + c5).
+// ACES (Narkowicz's fit) carries the 0.6 that cancels its built-in pre-exposure; Hable is the
+// Uncharted 2 curve; Reinhard's row only serves the exposure computation (its curve scales colour
+// by 1 / (1 + luminance)).
+constexpr float kToneCurves[3][6] = {
+    {0.6f * 0.6f * 2.51f, 0.6f * 0.03f, 0.f, 0.6f * 0.6f * 2.43f, 0.6f * 0.59f, 0.14f},  // aces
+    {0.231683f, 0.013791f, 0.f, 0.18f, 0.3f, 0.018f},                                    // hable
+    {0.f, 1.f, 0.f, 0.f, 1.f, 1.f},                                                      // reinhard
+};
+
+const float* tone_curve(Tonemapper tm) { return kToneCurves[int(tm)]; }
+
+[[gnu::always_inline]] inline float luminance(float r, float g, float b) {
+  return 0.2126f * r + 0.7152f * g + 0.0722f * b;
+}
+
+// Linear sRGB to CIE XYZ (IEC 61966-2-1 primaries, D65), the matrix as exact fractions.
+[[gnu::always_inline]] inline void rgb_to_xyz(float r, float g, float b, float& x, float& y,
+                                              float& z) {
+  x = (10135552.f / 24577794.f) * r + (8788810.f / 24577794.f) * g + (4435075.f / 24577794.f) * b;
+  y = (2613072.f / 12288897.f) * r + (8788810.f / 12288897.f) * g + (887015.f / 12288897.f) * b;
+  z = (1425312.f / 73733382.f) * r + (8788810.f / 73733382.f) * g + (70074185.f / 73733382.f) * b;
+}
+
+[[gnu::always_inline]] inline void xyz_to_rgb(float x, float y, float z, float& r, float& g,
+                                              float& b) {
+  r = 3.241003275f * x - 1.537398934f * y - 0.498615861f * z;
+  g = -0.969224334f * x + 1.875930071f * y + 0.041554224f * z;
+  b = 0.055639423f * x - 0.204011202f * y + 1.057148933f * z;
+}
+
+// Linear RGB in [0, 1] to YCxCz (HPG 2020, Section 4.1: the linearised CIELab of Zhang and Wandell).
+[[gnu::always_inline]] inline void rgb_to_ycxcz(float r, float g, float b, float& yy, float& cx,
+                                                float& cz) {
+  float x, y, z;
+  rgb_to_xyz(r, g, b, x, y, z);
+  x *= kInvWhite[0];
+  z *= kInvWhite[2];
+  yy = 116.f * y - 16.f;
+  cx = 500.f * (x - y);
+  cz = 200.f * (y - z);
+}
+
+// CIELab's f(t): the cube root above (6/29)^3, a line below.
+[[gnu::always_inline]] inline float lab_f(float t) {
+  constexpr float delta = 6.f / 29.f;
+  constexpr float delta_cube = delta * delta * delta;
+  constexpr float slope = 1.f / (3.f * delta * delta);
+  return t > delta_cube ? fast_cbrt(t) : t * slope + 4.f / 29.f;
+}
+
+// A filtered YCxCz value back to linear RGB, clamped to the displayable [0, 1] (HPG 2020,
+// Section 4.1), then to CIELab with Hunt's chroma adjustment a, b *= 0.01 L (Section 4.2).
+[[gnu::always_inline]] inline void ycxcz_to_hunt_lab(float yy, float cx, float cz, float& l,
+                                                     float& a, float& b) {
+  const float fy = (yy + 16.f) / 116.f;
+  float x = (fy + cx / 500.f) * kWhite[0];
+  float y = fy;
+  float z = (fy - cz / 200.f) * kWhite[2];
+  float r, g, bl;
+  xyz_to_rgb(x, y, z, r, g, bl);
+  r = std::fmin(std::fmax(r, 0.f), 1.f);
+  g = std::fmin(std::fmax(g, 0.f), 1.f);
+  bl = std::fmin(std::fmax(bl, 0.f), 1.f);
+  rgb_to_xyz(r, g, bl, x, y, z);
+  const float lx = lab_f(x * kInvWhite[0]), ly = lab_f(y), lz = lab_f(z * kInvWhite[2]);
+  l = 116.f * ly - 16.f;
+  a = 0.01f * l * (500.f * (lx - ly));
+  b = 0.01f * l * (200.f * (ly - lz));
+}
+
+// The largest colour distance FLIP can see, between Hunt-adjusted green and blue (HPG 2020,
+// Section 4.2), raised to q_c. Computed with std:: functions like the reference.
+float max_colour_distance() {
+  auto hunt_lab = [](float r, float g, float b) {
+    float x, y, z;
+    rgb_to_xyz(r, g, b, x, y, z);
+    auto f = [](float t) {
+      constexpr float delta = 6.f / 29.f;
+      return t > delta * delta * delta ? std::pow(t, 1.f / 3.f)
+                                       : t / (3.f * delta * delta) + 4.f / 29.f;
+    };
+    float lx = f(x * kInvWhite[0]), ly = f(y), lz = f(z * kInvWhite[2]);
+    float l = 116.f * ly - 16.f;
+    return std::array<float, 3>{l, 0.01f * l * 500.f * (lx - ly), 0.01f * l * 200.f * (ly - lz)};
+  };
+  auto green = hunt_lab(0, 1, 0), blue = hunt_lab(0, 0, 1);
+  float hyab = std::fabs(green[0] - blue[0]) +
+               std::sqrt((green[1] - blue[1]) * (green[1] - blue[1]) +
+                         (green[2] - blue[2]) * (green[2] - blue[2]));
+  return std::pow(hyab, kQc);
+}
+
+// ---- Filters --------------------------------------------------------------------------------
+
+struct Filters {
+  int spatial_radius = 0;
+  std::vector<float> y, cx, cz1, cz2;  // Cz's sum of Gaussians separates into two passes
+  int feature_radius = 0;
+  std::vector<float> g, dg, ddg;  // Gaussian and its first and second derivatives
+};
+
+// Samples the CSFs at 1/ppd degree steps out to three standard deviations of the widest Gaussian,
+// normalised so each 2-D filter sums to 1. A sum of two 2-D Gaussians is not separable, but
+// sqrt-weighted 1-D pairs are: g1(x) g1(y) + g2(x) g2(y) (the reference tool's
+// separatedConvolutions note), so Cz is filtered twice and the results added.
+Filters make_filters(float ppd) {
+  Filters f;
+  const float dx = 1.f / ppd;
+  const float pi_sq = kPi * kPi;
+  const float max_b = std::max({kCsfY.b1, kCsfCx.b1, kCsfCz.b1, kCsfY.b2, kCsfCx.b2, kCsfCz.b2});
+  f.spatial_radius = int(std::ceil(3.f * std::sqrt(max_b / (2.f * pi_sq)) * ppd));
+  const int width = 2 * f.spatial_radius + 1;
+  auto gaussian = [&](float x2, float a, float b) {
+    return a * std::sqrt(kPi / b) * std::exp(-pi_sq * x2 / b);
+  };
+  auto gaussian_sqrt = [&](float x2, float a, float b) {
+    return std::sqrt(a * std::sqrt(kPi / b)) * std::exp(-pi_sq * x2 / b);
+  };
+  float sum_y = 0, sum_cx = 0, sum_cz1 = 0, sum_cz2 = 0;
+  for (int i = 0; i < width; ++i) {
+    float x = float(i - f.spatial_radius) * dx;
+    float x2 = x * x;
+    f.y.push_back(gaussian(x2, kCsfY.a1, kCsfY.b1));
+    f.cx.push_back(gaussian(x2, kCsfCx.a1, kCsfCx.b1));
+    f.cz1.push_back(gaussian_sqrt(x2, kCsfCz.a1, kCsfCz.b1));
+    f.cz2.push_back(gaussian_sqrt(x2, kCsfCz.a2, kCsfCz.b2));
+    sum_y += f.y.back();
+    sum_cx += f.cx.back();
+    sum_cz1 += f.cz1.back();
+    sum_cz2 += f.cz2.back();
+  }
+  const float norm_cz = 1.f / std::sqrt(sum_cz1 * sum_cz1 + sum_cz2 * sum_cz2);
+  for (int i = 0; i < width; ++i) {
+    f.y[i] *= 1.f / sum_y;
+    f.cx[i] *= 1.f / sum_cx;
+    f.cz1[i] *= norm_cz;
+    f.cz2[i] *= norm_cz;
+  }
+
+  // Feature detection (HPG 2020, Section 4.3): a Gaussian of standard deviation w/2 degrees and its
+  // derivatives, the derivatives' positive and negative weights each normalised to sum to +-1.
+  const float sd = 0.5f * kW * ppd;
+  f.feature_radius = int(std::ceil(3.f * sd));
+  float sum_g = 0, dg_pos = 0, dg_neg = 0, ddg_pos = 0, ddg_neg = 0;
+  for (int i = -f.feature_radius; i <= f.feature_radius; ++i) {
+    float x = float(i);
+    float g = std::exp(-(x * x) / (2.f * sd * sd));
+    float dg = -x * g;
+    float ddg = (x * x / (sd * sd) - 1.f) * g;
+    sum_g += g;
+    (dg > 0 ? dg_pos : dg_neg) += std::fabs(dg);
+    (ddg > 0 ? ddg_pos : ddg_neg) += std::fabs(ddg);
+    f.g.push_back(g);
+    f.dg.push_back(dg);
+    f.ddg.push_back(ddg);
+  }
+  for (size_t i = 0; i < f.g.size(); ++i) {
+    f.g[i] /= sum_g;
+    f.dg[i] /= f.dg[i] > 0 ? dg_pos : dg_neg;
+    f.ddg[i] /= f.ddg[i] > 0 ? ddg_pos : ddg_neg;
+  }
+  return f;
+}
+
+// acc[j] (=|+=) sum_k w[k] rows[k][j], four taps per sweep so the accumulator is loaded and
+// stored once per four multiply-adds.
+template <bool Accumulate>
+[[gnu::always_inline]] inline void fir(float* __restrict acc, const float* const* rows,
+                                       const float* w, int taps, int n) {
+  int k = 0;
+  bool first = !Accumulate;
+  for (; k + 4 <= taps; k += 4) {
+    const float *r0 = rows[k], *r1 = rows[k + 1], *r2 = rows[k + 2], *r3 = rows[k + 3];
+    const float w0 = w[k], w1 = w[k + 1], w2 = w[k + 2], w3 = w[k + 3];
+    if (first) {
+      for (int j = 0; j < n; ++j) acc[j] = w0 * r0[j] + w1 * r1[j] + w2 * r2[j] + w3 * r3[j];
+    } else {
+      for (int j = 0; j < n; ++j) acc[j] += w0 * r0[j] + w1 * r1[j] + w2 * r2[j] + w3 * r3[j];
+    }
+    first = false;
+  }
+  for (; k < taps; ++k) {
+    const float* r0 = rows[k];
+    const float w0 = w[k];
+    if (first) {
+      for (int j = 0; j < n; ++j) acc[j] = w0 * r0[j];
+    } else {
+      for (int j = 0; j < n; ++j) acc[j] += w0 * r0[j];
+    }
+    first = false;
+  }
+}
+
+// ---- Colour conversion of whole images ----------------------------------------------------------
+
+struct Ycxcz {
+  std::vector<float> c[3];
+  void resize(size_t n) {
+    for (auto& p : c) p.resize(n);
+  }
+};
+
+// sRGB-encoded [0, 1] values to YCxCz: decode (IEC 61966-2-1), clamp, convert.
+PB_METRICS_KERNEL void ldr_to_ycxcz(const float* r, const float* g, const float* b, size_t n,
+                                    float* yy, float* cx, float* cz) {
+  auto decode = [](float v) {
+    float lin = v <= 0.04045f ? v / 12.92f : fast_pow((v + 0.055f) / 1.055f, 2.4f);
+    return std::fmin(std::fmax(lin, 0.f), 1.f);
+  };
+  for (size_t i = 0; i < n; ++i) rgb_to_ycxcz(decode(r[i]), decode(g[i]), decode(b[i]), yy[i], cx[i], cz[i]);
+}
+
+// Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021, Section 4.1).
+PB_METRICS_KERNEL void hdr_to_ycxcz(const float* r, const float* g, const float* b, size_t n,
+                                    float scale, Tonemapper tm, float* yy, float* cx, float* cz) {
+  auto clamp01 = [](float v) { return std::fmin(std::fmax(v, 0.f), 1.f); };
+  if (tm == Tonemapper::reinhard) {
+    for (size_t i = 0; i < n; ++i) {
+      float rr = r[i] * scale, gg = g[i] * scale, bb = b[i] * scale;
+      float k = 1.f / (1.f + luminance(rr, gg, bb));
+      rgb_to_ycxcz(clamp01(rr * k), clamp01(gg * k), clamp01(bb * k), yy[i], cx[i], cz[i]);
+    }
+    return;
+  }
+  const float* c = tone_curve(tm);
+  const float c0 = c[0], c1 = c[1], c2 = c[2], c3 = c[3], c4 = c[4], c5 = c[5];
+  auto curve = [=](float v) {
+    return clamp01((v * v * c0 + v * c1 + c2) / (v * v * c3 + v * c4 + c5));
+  };
+  for (size_t i = 0; i < n; ++i)
+    rgb_to_ycxcz(curve(r[i] * scale), curve(g[i] * scale), curve(b[i] * scale), yy[i], cx[i],
+                 cz[i]);
+}
+
+template <typename Convert>
+void convert_parallel(size_t n, const Convert& convert) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 32768),
+                    [&](const tbb::blocked_range<size_t>& r) { convert(r.begin(), r.end() - r.begin()); });
+}
+
+// ---- The fused filter and difference pass --------------------------------------------------------
+
+struct FlipPass {
+  int width = 0, height = 0;
+  const float* planes[2][3] = {};  // [reference, test][Y, Cx, Cz]
+  const Filters* filters = nullptr;
+  float cmax = 0, pccmax = 0;
+  float* error = nullptr;  // width * height
+  bool keep_max = false;   // HDR-FLIP: keep the larger of this and the earlier exposures' error
+};
+
+// FLIP error of the rows [y0, y1) and columns [x0, x1).
+PB_METRICS_KERNEL void flip_tile(const FlipPass& p, int y0, int y1, int x0, int x1) {
+  const Filters& f = *p.filters;
+  const int rs = f.spatial_radius, rf = f.feature_radius, pad = std::max(rs, rf);
+  const int ts = 2 * rs + 1, tf = 2 * rf + 1;
+  const int w = p.width, h = p.height;
+  const int n = x1 - x0, pn = n + 2 * pad;
+  // The vertical pass covers the columns the horizontal taps reach that exist; the padded row's
+  // entry i is column x0 - pad + i, and entries left or right of the image repeat its edge.
+  const int c0 = std::max(0, x0 - pad), c1 = std::min(w, x1 + pad);
+  const int lead = c0 - (x0 - pad), count = c1 - c0;
+
+  std::vector<float> scratch(size_t(14) * size_t(pn) + size_t(14) * size_t(n));
+  std::vector<const float*> rows(size_t(2 * pad + 1));
+  auto vertical_rows = [&](const float* plane, int y, int radius) {
+    for (int k = 0; k <= 2 * radius; ++k)
+      rows[size_t(k)] = plane + size_t(std::clamp(y + k - radius, 0, h - 1)) * size_t(w) + c0;
+  };
+  auto horizontal_rows = [&](const float* padded, int radius) {
+    for (int k = 0; k <= 2 * radius; ++k) rows[size_t(k)] = padded + (pad - radius) + k;
+  };
+  const float inv_sqrt2 = 1.f / std::sqrt(2.f);
+  // The feature filters run on Y in [0, 100]; the reference runs them on (Y + 16) / 116. Every
+  // feature response has a derivative along one axis, which cancels the offset, so only the scale
+  // remains.
+  const float feature_scale = 1.f / 116.f;
+  const float cmax = p.cmax, pccmax = p.pccmax;
+  const float low_slope = kPt / pccmax, high_slope = (1.f - kPt) / (cmax - pccmax);
+
+  for (int y = y0; y < y1; ++y) {
+    float* o[2][7];
+    for (int img = 0; img < 2; ++img) {
+      float* v[7];
+      for (int q = 0; q < 7; ++q) {
+        v[q] = scratch.data() + size_t(img * 7 + q) * size_t(pn);
+        o[img][q] = scratch.data() + size_t(14) * size_t(pn) + size_t(img * 7 + q) * size_t(n);
+      }
+      const float* const* planes = p.planes[img];
+      // Vertical: v = {Y, Cx, Cz (1st Gaussian), Cz (2nd), G Y, G' Y, G'' Y}.
+      vertical_rows(planes[0], y, rs);
+      fir<false>(v[0] + lead, rows.data(), f.y.data(), ts, count);
+      vertical_rows(planes[1], y, rs);
+      fir<false>(v[1] + lead, rows.data(), f.cx.data(), ts, count);
+      vertical_rows(planes[2], y, rs);
+      fir<false>(v[2] + lead, rows.data(), f.cz1.data(), ts, count);
+      fir<false>(v[3] + lead, rows.data(), f.cz2.data(), ts, count);
+      vertical_rows(planes[0], y, rf);
+      fir<false>(v[4] + lead, rows.data(), f.g.data(), tf, count);
+      fir<false>(v[5] + lead, rows.data(), f.dg.data(), tf, count);
+      fir<false>(v[6] + lead, rows.data(), f.ddg.data(), tf, count);
+      for (int q = 0; q < 7; ++q) {
+        std::fill(v[q], v[q] + lead, v[q][lead]);
+        std::fill(v[q] + lead + count, v[q] + pn, v[q][lead + count - 1]);
+      }
+      // Horizontal: o = {Y, Cx, Cz, dx, dy, ddx, ddy}.
+      horizontal_rows(v[0], rs);
+      fir<false>(o[img][0], rows.data(), f.y.data(), ts, n);
+      horizontal_rows(v[1], rs);
+      fir<false>(o[img][1], rows.data(), f.cx.data(), ts, n);
+      horizontal_rows(v[2], rs);
+      fir<false>(o[img][2], rows.data(), f.cz1.data(), ts, n);
+      horizontal_rows(v[3], rs);
+      fir<true>(o[img][2], rows.data(), f.cz2.data(), ts, n);
+      horizontal_rows(v[4], rf);
+      fir<false>(o[img][3], rows.data(), f.dg.data(), tf, n);
+      fir<false>(o[img][5], rows.data(), f.ddg.data(), tf, n);
+      horizontal_rows(v[5], rf);
+      fir<false>(o[img][4], rows.data(), f.g.data(), tf, n);
+      horizontal_rows(v[6], rf);
+      fir<false>(o[img][6], rows.data(), f.g.data(), tf, n);
+    }
+
+    const float *ry = o[0][0], *rcx = o[0][1], *rcz = o[0][2], *rdx = o[0][3], *rdy = o[0][4],
+                *rddx = o[0][5], *rddy = o[0][6];
+    const float *ty = o[1][0], *tcx = o[1][1], *tcz = o[1][2], *tdx = o[1][3], *tdy = o[1][4],
+                *tddx = o[1][5], *tddy = o[1][6];
+    float* __restrict out = p.error + size_t(y) * size_t(w) + size_t(x0);
+    const bool keep_max = p.keep_max;
+    for (int j = 0; j < n; ++j) {
+      // Colour difference (HPG 2020, Section 4.2): HyAB of the Hunt-adjusted Lab values, raised to
+      // q_c, remapped to [0, 1] with p_c * cmax going to p_t.
+      float l1, a1, b1, l2, a2, b2;
+      ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
+      ycxcz_to_hunt_lab(ty[j], tcx[j], tcz[j], l2, a2, b2);
+      const float da = a1 - a2, db = b1 - b2;
+      float colour = fast_pow(std::fabs(l1 - l2) + std::sqrt(da * da + db * db), kQc);
+      colour = colour < pccmax ? colour * low_slope : kPt + (colour - pccmax) * high_slope;
+      // Feature difference (Section 4.3): the larger change of edge or point strength,
+      // normalised by sqrt(2), raised to q_f = 1/2.
+      const float edge_r = std::sqrt(rdx[j] * rdx[j] + rdy[j] * rdy[j]);
+      const float edge_t = std::sqrt(tdx[j] * tdx[j] + tdy[j] * tdy[j]);
+      const float point_r = std::sqrt(rddx[j] * rddx[j] + rddy[j] * rddy[j]);
+      const float point_t = std::sqrt(tddx[j] * tddx[j] + tddy[j] * tddy[j]);
+      const float feature_diff =
+          inv_sqrt2 * feature_scale *
+          std::fmax(std::fabs(edge_r - edge_t), std::fabs(point_r - point_t));
+      const float feature = std::sqrt(feature_diff);  // ^ q_f
+      static_assert(kQf == 0.5f, "the feature exponent is applied as a square root");
+      // Section 4.4: features amplify the colour error.
+      const float e = fast_pow(colour, 1.f - feature);
+      out[j] = keep_max ? std::fmax(out[j], e) : e;
+    }
+  }
+}
+
+void run_pass(const FlipPass& pass) {
+  // Tiles a few hundred columns wide keep the vertical taps' rows in the core's L2 cache.
+  const int tile_rows = 16, tile_cols = 512;
+  tbb::parallel_for(
+      tbb::blocked_range2d<int>(0, pass.height, tile_rows, 0, pass.width, tile_cols),
+      [&](const tbb::blocked_range2d<int>& r) {
+        flip_tile(pass, r.rows().begin(), r.rows().end(), r.cols().begin(), r.cols().end());
+      });
+}
+
+// EG 2021, Section 4.2 (and the reference tool's computeExposures): the start exposure maps the
+// largest reference luminance, the stop exposure the median luminance, to the tone curve's 0.85.
+HdrExposures automatic_exposures(const Planes<float>& reference, Tonemapper tm) {
+  const float* c = tone_curve(tm);
+  const float t = 0.85f;
+  const float a = c[0] - t * c[3], b = c[1] - t * c[4], k = c[2] - t * c[5];
+  // The larger root of a x^2 + b x + k = 0: the radiance the curve maps to t.
+  float x_max;
+  if (a == 0.f) {
+    x_max = -k / b;
+  } else {
+    const float d1 = -0.5f * (b / a);
+    x_max = d1 + std::sqrt(d1 * d1 - k / a);
+  }
+  const size_t n = reference.c[0].size();
+  std::vector<float> lum(n);
+  float y_max = -std::numeric_limits<float>::infinity();
+  float y_min_positive = std::numeric_limits<float>::infinity();
+  for (size_t i = 0; i < n; ++i) {
+    lum[i] = luminance(reference.c[0][i], reference.c[1][i], reference.c[2][i]);
+    y_max = std::max(y_max, lum[i]);
+    if (lum[i] > 0.f) y_min_positive = std::min(y_min_positive, lum[i]);
+  }
+  // The reference tool (v1.4 on) takes the element at n / 2, not the mean of the middle two.
+  const size_t mid = n / 2;
+  std::nth_element(lum.begin(), lum.begin() + std::ptrdiff_t(mid), lum.end());
+  float y_median = lum[mid];
+  // Deviation: the tool divides by zero when more than half the image (or all of it) is black; we
+  // fall back to the smallest positive luminance, and to exposure 0 for an all-black reference.
+  if (!(y_max > 0.f)) return {0.0, 0.0, 2};
+  if (!(y_median > 0.f)) y_median = y_min_positive;
+  HdrExposures e;
+  e.start = std::log2(x_max / y_max);
+  e.stop = std::log2(x_max / y_median);
+  e.count = int(std::max(2.0f, std::ceil(float(e.stop) - float(e.start))));
+  return e;
+}
+
+// Weighted quantiles of non-negative values as the reference tool pools them: the smallest value
+// v with sum(values <= v, counted in sorted order) > p * sum(all values). Rather than sorting
+// everything, values are bucketed by their top float bits (ordered like the values), the bucket
+// where the running sum crosses p * total is found, and only that bucket is sorted.
+std::array<double, 3> weighted_quantiles(const float* v, size_t n, size_t stride, double total,
+                                         const std::array<double, 3>& p) {
+  std::array<double, 3> result{0, 0, 0};
+  if (!(total > 0)) return result;  // all zero: no running sum exceeds 0
+  constexpr int kShift = 17;        // 2^15 buckets over the positive floats, ~1.6% wide
+  constexpr size_t kBuckets = size_t(1) << (31 - kShift);
+  std::vector<double> sums(kBuckets, 0.0);
+  auto bucket = [](float x) { return size_t(std::bit_cast<uint32_t>(x) >> kShift); };
+  for (size_t i = 0; i < n; ++i) sums[bucket(v[i * stride])] += double(v[i * stride]);
+  for (int q = 0; q < 3; ++q) {
+    const double target = p[size_t(q)] * total;
+    double below = 0;
+    size_t b = 0;
+    while (b < kBuckets && below + sums[b] <= target) below += sums[b++];
+    if (b == kBuckets) {  // rounding left the target above the total: the largest value
+      float m = 0;
+      for (size_t i = 0; i < n; ++i) m = std::max(m, v[i * stride]);
+      result[size_t(q)] = m;
+      continue;
+    }
+    std::vector<float> in_bucket;
+    for (size_t i = 0; i < n; ++i)
+      if (bucket(v[i * stride]) == b) in_bucket.push_back(v[i * stride]);
+    std::sort(in_bucket.begin(), in_bucket.end());
+    double running = below;
+    result[size_t(q)] = in_bucket.back();
+    for (float x : in_bucket) {
+      running += x;
+      if (running > target) {
+        result[size_t(q)] = x;
+        break;
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace
+
+FlipStats pool_flip(const io::Image& error_map) {
+  if (error_map.pixel_count() == 0 || error_map.channels < 1)
+    throw InputError("FLIP pooling: the error map is empty");
+  const size_t n = error_map.pixel_count(), stride = size_t(error_map.channels);
+  const float* v = error_map.pixels.data();
+  FlipStats s;
+  double sum = 0;
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  bool negative = false;
+  for (size_t i = 0; i < n; ++i) {
+    const float x = v[i * stride];
+    if (!std::isfinite(x)) throw InputError("FLIP pooling: the error map has non-finite values");
+    sum += x;
+    lo = std::min(lo, x);
+    hi = std::max(hi, x);
+    negative |= x < 0.f;
+  }
+  if (negative) throw InputError("FLIP pooling: the error map has negative values");
+  s.mean = sum / double(n);
+  s.min = lo;
+  s.max = hi;
+  auto q = weighted_quantiles(v, n, stride, sum, {0.25, 0.5, 0.75});
+  s.q1 = q[0];
+  s.weighted_median = q[1];
+  s.q3 = q[2];
+  return s;
+}
+
+FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOptions& options) {
+  detail::check_pair(reference, test, "FLIP");
+  if (!(options.pixels_per_degree > 0.0) || !std::isfinite(options.pixels_per_degree))
+    throw InputError(fmt::format("FLIP: pixels per degree must be positive, not {}",
+                                 options.pixels_per_degree));
+  const int w = reference.width, h = reference.height;
+  const size_t n = reference.pixel_count();
+  const Filters filters = make_filters(float(options.pixels_per_degree));
+  const float cmax = max_colour_distance();
+
+  const Planes<float> ref = detail::stored_planes(reference);
+  const Planes<float> tst = detail::stored_planes(test);
+  Ycxcz ref_ycc, tst_ycc;
+  ref_ycc.resize(n);
+  tst_ycc.resize(n);
+
+  FlipResult result;
+  result.error_map = io::Image(w, h, 1, /*is_linear=*/false);
+  FlipPass pass;
+  pass.width = w;
+  pass.height = h;
+  for (int c = 0; c < 3; ++c) {
+    pass.planes[0][c] = ref_ycc.c[c].data();
+    pass.planes[1][c] = tst_ycc.c[c].data();
+  }
+  pass.filters = &filters;
+  pass.cmax = cmax;
+  pass.pccmax = kPc * cmax;
+  pass.error = result.error_map.pixels.data();
+
+  if (!reference.linear) {
+    for (auto [src, dst] : {std::pair{&ref, &ref_ycc}, std::pair{&tst, &tst_ycc}}) {
+      convert_parallel(n, [&](size_t i, size_t count) {
+        ldr_to_ycxcz(src->c[0].data() + i, src->c[1].data() + i, src->c[2].data() + i, count,
+                     dst->c[0].data() + i, dst->c[1].data() + i, dst->c[2].data() + i);
+      });
+    }
+    run_pass(pass);
+  } else {
+    HdrExposures e;
+    if (!options.start_exposure || !options.stop_exposure)
+      e = automatic_exposures(ref, options.tonemapper);
+    if (options.start_exposure) e.start = *options.start_exposure;
+    if (options.stop_exposure) e.stop = *options.stop_exposure;
+    if (e.start > e.stop)
+      throw InputError(fmt::format("FLIP: the start exposure ({}) is above the stop exposure ({})",
+                                   e.start, e.stop));
+    e.count = options.num_exposures.value_or(
+        int(std::max(2.0f, std::ceil(float(e.stop) - float(e.start)))));
+    if (e.count < 1)
+      throw InputError(fmt::format("FLIP: the number of exposures must be 1 or more, not {}",
+                                   e.count));
+    const float start = float(e.start), stop = float(e.stop);
+    const float step = e.count > 1 ? (stop - start) / float(e.count - 1) : 0.f;
+    for (int i = 0; i < e.count; ++i) {
+      const float scale = std::pow(2.0f, start + float(i) * step);
+      for (auto [src, dst] : {std::pair{&ref, &ref_ycc}, std::pair{&tst, &tst_ycc}}) {
+        convert_parallel(n, [&](size_t at, size_t count) {
+          hdr_to_ycxcz(src->c[0].data() + at, src->c[1].data() + at, src->c[2].data() + at, count,
+                       scale, options.tonemapper, dst->c[0].data() + at, dst->c[1].data() + at,
+                       dst->c[2].data() + at);
+        });
+      }
+      pass.keep_max = i > 0;
+      run_pass(pass);
+    }
+    result.exposures = e;
+  }
+  result.stats = pool_flip(result.error_map);
+  return result;
+}
+
+}  // namespace pb::metrics

@@ -1,0 +1,344 @@
+// Metrics against their reference implementations (tests/data/metrics/expected.json: the FLIP v1.6
+// tool and scikit-image 0.19) and against values worked out by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "io/image.h"
+#include "metrics/metrics.h"
+#include "photonbench/error.h"
+
+namespace pb::metrics {
+namespace {
+
+const std::filesystem::path kData = std::filesystem::path(PB_TEST_DATA_DIR) / "metrics";
+
+nlohmann::json expected_cases() {
+  std::ifstream in(kData / "expected.json");
+  return nlohmann::json::parse(in)["cases"];
+}
+
+io::Image constant(int w, int h, float r, float g, float b, bool linear) {
+  io::Image image(w, h, 3, linear);
+  for (size_t i = 0; i < image.pixel_count(); ++i) {
+    image.pixels[3 * i] = r;
+    image.pixels[3 * i + 1] = g;
+    image.pixels[3 * i + 2] = b;
+  }
+  return image;
+}
+
+// A deterministic LDR test card with 8-bit values: gradients, a disc and seeded noise.
+io::Image card(int w, int h, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> noise(-12, 12);
+  io::Image image(w, h, 3, false);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      int base[3] = {255 * x / w, 255 * y / h, (x - w / 2) * (x - w / 2) + (y - h / 2) * (y - h / 2) <
+                                                       (w * h) / 16 ? 220 : 40};
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y, c) = float(std::clamp(base[c] + noise(rng), 0, 255)) / 255.f;
+    }
+  return image;
+}
+
+void expect_flip_stats(const FlipStats& got, const nlohmann::json& want, const std::string& what) {
+  constexpr double tol = 1e-4;
+  EXPECT_NEAR(got.mean, want["mean"].get<double>(), tol) << what << " mean";
+  EXPECT_NEAR(got.weighted_median, want["weighted_median"].get<double>(), tol) << what << " median";
+  EXPECT_NEAR(got.q1, want["q1"].get<double>(), tol) << what << " q1";
+  EXPECT_NEAR(got.q3, want["q3"].get<double>(), tol) << what << " q3";
+  EXPECT_NEAR(got.min, want["min"].get<double>(), tol) << what << " min";
+  EXPECT_NEAR(got.max, want["max"].get<double>(), tol) << what << " max";
+}
+
+TEST(MetricsConformance, EveryCaseMatchesTheReferenceTools) {
+  const nlohmann::json cases = expected_cases();
+  ASSERT_EQ(cases.size(), 12u);
+  for (const auto& c : cases) {
+    const std::string name = c["reference"].get<std::string>();
+    SCOPED_TRACE(name);
+    const io::Image ref = io::read_image(kData / c["reference"].get<std::string>());
+    const io::Image test = io::read_image(kData / c["test"].get<std::string>());
+    const bool hdr = c["kind"] == "hdr";
+    ASSERT_EQ(ref.linear, hdr);
+
+    const FlipResult f = flip(ref, test);
+    expect_flip_stats(f.stats, c["flip"], name);
+    ASSERT_EQ(f.error_map.width, ref.width);
+    ASSERT_EQ(f.error_map.channels, 1);
+    if (hdr) {
+      ASSERT_TRUE(f.exposures.has_value());
+      EXPECT_NEAR(f.exposures->start, c["flip"]["start_exposure"].get<double>(), 1e-4);
+      EXPECT_NEAR(f.exposures->stop, c["flip"]["stop_exposure"].get<double>(), 1e-4);
+      EXPECT_EQ(f.exposures->count, c["flip"]["num_exposures"].get<int>());
+    } else {
+      EXPECT_FALSE(f.exposures.has_value());
+    }
+
+    const Scores s = evaluate(ref, test);
+    const nlohmann::json& want_ssim = hdr ? c["ssim_display"] : c["ssim"];
+    const nlohmann::json& want_psnr = hdr ? c["psnr_display"] : c["psnr"];
+    EXPECT_NEAR(s.ssim, want_ssim.get<double>(), 1e-4);
+    if (want_psnr.is_null()) {
+      EXPECT_TRUE(s.identical);
+      EXPECT_FALSE(s.psnr.has_value());
+    } else {
+      EXPECT_FALSE(s.identical);
+      ASSERT_TRUE(s.psnr.has_value());
+      EXPECT_NEAR(*s.psnr, want_psnr.get<double>(), 0.01);
+    }
+    if (c.contains("rmse_linear")) EXPECT_NEAR(s.rmse, c["rmse_linear"].get<double>(), 1e-6);
+    // evaluate() agrees with the metrics called one by one.
+    EXPECT_DOUBLE_EQ(s.flip.mean, f.stats.mean);
+    EXPECT_DOUBLE_EQ(s.ssim, ssim(ref, test));
+    EXPECT_DOUBLE_EQ(s.rmse, rmse(ref, test));
+  }
+}
+
+TEST(Flip, IdenticalImagesScoreZeroOneAndIdentical) {
+  for (bool linear : {false, true}) {
+    io::Image a = card(48, 40, 7);
+    a.linear = linear;
+    const Scores s = evaluate(a, a);
+    EXPECT_EQ(s.flip.mean, 0.0);
+    EXPECT_EQ(s.flip.max, 0.0);
+    EXPECT_EQ(s.flip.weighted_median, 0.0);
+    EXPECT_NEAR(s.ssim, 1.0, 1e-12);
+    EXPECT_TRUE(s.identical);
+    EXPECT_FALSE(s.psnr.has_value());
+    EXPECT_EQ(s.rmse, 0.0);
+    EXPECT_EQ(s.mae, 0.0);
+    EXPECT_EQ(s.relmse, 0.0);
+  }
+}
+
+TEST(Flip, BlackAgainstWhiteMatchesTheReferenceTool) {
+  const io::Image black = constant(64, 64, 0, 0, 0, false);
+  const io::Image white = constant(64, 64, 1, 1, 1, false);
+  const FlipResult f = flip(black, white);
+  // The reference tool's 0.9673, to the conformance tolerance. (Worked out without rounding, the
+  // colour error of black against white is 0.96738; float rounding in the derivative filters,
+  // amplified by the feature exponent 1/2, moves it by about 1e-5 in the tool and here alike.)
+  EXPECT_NEAR(f.stats.mean, 0.9673, 1e-4);
+  // A uniform pair has no features: every pixel carries the same colour error.
+  EXPECT_NEAR(f.stats.min, f.stats.max, 1e-6);
+}
+
+TEST(Flip, ErrorGrowsWithTheDifference) {
+  const io::Image ref = card(64, 48, 3);
+  double last = 0;
+  for (float offset : {0.02f, 0.05f, 0.1f, 0.2f}) {
+    io::Image test = ref;
+    for (float& v : test.pixels) v = std::min(1.f, v + offset);
+    const double mean = flip(ref, test).stats.mean;
+    EXPECT_GT(mean, last) << offset;
+    last = mean;
+  }
+}
+
+TEST(Flip, HdrOptionsChangeTheExposureRange) {
+  io::Image ref = card(40, 40, 11), test = card(40, 40, 12);
+  for (io::Image* im : {&ref, &test}) {
+    im->linear = true;
+    for (float& v : im->pixels) v *= 4.f;
+  }
+  FlipOptions o;
+  o.start_exposure = -3.0;
+  o.stop_exposure = 1.0;
+  o.num_exposures = 5;
+  const FlipResult f = flip(ref, test, o);
+  ASSERT_TRUE(f.exposures.has_value());
+  EXPECT_EQ(f.exposures->start, -3.0);
+  EXPECT_EQ(f.exposures->stop, 1.0);
+  EXPECT_EQ(f.exposures->count, 5);
+  // Every tone mapper gives a valid, different error.
+  double aces = flip(ref, test).stats.mean;
+  o = {};
+  o.tonemapper = Tonemapper::hable;
+  double hable = flip(ref, test, o).stats.mean;
+  o.tonemapper = Tonemapper::reinhard;
+  double reinhard = flip(ref, test, o).stats.mean;
+  for (double m : {aces, hable, reinhard}) {
+    EXPECT_GT(m, 0.0);
+    EXPECT_LT(m, 1.0);
+  }
+  EXPECT_NE(aces, hable);
+  EXPECT_NE(aces, reinhard);
+  // More exposures can only raise a pixel's maximum over exposures at the shared ones.
+  o = {};
+  o.start_exposure = -3.0;
+  o.stop_exposure = 1.0;
+  o.num_exposures = 2;
+  const FlipResult two = flip(ref, test, o);
+  o.num_exposures = 3;  // -3, -1, 1 contains -3 and 1
+  const FlipResult three = flip(ref, test, o);
+  for (size_t i = 0; i < two.error_map.pixels.size(); ++i)
+    ASSERT_GE(three.error_map.pixels[i], two.error_map.pixels[i]);
+}
+
+TEST(Flip, WeightedQuantilesFollowTheReferencePooling) {
+  // Errors 0.1 (x6) and 0.4 (x2): total 1.4. The 0.25 quantile is where the sorted running sum
+  // passes 0.35 (the 4th 0.1), the median 0.7 is passed by the 1st 0.4 (0.6 + 0.4), 0.75 too.
+  io::Image e(8, 1, 1, false);
+  const float values[8] = {0.4f, 0.1f, 0.1f, 0.1f, 0.4f, 0.1f, 0.1f, 0.1f};
+  std::copy(values, values + 8, e.pixels.begin());
+  const FlipStats s = pool_flip(e);
+  EXPECT_NEAR(s.mean, 1.4 / 8, 1e-7);
+  EXPECT_FLOAT_EQ(float(s.q1), 0.1f);
+  EXPECT_FLOAT_EQ(float(s.weighted_median), 0.4f);
+  EXPECT_FLOAT_EQ(float(s.q3), 0.4f);
+  EXPECT_FLOAT_EQ(float(s.min), 0.1f);
+  EXPECT_FLOAT_EQ(float(s.max), 0.4f);
+  // Against a brute-force sort on many values spread over many buckets.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  io::Image big(300, 200, 1, false);
+  for (float& v : big.pixels) v = u(rng) * u(rng);
+  std::vector<float> sorted = big.pixels;
+  std::sort(sorted.begin(), sorted.end());
+  double total = 0;
+  for (float v : sorted) total += v;
+  auto brute = [&](double p) {
+    double run = 0;
+    for (float v : sorted)
+      if ((run += v) > p * total) return double(v);
+    return double(sorted.back());
+  };
+  const FlipStats b = pool_flip(big);
+  EXPECT_EQ(b.q1, brute(0.25));
+  EXPECT_EQ(b.weighted_median, brute(0.5));
+  EXPECT_EQ(b.q3, brute(0.75));
+}
+
+TEST(Ssim, KnownValuesAndSymmetry) {
+  const io::Image a = card(40, 32, 1), b = card(40, 32, 2);
+  EXPECT_NEAR(ssim(a, a), 1.0, 1e-12);
+  EXPECT_NEAR(ssim(a, b), ssim(b, a), 1e-12);
+  EXPECT_LT(ssim(a, b), 0.99);
+  // Two constant images: the map is (2 m n + C1) / (m^2 + n^2 + C1) everywhere.
+  const double m = 0.2, n = 0.6, c1 = 1e-4;
+  EXPECT_NEAR(ssim(constant(16, 16, float(m), float(m), float(m), false),
+                   constant(16, 16, float(n), float(n), float(n), false)),
+              (2 * m * n + c1) / (m * m + n * n + c1), 1e-6);
+  EXPECT_THROW(ssim(constant(8, 8, 0, 0, 0, false), constant(8, 8, 0, 0, 0, false)), InputError);
+}
+
+TEST(Psnr, ConstantOffsetGivesTheExactValue) {
+  // Every value 51/255 higher: MSE = (51/255)^2 = 0.04, PSNR = 10 log10(1 / 0.04) = 13.9794 dB.
+  io::Image ref = card(32, 32, 9);
+  for (float& v : ref.pixels) v = std::min(v, 200.f / 255.f);
+  io::Image test = ref;
+  for (float& v : test.pixels) v = (std::round(v * 255.f) + 51.f) / 255.f;
+  const Psnr p = psnr(ref, test);
+  ASSERT_TRUE(p.db.has_value());
+  EXPECT_FALSE(p.identical);
+  EXPECT_NEAR(*p.db, 10.0 * std::log10(1.0 / 0.04), 1e-9);
+  // HDR values above 1 clamp to the same display value: identical for PSNR.
+  const io::Image bright = constant(16, 16, 2.f, 3.f, 4.f, true);
+  const io::Image brighter = constant(16, 16, 5.f, 6.f, 7.f, true);
+  EXPECT_TRUE(psnr(bright, brighter).identical);
+  EXPECT_GT(rmse(bright, brighter), 2.9);
+}
+
+TEST(PixelMetrics, HandComputedValues) {
+  // Linear (HDR) 2x1 images: reference (1, 0.5) grey, test (1.5, 0.5) grey.
+  io::Image ref(2, 1, 3, true), test(2, 1, 3, true);
+  for (int c = 0; c < 3; ++c) {
+    ref.at(0, 0, c) = 1.f;
+    ref.at(1, 0, c) = 0.5f;
+    test.at(0, 0, c) = 1.5f;
+    test.at(1, 0, c) = 0.5f;
+  }
+  EXPECT_NEAR(rmse(ref, test), std::sqrt(0.25 / 2), 1e-12);
+  EXPECT_NEAR(mae(ref, test), 0.25, 1e-12);
+  EXPECT_NEAR(relmse(ref, test), (0.25 / 1.01) / 2, 1e-12);
+  // LDR values are decoded to linear first: sRGB 188/255 is linear 0.5029, 255/255 is 1.
+  io::Image lref = constant(1, 1, 188 / 255.f, 188 / 255.f, 188 / 255.f, false);
+  io::Image ltest = constant(1, 1, 1.f, 1.f, 1.f, false);
+  const double lin = std::pow((188 / 255.0 + 0.055) / 1.055, 2.4);
+  EXPECT_NEAR(mae(lref, ltest), 1.0 - lin, 1e-12);
+  EXPECT_NEAR(relmse(lref, ltest), (1 - lin) * (1 - lin) / (lin * lin + 0.01), 1e-12);
+  // Alpha is ignored; grey images count as three equal channels.
+  io::Image rgba(1, 1, 4, true), rgba_test(1, 1, 4, true);
+  rgba.pixels = {1, 1, 1, 0};
+  rgba_test.pixels = {1, 1, 1, 1};
+  EXPECT_EQ(rmse(rgba, rgba_test), 0.0);
+  io::Image grey(1, 1, 1, true), grey_test(1, 1, 1, true);
+  grey.pixels = {0.5f};
+  grey_test.pixels = {1.0f};
+  EXPECT_NEAR(mae(grey, grey_test), 0.5, 1e-12);
+}
+
+TEST(Metrics, BadInputsThrowInputError) {
+  const io::Image a = constant(16, 16, 0.5f, 0.5f, 0.5f, false);
+  const io::Image b = constant(16, 12, 0.5f, 0.5f, 0.5f, false);
+  EXPECT_THROW(flip(a, b), InputError);
+  EXPECT_THROW(evaluate(a, b), InputError);
+  io::Image hdr = a;
+  hdr.linear = true;
+  EXPECT_THROW(psnr(a, hdr), InputError);
+  io::Image nan = hdr;
+  nan.pixels[5] = std::nanf("");
+  EXPECT_THROW(rmse(hdr, nan), InputError);
+  io::Image two(16, 16, 2, false);
+  EXPECT_THROW(ssim(a, two), InputError);
+  FlipOptions bad;
+  bad.pixels_per_degree = 0;
+  EXPECT_THROW(flip(a, a, bad), InputError);
+  EXPECT_THROW(parse_tonemapper("filmic"), InputError);
+  EXPECT_EQ(parse_tonemapper("ACES"), Tonemapper::aces);
+}
+
+TEST(TemporalInstability, ZeroWhenTheTestChangesAsTheReference) {
+  std::vector<io::Image> ref, test;
+  for (unsigned t = 0; t < 4; ++t) {
+    ref.push_back(card(24, 16, t));
+    test.push_back(ref.back());
+  }
+  EXPECT_EQ(temporal_instability(ref, test), 0.0);
+  // A constant offset (same error every frame) does not flicker either.
+  for (auto& frame : test)
+    for (float& v : frame.pixels) v = std::min(1.f, v + 10 / 255.f);
+  EXPECT_LT(temporal_instability(ref, test), 0.01);
+}
+
+TEST(TemporalInstability, FlickerScoresWorseThanSteadyErrorOfEqualSize) {
+  // A static grey reference; two tests with the same per-frame error |0.1| in display values:
+  // one always brighter (steady), one alternating brighter/darker (flicker).
+  std::vector<io::Image> ref, steady, flicker;
+  for (int t = 0; t < 6; ++t) {
+    ref.push_back(constant(8, 8, 0.5f, 0.5f, 0.5f, false));
+    steady.push_back(constant(8, 8, 0.6f, 0.6f, 0.6f, false));
+    const float v = t % 2 ? 0.4f : 0.6f;
+    flicker.push_back(constant(8, 8, v, v, v, false));
+  }
+  EXPECT_NEAR(psnr(ref[0], steady[0]).db.value(), psnr(ref[1], flicker[1]).db.value(), 1e-6);
+  EXPECT_NEAR(temporal_instability(ref, steady), 0.0, 1e-7);
+  // Luma weights sum to 1, so the alternating 0.2 step shows as 0.2 per pair.
+  EXPECT_NEAR(temporal_instability(ref, flicker), 0.2, 1e-6);
+  EXPECT_THROW(temporal_instability({ref[0]}, {ref[0]}), InputError);
+}
+
+TEST(Magma, EndsAndRounding) {
+  io::Image e(3, 1, 1, false);
+  e.pixels = {0.f, 1.f, 0.5f};
+  const io::Image m = magma(e);
+  ASSERT_EQ(m.channels, 3);
+  EXPECT_FALSE(m.linear);
+  EXPECT_NEAR(m.at(0, 0, 0), 0.001462f, 1e-7);  // matplotlib magma[0]
+  EXPECT_NEAR(m.at(0, 0, 2), 0.013866f, 1e-7);
+  EXPECT_NEAR(m.at(1, 0, 0), 0.987053f, 1e-7);  // magma[255]
+  EXPECT_NEAR(m.at(1, 0, 1), 0.991438f, 1e-7);
+  EXPECT_NEAR(m.at(2, 0, 0), 0.716387f, 1e-7);  // round(0.5 * 255) = 128
+}
+
+}  // namespace
+}  // namespace pb::metrics
