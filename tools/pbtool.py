@@ -25,7 +25,11 @@ def main() -> int:
         return 2
     import importlib
     module = importlib.import_module(COMMANDS[sys.argv[1]])
-    return module.main(sys.argv[2:])
+    try:
+        return module.main(sys.argv[2:])
+    except BrokenPipeError:  # output piped into `head`: not an error of the tool
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

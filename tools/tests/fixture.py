@@ -251,8 +251,9 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                     total = 0.0
                     for p, ms in base.items():
                         spike = rng.uniform(1.3, 2.5) if rng.random() < spike_rate else 1.0
-                        t = ms * anim[f] * run_drift * math.exp(rng.normal(0, noise)) * spike
-                        t *= slow.get(p, 1.0)
+                        t0 = ms * anim[f] * run_drift * math.exp(rng.normal(0, noise)) * spike
+                        # An injected delay slows the named pass only, not the passes nested in it.
+                        t = t0 * slow.get(p, 1.0)
                         total += t
                         cpu = t * 1.02 + 0.01
                         gpu = None if p in tech["cpu_only"] else t
@@ -260,7 +261,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                         per_pass.setdefault(p, []).append(t)
                         for inner, frac in tech["nested"].get(p, {}).items():
                             name = f"{p}/{inner}"
-                            ti = t * frac * math.exp(rng.normal(0, noise / 2)) * slow.get(name, 1.0)
+                            ti = t0 * frac * math.exp(rng.normal(0, noise / 2)) * slow.get(name, 1.0)
                             frame_rows.append([f, name, fmt(ti), fmt(ti * 1.02 + 0.005)])
                             per_pass.setdefault(name, []).append(ti)
                     total += 0.05 * math.exp(rng.normal(0, noise))  # submission/fence overhead
