@@ -139,4 +139,8 @@ Scene load_scene(const std::filesystem::path& file);
 std::filesystem::path find_scene(const std::string& name_or_path,
                                  const std::vector<std::filesystem::path>& search_dirs);
 
+// The names find_scene resolves: the stems of *.yaml / *.yml in `search_dirs` and the source tree's
+// scenes/, sorted, each once.
+std::vector<std::string> list_scenes(const std::vector<std::filesystem::path>& search_dirs);
+
 }  // namespace pb::scene
