@@ -1,0 +1,280 @@
+#include "trace/embree_scene.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+
+#include "photonbench/error.h"
+
+namespace pb::trace {
+namespace {
+
+void report_embree_error(void*, RTCError code, const char* message) {
+  // Embree reports through this callback; a failed build then shows up as missing geometry, so say it.
+  std::fprintf(stderr, "embree error %d: %s\n", int(code), message ? message : "");
+}
+
+Aabb transform_bounds(const Aabb& local, const glm::mat4& m) {
+  Aabb out;
+  if (local.empty()) return out;
+  for (int c = 0; c < 8; ++c) {
+    glm::vec3 p{(c & 1) ? local.hi.x : local.lo.x, (c & 2) ? local.hi.y : local.lo.y,
+                (c & 4) ? local.hi.z : local.lo.z};
+    out.extend(glm::vec3(m * glm::vec4(p, 1.f)));
+  }
+  return out;
+}
+
+bool same_light_geometry(const scene::Light& a, const scene::Light& b) {
+  return a.type == b.type && a.position == b.position && a.edge_u == b.edge_u && a.edge_v == b.edge_v;
+}
+
+}  // namespace
+
+bool Aabb::intersects(const glm::vec3& origin, const glm::vec3& dir, float tmax) const {
+  float t0 = 0, t1 = tmax;
+  for (int a = 0; a < 3; ++a) {
+    float inv = 1.f / dir[a];  // +-inf for an axis-parallel ray: the comparisons below still hold
+    float ta = (lo[a] - origin[a]) * inv, tb = (hi[a] - origin[a]) * inv;
+    if (ta > tb) std::swap(ta, tb);
+    if (std::isnan(ta) || std::isnan(tb)) {  // origin on a slab plane of a parallel ray
+      if (origin[a] < lo[a] || origin[a] > hi[a]) return false;
+      continue;
+    }
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1 * (1 + 4e-6f) + 1e-7f) return false;
+  }
+  return true;
+}
+
+RTCDevice EmbreeScene::device() {
+  static RTCDevice device = [] {
+    RTCDevice d = rtcNewDevice(nullptr);
+    if (!d) throw Error(fmt::format("embree: cannot create a device (error {})", int(rtcGetDeviceError(nullptr))));
+    rtcSetDeviceErrorFunction(d, report_embree_error, nullptr);
+    return d;
+  }();
+  return device;
+}
+
+EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& state, EmbreeOptions options)
+    : scene_(scene), state_(state), options_(options) {
+  RTCDevice dev = device();
+  top_ = rtcNewScene(dev);
+  rtcSetSceneFlags(top_, RTC_SCENE_FLAG_DYNAMIC);
+  rtcSetSceneBuildQuality(top_, RTC_BUILD_QUALITY_LOW);
+  objects_.resize(scene.objects.size());
+  for (uint32_t i = 0; i < objects_.size(); ++i) {
+    const scene::Object& object = scene.objects[i];
+    ObjectData& data = objects_[i];
+    bool deforms = object.shape && object.shape->animated();
+    data.scene = rtcNewScene(dev);
+    rtcSetSceneBuildQuality(data.scene, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+    if (deforms) rtcSetSceneFlags(data.scene, RTC_SCENE_FLAG_DYNAMIC);
+    data.geometry = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(data.geometry, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+    if (!object.shape && object.mesh.triangles.empty())
+      throw InputError(fmt::format("object '{}' has neither a shape nor a mesh", object.name));
+    const scene::Mesh* mesh = &object.mesh;
+    if (deforms || object.mesh.triangles.empty()) {  // a deforming shape: its mesh at this frame
+      data.deformed = std::make_unique<scene::Mesh>(object.shape->tessellate(state.time));
+      mesh = data.deformed.get();
+    }
+    if (mesh->triangles.empty()) throw InputError(fmt::format("object '{}' has no triangles", object.name));
+    auto* index = static_cast<glm::uvec3*>(rtcSetNewGeometryBuffer(
+        data.geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), mesh->triangles.size()));
+    std::memcpy(index, mesh->triangles.data(), mesh->triangles.size() * sizeof(glm::uvec3));
+    rtcSetNewGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3),
+                            mesh->positions.size());
+    set_vertices(data, *mesh);
+    rtcAttachGeometry(data.scene, data.geometry);
+    rtcCommitScene(data.scene);
+    data.instance = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(data.instance, data.scene);
+    place_object(i, i < state.object_to_world.size() ? state.object_to_world[i] : glm::mat4(1.0f));
+    rtcAttachGeometryByID(top_, data.instance, i);
+  }
+  light_geometry_.assign(state.lights.size(), nullptr);
+  place_lights();
+  rtcCommitScene(top_);
+}
+
+EmbreeScene::~EmbreeScene() {
+  for (auto& data : objects_) {
+    if (data.instance) rtcReleaseGeometry(data.instance);
+    if (data.geometry) rtcReleaseGeometry(data.geometry);
+    if (data.scene) rtcReleaseScene(data.scene);
+  }
+  for (RTCGeometry g : light_geometry_)
+    if (g) rtcReleaseGeometry(g);
+  if (top_) rtcReleaseScene(top_);
+}
+
+void EmbreeScene::set_vertices(ObjectData& data, const scene::Mesh& mesh) {
+  auto* vertices = static_cast<glm::vec3*>(rtcGetGeometryBufferData(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0));
+  std::memcpy(vertices, mesh.positions.data(), mesh.positions.size() * sizeof(glm::vec3));
+  data.local_bounds = Aabb{};
+  for (const auto& p : mesh.positions) data.local_bounds.extend(p);
+  data.mesh = &mesh;
+  rtcUpdateGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0);
+  rtcCommitGeometry(data.geometry);
+}
+
+void EmbreeScene::place_object(uint32_t i, const glm::mat4& to_world) {
+  ObjectData& data = objects_[i];
+  data.to_world = to_world;
+  data.normal_to_world = glm::transpose(glm::inverse(glm::mat3(to_world)));
+  data.bounds = transform_bounds(data.local_bounds, to_world);
+  rtcSetGeometryTransform(data.instance, 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &data.to_world[0][0]);
+  rtcCommitGeometry(data.instance);
+}
+
+void EmbreeScene::place_lights() {
+  if (!options_.quad_lights_as_geometry) return;
+  RTCDevice dev = device();
+  for (uint32_t l = 0; l < state_.lights.size(); ++l) {
+    const scene::Light& light = state_.lights[l];
+    if (light.type != scene::LightType::quad) continue;
+    RTCGeometry& g = light_geometry_[l];
+    if (!g) {
+      g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* index = static_cast<glm::uvec3*>(
+          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), 2));
+      index[0] = {0, 1, 2};
+      index[1] = {0, 2, 3};
+      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3), 4);
+      rtcAttachGeometryByID(top_, g, light_object(l));
+    }
+    auto* v = static_cast<glm::vec3*>(rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_VERTEX, 0));
+    v[0] = light.position;
+    v[1] = light.position + light.edge_u;
+    v[2] = light.position + light.edge_u + light.edge_v;
+    v[3] = light.position + light.edge_v;
+    rtcUpdateGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0);
+    rtcCommitGeometry(g);
+  }
+}
+
+void EmbreeScene::update(const scene::FrameState& state) {
+  if (state.lights.size() != state_.lights.size())
+    throw Error("EmbreeScene::update: the number of lights changed");
+  for (uint32_t i = 0; i < objects_.size(); ++i) {
+    ObjectData& data = objects_[i];
+    bool deformed = std::find(state.deformed_objects.begin(), state.deformed_objects.end(), i) !=
+                    state.deformed_objects.end();
+    if (deformed && scene_.objects[i].shape && scene_.objects[i].shape->animated()) {
+      auto mesh = std::make_unique<scene::Mesh>(scene_.objects[i].shape->tessellate(state.time));
+      if (mesh->positions.size() != data.mesh->positions.size() ||
+          mesh->triangles.size() != data.mesh->triangles.size())
+        throw Error(fmt::format("object '{}': a deforming shape must keep its vertex and triangle count",
+                                scene_.objects[i].name));
+      data.deformed = std::move(mesh);
+      set_vertices(data, *data.deformed);
+      rtcCommitScene(data.scene);  // refit
+      place_object(i, data.to_world);
+    }
+    glm::mat4 m = i < state.object_to_world.size() ? state.object_to_world[i] : glm::mat4(1.0f);
+    if (m != data.to_world) place_object(i, m);
+  }
+  bool lights_moved = false;
+  for (size_t l = 0; l < state.lights.size(); ++l)
+    lights_moved |= !same_light_geometry(state.lights[l], state_.lights[l]);
+  state_ = state;
+  if (lights_moved) place_lights();
+  rtcCommitScene(top_);
+}
+
+bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax, Hit& hit) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh;
+  rh.ray.org_x = origin.x, rh.ray.org_y = origin.y, rh.ray.org_z = origin.z;
+  rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
+  rh.ray.tnear = 0.f;
+  rh.ray.tfar = tmax;
+  rh.ray.time = 0.f;
+  rh.ray.mask = ~0u;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(top_, &context, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+  hit.t = rh.ray.tfar;
+  hit.primitive = rh.hit.primID;
+  hit.barycentric = {rh.hit.u, rh.hit.v};
+  float w = 1.f - rh.hit.u - rh.hit.v;
+  if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
+    uint32_t object = rh.hit.instID[0];
+    hit.object = object;
+    hit.material = scene_.objects[object].material;
+    const ObjectData& data = objects_[object];
+    const scene::Mesh& mesh = *data.mesh;
+    const glm::uvec3 tri = mesh.triangles[rh.hit.primID];
+    glm::vec3 p0 = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri.x], 1.f));
+    glm::vec3 p1 = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri.y], 1.f));
+    glm::vec3 p2 = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri.z], 1.f));
+    hit.position = w * p0 + rh.hit.u * p1 + rh.hit.v * p2;
+    glm::vec3 ng = glm::cross(p1 - p0, p2 - p0);
+    float len = glm::length(ng);
+    ng = len > 0 ? ng / len : glm::vec3(0, 1, 0);
+    if (!mesh.normals.empty()) {
+      glm::vec3 n = w * mesh.normals[tri.x] + rh.hit.u * mesh.normals[tri.y] + rh.hit.v * mesh.normals[tri.z];
+      n = data.normal_to_world * n;
+      float nl = glm::length(n);
+      hit.shading_normal = nl > 0 ? n / nl : ng;
+      if (glm::dot(ng, hit.shading_normal) < 0) ng = -ng;
+    } else {
+      hit.shading_normal = ng;
+    }
+    hit.geometric_normal = ng;
+  } else {
+    uint32_t object = rh.hit.geomID;
+    hit.object = object;
+    hit.material = 0;
+    hit.position = origin + hit.t * dir;
+    const scene::Light& light = state_.lights[object - object_count()];
+    hit.geometric_normal = hit.shading_normal = light.normal();
+  }
+  return true;
+}
+
+bool EmbreeScene::occluded(const glm::vec3& origin, const glm::vec3& dir, float tmax) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray;
+  ray.org_x = origin.x, ray.org_y = origin.y, ray.org_z = origin.z;
+  ray.dir_x = dir.x, ray.dir_y = dir.y, ray.dir_z = dir.z;
+  ray.tnear = 0.f;
+  ray.tfar = tmax;
+  ray.time = 0.f;
+  ray.mask = ~0u;
+  ray.id = 0;
+  ray.flags = 0;
+  rtcOccluded1(top_, &context, &ray);
+  return ray.tfar < 0.f;  // Embree sets tfar to -inf on a hit
+}
+
+Triangle EmbreeScene::triangle(uint32_t object, uint32_t primitive) const {
+  const ObjectData& data = objects_[object];
+  const scene::Mesh& mesh = *data.mesh;
+  const glm::uvec3 tri = mesh.triangles[primitive];
+  Triangle out;
+  for (int k = 0; k < 3; ++k) {
+    out.p[k] = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri[k]], 1.f));
+    out.n[k] = mesh.normals.empty() ? glm::vec3(0.f) : data.normal_to_world * mesh.normals[tri[k]];
+  }
+  return out;
+}
+
+Aabb EmbreeScene::bounds() const {
+  Aabb b;
+  for (const auto& data : objects_)
+    if (!data.bounds.empty()) b.extend(data.bounds.lo), b.extend(data.bounds.hi);
+  return b;
+}
+
+}  // namespace pb::trace

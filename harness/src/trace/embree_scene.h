@@ -1,0 +1,114 @@
+// The CPU half of the World: an Embree 3 scene built from a pb::scene::Scene, one instance per object,
+// so a frame where objects move costs a transform per moving object and a rebuild of the small top-level
+// BVH; a deformable shape (Shape::animated, the pool's water) refits its own BVH from new vertices.
+//
+// Quad lights are part of the scene too (unless turned off): a one-sided emitter that is seen by camera
+// rays, hit by BSDF-sampled rays (so the reference renderer can weight them by MIS) and that absorbs
+// what hits it, as the physical luminaire it models.
+//
+// Queries (intersect, occluded, triangle) are const and safe from any number of threads; update() must
+// not run concurrently with them.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace pb::trace {
+
+inline constexpr uint32_t kNoObject = ~0u;
+
+struct Hit {
+  float t = 0;
+  glm::vec3 position{0.0f};
+  glm::vec3 geometric_normal{0.0f};  // unit, world; the side the shading normals point to
+  glm::vec3 shading_normal{0.0f};    // unit, world, interpolated vertex normal
+  glm::vec2 barycentric{0.0f};       // Embree's (u, v): weights of vertices 1 and 2
+  uint32_t object = kNoObject;       // Scene::objects index, or light_object(l) for quad light l
+  uint32_t primitive = 0;
+  uint32_t material = 0;             // Scene::materials index (objects only)
+};
+
+// World-space data of one triangle (for ray differentials: the normal's derivative along the surface).
+struct Triangle {
+  glm::vec3 p[3];
+  glm::vec3 n[3];
+};
+
+struct Aabb {
+  glm::vec3 lo{std::numeric_limits<float>::max()}, hi{-std::numeric_limits<float>::max()};
+  void extend(const glm::vec3& p) { lo = glm::min(lo, p), hi = glm::max(hi, p); }
+  bool empty() const { return lo.x > hi.x; }
+  // Does the segment origin + t dir, t in [0, tmax], touch the box? (slab test)
+  bool intersects(const glm::vec3& origin, const glm::vec3& dir, float tmax) const;
+};
+
+struct EmbreeOptions {
+  bool quad_lights_as_geometry = true;
+};
+
+class EmbreeScene {
+ public:
+  EmbreeScene(const scene::Scene& scene, const scene::FrameState& state, EmbreeOptions options = {});
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  // Moves the objects and lights to `state` and refits deformed meshes.
+  void update(const scene::FrameState& state);
+
+  // Closest hit along origin + t dir, t in (0, tmax]; dir need not be unit (t is in its units).
+  bool intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax, Hit& hit) const;
+  // Any hit along origin + t dir, t in (0, tmax).
+  bool occluded(const glm::vec3& origin, const glm::vec3& dir, float tmax) const;
+
+  const scene::Scene& scene() const { return scene_; }
+  const scene::FrameState& state() const { return state_; }
+  uint32_t object_count() const { return uint32_t(scene_.objects.size()); }
+  uint32_t light_object(uint32_t light) const { return object_count() + light; }
+  bool is_light_object(uint32_t object) const { return object >= object_count() && object != kNoObject; }
+  const glm::mat4& object_to_world(uint32_t object) const { return objects_[object].to_world; }
+  // The object's mesh at the current frame (object space; deformed meshes are the current shape).
+  const scene::Mesh& mesh(uint32_t object) const { return *objects_[object].mesh; }
+  Triangle triangle(uint32_t object, uint32_t primitive) const;
+  Aabb object_bounds(uint32_t object) const { return objects_[object].bounds; }  // world, this frame
+  Aabb bounds() const;  // world bounds of all objects this frame
+  // Offset for spawning rays from a surface point, scaled to the coordinates (float precision).
+  static float ray_epsilon(const glm::vec3& p) {
+    return 1e-4f * std::max(1.f, std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z))));
+  }
+  static RTCDevice device();
+
+ private:
+  struct ObjectData {
+    RTCScene scene = nullptr;
+    RTCGeometry geometry = nullptr;  // triangles, in the object's own scene
+    RTCGeometry instance = nullptr;  // in the top-level scene
+    glm::mat4 to_world{1.0f};
+    glm::mat3 normal_to_world{1.0f};
+    const scene::Mesh* mesh = nullptr;
+    std::unique_ptr<scene::Mesh> deformed;  // owned current mesh of an animated shape
+    Aabb local_bounds;                      // object space
+    Aabb bounds;                            // world
+  };
+  void set_vertices(ObjectData& data, const scene::Mesh& mesh);
+  void place_object(uint32_t i, const glm::mat4& to_world);
+  void place_lights();
+
+  const scene::Scene& scene_;
+  scene::FrameState state_;
+  EmbreeOptions options_;
+  RTCScene top_ = nullptr;
+  std::vector<ObjectData> objects_;
+  std::vector<RTCGeometry> light_geometry_;  // one per scene light (null unless a quad)
+};
+
+}  // namespace pb::trace

@@ -1,0 +1,604 @@
+#include "trace/photon_tracer.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "photonbench/error.h"
+#include "trace/bsdf.h"
+#include "trace/lights.h"
+
+namespace pb::trace {
+namespace {
+
+constexpr uint32_t kBlockSize = 256;  // paths per parallel task; fixed, so output order is fixed
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
+float max3(const glm::vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
+float mean3(const glm::vec3& v) { return (v.x + v.y + v.z) / 3.f; }
+
+struct Context {
+  const EmbreeScene* world = nullptr;
+  const LightSet* lights = nullptr;
+  const std::vector<std::shared_ptr<const Distribution2D>>* densities = nullptr;
+  uint32_t seed = 0, max_bounces = 0, store = 0, rr_start = 0;
+  const std::vector<uint32_t>* emission_count = nullptr;  // N used for each emitter's power and spacing
+};
+
+struct PathTask {
+  uint32_t light, sample;
+};
+
+struct BlockOutput {
+  std::vector<LightPath> paths;
+  std::vector<PathVertex> vertices;
+  std::vector<PhotonRecord> photons;
+  uint64_t rays = 0, paths_retraced = 0, segments_retraced = 0;
+};
+
+glm::vec3 spawn_origin(const PathVertex& v) {
+  if (v.normal == glm::vec3(0.f)) return v.position;
+  float eps = EmbreeScene::ray_epsilon(v.position);
+  return v.position + v.normal * (glm::dot(v.direction, v.normal) >= 0 ? eps : -eps);
+}
+
+// Derivative of the interpolated shading normal for a displacement dp in the triangle's plane (Igehy
+// 1999 §3.2): solve dp = db1 e1 + db2 e2 in the least-squares sense, then differentiate N/|N|.
+glm::vec3 normal_derivative(const Triangle& tri, glm::vec2 bary, const glm::vec3& dp) {
+  glm::vec3 n_raw = (1.f - bary.x - bary.y) * tri.n[0] + bary.x * tri.n[1] + bary.y * tri.n[2];
+  float len = glm::length(n_raw);
+  if (len <= 0) return glm::vec3(0.f);
+  glm::vec3 e1 = tri.p[1] - tri.p[0], e2 = tri.p[2] - tri.p[0];
+  float a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
+  float det = a11 * a22 - a12 * a12;
+  if (std::abs(det) <= 0) return glm::vec3(0.f);
+  float r1 = glm::dot(dp, e1), r2 = glm::dot(dp, e2);
+  float db1 = (a22 * r1 - a12 * r2) / det, db2 = (a11 * r2 - a12 * r1) / det;
+  glm::vec3 dn = db1 * (tri.n[1] - tri.n[0]) + db2 * (tri.n[2] - tri.n[0]);
+  glm::vec3 ns = n_raw / len;
+  return (dn - ns * glm::dot(ns, dn)) / len;
+}
+
+// Can a photon still be stored after interaction k, given the path so far (`mask` includes bit k)?
+bool storable_later(uint32_t mask, uint32_t k, uint32_t store) {
+  if (!(mask & 1u)) return (store & kIndirectPhotons) != 0;
+  uint32_t all = k >= 31 ? ~0u : ((1u << (k + 1)) - 1u);
+  bool all_specular = (mask & all) == all;
+  return (store & (kCausticIndirectPhotons | (all_specular ? uint32_t(kCausticPhotons) : 0u))) != 0;
+}
+
+// Vertex 0 of path `task`: emission.
+PathVertex emit(const Context& c, const PathTask& task, glm::vec2* uv_out) {
+  uint32_t seed_l = hash_combine(c.seed, task.light);
+  glm::vec4 xi = sobol_group(task.sample, 0, seed_l);
+  glm::vec2 uv{xi.x, xi.y};
+  float pdf = 1;
+  const auto& density = (*c.densities)[task.light];
+  if (density) uv = density->sample(uv, &pdf);
+  EmissionRay r = c.lights->emit(task.light, uv, {xi.z, xi.w});
+  float n = float(std::max(1u, (*c.emission_count)[task.light]));
+  PathVertex v;
+  v.position = r.origin;
+  v.object = kNoObject;
+  v.direction = r.direction;
+  v.normal = r.normal;
+  v.power = pdf > 0 ? r.power / (n * pdf) : glm::vec3(0.f);
+  v.spacing = pdf > 0 ? 1.f / std::sqrt(n * pdf) : 0.f;
+  v.dp_du = r.dp_du, v.dp_dv = r.dp_dv, v.dd_du = r.dd_du, v.dd_dv = r.dd_dv;
+  if (!(max3(v.power) > 0)) v.flags = PathVertex::kTerminated;
+  if (uv_out) *uv_out = uv;
+  return v;
+}
+
+// Continues a path from its last vertex, which holds the outgoing state, until it terminates.
+// Appends vertices and the photons stored on the way; returns the number of segments traced.
+uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_index,
+                       std::vector<PathVertex>& verts, std::vector<PhotonRecord>& photons) {
+  const EmbreeScene& world = *c.world;
+  const scene::Scene& scene = world.scene();
+  uint32_t seed_l = hash_combine(c.seed, task.light);
+  float restart_spacing =
+      1.f / std::sqrt(float(std::max(1u, (*c.emission_count)[task.light])));
+  uint64_t rays = 0;
+  for (;;) {
+    const PathVertex v = verts.back();
+    if (v.flags & PathVertex::kTerminated) return rays;
+    uint32_t k = uint32_t(verts.size()) - 1;  // index of the interaction this segment leads to
+    if (k >= c.max_bounces) {
+      verts.back().flags |= PathVertex::kTerminated;
+      return rays;
+    }
+    const glm::vec3 dir = v.direction;
+    Hit hit;
+    ++rays;
+    if (!world.intersect(spawn_origin(v), dir, kInfinity, hit)) {
+      verts.back().flags |= PathVertex::kEscapes | PathVertex::kTerminated;
+      return rays;
+    }
+    PathVertex next;
+    next.position = hit.position;
+    next.object = hit.object;
+    glm::vec3 ng = glm::dot(hit.geometric_normal, dir) > 0 ? -hit.geometric_normal : hit.geometric_normal;
+    next.normal = ng;
+    next.spacing = v.spacing;
+    next.specular_mask = v.specular_mask;
+    // Transfer the differentials to the plane of the hit (Igehy 1999 eq. 10).
+    float d_dot_n = glm::dot(dir, ng);
+    auto transfer = [&](const glm::vec3& dp, const glm::vec3& dd) {
+      glm::vec3 q = dp + hit.t * dd;
+      return d_dot_n != 0 ? q - dir * (glm::dot(q, ng) / d_dot_n) : q;
+    };
+    glm::vec3 dp_du = transfer(v.dp_du, v.dd_du), dp_dv = transfer(v.dp_dv, v.dd_dv);
+    if (world.is_light_object(hit.object)) {  // a luminaire absorbs what reaches it
+      next.flags = PathVertex::kTerminated;
+      verts.push_back(next);
+      return rays;
+    }
+    const scene::Material& material = scene.materials[hit.material];
+    Bsdf bsdf(material, hit);
+    bool diffuse = bsdf.is_diffuse();
+    uint32_t mask = v.specular_mask;
+    if (diffuse && (photon_kind(mask, k) & c.store)) {
+      PhotonRecord p{};
+      p.position = hit.position;
+      p.object = hit.object;
+      p.power = v.power;
+      p.path = path_index;
+      p.direction = dir;
+      p.bounce = k;
+      p.normal = ng;
+      p.specular_mask = mask;
+      p.footprint_u = dp_du * v.spacing;
+      p.footprint_v = dp_dv * v.spacing;
+      p.light = task.light;
+      p.flags = 0;
+      photons.push_back(p);
+      next.flags |= PathVertex::kStored;
+    }
+    if (!diffuse) mask |= 1u << k;
+    next.specular_mask = mask;
+    bool alive = k + 1 < c.max_bounces && storable_later(mask, k, c.store);
+    if (alive) {
+      glm::vec4 xi = sobol_group(task.sample, 1 + k, seed_l);
+      BsdfSample s;
+      alive = bsdf.sample(-dir, {xi.x, xi.y, xi.z}, Transport::importance, s);
+      glm::vec3 power = alive ? v.power * s.weight : glm::vec3(0.f);
+      alive = alive && max3(power) > 0 && std::isfinite(max3(power));
+      if (alive && k >= c.rr_start) {
+        // Paper I §5: survive with R = min(1, Phi'/Phi), then Phi = Phi'/R.
+        float r = std::min(1.f, max3(power) / max3(v.power));
+        if (xi.w >= r) alive = false;
+        else power /= r;
+      }
+      if (alive) {
+        next.direction = s.wi;
+        next.power = power;
+        if (diffuse) {
+          // The new direction depends on this bounce's two sample dimensions only: restart the
+          // differentials from the cosine map (finite differences) about this point.
+          const float h = 1e-3f;
+          glm::vec2 u = glm::clamp(glm::vec2(xi.x, xi.y), glm::vec2(h), glm::vec2(1.f - h));
+          Frame f(s.normal);
+          next.dp_du = next.dp_dv = glm::vec3(0.f);
+          next.dd_du = f.to_world(cosine_hemisphere(u + glm::vec2(h, 0)) - cosine_hemisphere(u - glm::vec2(h, 0))) / (2 * h);
+          next.dd_dv = f.to_world(cosine_hemisphere(u + glm::vec2(0, h)) - cosine_hemisphere(u - glm::vec2(0, h))) / (2 * h);
+          next.spacing = restart_spacing;
+        } else {
+          Triangle tri = world.triangle(hit.object, hit.primitive);
+          float flip = glm::dot(s.normal, hit.shading_normal) >= 0 ? 1.f : -1.f;
+          const glm::vec3 n = s.normal;
+          auto scatter = [&](const glm::vec3& dp, const glm::vec3& dd) {
+            glm::vec3 dn = flip * normal_derivative(tri, hit.barycentric, dp);
+            if (!s.transmitted)  // Igehy eq. 14
+              return dd - 2.f * (glm::dot(dir, n) * dn + (glm::dot(dd, n) + glm::dot(dir, dn)) * n);
+            // Igehy eq. 18-19 with eta = eta_i / eta_t and n facing the incoming side.
+            float eta = s.eta, cos_i = -glm::dot(dir, n), cos_t = -glm::dot(s.wi, n);
+            if (cos_t <= 1e-6f) return dd;
+            float k_coef = eta * cos_i - cos_t;
+            float dcos_i = -(glm::dot(dd, n) + glm::dot(dir, dn));
+            float dcos_t = eta * eta * cos_i * dcos_i / cos_t;
+            float dk = eta * dcos_i - dcos_t;
+            return eta * dd + dk * n + k_coef * dn;
+          };
+          next.dp_du = dp_du;
+          next.dp_dv = dp_dv;
+          next.dd_du = scatter(dp_du, v.dd_du);
+          next.dd_dv = scatter(dp_dv, v.dd_dv);
+        }
+        verts.push_back(next);
+        continue;
+      }
+    }
+    next.flags |= PathVertex::kTerminated;
+    verts.push_back(next);
+    return rays;
+  }
+}
+
+// Appends one path's vertices and photons (from scratch buffers) to a block's output.
+void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, bool keep,
+                 const std::vector<PathVertex>& verts, const std::vector<PhotonRecord>& photons) {
+  LightPath p;
+  p.light = task.light;
+  p.sample = task.sample;
+  p.emission_uv = uv;
+  p.first_photon = uint32_t(out.photons.size());
+  p.photon_count = uint32_t(photons.size());
+  out.photons.insert(out.photons.end(), photons.begin(), photons.end());
+  if (keep) {
+    p.first_vertex = uint32_t(out.vertices.size());
+    p.vertex_count = uint32_t(verts.size());
+    out.vertices.insert(out.vertices.end(), verts.begin(), verts.end());
+    out.paths.push_back(p);
+  }
+}
+
+// Concatenates block outputs in block order (the fixed partition makes this thread-count independent).
+void gather(std::vector<BlockOutput>& blocks, uint32_t path_offset, bool keep, PhotonBatch& out, TraceStats& stats) {
+  size_t photons = out.photons.size(), vertices = out.paths.vertices.size();
+  for (auto& b : blocks) {
+    for (auto& p : b.paths) {
+      p.first_photon += uint32_t(out.photons.size());
+      p.first_vertex += uint32_t(out.paths.vertices.size());
+    }
+    for (auto& ph : b.photons) ph.path += path_offset;
+    if (keep) {
+      out.paths.paths.insert(out.paths.paths.end(), b.paths.begin(), b.paths.end());
+      out.paths.vertices.insert(out.paths.vertices.end(), b.vertices.begin(), b.vertices.end());
+    }
+    out.photons.insert(out.photons.end(), b.photons.begin(), b.photons.end());
+    stats.rays += b.rays;
+    stats.paths_retraced += b.paths_retraced;
+    stats.segments_retraced += b.segments_retraced;
+  }
+  (void)photons;
+  (void)vertices;
+}
+
+// The world as a path set remembers it: per emitter, what decides where its photons start.
+std::vector<glm::vec4> light_state(const EmbreeScene& world, const LightSet& lights,
+                                   const std::vector<uint32_t>& density_version) {
+  std::vector<glm::vec4> state;
+  for (uint32_t e = 0; e < lights.size(); ++e) {
+    const Emitter& em = lights.emitter(e);
+    float version = e < density_version.size() ? float(density_version[e]) : 0.f;
+    if (em.type == EmitterType::mesh) {
+      const glm::mat4& m = world.object_to_world(em.source);
+      for (int c = 0; c < 4; ++c) state.push_back(m[c]);
+      state.push_back(glm::vec4(em.power, version));
+      state.push_back(glm::vec4(0.f));
+      continue;
+    }
+    const scene::Light& l = world.state().lights[em.source];
+    state.push_back(glm::vec4(l.position, float(int(l.type))));
+    state.push_back(glm::vec4(l.direction, l.spot_inner));
+    state.push_back(glm::vec4(l.edge_u, l.spot_outer));
+    state.push_back(glm::vec4(l.edge_v, version));
+    state.push_back(glm::vec4(em.power, 0.f));
+    // A directional light's emission square follows the scene bounds.
+    state.push_back(em.type == EmitterType::directional
+                        ? glm::vec4(lights.scene_center(), lights.scene_radius())
+                        : glm::vec4(0.f));
+  }
+  return state;
+}
+constexpr size_t kLightStateSize = 6;
+
+void check_settings(const TraceSettings& s) {
+  if (s.max_bounces < 1 || s.max_bounces > 31)
+    throw InputError(fmt::format("photon tracer: max_bounces {} is outside [1, 31]", s.max_bounces));
+  if (s.paths < 1) throw InputError("photon tracer: paths must be at least 1");
+  if ((s.store & ~uint32_t(kAllPhotons)) != 0 || s.store == 0)
+    throw InputError("photon tracer: store must be a non-empty PhotonKind mask");
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& powers, uint32_t paths) {
+  std::vector<uint32_t> count(powers.size(), 0);
+  double total = 0;
+  size_t positive = 0;
+  for (float p : powers)
+    if (p > 0) total += p, ++positive;
+  if (total <= 0 || paths == 0) return count;
+  // Every emitter with power gets one path first (when there are enough), so none is left dark.
+  uint32_t reserved = paths >= positive ? uint32_t(positive) : 0;
+  uint32_t rest = paths - reserved;
+  std::vector<std::pair<double, size_t>> remainders;
+  uint32_t used = reserved;
+  for (size_t i = 0; i < powers.size(); ++i) {
+    if (!(powers[i] > 0)) continue;
+    double exact = rest * (powers[i] / total);
+    uint32_t whole = uint32_t(std::floor(exact));
+    count[i] = whole + (reserved ? 1 : 0);
+    used += whole;
+    remainders.push_back({exact - whole, i});
+  }
+  std::stable_sort(remainders.begin(), remainders.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (size_t r = 0; used < paths && r < remainders.size(); ++r, ++used) ++count[remainders[r].second];
+  return count;
+}
+
+EmbreePhotonTracer::EmbreePhotonTracer(const EmbreeScene& world) : world_(world) {}
+
+uint32_t EmbreePhotonTracer::light_count() const { return LightSet(world_).size(); }
+
+glm::vec3 EmbreePhotonTracer::light_power(uint32_t light) const {
+  LightSet lights(world_);
+  if (light >= lights.size()) throw Error(fmt::format("photon tracer: no light {}", light));
+  return lights.emitter(light).power;
+}
+
+void EmbreePhotonTracer::set_emission_density(uint32_t light, const EmissionDensity* density) {
+  uint32_t n = light_count();
+  if (light >= n) throw Error(fmt::format("photon tracer: no light {} (the scene has {})", light, n));
+  densities_.resize(std::max<size_t>(densities_.size(), n));
+  density_version_.resize(densities_.size(), 0);
+  densities_[light] =
+      density ? std::make_shared<Distribution2D>(density->width, density->height, density->texels) : nullptr;
+  ++density_version_[light];
+}
+
+TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch& out) {
+  check_settings(settings);
+  auto t0 = std::chrono::steady_clock::now();
+  LightSet lights(world_);
+  densities_.resize(std::max<size_t>(densities_.size(), lights.size()));
+  density_version_.resize(densities_.size(), 0);
+  std::vector<float> powers(lights.size());
+  for (uint32_t e = 0; e < lights.size(); ++e) powers[e] = mean3(lights.emitter(e).power);
+
+  out.photons.clear();
+  out.paths = LightPaths{};
+  TraceStats stats;
+  uint32_t seed = settings.seed_per_frame ? hash_combine(settings.seed, world_.state().frame) : settings.seed;
+
+  std::vector<uint32_t> emitted(lights.size(), 0);  // paths emitted so far per light
+  std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
+  for (auto& n : emission_count) n = std::max(n, 1u);
+  Context c{&world_, &lights, &densities_, seed, settings.max_bounces, settings.store, settings.rr_start,
+            &emission_count};
+  bool keep = settings.keep_paths;
+  uint32_t wave = settings.paths, total = 0;
+  for (;;) {
+    std::vector<uint32_t> alloc = split_paths(powers, wave);
+    std::vector<PathTask> tasks;
+    tasks.reserve(wave);
+    for (uint32_t e = 0; e < lights.size(); ++e)
+      for (uint32_t j = 0; j < alloc[e]; ++j) tasks.push_back({e, emitted[e] + j});
+    uint32_t blocks = uint32_t((tasks.size() + kBlockSize - 1) / kBlockSize);
+    std::vector<BlockOutput> outputs(blocks);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+      std::vector<PathVertex> verts;
+      std::vector<PhotonRecord> photons;
+      for (uint32_t b = r.begin(); b != r.end(); ++b) {
+        BlockOutput& o = outputs[b];
+        uint32_t end = std::min<uint32_t>(uint32_t(tasks.size()), (b + 1) * kBlockSize);
+        for (uint32_t t = b * kBlockSize; t < end; ++t) {
+          verts.clear();
+          photons.clear();
+          glm::vec2 uv;
+          verts.push_back(emit(c, tasks[t], &uv));
+          uint32_t local = t - b * kBlockSize;  // path index within the wave, fixed up in gather
+          o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, photons);
+          append_path(o, tasks[t], uv, keep, verts, photons);
+        }
+      }
+    });
+    gather(outputs, total, keep, out, stats);
+    for (uint32_t e = 0; e < lights.size(); ++e) emitted[e] += alloc[e];
+    total += uint32_t(tasks.size());
+    if (settings.photon_target == 0 || out.photons.size() >= settings.photon_target ||
+        total >= settings.max_paths || tasks.empty())
+      break;
+    // Next wave: enough paths for the photons still missing at the rate seen so far, plus 10%.
+    double rate = double(out.photons.size()) / std::max<uint32_t>(total, 1);
+    double need = (settings.photon_target - out.photons.size()) / std::max(rate, 1e-3) * 1.1 + 64;
+    wave = uint32_t(std::min<double>(need, double(settings.max_paths - total)));
+    if (wave == 0) break;
+  }
+  // Photon-target mode: power and spacing were set for the first wave's path count; rescale to the
+  // final count of each emitter.
+  for (uint32_t e = 0; e < lights.size(); ++e) {
+    if (emitted[e] == emission_count[e] || emitted[e] == 0) continue;
+    float power_scale = float(emission_count[e]) / emitted[e];
+    float spacing_scale = std::sqrt(power_scale);
+    for (auto& p : out.photons)
+      if (p.light == e) p.power *= power_scale, p.footprint_u *= spacing_scale, p.footprint_v *= spacing_scale;
+    for (auto& path : out.paths.paths) {
+      if (path.light != e) continue;
+      for (uint32_t v = 0; v < path.vertex_count; ++v) {
+        PathVertex& pv = out.paths.vertices[path.first_vertex + v];
+        pv.power *= power_scale;
+        pv.spacing *= spacing_scale;
+      }
+    }
+  }
+  if (keep) {
+    LightPaths& lp = out.paths;
+    lp.object_to_world.resize(world_.object_count());
+    for (uint32_t o = 0; o < world_.object_count(); ++o) lp.object_to_world[o] = world_.object_to_world(o);
+    lp.light_state = light_state(world_, lights, density_version_);
+    lp.paths_per_light = emitted;
+    lp.seed = seed;
+    lp.max_bounces = settings.max_bounces;
+    lp.store = settings.store;
+    lp.rr_start = settings.rr_start;
+  }
+  stats.paths = total;
+  stats.photons = out.photons.size();
+  stats.seconds = seconds_since(t0);
+  out.stats = stats;
+  return stats;
+}
+
+TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) {
+  check_settings(settings);
+  LightPaths& old = batch.paths;
+  LightSet lights(world_);
+  densities_.resize(std::max<size_t>(densities_.size(), lights.size()));
+  density_version_.resize(densities_.size(), 0);
+  std::vector<glm::vec4> now_state = light_state(world_, lights, density_version_);
+  uint32_t n_emitters = lights.size();
+  bool compatible = !old.empty() && old.max_bounces == settings.max_bounces && old.store == settings.store &&
+                    old.rr_start == settings.rr_start && old.paths_per_light.size() == n_emitters &&
+                    old.object_to_world.size() == world_.object_count() &&
+                    old.light_state.size() == now_state.size() &&
+                    (settings.seed_per_frame || old.seed == settings.seed);
+  // The split of paths among emitters depends on their power: a power change means a fresh trace.
+  for (uint32_t e = 0; compatible && e < n_emitters; ++e)
+    compatible = glm::vec3(old.light_state[e * kLightStateSize + 4]) == glm::vec3(now_state[e * kLightStateSize + 4]);
+  if (!compatible) {
+    TraceSettings fresh = settings;
+    fresh.keep_paths = true;
+    return trace(fresh, batch);
+  }
+  auto t0 = std::chrono::steady_clock::now();
+
+  // What moved since the paths were traced.
+  uint32_t n_objects = world_.object_count();
+  const auto& lights_now = world_.state().lights;
+  std::vector<char> moved(n_objects + lights_now.size(), 0);
+  std::vector<Aabb> moved_boxes;
+  const auto& deformed = world_.state().deformed_objects;
+  for (uint32_t o = 0; o < n_objects; ++o) {
+    moved[o] = old.object_to_world[o] != world_.object_to_world(o) ||
+               std::find(deformed.begin(), deformed.end(), o) != deformed.end();
+    if (moved[o]) moved_boxes.push_back(world_.object_bounds(o));
+  }
+  std::vector<char> light_changed(n_emitters, 0);
+  for (uint32_t e = 0; e < n_emitters; ++e) {
+    for (size_t k = 0; k < kLightStateSize; ++k)
+      light_changed[e] |= old.light_state[e * kLightStateSize + k] != now_state[e * kLightStateSize + k];
+    const Emitter& em = lights.emitter(e);
+    if (light_changed[e] && em.type == EmitterType::quad && world_.is_light_object(world_.light_object(em.source))) {
+      uint32_t obj = world_.light_object(em.source);
+      if (obj < moved.size()) {
+        moved[obj] = 1;
+        const scene::Light& l = lights_now[em.source];
+        Aabb box;
+        for (glm::vec3 q : {l.position, l.position + l.edge_u, l.position + l.edge_v, l.position + l.edge_u + l.edge_v})
+          box.extend(q);
+        moved_boxes.push_back(box);
+      }
+    }
+  }
+
+  std::vector<uint32_t> emission_count = old.paths_per_light;
+  Context c{&world_, &lights, &densities_, old.seed, old.max_bounces, old.store, old.rr_start, &emission_count};
+  uint32_t n_paths = uint32_t(old.paths.size());
+  uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
+  std::vector<BlockOutput> outputs(blocks);
+  const std::vector<PhotonRecord>& old_photons = batch.photons;
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+    std::vector<PathVertex> verts;
+    std::vector<PhotonRecord> photons;
+    for (uint32_t b = r.begin(); b != r.end(); ++b) {
+      BlockOutput& o = outputs[b];
+      uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
+      for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
+        const LightPath& path = old.paths[pi];
+        PathTask task{path.light, path.sample};
+        const PathVertex* pv = &old.vertices[path.first_vertex];
+        verts.clear();
+        photons.clear();
+        glm::vec2 uv = path.emission_uv;
+        if (light_changed[path.light]) {
+          verts.push_back(emit(c, task, &uv));
+          uint64_t rays = continue_path(c, task, pi, verts, photons);
+          o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
+          append_path(o, task, uv, true, verts, photons);
+          continue;
+        }
+        // Find the first invalid segment: s leaves vertex s (Paper II §3.2, "naive" verification,
+        // with an exact ray where a moved object's box touches the segment).
+        uint32_t invalid = path.vertex_count;
+        for (uint32_t s = 0; s < path.vertex_count; ++s) {
+          const PathVertex& a = pv[s];
+          bool last = s + 1 == path.vertex_count;
+          if (last && !(a.flags & PathVertex::kEscapes)) break;  // no outgoing segment
+          glm::vec3 origin = spawn_origin(a);
+          float length = kInfinity;
+          uint32_t dest_object = kNoObject;
+          if (!last) {
+            const PathVertex& d = pv[s + 1];
+            dest_object = d.object;
+            if (dest_object < moved.size() && moved[dest_object]) {  // the endpoint itself moved
+              invalid = s;
+              break;
+            }
+            length = glm::dot(d.position - origin, a.direction);
+          }
+          bool touched = false;
+          for (const Aabb& box : moved_boxes)
+            if (box.intersects(origin, a.direction, length)) {
+              touched = true;
+              break;
+            }
+          if (!touched) continue;
+          Hit hit;
+          ++o.rays;
+          bool any = world_.intersect(origin, a.direction, kInfinity, hit);
+          bool same = last ? !any
+                           : any && hit.object == dest_object &&
+                                 std::abs(hit.t - length) <= 1e-4f * (1.f + length);
+          if (!same) {
+            invalid = s;
+            break;
+          }
+        }
+        if (invalid == path.vertex_count) {  // the whole path is still valid: keep it as it was
+          verts.assign(pv, pv + path.vertex_count);
+          photons.assign(old_photons.begin() + path.first_photon,
+                         old_photons.begin() + path.first_photon + path.photon_count);
+          for (auto& ph : photons) ph.path = pi;
+          append_path(o, task, uv, true, verts, photons);
+          continue;
+        }
+        // Keep vertices 0..invalid and the photons stored on them, re-trace from there.
+        verts.assign(pv, pv + invalid + 1);
+        verts.back().flags &= ~(PathVertex::kEscapes | PathVertex::kTerminated);
+        uint32_t kept = 0;
+        for (uint32_t s = 1; s <= invalid; ++s) kept += (pv[s].flags & PathVertex::kStored) ? 1 : 0;
+        photons.assign(old_photons.begin() + path.first_photon, old_photons.begin() + path.first_photon + kept);
+        for (auto& ph : photons) ph.path = pi;
+        uint64_t rays = continue_path(c, task, pi, verts, photons);
+        o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
+        append_path(o, task, uv, true, verts, photons);
+      }
+    }
+  });
+  PhotonBatch next;
+  TraceStats stats;
+  gather(outputs, 0, true, next, stats);
+  next.paths.object_to_world.resize(n_objects);
+  for (uint32_t ob = 0; ob < n_objects; ++ob) next.paths.object_to_world[ob] = world_.object_to_world(ob);
+  next.paths.light_state = std::move(now_state);
+  next.paths.paths_per_light = old.paths_per_light;
+  next.paths.seed = old.seed;
+  next.paths.max_bounces = old.max_bounces;
+  next.paths.store = old.store;
+  next.paths.rr_start = old.rr_start;
+  stats.paths = n_paths;
+  stats.photons = next.photons.size();
+  stats.seconds = seconds_since(t0);
+  next.stats = stats;
+  batch = std::move(next);
+  return stats;
+}
+
+std::unique_ptr<PhotonTracer> make_photon_tracer(const EmbreeScene& world) {
+  return std::make_unique<EmbreePhotonTracer>(world);
+}
+
+}  // namespace pb::trace

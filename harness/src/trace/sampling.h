@@ -1,0 +1,191 @@
+// Random and quasi-random numbers, warps from [0,1)^2 to directions and points, and the piecewise-
+// constant 2D distribution behind emission densities.
+//
+// Photon tracer: Owen-scrambled Sobol points, padded per bounce (Burley 2020, "Practical Hash-based
+// Owen Scrambling", JCGT 9(4)). Why Sobol over Halton: every bounce draws a 4D Sobol point whose 2D
+// projections are (0,m,2)-nets, so each bounce's direction is as well stratified as the first, whereas
+// Halton's higher prime bases give poor 2D projections deep in a path; hash-based Owen scrambling makes
+// any sample index computable on its own (per-photon sample index, so results do not depend on the
+// thread count), and a new seed is just a new scramble, which is the per-frame seed option.
+//
+// Reference renderer: independent PCG32 streams, because its error target estimates variance from the
+// spread of the samples, which is only valid for independent samples.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <vector>
+
+namespace pb::trace {
+
+inline constexpr float kPi = 3.14159265358979323846f;
+inline constexpr float kInvPi = 0.31830988618379067154f;
+inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
+
+// ---- hashing -------------------------------------------------------------------------------------
+
+inline uint32_t hash_u32(uint32_t x) {  // a 32-bit integer finaliser (lowbias32 style)
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+inline uint32_t hash_combine(uint32_t a, uint32_t b) {
+  return hash_u32(a ^ (hash_u32(b) + 0x9e3779b9u + (a << 6) + (a >> 2)));
+}
+inline uint32_t hash_combine(uint32_t a, uint32_t b, uint32_t c) {
+  return hash_combine(hash_combine(a, b), c);
+}
+
+// ---- PCG32 (O'Neill 2014), independent streams ----------------------------------------------------
+
+class Pcg32 {
+ public:
+  Pcg32(uint64_t seed, uint64_t stream) {
+    inc_ = (stream << 1u) | 1u;
+    state_ = 0;
+    next_u32();
+    state_ += seed;
+    next_u32();
+  }
+  uint32_t next_u32() {
+    uint64_t old = state_;
+    state_ = old * 6364136223846793005ull + inc_;
+    uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
+    uint32_t rot = uint32_t(old >> 59u);
+    return (xorshifted >> rot) | (xorshifted << ((32 - rot) & 31));
+  }
+  float next_float() { return std::min(float(next_u32()) * 0x1p-32f, kOneMinusEpsilon); }
+  glm::vec2 next_2d() { float a = next_float(); return {a, next_float()}; }
+
+ private:
+  uint64_t state_ = 0, inc_ = 0;
+};
+
+// ---- Owen-scrambled Sobol -------------------------------------------------------------------------
+
+// The first four Sobol dimensions at `index` (generator matrices from the primitive polynomials
+// x+1, x^2+x+1, x^3+x+1 with Joe & Kuo's initial direction numbers; dimension 0 is van der Corput).
+uint32_t sobol_u32(uint32_t index, int dimension);
+
+inline uint32_t reverse_bits(uint32_t x) {
+  x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+  x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+  x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+  x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+  return (x >> 16) | (x << 16);
+}
+
+// Nested uniform (Owen) scramble by hashing, Burley 2020 §3 (a Laine-Karras style permutation applied
+// to the bit-reversed value, so each bit is flipped depending only on the bits above it).
+inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
+  x = reverse_bits(x);
+  x += seed;
+  x ^= x * 0x6c50b47cu;
+  x ^= x * 0xb82f1e52u;
+  x ^= x * 0xc7afe638u;
+  x ^= x * 0x8d22f6e6u;
+  return reverse_bits(x);
+}
+
+inline float u32_to_unit(uint32_t x) { return std::min(float(x >> 8) * 0x1p-24f, kOneMinusEpsilon); }
+
+// A 4D point of dimension group `group` (0: emission, 1 + k: interaction k) for sample `index`:
+// Burley's padding, a per-group shuffle of the index then an independent scramble per dimension.
+inline glm::vec4 sobol_group(uint32_t index, uint32_t group, uint32_t seed) {
+  uint32_t group_seed = hash_combine(seed, group);
+  uint32_t shuffled = owen_scramble(index, group_seed);
+  glm::vec4 r;
+  for (int d = 0; d < 4; ++d)
+    r[d] = u32_to_unit(owen_scramble(sobol_u32(shuffled, d), hash_combine(group_seed, uint32_t(d) + 1)));
+  return r;
+}
+
+// ---- warps -----------------------------------------------------------------------------------------
+
+// Uniform on the unit sphere: z = 1 - 2u, phi = 2 pi v (equal-area, the point light's domain).
+inline glm::vec3 sphere_from_unit(glm::vec2 u) {
+  float z = 1.f - 2.f * u.x;
+  float r = std::sqrt(std::max(0.f, 1.f - z * z));
+  float phi = 2.f * kPi * u.y;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+// Uniform in the cone cos(theta) >= cos_max around +z (equal-area, the spot light's domain).
+inline glm::vec3 cone_from_unit(glm::vec2 u, float cos_max) {
+  float z = 1.f - u.x * (1.f - cos_max);
+  float r = std::sqrt(std::max(0.f, 1.f - z * z));
+  float phi = 2.f * kPi * u.y;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+// Shirley-Chiu concentric map to the unit disk (keeps stratification).
+inline glm::vec2 concentric_disk(glm::vec2 u) {
+  glm::vec2 o = 2.f * u - 1.f;
+  if (o.x == 0 && o.y == 0) return {0, 0};
+  float r, theta;
+  if (std::abs(o.x) > std::abs(o.y)) {
+    r = o.x;
+    theta = (kPi / 4) * (o.y / o.x);
+  } else {
+    r = o.y;
+    theta = kPi / 2 - (kPi / 4) * (o.x / o.y);
+  }
+  return r * glm::vec2(std::cos(theta), std::sin(theta));
+}
+
+// Cosine-weighted hemisphere around +z; pdf = cos(theta) / pi.
+inline glm::vec3 cosine_hemisphere(glm::vec2 u) {
+  glm::vec2 d = concentric_disk(u);
+  return {d.x, d.y, std::sqrt(std::max(0.f, 1.f - d.x * d.x - d.y * d.y))};
+}
+
+// Uniform point in a triangle as barycentrics (b1, b2) (Heitz 2019's low-distortion map would also do;
+// the square-root map is simpler and measure-preserving).
+inline glm::vec2 triangle_from_unit(glm::vec2 u) {
+  float su = std::sqrt(u.x);
+  return {1.f - su, u.y * su};
+}
+
+// An orthonormal basis around unit n (Duff et al. 2017, "Building an orthonormal basis, revisited").
+struct Frame {
+  glm::vec3 t, b, n;
+  Frame() = default;
+  explicit Frame(const glm::vec3& normal) : n(normal) {
+    float sign = std::copysign(1.f, n.z);
+    float a = -1.f / (sign + n.z);
+    float bb = n.x * n.y * a;
+    t = {1.f + sign * n.x * n.x * a, sign * bb, -sign * n.x};
+    b = {bb, sign + n.y * n.y * a, -n.y};
+  }
+  glm::vec3 to_local(const glm::vec3& v) const { return {glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)}; }
+  glm::vec3 to_world(const glm::vec3& v) const { return v.x * t + v.y * b + v.z * n; }
+};
+
+// ---- piecewise-constant 2D distribution ---------------------------------------------------------
+
+// Samples [0,1)^2 with density proportional to a width x height grid of non-negative values (a marginal
+// over rows v, then a conditional along u). pdf is relative to the uniform measure on the square (mean 1).
+class Distribution2D {
+ public:
+  Distribution2D() = default;
+  Distribution2D(int width, int height, const std::vector<float>& values);
+  bool empty() const { return width_ == 0; }
+  // Continuous sample: the texel is chosen by its value, the position inside it is uniform.
+  glm::vec2 sample(glm::vec2 u, float* pdf) const;
+  float pdf(glm::vec2 uv) const;
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  int width_ = 0, height_ = 0;
+  std::vector<float> values_;    // normalised to mean 1
+  std::vector<float> row_cdf_;   // height + 1
+  std::vector<float> col_cdf_;   // height * (width + 1)
+};
+
+}  // namespace pb::trace
