@@ -9,6 +9,7 @@ packages=(
   libyaml-cpp-dev libglm-dev libtbb-dev libgtest-dev libbenchmark-dev
   libcli11-dev libfmt-dev libspdlog-dev libtinyobjloader-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy python3-scipy
+  chromium  # tests/e2e/report_html.sh opens the HTML report headless
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -69,7 +69,7 @@ class StatusRow:
     label: str
     base: str
     new: str
-    verdict: str  # "regression", "fixed", "new", "missing", "same"
+    verdict: str  # "regression", "fixed", "still failing", "new", "missing", "same"
 
 
 @dataclass
@@ -185,6 +185,8 @@ def compare(base: Run, new: Run, threshold: float = DEFAULTS["threshold"], alpha
             verdict = "regression"
         elif not b.ok and n.ok:
             verdict = "fixed"
+        elif not n.ok:
+            verdict = "still failing"  # not a new regression, but never silently passed over
         else:
             verdict = "same"
         statuses.append(StatusRow(n.id, label, b.status, n.status, verdict))
@@ -237,6 +239,7 @@ def _metric(m: str, v: float) -> str:
 
 VERDICT_TEXT = {"slower": "**SLOWER**", "faster": "faster", "same": "", "n/a": "n/a",
                 "worse": "**WORSE**", "better": "better", "regression": "**NOW FAILS**", "fixed": "now ok",
+                "still failing": "failed in both runs",
                 "new": "new cell", "missing": "missing"}
 
 
@@ -270,7 +273,7 @@ def markdown(c: Comparison) -> str:
     worse = [r for r in c.metrics if r.verdict == "worse"]
     better = [r for r in c.metrics if r.verdict == "better"]
     broken = [r for r in c.statuses if r.verdict == "regression"]
-    other_status = [r for r in c.statuses if r.verdict in ("fixed", "new", "missing")]
+    other_status = [r for r in c.statuses if r.verdict in ("fixed", "still failing", "new", "missing")]
     na = [r for r in c.passes if r.verdict == "n/a"]
     out = ["## photonbench compare", "",
            f"base `{c.base.name}` (commit {c.base.commit[:12]}, {c.base.device}) → "

@@ -74,8 +74,9 @@ def _run_info_html(run: Run) -> str:
         rows.append(f"<tr><th>{html.escape(key)}</th><td>{html.escape(str(v))}</td></tr>")
     out = "<table>" + "".join(rows) + "</table>"
     if "config" in run.info:
-        out += ("<details><summary>resolved config</summary><pre>"
-                + html.escape(json.dumps(run.info["config"], indent=2)) + "</pre></details>")
+        config = run.info["config"]  # the resolved config: YAML text, or a parsed mapping
+        text = config if isinstance(config, str) else json.dumps(config, indent=2)
+        out += ("<details><summary>resolved config</summary><pre>" + html.escape(text) + "</pre></details>")
     return out
 
 

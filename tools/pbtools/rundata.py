@@ -166,7 +166,7 @@ class Cell:
 
     @property
     def reason(self) -> str:
-        return str(self.json.get("reason") or "")
+        return str(self.json.get("reason") or self.row.get("reason") or "")
 
     @property
     def failed_frame(self) -> Optional[int]:

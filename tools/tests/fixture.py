@@ -184,10 +184,12 @@ def save_png(path: str, img: np.ndarray) -> None:
 def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, metrics_every: int = 8,
              slow: Optional[Dict[str, float]] = None, noise: float = 0.05, drift: float = 0.02,
              spike_rate: float = 0.03, images: bool = True, resolution=(96, 54),
-             commit: Optional[str] = None, device: str = "llvmpipe (LLVM 15.0.6, 256 bits)") -> str:
+             commit: Optional[str] = None, device: str = "llvmpipe (LLVM 15.0.6, 256 bits)",
+             scenes: Optional[List[str]] = None) -> str:
     """Writes a run directory at out_dir and returns its path. Layout is seed-independent; `seed` drives
     only the noise, so two seeds are an A/A pair."""
     slow = slow or {}
+    scenes = scenes or SCENES
     layout = np.random.default_rng(12345)  # the "build": identical for every seed
     rng = np.random.default_rng(seed)  # the "machine": differs per run
     run_drift = math.exp(rng.normal(0.0, drift))
@@ -199,7 +201,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
         "resolution": [w, h],
         "frames": {"warmup": warmup, "count": frames, "metrics_every": metrics_every},
         "seed": 1,
-        "scenes": SCENES,
+        "scenes": scenes,
         "techniques": [{"technique": t["technique"],
                         "params": {k: sorted({s[k] for s in t["settings"]}, key=str)
                                    if len({s[k] for s in t["settings"]}) > 1 else t["settings"][0][k]
@@ -215,7 +217,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
         size=frames)
     metric_frames = [f for f in range(frames) if f % metrics_every == 0]
 
-    for scene_i, scene in enumerate(SCENES):
+    for scene in scenes:
+        scene_i = SCENES.index(scene)
         scene_scale = 1.0 + 0.4 * scene_i
         for tech in TECHNIQUES:
             for params in tech["settings"]:

@@ -1,0 +1,127 @@
+"""report: every file the page names exists under report/, nothing external is referenced, every figure
+is written as SVG, PDF and PNG with its data, and the tables keep failed cells."""
+
+import csv
+import io
+import os
+import re
+import unittest
+from contextlib import redirect_stdout
+from html.parser import HTMLParser
+
+from common import TempRuns
+
+from pbtools import report as R
+
+
+class _Refs(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.refs, self.imgs, self.scripts = [], [], 0
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "script":
+            self.scripts += 1
+        for key in ("src", "href"):
+            if key in a:
+                self.refs.append(a[key])
+        if tag == "img":
+            self.imgs.append(a.get("src"))
+
+
+class ReportTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = TempRuns()
+        cls.run_dir = cls.tmp.make("run", seed=11)
+        with redirect_stdout(io.StringIO()):
+            cls.rc = R.main([cls.run_dir, "--crop", "20,30,24,12"])
+        cls.report = os.path.join(cls.run_dir, "report")
+        with open(os.path.join(cls.report, "index.html"), encoding="utf-8") as f:
+            cls.html = f.read()
+        cls.parsed = _Refs()
+        cls.parsed.feed(cls.html)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_self_contained(self):
+        self.assertEqual(self.rc, 0)
+        self.assertEqual(self.parsed.scripts, 0)
+        self.assertNotRegex(self.html, r"(?i)(https?:)?//[a-z0-9]")  # no external URL at all
+        for ref in self.parsed.refs:
+            if ref.startswith("#"):
+                continue
+            self.assertFalse(os.path.isabs(ref), ref)
+            self.assertNotIn("..", ref)
+            self.assertTrue(os.path.isfile(os.path.join(self.report, ref)), ref)
+
+    def test_every_figure_in_three_formats_with_data(self):
+        figures = os.path.join(self.report, "figures")
+        stems = {os.path.splitext(n)[0] for n in os.listdir(figures)}
+        kinds = {re.sub(r"_.*", "", s) for s in stems}
+        self.assertEqual(kinds, {"quality", "passes", "timeline", "sweep", "images"})
+        self.assertEqual(len(stems), 2 * 4 + 4)  # 4 per scene + 2 sweeps per scene
+        for s in stems:
+            for ext in ("svg", "pdf", "png", "csv"):
+                path = os.path.join(figures, f"{s}.{ext}")
+                self.assertTrue(os.path.getsize(path) > 0, path)
+            with open(os.path.join(figures, f"{s}.pdf"), "rb") as f:
+                self.assertEqual(f.read(5), b"%PDF-")
+            with open(os.path.join(figures, f"{s}.png"), "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+            with open(os.path.join(figures, f"{s}.svg"), encoding="utf-8") as f:
+                self.assertIn("<svg", f.read(2000))
+        # Plots are shown as SVG (vector), image grids as PNG.
+        self.assertTrue(all(src.endswith(".svg") for src in self.parsed.imgs if "images_" not in src))
+        self.assertTrue(all(src.endswith(".png") for src in self.parsed.imgs if "images_" in src))
+        self.assertEqual(len(self.parsed.imgs), len(stems))
+
+    def test_crop_option_reaches_the_image_grid(self):
+        with open(os.path.join(self.report, "figures", "images_pillars.csv"), newline="") as f:
+            rows = list(csv.DictReader(f))
+        self.assertEqual({(r["crop_x"], r["crop_y"], r["crop_w"], r["crop_h"]) for r in rows},
+                         {("20", "30", "24", "12")})
+
+    def test_failed_cells_shown(self):
+        self.assertIn("3 failed", self.html)
+        self.assertIn("VK_ERROR_OUT_OF_DEVICE_MEMORY", self.html)
+        self.assertIn("photon buffer full", self.html)  # warnings listed
+        with open(os.path.join(self.report, "tables", "summary.csv"), newline="") as f:
+            rows = list(csv.DictReader(f))
+        with open(os.path.join(self.run_dir, "summary.csv"), newline="") as f:
+            source = list(csv.DictReader(f))
+        self.assertEqual([r["cell"] for r in rows], [r["cell"] for r in source])
+        self.assertEqual(sum(r["status"] == "failed" for r in rows), 3)
+
+    def test_latex_booktabs(self):
+        with open(os.path.join(self.report, "tables", "summary.tex"), encoding="utf-8") as f:
+            tex = f.read()
+        for cmd in (r"\toprule", r"\midrule", r"\bottomrule", r"\begin{tabular}", r"\end{tabular}"):
+            self.assertIn(cmd, tex)
+        self.assertNotIn(r"\hline", tex)
+        body = tex.split(r"\midrule", 1)[1]
+        rows = [line for line in body.splitlines() if line.endswith(r"\\")]
+        self.assertEqual(len(rows), 16)  # one per cell, failed included
+        self.assertEqual(sum(r"\emph{failed}" in r for r in rows), 3)
+        self.assertIn(r"VK\_ERROR\_OUT\_OF\_DEVICE\_MEMORY", tex)  # escaped
+        n_cols = tex.split("{tabular}{", 1)[1].split("}", 1)[0]
+        header = body and tex.split(r"\toprule", 1)[1].split(r"\\", 1)[0]
+        self.assertEqual(header.count("&") + 1, len(n_cols))
+        # The fastest ok cell of each scene is bold in the median column.
+        self.assertEqual(tex.count(r"\textbf{"), 2 * 4)  # 2 scenes x 4 ranked columns (median, 3 metrics)
+        for scene in ("cornell-box", "pillars"):
+            self.assertTrue(os.path.isfile(os.path.join(self.report, "tables", f"passes_{scene}.tex")))
+
+
+class LatexEscapeTest(unittest.TestCase):
+    def test_escape(self):
+        from pbtools.tables import latex_escape
+        self.assertEqual(latex_escape("a_b & 50% #1 {x} ~ ^ \\"),
+                         r"a\_b \& 50\% \#1 \{x\} \textasciitilde{} \textasciicircum{} \textbackslash{}")
+
+
+if __name__ == "__main__":
+    unittest.main()
