@@ -40,6 +40,14 @@ const char* encoding(const io::Image& image) {
   return image.linear ? "HDR (linear)" : "LDR (display-encoded)";
 }
 
+// True when no value is NaN or infinite (all exponent bits set), as one vectorised pass.
+PB_METRICS_KERNEL bool all_finite(const float* v, size_t n) {
+  uint32_t bad = 0;
+  for (size_t i = 0; i < n; ++i)
+    bad |= uint32_t((__builtin_bit_cast(uint32_t, v[i]) & 0x7F800000u) == 0x7F800000u);
+  return bad == 0;
+}
+
 void check_image(const io::Image& image, const char* role, std::string_view metric) {
   if (image.width <= 0 || image.height <= 0)
     throw InputError(fmt::format("{}: the {} image is empty", metric, role));
@@ -49,6 +57,7 @@ void check_image(const io::Image& image, const char* role, std::string_view metr
   if (image.pixels.size() != image.pixel_count() * size_t(image.channels))
     throw InputError(fmt::format("{}: the {} image holds {} values, not {}x{}x{}", metric, role,
                                  image.pixels.size(), image.width, image.height, image.channels));
+  if (all_finite(image.pixels.data(), image.pixels.size())) return;
   auto bad = std::find_if(image.pixels.begin(), image.pixels.end(),
                           [](float v) { return !std::isfinite(v); });
   if (bad != image.pixels.end()) {
@@ -61,10 +70,10 @@ void check_image(const io::Image& image, const char* role, std::string_view metr
 
 // 8-bit LDR files are read as k / 255 in float; this recovers k when the value is one of those
 // (for a float-rounded k / 255, |255 v - k| stays below 1.6e-5).
-inline bool eight_bit_code(float v, int& k) {
-  float scaled = v * 255.f;
-  k = int(std::lround(scaled));
-  return k >= 0 && k <= 255 && std::fabs(scaled - float(k)) < 2e-5f;
+[[gnu::always_inline]] inline bool eight_bit_code(float v, int& k) {
+  const float scaled = v * 255.f;
+  k = int(scaled + 0.5f);
+  return scaled > -0.5f && k <= 255 && abs_f(scaled - float(k)) < 2e-5f;
 }
 
 double srgb_decode_exact(double v) {
@@ -80,22 +89,11 @@ const std::array<double, 256>& decoded_codes() {
   return table;
 }
 
-// One value per colour channel of each pixel, converted by `convert(value)`.
-template <typename T, typename Convert>
-Planes<T> to_planes(const io::Image& image, Convert convert) {
-  Planes<T> planes;
-  planes.width = image.width;
-  planes.height = image.height;
-  const size_t n = image.pixel_count();
-  for (auto& plane : planes.c) plane.resize(n);
-  const int channels = image.channels;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
-      const float* px = &image.pixels[i * size_t(channels)];
-      for (int c = 0; c < 3; ++c) planes.c[c][i] = convert(px[channels == 1 ? 0 : c]);
-    }
-  });
-  return planes;
+PB_METRICS_KERNEL void hdr_display_row(const float* in, size_t stride, size_t n, double* out) {
+  for (size_t i = 0; i < n; ++i) {
+    const float c = clamp01(in[i * stride]);
+    out[i] = c <= 0.0031308f ? 12.92 * double(c) : 1.055 * double(fast_pow(c, 1.f / 2.4f)) - 0.055;
+  }
 }
 
 }  // namespace
@@ -111,30 +109,32 @@ void check_pair(const io::Image& reference, const io::Image& test, std::string_v
                                  encoding(reference), encoding(test)));
 }
 
-Planes<float> stored_planes(const io::Image& image) {
-  return to_planes<float>(image, [](float v) { return v; });
-}
-
-Planes<double> display_planes(const io::Image& image) {
-  if (image.linear)
-    // Clamp, then the sRGB transfer function (the "display-encoded" HDR values).
-    return to_planes<double>(image, [](float v) {
-      double c = std::clamp(double(v), 0.0, 1.0);
-      return c <= 0.0031308 ? 12.92 * c : 1.055 * double(fast_pow(float(c), 1.f / 2.4f)) - 0.055;
-    });
-  return to_planes<double>(image, [](float v) {
-    int k;
-    return eight_bit_code(v, k) ? k / 255.0 : double(v);
-  });
-}
-
-Planes<double> linear_planes(const io::Image& image) {
-  if (image.linear) return to_planes<double>(image, [](float v) { return double(v); });
-  const auto& table = decoded_codes();
-  return to_planes<double>(image, [&table](float v) {
-    int k;
-    return eight_bit_code(v, k) ? table[size_t(k)] : srgb_decode_exact(std::clamp(double(v), 0.0, 1.0));
-  });
+void convert_row(const io::Image& image, int y, int channel, Values values, double* out) {
+  const size_t stride = size_t(image.channels), n = size_t(image.width);
+  const float* in = image.pixels.data() + size_t(y) * n * stride + size_t(image.channels == 1 ? 0 : channel);
+  if (image.linear) {
+    if (values == Values::display) {
+      hdr_display_row(in, stride, n, out);  // clamp to [0, 1], then sRGB encode
+    } else {
+      for (size_t i = 0; i < n; ++i) out[i] = double(in[i * stride]);
+    }
+    return;
+  }
+  if (values == Values::display) {
+    for (size_t i = 0; i < n; ++i) {
+      int k;
+      const float v = in[i * stride];
+      out[i] = eight_bit_code(v, k) ? k / 255.0 : double(v);
+    }
+  } else {
+    const auto& table = decoded_codes();
+    for (size_t i = 0; i < n; ++i) {
+      int k;
+      const float v = in[i * stride];
+      out[i] = eight_bit_code(v, k) ? table[size_t(k)]
+                                    : srgb_decode_exact(std::clamp(double(v), 0.0, 1.0));
+    }
+  }
 }
 
 }  // namespace detail

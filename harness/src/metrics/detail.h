@@ -1,10 +1,11 @@
-// Internals shared by the metric sources: input checks, planar copies of images, and the
-// vectorisable maths the hot loops use. Not part of the metrics API.
+// Internals shared by the metric sources: input checks, row conversion, and the vectorisable maths
+// the hot loops use. Not part of the metrics API.
 #pragma once
 
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string_view>
 #include <vector>
 
@@ -27,8 +28,14 @@
 // scalar remainder, whose split depends on pointer alignment, so identical inputs at different
 // addresses (a reference and its copy) would differ in the last bit, and FLIP's (x - y)^0.7
 // turns a last-bit difference into a visible error. Without contraction every target clone gives
-// the same bits.
-#pragma GCC optimize("fp-contract=off")
+// the same bits. And no floating-point traps (we never enable them): otherwise GCC will not compute
+// both sides of a select such as v <= 0.04045 ? v / 12.92 : pow(...) and leaves the loop scalar.
+// Neither option changes a result.
+//
+// Functions defined before this pragma (std::sqrt, std::fabs, std::min, ...) have other options,
+// and GCC does not inline across that difference, so the hot loops use the helpers below and
+// compiler builtins only.
+#pragma GCC optimize("fp-contract=off", "no-trapping-math")
 
 namespace pb::metrics::detail {
 
@@ -36,21 +43,26 @@ namespace pb::metrics::detail {
 // values); throws pb::InputError naming `metric` otherwise.
 void check_pair(const io::Image& reference, const io::Image& test, std::string_view metric);
 
-// Colour channels of an image, one plane each (row-major), alpha dropped, grey replicated.
+// Which values a metric sees (metrics.h): display-encoded (LDR as stored, HDR clamped and sRGB
+// encoded) or linear (HDR as stored, LDR sRGB decoded).
+enum class Values { display, linear };
+
+// Colour channel `channel` (0..2; a grey image gives its one channel for all three, alpha is never
+// read) of row y, converted to `values`, into out[0 .. width). 8-bit LDR values are snapped to
+// k / 255 exactly, so results match tools that read the file as uint8 and compute in float64.
+void convert_row(const io::Image& image, int y, int channel, Values values, double* out);
+
+// SSIM without the input checks (ssim.cpp), for evaluate(), which checks once.
+double ssim_unchecked(const io::Image& reference, const io::Image& test);
+
+// An uninitialised array: the metrics overwrite every element, so zero-filling megabytes first
+// (std::vector's resize) would only cost time.
 template <typename T>
-struct Planes {
-  int width = 0, height = 0;
-  std::vector<T> c[3];
+struct Buffer {
+  std::unique_ptr<T[]> data;
+  explicit Buffer(size_t n) : data(new T[n]) {}
+  T* get() const { return data.get(); }
 };
-
-// The values as stored (float) and as linear radiance or display values (double); 8-bit LDR
-// values are snapped to k / 255 exactly, so the results match tools that read the file as uint8.
-Planes<float> stored_planes(const io::Image& image);
-Planes<double> display_planes(const io::Image& image);  // LDR as is; HDR clamp + sRGB encode
-Planes<double> linear_planes(const io::Image& image);   // HDR as is; LDR sRGB decoded
-
-// SSIM of display planes (ssim.cpp), for evaluate() to share the planes with PSNR.
-double ssim_planes(const Planes<double>& reference, const Planes<double>& test);
 
 // Deterministic parallel sum of row_sum(y) over rows [begin, end): the rows run in parallel, their
 // sums are added in row order, so the result does not depend on how the rows were scheduled.
@@ -67,27 +79,36 @@ double sum_rows(int begin, int end, const RowSum& row_sum) {
 }
 
 // ---- Vectorisable elementary functions -----------------------------------------------------------
-// The loops over pixels call these instead of std::pow/std::cbrt, which GCC cannot vectorise. Their
-// relative error is about 2e-7 (a few float ulps), far below what the metrics resolve.
+// The loops over pixels call these instead of std::pow/std::cbrt/std::fmin, which GCC turns into
+// library calls and so cannot vectorise. The transcendental ones have a relative error of about
+// 2e-7 (a few float ulps), far below what the metrics resolve.
+
+[[gnu::always_inline]] inline float abs_f(float v) { return __builtin_fabsf(v); }
+[[gnu::always_inline]] inline double abs_d(double v) { return __builtin_fabs(v); }
+
+// min/max as compare-and-select (one vector instruction each; std::fmin's NaN rules need a call).
+[[gnu::always_inline]] inline float min_f(float a, float b) { return b < a ? b : a; }
+[[gnu::always_inline]] inline float max_f(float a, float b) { return a < b ? b : a; }
+[[gnu::always_inline]] inline float clamp01(float v) { return min_f(max_f(v, 0.f), 1.f); }
 
 // log2(x) for finite x > 0 (normal numbers). x = 2^e * m with m in [sqrt(1/2), sqrt(2)), and
 // log2(m) = (2 / ln 2) * atanh(s), s = (m - 1) / (m + 1), |s| <= 0.172, summed to s^9.
-inline float fast_log2(float x) {
-  const int32_t bits = std::bit_cast<int32_t>(x);
+[[gnu::always_inline]] inline float fast_log2(float x) {
+  const int32_t bits = __builtin_bit_cast(int32_t, x);
   const int32_t e = (bits - 0x3F3504F3) >> 23;  // 0x3F3504F3 is sqrt(1/2)
-  const float m = std::bit_cast<float>(bits - (e << 23));
+  const float m = __builtin_bit_cast(float, bits - (e << 23));
   const float s = (m - 1.f) / (m + 1.f);
   const float s2 = s * s;
   const float series = s2 * (1.f / 3.f + s2 * (1.f / 5.f + s2 * (1.f / 7.f + s2 * (1.f / 9.f))));
   return float(e) + 2.88539008f * (s + s * series);  // 2 / ln 2
 }
 
-// 2^x for x in [-126, 128): 2^round(x) by building the exponent bits, times e^(f ln 2) for the
+// 2^x for x in [-126, 127]: 2^k, k = round(x), from the exponent bits, times e^(f ln 2) for the
 // remainder |f| <= 1/2 as a degree-7 Taylor polynomial (truncation error 6e-9).
-inline float fast_exp2(float x) {
-  x = std::fmin(std::fmax(x, -126.f), 127.f);
-  const float k = std::floor(x + 0.5f);
-  const float t = (x - k) * 0.693147181f;
+[[gnu::always_inline]] inline float fast_exp2(float x) {
+  x = min_f(max_f(x, -126.f), 127.f);
+  const int32_t k = int32_t(x + 128.5f) - 128;  // round to nearest; truncation of a positive value
+  const float t = (x - float(k)) * 0.693147181f;
   float p = 1.f / 5040;
   p = 1.f / 720 + t * p;
   p = 1.f / 120 + t * p;
@@ -96,15 +117,39 @@ inline float fast_exp2(float x) {
   p = 1.f / 2 + t * p;
   p = 1.f + t * p;
   p = 1.f + t * p;
-  return p * std::bit_cast<float>((int32_t(k) + 127) << 23);
+  return p * __builtin_bit_cast(float, (k + 127) << 23);
 }
 
 // x^y for x >= 0; 0^y is 0 for y > 0 and 1 for y == 0, as std::pow gives.
-inline float fast_pow(float x, float y) {
-  const float r = fast_exp2(y * fast_log2(std::fmax(x, 1e-30f)));
+[[gnu::always_inline]] inline float fast_pow(float x, float y) {
+  const float r = fast_exp2(y * fast_log2(max_f(x, 1e-30f)));
   return x > 1e-30f ? r : (y == 0.f ? 1.f : 0.f);
 }
 
-inline float fast_cbrt(float x) { return fast_exp2(fast_log2(x) * (1.f / 3.f)); }  // x > 0
+// sqrt(x) for x >= 0 as x / sqrt(x), the reciprocal root from the bit-level estimate
+// 0x5F375A86 - bits / 2 (relative error <= 0.18%) and two Newton steps (error ~1e-11, so the
+// result is within a few ulps). std::sqrt would be exact, but without -fno-math-errno on the
+// command line GCC guards it with an errno branch and leaves the loop scalar.
+[[gnu::always_inline]] inline float sqrt_f(float x) {
+  float y = __builtin_bit_cast(float, 0x5F375A86 - (__builtin_bit_cast(int32_t, x) >> 1));
+  y = y * (1.5f - 0.5f * x * y * y);
+  y = y * (1.5f - 0.5f * x * y * y);
+  const float root = x * y;
+  return x > 0.f ? root : 0.f;
+}
+
+[[gnu::always_inline]] inline float fast_cbrt(float x) {  // x > 0
+  return fast_exp2(fast_log2(x) * (1.f / 3.f));
+}
+
+// sRGB transfer functions (IEC 61966-2-1) on [0, 1].
+[[gnu::always_inline]] inline float srgb_decode_fast(float v) {
+  const float curve = fast_pow((v + 0.055f) / 1.055f, 2.4f);
+  return v <= 0.04045f ? v / 12.92f : curve;
+}
+[[gnu::always_inline]] inline float srgb_encode_fast(float v) {
+  const float curve = 1.055f * fast_pow(v, 1.f / 2.4f) - 0.055f;
+  return v <= 0.0031308f ? 12.92f * v : curve;
+}
 
 }  // namespace pb::metrics::detail

@@ -27,9 +27,12 @@
 namespace pb::metrics {
 namespace {
 
+using detail::clamp01;
 using detail::fast_cbrt;
 using detail::fast_pow;
-using detail::Planes;
+using detail::abs_f;
+using detail::max_f;
+using detail::sqrt_f;
 
 // HPG 2020, Section 4: colour-difference exponent q_c, the error p_c * cmax where the colour
 // error's remapping changes slope and the value p_t it maps to, feature filter width w (degrees)
@@ -99,7 +102,8 @@ const float* tone_curve(Tonemapper tm) { return kToneCurves[int(tm)]; }
   constexpr float delta = 6.f / 29.f;
   constexpr float delta_cube = delta * delta * delta;
   constexpr float slope = 1.f / (3.f * delta * delta);
-  return t > delta_cube ? fast_cbrt(t) : t * slope + 4.f / 29.f;
+  const float root = fast_cbrt(t);
+  return t > delta_cube ? root : t * slope + 4.f / 29.f;
 }
 
 // A filtered YCxCz value back to linear RGB, clamped to the displayable [0, 1] (HPG 2020,
@@ -112,10 +116,7 @@ const float* tone_curve(Tonemapper tm) { return kToneCurves[int(tm)]; }
   float z = (fy - cz / 200.f) * kWhite[2];
   float r, g, bl;
   xyz_to_rgb(x, y, z, r, g, bl);
-  r = std::fmin(std::fmax(r, 0.f), 1.f);
-  g = std::fmin(std::fmax(g, 0.f), 1.f);
-  bl = std::fmin(std::fmax(bl, 0.f), 1.f);
-  rgb_to_xyz(r, g, bl, x, y, z);
+  rgb_to_xyz(clamp01(r), clamp01(g), clamp01(bl), x, y, z);
   const float lx = lab_f(x * kInvWhite[0]), ly = lab_f(y), lz = lab_f(z * kInvWhite[2]);
   l = 116.f * ly - 16.f;
   a = 0.01f * l * (500.f * (lx - ly));
@@ -246,32 +247,28 @@ template <bool Accumulate>
 }
 
 // ---- Colour conversion of whole images ----------------------------------------------------------
+// From the interleaved pixels (stride S: 1 grey, 3 RGB, 4 RGBA) straight to YCxCz planes.
 
-struct Ycxcz {
-  std::vector<float> c[3];
-  void resize(size_t n) {
-    for (auto& p : c) p.resize(n);
-  }
-};
-
-// sRGB-encoded [0, 1] values to YCxCz: decode (IEC 61966-2-1), clamp, convert.
-PB_METRICS_KERNEL void ldr_to_ycxcz(const float* r, const float* g, const float* b, size_t n,
-                                    float* yy, float* cx, float* cz) {
-  auto decode = [](float v) {
-    float lin = v <= 0.04045f ? v / 12.92f : fast_pow((v + 0.055f) / 1.055f, 2.4f);
-    return std::fmin(std::fmax(lin, 0.f), 1.f);
-  };
-  for (size_t i = 0; i < n; ++i) rgb_to_ycxcz(decode(r[i]), decode(g[i]), decode(b[i]), yy[i], cx[i], cz[i]);
+template <int S>
+[[gnu::always_inline]] inline void ldr_body(const float* px, size_t n, float* yy, float* cx,
+                                            float* cz) {
+  constexpr int g = S == 1 ? 0 : 1, b = S == 1 ? 0 : 2;
+  // sRGB decode (IEC 61966-2-1), clamp to [0, 1] as the reference tool does for LDR input.
+  auto decode = [](float v) { return clamp01(detail::srgb_decode_fast(v)); };
+  for (size_t i = 0; i < n; ++i)
+    rgb_to_ycxcz(decode(px[i * S]), decode(px[i * S + g]), decode(px[i * S + b]), yy[i], cx[i],
+                 cz[i]);
 }
 
 // Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021, Section 4.1).
-PB_METRICS_KERNEL void hdr_to_ycxcz(const float* r, const float* g, const float* b, size_t n,
-                                    float scale, Tonemapper tm, float* yy, float* cx, float* cz) {
-  auto clamp01 = [](float v) { return std::fmin(std::fmax(v, 0.f), 1.f); };
+template <int S>
+[[gnu::always_inline]] inline void hdr_body(const float* px, size_t n, float scale, Tonemapper tm,
+                                            float* yy, float* cx, float* cz) {
+  constexpr int g = S == 1 ? 0 : 1, b = S == 1 ? 0 : 2;
   if (tm == Tonemapper::reinhard) {
     for (size_t i = 0; i < n; ++i) {
-      float rr = r[i] * scale, gg = g[i] * scale, bb = b[i] * scale;
-      float k = 1.f / (1.f + luminance(rr, gg, bb));
+      const float rr = px[i * S] * scale, gg = px[i * S + g] * scale, bb = px[i * S + b] * scale;
+      const float k = 1.f / (1.f + luminance(rr, gg, bb));
       rgb_to_ycxcz(clamp01(rr * k), clamp01(gg * k), clamp01(bb * k), yy[i], cx[i], cz[i]);
     }
     return;
@@ -282,14 +279,57 @@ PB_METRICS_KERNEL void hdr_to_ycxcz(const float* r, const float* g, const float*
     return clamp01((v * v * c0 + v * c1 + c2) / (v * v * c3 + v * c4 + c5));
   };
   for (size_t i = 0; i < n; ++i)
-    rgb_to_ycxcz(curve(r[i] * scale), curve(g[i] * scale), curve(b[i] * scale), yy[i], cx[i],
-                 cz[i]);
+    rgb_to_ycxcz(curve(px[i * S] * scale), curve(px[i * S + g] * scale),
+                 curve(px[i * S + b] * scale), yy[i], cx[i], cz[i]);
 }
 
-template <typename Convert>
-void convert_parallel(size_t n, const Convert& convert) {
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 32768),
-                    [&](const tbb::blocked_range<size_t>& r) { convert(r.begin(), r.end() - r.begin()); });
+PB_METRICS_KERNEL void ldr_to_ycxcz_1(const float* px, size_t n, float* y, float* x, float* z) {
+  ldr_body<1>(px, n, y, x, z);
+}
+PB_METRICS_KERNEL void ldr_to_ycxcz_3(const float* px, size_t n, float* y, float* x, float* z) {
+  ldr_body<3>(px, n, y, x, z);
+}
+PB_METRICS_KERNEL void ldr_to_ycxcz_4(const float* px, size_t n, float* y, float* x, float* z) {
+  ldr_body<4>(px, n, y, x, z);
+}
+PB_METRICS_KERNEL void hdr_to_ycxcz_1(const float* px, size_t n, float scale, Tonemapper tm,
+                                      float* y, float* x, float* z) {
+  hdr_body<1>(px, n, scale, tm, y, x, z);
+}
+PB_METRICS_KERNEL void hdr_to_ycxcz_3(const float* px, size_t n, float scale, Tonemapper tm,
+                                      float* y, float* x, float* z) {
+  hdr_body<3>(px, n, scale, tm, y, x, z);
+}
+PB_METRICS_KERNEL void hdr_to_ycxcz_4(const float* px, size_t n, float scale, Tonemapper tm,
+                                      float* y, float* x, float* z) {
+  hdr_body<4>(px, n, scale, tm, y, x, z);
+}
+
+struct YcxczPlanes {
+  detail::Buffer<float> c[3];
+  explicit YcxczPlanes(size_t n) : c{detail::Buffer<float>(n), detail::Buffer<float>(n), detail::Buffer<float>(n)} {}
+};
+
+// Converts the whole image in parallel; exposure_scale < 0 means LDR.
+void to_ycxcz(const io::Image& image, float exposure_scale, Tonemapper tm, YcxczPlanes& out) {
+  const size_t n = image.pixel_count();
+  const size_t stride = size_t(image.channels);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 32768), [&](const tbb::blocked_range<size_t>& r) {
+    const float* px = image.pixels.data() + r.begin() * stride;
+    float* y = out.c[0].get() + r.begin();
+    float* x = out.c[1].get() + r.begin();
+    float* z = out.c[2].get() + r.begin();
+    const size_t count = r.end() - r.begin();
+    if (exposure_scale < 0) {
+      if (stride == 1) ldr_to_ycxcz_1(px, count, y, x, z);
+      else if (stride == 3) ldr_to_ycxcz_3(px, count, y, x, z);
+      else ldr_to_ycxcz_4(px, count, y, x, z);
+    } else {
+      if (stride == 1) hdr_to_ycxcz_1(px, count, exposure_scale, tm, y, x, z);
+      else if (stride == 3) hdr_to_ycxcz_3(px, count, exposure_scale, tm, y, x, z);
+      else hdr_to_ycxcz_4(px, count, exposure_scale, tm, y, x, z);
+    }
+  });
 }
 
 // ---- The fused filter and difference pass --------------------------------------------------------
@@ -299,9 +339,57 @@ struct FlipPass {
   const float* planes[2][3] = {};  // [reference, test][Y, Cx, Cz]
   const Filters* filters = nullptr;
   float cmax = 0, pccmax = 0;
-  float* error = nullptr;  // width * height
-  bool keep_max = false;   // HDR-FLIP: keep the larger of this and the earlier exposures' error
+  // width * height, zero before the first pass; each pass keeps the larger error per pixel, which
+  // is HDR-FLIP's maximum over exposures (EG 2021, Section 4.3).
+  float* error = nullptr;
 };
+
+// The per-pixel part of FLIP for one row, from the filtered values of reference (r) and test (t):
+// {Y, Cx, Cz, dx, dy, ddx, ddy}. Keeps the larger of the new error and out[j].
+[[gnu::always_inline]] inline void pixel_errors(int n, float* const* r, float* const* t, float cmax,
+                                                float pccmax, float* __restrict out) {
+  const float* __restrict ry = r[0];
+  const float* __restrict rcx = r[1];
+  const float* __restrict rcz = r[2];
+  const float* __restrict rdx = r[3];
+  const float* __restrict rdy = r[4];
+  const float* __restrict rddx = r[5];
+  const float* __restrict rddy = r[6];
+  const float* __restrict ty = t[0];
+  const float* __restrict tcx = t[1];
+  const float* __restrict tcz = t[2];
+  const float* __restrict tdx = t[3];
+  const float* __restrict tdy = t[4];
+  const float* __restrict tddx = t[5];
+  const float* __restrict tddy = t[6];
+  const float low_slope = kPt / pccmax, high_slope = (1.f - kPt) / (cmax - pccmax);
+  // The feature filters ran on Y in [0, 100]; the reference runs them on (Y + 16) / 116. Every
+  // feature response has a derivative along one axis, which cancels the offset, so only the scale
+  // remains; with FLIP's normalisation by sqrt(2) (HPG 2020, eq. 9):
+  const float feature_scale = 0.70710678f / 116.f;
+  static_assert(kQf == 0.5f, "the feature exponent is applied as a square root");
+  for (int j = 0; j < n; ++j) {
+    // Colour difference (HPG 2020, Section 4.2): HyAB of the Hunt-adjusted Lab values, raised to
+    // q_c, remapped to [0, 1] with p_c * cmax going to p_t.
+    float l1, a1, b1, l2, a2, b2;
+    ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
+    ycxcz_to_hunt_lab(ty[j], tcx[j], tcz[j], l2, a2, b2);
+    const float da = a1 - a2, db = b1 - b2;
+    float colour = fast_pow(abs_f(l1 - l2) + sqrt_f(da * da + db * db), kQc);
+    colour = colour < pccmax ? colour * low_slope : kPt + (colour - pccmax) * high_slope;
+    // Feature difference (Section 4.3): the larger change of edge or point strength, raised to
+    // q_f = 1/2.
+    const float edge_r = sqrt_f(rdx[j] * rdx[j] + rdy[j] * rdy[j]);
+    const float edge_t = sqrt_f(tdx[j] * tdx[j] + tdy[j] * tdy[j]);
+    const float point_r = sqrt_f(rddx[j] * rddx[j] + rddy[j] * rddy[j]);
+    const float point_t = sqrt_f(tddx[j] * tddx[j] + tddy[j] * tddy[j]);
+    const float feature =
+        sqrt_f(feature_scale * max_f(abs_f(edge_r - edge_t), abs_f(point_r - point_t)));
+    // Section 4.4: features amplify the colour error.
+    const float e = fast_pow(colour, 1.f - feature);
+    out[j] = max_f(out[j], e);
+  }
+}
 
 // FLIP error of the rows [y0, y1) and columns [x0, x1).
 PB_METRICS_KERNEL void flip_tile(const FlipPass& p, int y0, int y1, int x0, int x1) {
@@ -324,13 +412,7 @@ PB_METRICS_KERNEL void flip_tile(const FlipPass& p, int y0, int y1, int x0, int 
   auto horizontal_rows = [&](const float* padded, int radius) {
     for (int k = 0; k <= 2 * radius; ++k) rows[size_t(k)] = padded + (pad - radius) + k;
   };
-  const float inv_sqrt2 = 1.f / std::sqrt(2.f);
-  // The feature filters run on Y in [0, 100]; the reference runs them on (Y + 16) / 116. Every
-  // feature response has a derivative along one axis, which cancels the offset, so only the scale
-  // remains.
-  const float feature_scale = 1.f / 116.f;
   const float cmax = p.cmax, pccmax = p.pccmax;
-  const float low_slope = kPt / pccmax, high_slope = (1.f - kPt) / (cmax - pccmax);
 
   for (int y = y0; y < y1; ++y) {
     float* o[2][7];
@@ -375,36 +457,7 @@ PB_METRICS_KERNEL void flip_tile(const FlipPass& p, int y0, int y1, int x0, int 
       fir<false>(o[img][6], rows.data(), f.g.data(), tf, n);
     }
 
-    const float *ry = o[0][0], *rcx = o[0][1], *rcz = o[0][2], *rdx = o[0][3], *rdy = o[0][4],
-                *rddx = o[0][5], *rddy = o[0][6];
-    const float *ty = o[1][0], *tcx = o[1][1], *tcz = o[1][2], *tdx = o[1][3], *tdy = o[1][4],
-                *tddx = o[1][5], *tddy = o[1][6];
-    float* __restrict out = p.error + size_t(y) * size_t(w) + size_t(x0);
-    const bool keep_max = p.keep_max;
-    for (int j = 0; j < n; ++j) {
-      // Colour difference (HPG 2020, Section 4.2): HyAB of the Hunt-adjusted Lab values, raised to
-      // q_c, remapped to [0, 1] with p_c * cmax going to p_t.
-      float l1, a1, b1, l2, a2, b2;
-      ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
-      ycxcz_to_hunt_lab(ty[j], tcx[j], tcz[j], l2, a2, b2);
-      const float da = a1 - a2, db = b1 - b2;
-      float colour = fast_pow(std::fabs(l1 - l2) + std::sqrt(da * da + db * db), kQc);
-      colour = colour < pccmax ? colour * low_slope : kPt + (colour - pccmax) * high_slope;
-      // Feature difference (Section 4.3): the larger change of edge or point strength,
-      // normalised by sqrt(2), raised to q_f = 1/2.
-      const float edge_r = std::sqrt(rdx[j] * rdx[j] + rdy[j] * rdy[j]);
-      const float edge_t = std::sqrt(tdx[j] * tdx[j] + tdy[j] * tdy[j]);
-      const float point_r = std::sqrt(rddx[j] * rddx[j] + rddy[j] * rddy[j]);
-      const float point_t = std::sqrt(tddx[j] * tddx[j] + tddy[j] * tddy[j]);
-      const float feature_diff =
-          inv_sqrt2 * feature_scale *
-          std::fmax(std::fabs(edge_r - edge_t), std::fabs(point_r - point_t));
-      const float feature = std::sqrt(feature_diff);  // ^ q_f
-      static_assert(kQf == 0.5f, "the feature exponent is applied as a square root");
-      // Section 4.4: features amplify the colour error.
-      const float e = fast_pow(colour, 1.f - feature);
-      out[j] = keep_max ? std::fmax(out[j], e) : e;
-    }
+    pixel_errors(n, o[0], o[1], cmax, pccmax, p.error + size_t(y) * size_t(w) + size_t(x0));
   }
 }
 
@@ -420,7 +473,7 @@ void run_pass(const FlipPass& pass) {
 
 // EG 2021, Section 4.2 (and the reference tool's computeExposures): the start exposure maps the
 // largest reference luminance, the stop exposure the median luminance, to the tone curve's 0.85.
-HdrExposures automatic_exposures(const Planes<float>& reference, Tonemapper tm) {
+HdrExposures automatic_exposures(const io::Image& reference, Tonemapper tm) {
   const float* c = tone_curve(tm);
   const float t = 0.85f;
   const float a = c[0] - t * c[3], b = c[1] - t * c[4], k = c[2] - t * c[5];
@@ -432,12 +485,14 @@ HdrExposures automatic_exposures(const Planes<float>& reference, Tonemapper tm) 
     const float d1 = -0.5f * (b / a);
     x_max = d1 + std::sqrt(d1 * d1 - k / a);
   }
-  const size_t n = reference.c[0].size();
+  const size_t n = reference.pixel_count(), stride = size_t(reference.channels);
+  const size_t gi = reference.channels == 1 ? 0 : 1, bi = reference.channels == 1 ? 0 : 2;
   std::vector<float> lum(n);
   float y_max = -std::numeric_limits<float>::infinity();
   float y_min_positive = std::numeric_limits<float>::infinity();
   for (size_t i = 0; i < n; ++i) {
-    lum[i] = luminance(reference.c[0][i], reference.c[1][i], reference.c[2][i]);
+    const float* px = &reference.pixels[i * stride];
+    lum[i] = luminance(px[0], px[gi], px[bi]);
     y_max = std::max(y_max, lum[i]);
     if (lum[i] > 0.f) y_min_positive = std::min(y_min_positive, lum[i]);
   }
@@ -467,7 +522,7 @@ std::array<double, 3> weighted_quantiles(const float* v, size_t n, size_t stride
   constexpr int kShift = 17;        // 2^15 buckets over the positive floats, ~1.6% wide
   constexpr size_t kBuckets = size_t(1) << (31 - kShift);
   std::vector<double> sums(kBuckets, 0.0);
-  auto bucket = [](float x) { return size_t(std::bit_cast<uint32_t>(x) >> kShift); };
+  auto bucket = [](float x) { return size_t(__builtin_bit_cast(uint32_t, x) >> kShift); };
   for (size_t i = 0; i < n; ++i) sums[bucket(v[i * stride])] += double(v[i * stride]);
   for (int q = 0; q < 3; ++q) {
     const double target = p[size_t(q)] * total;
@@ -537,11 +592,7 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
   const Filters filters = make_filters(float(options.pixels_per_degree));
   const float cmax = max_colour_distance();
 
-  const Planes<float> ref = detail::stored_planes(reference);
-  const Planes<float> tst = detail::stored_planes(test);
-  Ycxcz ref_ycc, tst_ycc;
-  ref_ycc.resize(n);
-  tst_ycc.resize(n);
+  YcxczPlanes ref_ycc(n), tst_ycc(n);
 
   FlipResult result;
   result.error_map = io::Image(w, h, 1, /*is_linear=*/false);
@@ -549,8 +600,8 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
   pass.width = w;
   pass.height = h;
   for (int c = 0; c < 3; ++c) {
-    pass.planes[0][c] = ref_ycc.c[c].data();
-    pass.planes[1][c] = tst_ycc.c[c].data();
+    pass.planes[0][c] = ref_ycc.c[c].get();
+    pass.planes[1][c] = tst_ycc.c[c].get();
   }
   pass.filters = &filters;
   pass.cmax = cmax;
@@ -558,17 +609,13 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
   pass.error = result.error_map.pixels.data();
 
   if (!reference.linear) {
-    for (auto [src, dst] : {std::pair{&ref, &ref_ycc}, std::pair{&tst, &tst_ycc}}) {
-      convert_parallel(n, [&](size_t i, size_t count) {
-        ldr_to_ycxcz(src->c[0].data() + i, src->c[1].data() + i, src->c[2].data() + i, count,
-                     dst->c[0].data() + i, dst->c[1].data() + i, dst->c[2].data() + i);
-      });
-    }
+    to_ycxcz(reference, -1.f, options.tonemapper, ref_ycc);
+    to_ycxcz(test, -1.f, options.tonemapper, tst_ycc);
     run_pass(pass);
   } else {
     HdrExposures e;
     if (!options.start_exposure || !options.stop_exposure)
-      e = automatic_exposures(ref, options.tonemapper);
+      e = automatic_exposures(reference, options.tonemapper);
     if (options.start_exposure) e.start = *options.start_exposure;
     if (options.stop_exposure) e.stop = *options.stop_exposure;
     if (e.start > e.stop)
@@ -583,14 +630,8 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
     const float step = e.count > 1 ? (stop - start) / float(e.count - 1) : 0.f;
     for (int i = 0; i < e.count; ++i) {
       const float scale = std::pow(2.0f, start + float(i) * step);
-      for (auto [src, dst] : {std::pair{&ref, &ref_ycc}, std::pair{&tst, &tst_ycc}}) {
-        convert_parallel(n, [&](size_t at, size_t count) {
-          hdr_to_ycxcz(src->c[0].data() + at, src->c[1].data() + at, src->c[2].data() + at, count,
-                       scale, options.tonemapper, dst->c[0].data() + at, dst->c[1].data() + at,
-                       dst->c[2].data() + at);
-        });
-      }
-      pass.keep_max = i > 0;
+      to_ycxcz(reference, scale, options.tonemapper, ref_ycc);
+      to_ycxcz(test, scale, options.tonemapper, tst_ycc);
       run_pass(pass);
     }
     result.exposures = e;

@@ -1,6 +1,7 @@
 // PSNR, RMSE, MAE, relMSE, temporal instability, and evaluate() which scores one pair with every
 // metric while converting each image once.
 #include <fmt/format.h>
+#include <tbb/enumerable_thread_specific.h>
 
 #include <cmath>
 #include <utility>
@@ -12,18 +13,24 @@
 namespace pb::metrics {
 namespace {
 
-using detail::Planes;
 using detail::sum_rows;
+using detail::Values;
 
-// Mean over pixels and the three colour channels of term(reference value, test value).
+// Mean over pixels and the three colour channels of term(reference value, test value), on the
+// given values, converting one row at a time.
 template <typename Term>
-double mean_over_channels(const Planes<double>& r, const Planes<double>& t, const Term& term) {
+double mean_over_channels(const io::Image& r, const io::Image& t, Values values, const Term& term) {
   const size_t w = size_t(r.width);
+  tbb::enumerable_thread_specific<std::vector<double>> rows(
+      [w] { return std::vector<double>(2 * w); });
   const double sum = sum_rows(0, r.height, [&](int y) {
+    std::vector<double>& buf = rows.local();
+    double* a = buf.data();
+    double* b = buf.data() + w;
     double s = 0;
     for (int c = 0; c < 3; ++c) {
-      const double* a = r.c[c].data() + size_t(y) * w;
-      const double* b = t.c[c].data() + size_t(y) * w;
+      detail::convert_row(r, y, c, values, a);
+      detail::convert_row(t, y, c, values, b);
       for (size_t x = 0; x < w; ++x) s += term(a[x], b[x]);
     }
     return s;
@@ -34,34 +41,43 @@ double mean_over_channels(const Planes<double>& r, const Planes<double>& t, cons
 double squared_error(double a, double b) { return (b - a) * (b - a); }
 
 // scikit-image's peak_signal_noise_ratio with data_range = 1: 10 log10(1 / MSE).
-Psnr psnr_planes(const Planes<double>& r, const Planes<double>& t) {
-  const double mse = mean_over_channels(r, t, squared_error);
+Psnr psnr_unchecked(const io::Image& r, const io::Image& t) {
+  const double mse = mean_over_channels(r, t, Values::display, squared_error);
   Psnr p;
   p.identical = mse == 0.0;
   if (!p.identical) p.db = 10.0 * std::log10(1.0 / mse);
   return p;
 }
 
-double rmse_planes(const Planes<double>& r, const Planes<double>& t) {
-  return std::sqrt(mean_over_channels(r, t, squared_error));
+double rmse_unchecked(const io::Image& r, const io::Image& t) {
+  return std::sqrt(mean_over_channels(r, t, Values::linear, squared_error));
 }
 
-double mae_planes(const Planes<double>& r, const Planes<double>& t) {
-  return mean_over_channels(r, t, [](double a, double b) { return std::fabs(b - a); });
+double mae_unchecked(const io::Image& r, const io::Image& t) {
+  return mean_over_channels(r, t, Values::linear,
+                            [](double a, double b) { return detail::abs_d(b - a); });
 }
 
 // Relative MSE as rendering papers use it (e.g. Rousselle et al. 2011): the squared error over the
 // squared reference, with 0.01 keeping dark pixels from dominating.
-double relmse_planes(const Planes<double>& r, const Planes<double>& t) {
-  return mean_over_channels(r, t, [](double a, double b) { return (b - a) * (b - a) / (a * a + 0.01); });
+double relmse_unchecked(const io::Image& r, const io::Image& t) {
+  return mean_over_channels(r, t, Values::linear,
+                            [](double a, double b) { return (b - a) * (b - a) / (a * a + 0.01); });
 }
 
 // Rec. 709 luma of the display-encoded colour channels, one value per pixel.
 std::vector<double> display_luma(const io::Image& frame) {
-  const Planes<double> d = detail::display_planes(frame);
-  std::vector<double> luma(d.c[0].size());
-  for (size_t i = 0; i < luma.size(); ++i)
-    luma[i] = 0.2126 * d.c[0][i] + 0.7152 * d.c[1][i] + 0.0722 * d.c[2][i];
+  const size_t w = size_t(frame.width);
+  std::vector<double> luma(frame.pixel_count());
+  tbb::parallel_for(0, frame.height, [&](int y) {
+    std::vector<double> row(w);
+    double* out = luma.data() + size_t(y) * w;
+    const double weights[3] = {0.2126, 0.7152, 0.0722};
+    for (int c = 0; c < 3; ++c) {
+      detail::convert_row(frame, y, c, Values::display, row.data());
+      for (size_t x = 0; x < w; ++x) out[x] = (c == 0 ? 0.0 : out[x]) + weights[c] * row[x];
+    }
+  });
   return luma;
 }
 
@@ -69,22 +85,22 @@ std::vector<double> display_luma(const io::Image& frame) {
 
 Psnr psnr(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "PSNR");
-  return psnr_planes(detail::display_planes(reference), detail::display_planes(test));
+  return psnr_unchecked(reference, test);
 }
 
 double rmse(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "RMSE");
-  return rmse_planes(detail::linear_planes(reference), detail::linear_planes(test));
+  return rmse_unchecked(reference, test);
 }
 
 double mae(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "MAE");
-  return mae_planes(detail::linear_planes(reference), detail::linear_planes(test));
+  return mae_unchecked(reference, test);
 }
 
 double relmse(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "relMSE");
-  return relmse_planes(detail::linear_planes(reference), detail::linear_planes(test));
+  return relmse_unchecked(reference, test);
 }
 
 Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOptions& options,
@@ -94,19 +110,13 @@ Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOpt
   FlipResult f = flip(reference, test, options);
   s.flip = f.stats;
   if (flip_error_map) *flip_error_map = std::move(f.error_map);
-  {
-    const Planes<double> r = detail::display_planes(reference);
-    const Planes<double> t = detail::display_planes(test);
-    s.ssim = detail::ssim_planes(r, t);
-    const Psnr p = psnr_planes(r, t);
-    s.psnr = p.db;
-    s.identical = p.identical;
-  }
-  const Planes<double> r = detail::linear_planes(reference);
-  const Planes<double> t = detail::linear_planes(test);
-  s.rmse = rmse_planes(r, t);
-  s.mae = mae_planes(r, t);
-  s.relmse = relmse_planes(r, t);
+  s.ssim = detail::ssim_unchecked(reference, test);
+  const Psnr p = psnr_unchecked(reference, test);
+  s.psnr = p.db;
+  s.identical = p.identical;
+  s.rmse = rmse_unchecked(reference, test);
+  s.mae = mae_unchecked(reference, test);
+  s.relmse = relmse_unchecked(reference, test);
   return s;
 }
 
@@ -137,7 +147,7 @@ double temporal_instability(const std::vector<io::Image>& reference_frames,
     total += sum_rows(0, first.height, [&](int y) {
       double s = 0;
       for (size_t x = size_t(y) * w, end = x + w; x < end; ++x)
-        s += std::fabs((cur_t[x] - prev_t[x]) - (cur_r[x] - prev_r[x]));
+        s += detail::abs_d((cur_t[x] - prev_t[x]) - (cur_r[x] - prev_r[x]));
       return s;
     });
     prev_r = std::move(cur_r);

@@ -21,6 +21,8 @@
 namespace pb::metrics {
 namespace {
 
+using detail::Values;
+
 constexpr double kSigma = 1.5;
 constexpr int kRadius = 5;  // int(3.5 * sigma + 0.5), scipy's truncation
 constexpr int kTaps = 2 * kRadius + 1;
@@ -38,9 +40,9 @@ std::array<double, kTaps> gaussian_window() {
   return w;
 }
 
-// Sum of the SSIM map over one output row (row >= kRadius, row < height - kRadius) and the columns
-// [kRadius, width - kRadius). scratch holds 6 * width doubles.
-PB_METRICS_KERNEL double ssim_row(const double* x, const double* y, int width, int row,
+// Sum of the SSIM map over one output row and the columns [kRadius, width - kRadius), from the
+// 11 input rows around it (xr, yr). scratch holds 6 * width doubles.
+PB_METRICS_KERNEL double ssim_row(const double* const* xr, const double* const* yr, int width,
                                   const double* k, double* scratch) {
   const size_t w = size_t(width);
   double* __restrict mx = scratch;
@@ -49,12 +51,6 @@ PB_METRICS_KERNEL double ssim_row(const double* x, const double* y, int width, i
   double* __restrict myy = scratch + 3 * w;
   double* __restrict mxy = scratch + 4 * w;
   double* __restrict s = scratch + 5 * w;
-  const double* xr[kTaps];
-  const double* yr[kTaps];
-  for (int t = 0; t < kTaps; ++t) {
-    xr[t] = x + size_t(row + t - kRadius) * w;
-    yr[t] = y + size_t(row + t - kRadius) * w;
-  }
   // Vertical: the five windowed moments of every column, all taps kept in registers.
   for (size_t j = 0; j < w; ++j) {
     double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
@@ -100,21 +96,52 @@ PB_METRICS_KERNEL double ssim_row(const double* x, const double* y, int width, i
 
 namespace detail {
 
-double ssim_planes(const Planes<double>& reference, const Planes<double>& test) {
+double ssim_unchecked(const io::Image& reference, const io::Image& test) {
   const int w = reference.width, h = reference.height;
   if (w < kTaps || h < kTaps)
     throw InputError(fmt::format(
         "SSIM: the images are {}x{}; the 11x11 Gaussian window needs at least 11x11", w, h));
   static const std::array<double, kTaps> window = gaussian_window();
-  tbb::enumerable_thread_specific<std::vector<double>> scratch(
-      [w] { return std::vector<double>(size_t(6) * size_t(w)); });
+  const size_t row_len = size_t(w);
+  // Each task converts the rows its window reaches into a ring of 11 rows per image, so no
+  // full-size copy of the images is ever made.
+  struct Scratch {
+    std::vector<double> ring_x, ring_y, work;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch([row_len] {
+    return Scratch{std::vector<double>(kTaps * row_len), std::vector<double>(kTaps * row_len),
+                   std::vector<double>(6 * row_len)};
+  });
+  const int first = kRadius, last = h - kRadius;  // output rows
+  constexpr int kBlock = 32;
+  const int blocks = (last - first + kBlock - 1) / kBlock;
   double total = 0;
   for (int c = 0; c < 3; ++c) {
-    const double* x = reference.c[c].data();
-    const double* y = test.c[c].data();
-    const double sum = sum_rows(kRadius, h - kRadius, [&](int row) {
-      return ssim_row(x, y, w, row, window.data(), scratch.local().data());
+    std::vector<double> row_sums(size_t(last - first));
+    tbb::parallel_for(0, blocks, [&](int block) {
+      Scratch& s = scratch.local();
+      const int y0 = first + block * kBlock, y1 = std::min(last, y0 + kBlock);
+      auto slot = [&](std::vector<double>& ring, int row) {
+        return ring.data() + size_t(row % kTaps) * row_len;
+      };
+      for (int row = y0 - kRadius; row < y0 + kRadius; ++row) {
+        convert_row(reference, row, c, Values::display, slot(s.ring_x, row));
+        convert_row(test, row, c, Values::display, slot(s.ring_y, row));
+      }
+      for (int y = y0; y < y1; ++y) {
+        convert_row(reference, y + kRadius, c, Values::display, slot(s.ring_x, y + kRadius));
+        convert_row(test, y + kRadius, c, Values::display, slot(s.ring_y, y + kRadius));
+        const double* xr[kTaps];
+        const double* yr[kTaps];
+        for (int t = 0; t < kTaps; ++t) {
+          xr[t] = slot(s.ring_x, y - kRadius + t);
+          yr[t] = slot(s.ring_y, y - kRadius + t);
+        }
+        row_sums[size_t(y - first)] = ssim_row(xr, yr, w, window.data(), s.work.data());
+      }
     });
+    double sum = 0;
+    for (double v : row_sums) sum += v;  // in row order: reproducible
     total += sum / (double(w - 2 * kRadius) * double(h - 2 * kRadius));
   }
   return total / 3.0;
@@ -124,7 +151,7 @@ double ssim_planes(const Planes<double>& reference, const Planes<double>& test) 
 
 double ssim(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "SSIM");
-  return detail::ssim_planes(detail::display_planes(reference), detail::display_planes(test));
+  return detail::ssim_unchecked(reference, test);
 }
 
 }  // namespace pb::metrics
