@@ -266,8 +266,10 @@ std::string load_error(const std::string& text, const std::string& file_name = "
   try {
     load_scene(file);
   } catch (const InputError& e) {
+    fs::remove_all(dir);
     return e.what();
   }
+  fs::remove_all(dir);
   ADD_FAILURE() << "no error for:\n" << text;
   return "";
 }
@@ -436,6 +438,7 @@ TEST(SceneFile, ReadsTracksLightsAndUnits) {
   EXPECT_LT(glm::length(glm::vec3(s.object_to_world[0][3]) - glm::vec3(1, 0, 0)), 1e-5f);
   EXPECT_TRUE(scene.objects[0].moves());
   EXPECT_EQ(scene.objects[0].mesh.triangle_count(), 2u * 12 * 5);
+  fs::remove_all(dir);
 }
 
 TEST(Camera, ViewAndVulkanProjection) {
