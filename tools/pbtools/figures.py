@@ -61,8 +61,13 @@ def _failed_note(run: Run, cells: List[Cell]) -> str:
         return ""
     parts = []
     for c in failed:
-        where = f" at frame {c.failed_frame}" if c.failed_frame is not None else ""
-        parts.append(f"{run.label(c)}: failed{where}")
+        if c.failed_frame is not None:
+            where = f" at frame {c.failed_frame}"
+        elif not (c.value("frames") > 0):
+            where = " before its first frame"
+        else:
+            where = ""
+        parts.append(f"{run.label(c)} failed{where}")
     return "Failed: " + "; ".join(parts)
 
 

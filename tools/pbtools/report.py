@@ -48,12 +48,24 @@ def _write_table_csv(path: str, header: List[str], rows: List[list]) -> None:
                         (f"{v:.6g}" if isinstance(v, float) else v) for v in r])
 
 
-def _figure_html(fig: F.Figure, files: dict) -> str:
+def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
+    """On screen, figures sized for paper (3.4-7 in at 7-8 pt) read small; show them `zoom` times their
+    print size, capped by the page width in CSS. The size is the SVG's own width attribute (in pt)."""
+    import re
+    with open(svg_path, encoding="utf-8") as f:
+        head = f.read(1200)
+    m = re.search(r'<svg[^>]*\swidth="([0-9.]+)pt"', head)
+    return int(round(float(m.group(1)) * 96 / 72 * zoom)) if m else None
+
+
+def _figure_html(fig: F.Figure, files: dict, fig_dir: str) -> str:
     shown = files["png"] if fig.kind == "image" else files["svg"]
+    width = _display_width_px(os.path.join(fig_dir, files["svg"]))
+    size = f' style="width:{width}px"' if width else ""
     links = " ".join(f'<a href="figures/{html.escape(files[e])}">{e.upper()}</a>' for e in ("svg", "pdf", "png"))
     links += f' <a href="figures/{html.escape(fig.stem)}.csv">data (CSV)</a>'
     return (f'<figure id="{html.escape(fig.stem)}"><img src="figures/{html.escape(shown)}" '
-            f'alt="{html.escape(fig.title)}" loading="eager">'
+            f'alt="{html.escape(fig.title)}"{size}>'
             f"<figcaption><b>{html.escape(fig.title)}.</b> {html.escape(fig.caption)}<br>{links}"
             "</figcaption></figure>")
 
@@ -161,7 +173,7 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
             files = style.save(fig.fig, fig_dir, fig.stem)
             style.close(fig.fig)
             _write_table_csv(os.path.join(fig_dir, fig.stem + ".csv"), fig.header, fig.rows)
-            parts.append(_figure_html(fig, files))
+            parts.append(_figure_html(fig, files, fig_dir))
         tex = f"passes_{F.slug(scene)}.tex"
         with open(os.path.join(tab_dir, tex), "w", encoding="utf-8") as f:
             f.write(tables.passes_latex(run, scene))
