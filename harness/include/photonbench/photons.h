@@ -53,7 +53,8 @@ inline PhotonKind photon_kind(const PhotonRecord& p) { return photon_kind(p.spec
 
 // A 2D density over a light's emission domain [0,1]^2 (AAPS's ray-density texture, Paper II's target
 // distribution map): photons are emitted with probability proportional to the texel value, and their
-// power is divided by that probability, so the expected power per texel is unchanged. The domain of
+// power is divided by that probability, so the expected power per texel is unchanged -- except in
+// texels of density 0, which emit nothing (their share of the light is dropped on purpose). The domain of
 // each light type is equal-measure (uniform (u,v) emits power uniformly):
 //   point: direction, z = 1 - 2u, phi = 2 pi v (equal-area sphere);
 //   spot: direction in the outer cone, cos(theta) = 1 - u (1 - cos(outer)), phi = 2 pi v;

@@ -310,22 +310,26 @@ std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& 
   for (float p : powers)
     if (p > 0) total += p, ++positive;
   if (total <= 0 || paths == 0) return count;
-  // Every emitter with power gets one path first (when there are enough), so none is left dark.
-  uint32_t reserved = paths >= positive ? uint32_t(positive) : 0;
-  uint32_t rest = paths - reserved;
+  // Largest remainder (Hamilton): floor of the exact share, then one more to the largest remainders.
   std::vector<std::pair<double, size_t>> remainders;
-  uint32_t used = reserved;
+  uint32_t used = 0;
   for (size_t i = 0; i < powers.size(); ++i) {
     if (!(powers[i] > 0)) continue;
-    double exact = rest * (powers[i] / total);
-    uint32_t whole = uint32_t(std::floor(exact));
-    count[i] = whole + (reserved ? 1 : 0);
-    used += whole;
-    remainders.push_back({exact - whole, i});
+    double exact = paths * (powers[i] / total);
+    count[i] = uint32_t(std::floor(exact));
+    used += count[i];
+    remainders.push_back({exact - count[i], i});
   }
   std::stable_sort(remainders.begin(), remainders.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
   for (size_t r = 0; used < paths && r < remainders.size(); ++r, ++used) ++count[remainders[r].second];
+  // No emitter with power is left dark while there are paths enough: take one from the largest share.
+  if (paths >= positive)
+    for (size_t i = 0; i < powers.size(); ++i)
+      if (powers[i] > 0 && count[i] == 0) {
+        --*std::max_element(count.begin(), count.end());
+        count[i] = 1;
+      }
   return count;
 }
 

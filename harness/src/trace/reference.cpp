@@ -342,8 +342,8 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
   std::vector<VisiblePoint> vps(use_sppm ? pixels : 0);
   float pixel_angle = 2.f * rig.tan_half / height;  // footprint per metre of distance
 
-  std::unique_ptr<tbb::task_arena> arena =
-      std::make_unique<tbb::task_arena>(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  auto arena = options.threads > 0 ? std::make_unique<tbb::task_arena>(options.threads)
+                                   : std::make_unique<tbb::task_arena>();
   EmbreePhotonTracer tracer(world);
   tbb::combinable<uint64_t> ray_count([] { return uint64_t(0); });
   uint64_t photon_rays = 0, photon_paths = 0;

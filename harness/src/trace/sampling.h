@@ -94,14 +94,19 @@ inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
 
 inline float u32_to_unit(uint32_t x) { return std::min(float(x >> 8) * 0x1p-24f, kOneMinusEpsilon); }
 
-// A 4D point of dimension group `group` (0: emission, 1 + k: interaction k) for sample `index`:
-// Burley's padding, a per-group shuffle of the index then an independent scramble per dimension.
+// A 4D point of dimension group `group` (0: emission, 1 + k: interaction k) for sample `index`, as two
+// independently shuffled and scrambled copies of Sobol dimensions (0, 1) (Burley 2020 §4, padding):
+// Sobol's first two dimensions form a (0,2)-sequence, so each pair (x, y) and (z, w) is a (0,m,2)-net
+// over every 2^m-point block, which no other pair of Sobol dimensions guarantees.
 inline glm::vec4 sobol_group(uint32_t index, uint32_t group, uint32_t seed) {
-  uint32_t group_seed = hash_combine(seed, group);
-  uint32_t shuffled = owen_scramble(index, group_seed);
   glm::vec4 r;
-  for (int d = 0; d < 4; ++d)
-    r[d] = u32_to_unit(owen_scramble(sobol_u32(shuffled, d), hash_combine(group_seed, uint32_t(d) + 1)));
+  for (int pair = 0; pair < 2; ++pair) {
+    uint32_t pair_seed = hash_combine(seed, group, uint32_t(pair));
+    uint32_t shuffled = owen_scramble(index, pair_seed);
+    for (int d = 0; d < 2; ++d)
+      r[2 * pair + d] =
+          u32_to_unit(owen_scramble(sobol_u32(shuffled, d), hash_combine(pair_seed, uint32_t(d) + 1)));
+  }
   return r;
 }
 
