@@ -185,11 +185,12 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
              slow: Optional[Dict[str, float]] = None, noise: float = 0.05, drift: float = 0.02,
              spike_rate: float = 0.03, images: bool = True, resolution=(96, 54),
              commit: Optional[str] = None, device: str = "llvmpipe (LLVM 15.0.6, 256 bits)",
-             scenes: Optional[List[str]] = None) -> str:
+             scenes: Optional[List[str]] = None, techniques: Optional[List[str]] = None) -> str:
     """Writes a run directory at out_dir and returns its path. Layout is seed-independent; `seed` drives
     only the noise, so two seeds are an A/A pair."""
     slow = slow or {}
     scenes = scenes or SCENES
+    chosen = [t for t in TECHNIQUES if techniques is None or t["technique"] in techniques]
     layout = np.random.default_rng(12345)  # the "build": identical for every seed
     rng = np.random.default_rng(seed)  # the "machine": differs per run
     run_drift = math.exp(rng.normal(0.0, drift))
@@ -205,7 +206,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
         "techniques": [{"technique": t["technique"],
                         "params": {k: sorted({s[k] for s in t["settings"]}, key=str)
                                    if len({s[k] for s in t["settings"]}) > 1 else t["settings"][0][k]
-                                   for k in t["settings"][0]}} for t in TECHNIQUES],
+                                   for k in t["settings"][0]}} for t in chosen],
         "metrics": ["flip", "ssim", "psnr"],
         "reference": {"samples": 64},
     }
@@ -220,7 +221,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
     for scene in scenes:
         scene_i = SCENES.index(scene)
         scene_scale = 1.0 + 0.4 * scene_i
-        for tech in TECHNIQUES:
+        for tech in chosen:
             for params in tech["settings"]:
                 cid = cell_id(index, scene, tech["technique"], params)
                 index += 1

@@ -47,11 +47,11 @@ class HistoryFileTest(unittest.TestCase):
             for i in range(8):
                 slow = {"splat": 1.3} if i >= 4 else {}
                 run = cls.tmp.make(f"r{i}", seed=i, images=False, slow=slow, commit=f"{i:040x}",
-                                   scenes=["pillars"])
+                                   scenes=["pillars"], techniques=["direct", "tiled"])
                 assert H.main(["append", run, "--file", cls.file]) == 0
             # A second device keeps its own series.
             other = cls.tmp.make("gpu", seed=9, images=False, commit=f"{7:040x}", device="NVIDIA H100",
-                                 scenes=["pillars"])
+                                 scenes=["pillars"], techniques=["direct", "tiled"])
             assert H.main(["append", other, "--file", cls.file]) == 0
 
     @classmethod
@@ -64,7 +64,7 @@ class HistoryFileTest(unittest.TestCase):
         self.assertEqual([e["commit"] for e in entries[:8]], [f"{i:040x}" for i in range(8)])
         self.assertEqual(entries[8]["device"], "NVIDIA H100")
         # Appending the same commit and device again replaces the entry in place.
-        rerun = self.tmp.make("rerun", seed=42, images=False, commit=f"{2:040x}", scenes=["pillars"])
+        rerun = self.tmp.make("rerun", seed=42, images=False, commit=f"{2:040x}", scenes=["pillars"], techniques=["direct", "tiled"])
         entry, replaced = H.append(rerun, self.file)
         self.assertTrue(replaced)
         entries = H.load(self.file)
@@ -81,7 +81,7 @@ class HistoryFileTest(unittest.TestCase):
         with open(os.path.join(out, "changepoints.csv"), newline="") as f:
             rows = list(csv.DictReader(f))
         splat = [r for r in rows if r["series"] == "splat" and r["device"] != "NVIDIA H100"]
-        self.assertEqual(len(splat), 5)  # every ok cell with a splat pass (cluster/trivial fails)
+        self.assertEqual(len(splat), 3)  # every cell with a splat pass: tiled at three photon counts
         self.assertEqual({r["index"] for r in splat}, {"4"})
         # Passes that did not change are not marked.
         self.assertFalse([r for r in rows if r["series"] in ("gbuffer", "shade", "tonemap", "trace")])
