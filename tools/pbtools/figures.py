@@ -243,7 +243,7 @@ def timeline(run: Run, scene: str, styles: style.TechniqueStyle, clock: str = "a
               markeredgewidth=0.4, label="warning")
     ax_t.set_ylabel("frame time [ms]")
     ax_e.set_ylabel("FLIP")
-    ax_e.set_xlabel("frame (measured, after warm-up)")
+    ax_e.set_xlabel("frame")
     ax_t.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), ncol=1)
     no_frames = [c for c in cells if c not in with_frames]
     if no_frames:
