@@ -68,14 +68,6 @@ void check_image(const io::Image& image, const char* role, std::string_view metr
   }
 }
 
-// 8-bit LDR files are read as k / 255 in float; this recovers k when the value is one of those
-// (for a float-rounded k / 255, |255 v - k| stays below 1.6e-5).
-[[gnu::always_inline]] inline bool eight_bit_code(float v, int& k) {
-  const float scaled = v * 255.f;
-  k = int(scaled + 0.5f);
-  return scaled > -0.5f && k <= 255 && abs_f(scaled - float(k)) < 2e-5f;
-}
-
 double srgb_decode_exact(double v) {
   return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
 }
@@ -87,6 +79,35 @@ const std::array<double, 256>& decoded_codes() {
     return t;
   }();
   return table;
+}
+
+// 8-bit LDR files are read as k / 255 in float; this recovers k when the value is one of those
+// (for a float-rounded k / 255, |255 v - k| stays below 1.6e-5), else gives -1, so the metrics can
+// use k / 255 and the sRGB decoding of k exactly, as tools reading the file as uint8 do.
+[[gnu::always_inline]] inline int code_or_minus_one(float v) {
+  const float scaled = max_f(min_f(v * 255.f, 255.f), 0.f);
+  const int k = int(scaled + 0.5f);
+  return abs_f(v * 255.f - float(k)) < 2e-5f ? k : -1;
+}
+
+PB_METRICS_KERNEL void ldr_display_row(const float* in, size_t stride, size_t n, double* out) {
+  for (size_t i = 0; i < n; ++i) {
+    const float v = in[i * stride];
+    const int k = code_or_minus_one(v);
+    out[i] = k >= 0 ? double(k) / 255.0 : double(v);  // division, as numpy does
+  }
+}
+
+// 8-bit codes through the table; returns false if some value was not one (left as -1).
+PB_METRICS_KERNEL bool ldr_linear_row(const float* in, size_t stride, size_t n,
+                                      const double* table, double* out) {
+  int all_codes = 1;
+  for (size_t i = 0; i < n; ++i) {
+    const int k = code_or_minus_one(in[i * stride]);
+    all_codes &= k >= 0;
+    out[i] = k >= 0 ? table[k > 0 ? k : 0] : -1.0;
+  }
+  return all_codes != 0;
 }
 
 PB_METRICS_KERNEL void hdr_display_row(const float* in, size_t stride, size_t n, double* out) {
@@ -120,21 +141,12 @@ void convert_row(const io::Image& image, int y, int channel, Values values, doub
     }
     return;
   }
-  if (values == Values::display) {
-    for (size_t i = 0; i < n; ++i) {
-      int k;
-      const float v = in[i * stride];
-      out[i] = eight_bit_code(v, k) ? k / 255.0 : double(v);
-    }
-  } else {
-    const auto& table = decoded_codes();
-    for (size_t i = 0; i < n; ++i) {
-      int k;
-      const float v = in[i * stride];
-      out[i] = eight_bit_code(v, k) ? table[size_t(k)]
-                                    : srgb_decode_exact(std::clamp(double(v), 0.0, 1.0));
-    }
-  }
+  if (values == Values::display)
+    ldr_display_row(in, stride, n, out);
+  else
+    if (!ldr_linear_row(in, stride, n, decoded_codes().data(), out))
+      for (size_t i = 0; i < n; ++i)  // values that are not 8-bit codes: decode exactly
+        if (out[i] < 0.0) out[i] = srgb_decode_exact(std::clamp(double(in[i * stride]), 0.0, 1.0));
 }
 
 }  // namespace detail

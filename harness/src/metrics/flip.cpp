@@ -13,6 +13,7 @@
 // borders in both directions make vertical-then-horizontal equal to the reference's opposite order.
 #include <fmt/format.h>
 #include <tbb/blocked_range2d.h>
+#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
 #include <array>
@@ -246,27 +247,27 @@ template <bool Accumulate>
   }
 }
 
-// ---- Colour conversion of whole images ----------------------------------------------------------
-// From the interleaved pixels (stride S: 1 grey, 3 RGB, 4 RGBA) straight to YCxCz planes.
+// ---- Colour conversion --------------------------------------------------------------------------
+// From interleaved pixels (stride S: 1 grey, 3 RGB, 4 RGBA) to YCxCz planes.
 
 template <int S>
-[[gnu::always_inline]] inline void ldr_body(const float* px, size_t n, float* yy, float* cx,
+[[gnu::always_inline]] inline void ldr_body(const float* px, int n, float* yy, float* cx,
                                             float* cz) {
   constexpr int g = S == 1 ? 0 : 1, b = S == 1 ? 0 : 2;
   // sRGB decode (IEC 61966-2-1), clamp to [0, 1] as the reference tool does for LDR input.
   auto decode = [](float v) { return clamp01(detail::srgb_decode_fast(v)); };
-  for (size_t i = 0; i < n; ++i)
+  for (int i = 0; i < n; ++i)
     rgb_to_ycxcz(decode(px[i * S]), decode(px[i * S + g]), decode(px[i * S + b]), yy[i], cx[i],
                  cz[i]);
 }
 
 // Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021, Section 4.1).
 template <int S>
-[[gnu::always_inline]] inline void hdr_body(const float* px, size_t n, float scale, Tonemapper tm,
+[[gnu::always_inline]] inline void hdr_body(const float* px, int n, float scale, Tonemapper tm,
                                             float* yy, float* cx, float* cz) {
   constexpr int g = S == 1 ? 0 : 1, b = S == 1 ? 0 : 2;
   if (tm == Tonemapper::reinhard) {
-    for (size_t i = 0; i < n; ++i) {
+    for (int i = 0; i < n; ++i) {
       const float rr = px[i * S] * scale, gg = px[i * S + g] * scale, bb = px[i * S + b] * scale;
       const float k = 1.f / (1.f + luminance(rr, gg, bb));
       rgb_to_ycxcz(clamp01(rr * k), clamp01(gg * k), clamp01(bb * k), yy[i], cx[i], cz[i]);
@@ -278,71 +279,44 @@ template <int S>
   auto curve = [=](float v) {
     return clamp01((v * v * c0 + v * c1 + c2) / (v * v * c3 + v * c4 + c5));
   };
-  for (size_t i = 0; i < n; ++i)
+  for (int i = 0; i < n; ++i)
     rgb_to_ycxcz(curve(px[i * S] * scale), curve(px[i * S + g] * scale),
                  curve(px[i * S + b] * scale), yy[i], cx[i], cz[i]);
 }
 
-PB_METRICS_KERNEL void ldr_to_ycxcz_1(const float* px, size_t n, float* y, float* x, float* z) {
-  ldr_body<1>(px, n, y, x, z);
-}
-PB_METRICS_KERNEL void ldr_to_ycxcz_3(const float* px, size_t n, float* y, float* x, float* z) {
-  ldr_body<3>(px, n, y, x, z);
-}
-PB_METRICS_KERNEL void ldr_to_ycxcz_4(const float* px, size_t n, float* y, float* x, float* z) {
-  ldr_body<4>(px, n, y, x, z);
-}
-PB_METRICS_KERNEL void hdr_to_ycxcz_1(const float* px, size_t n, float scale, Tonemapper tm,
-                                      float* y, float* x, float* z) {
-  hdr_body<1>(px, n, scale, tm, y, x, z);
-}
-PB_METRICS_KERNEL void hdr_to_ycxcz_3(const float* px, size_t n, float scale, Tonemapper tm,
-                                      float* y, float* x, float* z) {
-  hdr_body<3>(px, n, scale, tm, y, x, z);
-}
-PB_METRICS_KERNEL void hdr_to_ycxcz_4(const float* px, size_t n, float scale, Tonemapper tm,
-                                      float* y, float* x, float* z) {
-  hdr_body<4>(px, n, scale, tm, y, x, z);
-}
-
-struct YcxczPlanes {
-  detail::Buffer<float> c[3];
-  explicit YcxczPlanes(size_t n) : c{detail::Buffer<float>(n), detail::Buffer<float>(n), detail::Buffer<float>(n)} {}
-};
-
-// Converts the whole image in parallel; exposure_scale < 0 means LDR.
-void to_ycxcz(const io::Image& image, float exposure_scale, Tonemapper tm, YcxczPlanes& out) {
-  const size_t n = image.pixel_count();
-  const size_t stride = size_t(image.channels);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 32768), [&](const tbb::blocked_range<size_t>& r) {
-    const float* px = image.pixels.data() + r.begin() * stride;
-    float* y = out.c[0].get() + r.begin();
-    float* x = out.c[1].get() + r.begin();
-    float* z = out.c[2].get() + r.begin();
-    const size_t count = r.end() - r.begin();
-    if (exposure_scale < 0) {
-      if (stride == 1) ldr_to_ycxcz_1(px, count, y, x, z);
-      else if (stride == 3) ldr_to_ycxcz_3(px, count, y, x, z);
-      else ldr_to_ycxcz_4(px, count, y, x, z);
-    } else {
-      if (stride == 1) hdr_to_ycxcz_1(px, count, exposure_scale, tm, y, x, z);
-      else if (stride == 3) hdr_to_ycxcz_3(px, count, exposure_scale, tm, y, x, z);
-      else hdr_to_ycxcz_4(px, count, exposure_scale, tm, y, x, z);
-    }
-  });
-}
-
-// ---- The fused filter and difference pass --------------------------------------------------------
+// ---- The fused pass -----------------------------------------------------------------------------
 
 struct FlipPass {
   int width = 0, height = 0;
-  const float* planes[2][3] = {};  // [reference, test][Y, Cx, Cz]
+  const io::Image* images[2] = {};  // reference, test
+  bool hdr = false;
+  float exposure_scale = 1;  // HDR: 2^exposure
+  Tonemapper tonemapper = Tonemapper::aces;
   const Filters* filters = nullptr;
   float cmax = 0, pccmax = 0;
   // width * height, zero before the first pass; each pass keeps the larger error per pixel, which
   // is HDR-FLIP's maximum over exposures (EG 2021, Section 4.3).
   float* error = nullptr;
+  // Per-thread scratch, kept across tiles and exposures so large buffers are allocated once.
+  tbb::enumerable_thread_specific<std::vector<float>>* scratch = nullptr;
 };
+
+// Pixels [c0, c0 + n) of row y of image img, converted to YCxCz.
+[[gnu::always_inline]] inline void convert_span(const FlipPass& p, int img, int y, int c0, int n,
+                                                float* yy, float* cx, float* cz) {
+  const io::Image& image = *p.images[img];
+  const int stride = image.channels;
+  const float* px = image.pixels.data() + (size_t(y) * size_t(image.width) + size_t(c0)) * size_t(stride);
+  if (!p.hdr) {
+    if (stride == 3) ldr_body<3>(px, n, yy, cx, cz);
+    else if (stride == 4) ldr_body<4>(px, n, yy, cx, cz);
+    else ldr_body<1>(px, n, yy, cx, cz);
+  } else {
+    if (stride == 3) hdr_body<3>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
+    else if (stride == 4) hdr_body<4>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
+    else hdr_body<1>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
+  }
+}
 
 // The per-pixel part of FLIP for one row, from the filtered values of reference (r) and test (t):
 // {Y, Cx, Cz, dx, dy, ddx, ddy}. Keeps the larger of the new error and out[j].
@@ -392,78 +366,100 @@ struct FlipPass {
 }
 
 // FLIP error of the rows [y0, y1) and columns [x0, x1).
+//
+// The input rows the vertical taps reach are converted to YCxCz as the tile moves down, into a ring
+// of 2 * pad + 1 rows per plane, so no image-sized intermediate is written or read back.
 PB_METRICS_KERNEL void flip_tile(const FlipPass& p, int y0, int y1, int x0, int x1) {
   const Filters& f = *p.filters;
-  const int rs = f.spatial_radius, rf = f.feature_radius, pad = std::max(rs, rf);
-  const int ts = 2 * rs + 1, tf = 2 * rf + 1;
+  const int rs = f.spatial_radius, rf = f.feature_radius, pad = rs > rf ? rs : rf;
+  const int ts = 2 * rs + 1, tf = 2 * rf + 1, ring = 2 * pad + 1;
   const int w = p.width, h = p.height;
   const int n = x1 - x0, pn = n + 2 * pad;
   // The vertical pass covers the columns the horizontal taps reach that exist; the padded row's
   // entry i is column x0 - pad + i, and entries left or right of the image repeat its edge.
-  const int c0 = std::max(0, x0 - pad), c1 = std::min(w, x1 + pad);
+  const int c0 = x0 - pad > 0 ? x0 - pad : 0, c1 = x1 + pad < w ? x1 + pad : w;
   const int lead = c0 - (x0 - pad), count = c1 - c0;
 
-  std::vector<float> scratch(size_t(14) * size_t(pn) + size_t(14) * size_t(n));
-  std::vector<const float*> rows(size_t(2 * pad + 1));
-  auto vertical_rows = [&](const float* plane, int y, int radius) {
-    for (int k = 0; k <= 2 * radius; ++k)
-      rows[size_t(k)] = plane + size_t(std::clamp(y + k - radius, 0, h - 1)) * size_t(w) + c0;
+  // Scratch: ring [2 images][3 planes][ring rows][count], vertical rows [14][pn], outputs [14][n].
+  const size_t ring_floats = size_t(6) * size_t(ring) * size_t(count);
+  std::vector<float>& scratch = p.scratch->local();
+  const size_t need = ring_floats + size_t(14) * size_t(pn) + size_t(14) * size_t(n);
+  if (scratch.size() < need) scratch.resize(need);
+  // (Lambdas here stay trivial: a lambda is its own function, compiled for the baseline target
+  // unless inlined, so the conversion loops are called directly.)
+  auto ring_row = [&](int img, int plane, int y) {  // y: an image row, already clamped
+    return scratch.data() + (size_t(img * 3 + plane) * size_t(ring) + size_t(y % ring)) * size_t(count);
+  };
+  const float* rows[512];  // taps; make_filters keeps 2 * pad + 1 below this
+  auto vertical_rows = [&](int img, int plane, int y, int radius) {
+    for (int k = 0; k <= 2 * radius; ++k) {
+      int yy = y + k - radius;
+      yy = yy < 0 ? 0 : (yy > h - 1 ? h - 1 : yy);
+      rows[k] = ring_row(img, plane, yy);
+    }
   };
   auto horizontal_rows = [&](const float* padded, int radius) {
-    for (int k = 0; k <= 2 * radius; ++k) rows[size_t(k)] = padded + (pad - radius) + k;
+    for (int k = 0; k <= 2 * radius; ++k) rows[k] = padded + (pad - radius) + k;
   };
   const float cmax = p.cmax, pccmax = p.pccmax;
+  float* const work = scratch.data() + ring_floats;
 
+  // Output row y needs input rows y - pad .. y + pad (clamped): all of them for the first row, then
+  // one more per row, overwriting the ring slot of the row no longer needed.
+  int next = y0 - pad > 0 ? y0 - pad : 0;
   for (int y = y0; y < y1; ++y) {
+    for (const int last = y + pad < h - 1 ? y + pad : h - 1; next <= last; ++next)
+      for (int img = 0; img < 2; ++img)
+        convert_span(p, img, next, c0, count, ring_row(img, 0, next), ring_row(img, 1, next),
+                     ring_row(img, 2, next));
     float* o[2][7];
     for (int img = 0; img < 2; ++img) {
       float* v[7];
       for (int q = 0; q < 7; ++q) {
-        v[q] = scratch.data() + size_t(img * 7 + q) * size_t(pn);
-        o[img][q] = scratch.data() + size_t(14) * size_t(pn) + size_t(img * 7 + q) * size_t(n);
+        v[q] = work + size_t(img * 7 + q) * size_t(pn);
+        o[img][q] = work + size_t(14) * size_t(pn) + size_t(img * 7 + q) * size_t(n);
       }
-      const float* const* planes = p.planes[img];
       // Vertical: v = {Y, Cx, Cz (1st Gaussian), Cz (2nd), G Y, G' Y, G'' Y}.
-      vertical_rows(planes[0], y, rs);
-      fir<false>(v[0] + lead, rows.data(), f.y.data(), ts, count);
-      vertical_rows(planes[1], y, rs);
-      fir<false>(v[1] + lead, rows.data(), f.cx.data(), ts, count);
-      vertical_rows(planes[2], y, rs);
-      fir<false>(v[2] + lead, rows.data(), f.cz1.data(), ts, count);
-      fir<false>(v[3] + lead, rows.data(), f.cz2.data(), ts, count);
-      vertical_rows(planes[0], y, rf);
-      fir<false>(v[4] + lead, rows.data(), f.g.data(), tf, count);
-      fir<false>(v[5] + lead, rows.data(), f.dg.data(), tf, count);
-      fir<false>(v[6] + lead, rows.data(), f.ddg.data(), tf, count);
+      vertical_rows(img, 0, y, rs);
+      fir<false>(v[0] + lead, rows, f.y.data(), ts, count);
+      vertical_rows(img, 1, y, rs);
+      fir<false>(v[1] + lead, rows, f.cx.data(), ts, count);
+      vertical_rows(img, 2, y, rs);
+      fir<false>(v[2] + lead, rows, f.cz1.data(), ts, count);
+      fir<false>(v[3] + lead, rows, f.cz2.data(), ts, count);
+      vertical_rows(img, 0, y, rf);
+      fir<false>(v[4] + lead, rows, f.g.data(), tf, count);
+      fir<false>(v[5] + lead, rows, f.dg.data(), tf, count);
+      fir<false>(v[6] + lead, rows, f.ddg.data(), tf, count);
       for (int q = 0; q < 7; ++q) {
-        std::fill(v[q], v[q] + lead, v[q][lead]);
-        std::fill(v[q] + lead + count, v[q] + pn, v[q][lead + count - 1]);
+        for (int j = 0; j < lead; ++j) v[q][j] = v[q][lead];
+        for (int j = lead + count; j < pn; ++j) v[q][j] = v[q][lead + count - 1];
       }
       // Horizontal: o = {Y, Cx, Cz, dx, dy, ddx, ddy}.
       horizontal_rows(v[0], rs);
-      fir<false>(o[img][0], rows.data(), f.y.data(), ts, n);
+      fir<false>(o[img][0], rows, f.y.data(), ts, n);
       horizontal_rows(v[1], rs);
-      fir<false>(o[img][1], rows.data(), f.cx.data(), ts, n);
+      fir<false>(o[img][1], rows, f.cx.data(), ts, n);
       horizontal_rows(v[2], rs);
-      fir<false>(o[img][2], rows.data(), f.cz1.data(), ts, n);
+      fir<false>(o[img][2], rows, f.cz1.data(), ts, n);
       horizontal_rows(v[3], rs);
-      fir<true>(o[img][2], rows.data(), f.cz2.data(), ts, n);
+      fir<true>(o[img][2], rows, f.cz2.data(), ts, n);
       horizontal_rows(v[4], rf);
-      fir<false>(o[img][3], rows.data(), f.dg.data(), tf, n);
-      fir<false>(o[img][5], rows.data(), f.ddg.data(), tf, n);
+      fir<false>(o[img][3], rows, f.dg.data(), tf, n);
+      fir<false>(o[img][5], rows, f.ddg.data(), tf, n);
       horizontal_rows(v[5], rf);
-      fir<false>(o[img][4], rows.data(), f.g.data(), tf, n);
+      fir<false>(o[img][4], rows, f.g.data(), tf, n);
       horizontal_rows(v[6], rf);
-      fir<false>(o[img][6], rows.data(), f.g.data(), tf, n);
+      fir<false>(o[img][6], rows, f.g.data(), tf, n);
     }
-
     pixel_errors(n, o[0], o[1], cmax, pccmax, p.error + size_t(y) * size_t(w) + size_t(x0));
   }
 }
 
 void run_pass(const FlipPass& pass) {
-  // Tiles a few hundred columns wide keep the vertical taps' rows in the core's L2 cache.
-  const int tile_rows = 16, tile_cols = 512;
+  // Tall tiles keep the ring's halo rows (converted twice) few; a few hundred columns keep a tile's
+  // ring in the core's L2 cache.
+  const int tile_rows = 64, tile_cols = 256;
   tbb::parallel_for(
       tbb::blocked_range2d<int>(0, pass.height, tile_rows, 0, pass.width, tile_cols),
       [&](const tbb::blocked_range2d<int>& r) {
@@ -485,21 +481,41 @@ HdrExposures automatic_exposures(const io::Image& reference, Tonemapper tm) {
     const float d1 = -0.5f * (b / a);
     x_max = d1 + std::sqrt(d1 * d1 - k / a);
   }
+  // Luminances, their maximum and smallest positive value, and the one at rank n / 2 (the reference
+  // tool, from v1.4, takes that element rather than the mean of the middle two). Rank n / 2 is
+  // found without sorting: a histogram over the top 16 bits of an order-preserving key, then
+  // nth_element inside the one bucket that holds the rank.
   const size_t n = reference.pixel_count(), stride = size_t(reference.channels);
   const size_t gi = reference.channels == 1 ? 0 : 1, bi = reference.channels == 1 ? 0 : 2;
-  std::vector<float> lum(n);
+  auto lum_at = [&](size_t i) {
+    const float* px = &reference.pixels[i * stride];
+    return luminance(px[0], px[gi], px[bi]);
+  };
+  auto bucket = [](float v) {
+    const uint32_t bits = __builtin_bit_cast(uint32_t, v);
+    return ((bits & 0x80000000u) ? ~bits : (bits | 0x80000000u)) >> 16;
+  };
+  std::vector<uint32_t> counts(size_t(1) << 16, 0);
   float y_max = -std::numeric_limits<float>::infinity();
   float y_min_positive = std::numeric_limits<float>::infinity();
   for (size_t i = 0; i < n; ++i) {
-    const float* px = &reference.pixels[i * stride];
-    lum[i] = luminance(px[0], px[gi], px[bi]);
-    y_max = std::max(y_max, lum[i]);
-    if (lum[i] > 0.f) y_min_positive = std::min(y_min_positive, lum[i]);
+    const float l = lum_at(i);
+    ++counts[bucket(l)];
+    y_max = l > y_max ? l : y_max;
+    if (l > 0.f && l < y_min_positive) y_min_positive = l;
   }
-  // The reference tool (v1.4 on) takes the element at n / 2, not the mean of the middle two.
   const size_t mid = n / 2;
-  std::nth_element(lum.begin(), lum.begin() + std::ptrdiff_t(mid), lum.end());
-  float y_median = lum[mid];
+  size_t below = 0, median_bucket = 0;
+  while (below + counts[median_bucket] <= mid) below += counts[median_bucket++];
+  std::vector<float> in_bucket;
+  in_bucket.reserve(counts[median_bucket]);
+  for (size_t i = 0; i < n; ++i) {
+    const float l = lum_at(i);
+    if (bucket(l) == median_bucket) in_bucket.push_back(l);
+  }
+  const auto nth = in_bucket.begin() + std::ptrdiff_t(mid - below);
+  std::nth_element(in_bucket.begin(), nth, in_bucket.end());
+  float y_median = *nth;
   // Deviation: the tool divides by zero when more than half the image (or all of it) is black; we
   // fall back to the smallest positive luminance, and to exposure 0 for an all-black reference.
   if (!(y_max > 0.f)) return {0.0, 0.0, 2};
@@ -588,29 +604,31 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
     throw InputError(fmt::format("FLIP: pixels per degree must be positive, not {}",
                                  options.pixels_per_degree));
   const int w = reference.width, h = reference.height;
-  const size_t n = reference.pixel_count();
   const Filters filters = make_filters(float(options.pixels_per_degree));
   const float cmax = max_colour_distance();
 
-  YcxczPlanes ref_ycc(n), tst_ycc(n);
+  // The ring of rows in flip_tile holds one row per filter tap.
+  if (2 * std::max(filters.spatial_radius, filters.feature_radius) + 1 > 511)
+    throw InputError(fmt::format("FLIP: {} pixels per degree needs filters wider than 511 taps",
+                                 options.pixels_per_degree));
 
   FlipResult result;
   result.error_map = io::Image(w, h, 1, /*is_linear=*/false);
+  tbb::enumerable_thread_specific<std::vector<float>> scratch;
   FlipPass pass;
   pass.width = w;
   pass.height = h;
-  for (int c = 0; c < 3; ++c) {
-    pass.planes[0][c] = ref_ycc.c[c].get();
-    pass.planes[1][c] = tst_ycc.c[c].get();
-  }
+  pass.images[0] = &reference;
+  pass.images[1] = &test;
+  pass.hdr = reference.linear;
+  pass.tonemapper = options.tonemapper;
   pass.filters = &filters;
   pass.cmax = cmax;
   pass.pccmax = kPc * cmax;
   pass.error = result.error_map.pixels.data();
+  pass.scratch = &scratch;
 
   if (!reference.linear) {
-    to_ycxcz(reference, -1.f, options.tonemapper, ref_ycc);
-    to_ycxcz(test, -1.f, options.tonemapper, tst_ycc);
     run_pass(pass);
   } else {
     HdrExposures e;
@@ -626,12 +644,11 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
     if (e.count < 1)
       throw InputError(fmt::format("FLIP: the number of exposures must be 1 or more, not {}",
                                    e.count));
+    // EG 2021, Section 4.3: LDR-FLIP at evenly spaced exposures, the per-pixel maximum kept.
     const float start = float(e.start), stop = float(e.stop);
     const float step = e.count > 1 ? (stop - start) / float(e.count - 1) : 0.f;
     for (int i = 0; i < e.count; ++i) {
-      const float scale = std::pow(2.0f, start + float(i) * step);
-      to_ycxcz(reference, scale, options.tonemapper, ref_ycc);
-      to_ycxcz(test, scale, options.tonemapper, tst_ycc);
+      pass.exposure_scale = std::pow(2.0f, start + float(i) * step);
       run_pass(pass);
     }
     result.exposures = e;

@@ -16,69 +16,88 @@ namespace {
 using detail::sum_rows;
 using detail::Values;
 
-// Mean over pixels and the three colour channels of term(reference value, test value), on the
-// given values, converting one row at a time.
-template <typename Term>
-double mean_over_channels(const io::Image& r, const io::Image& t, Values values, const Term& term) {
+// Converts both images row by row and returns the sum over rows of row_sum(a, b, width), a and b
+// the reference's and test's values of one colour channel of one row, over all three channels.
+template <typename RowSum>
+auto sum_over_channels(const io::Image& r, const io::Image& t, Values values, const RowSum& row_sum) {
   const size_t w = size_t(r.width);
   tbb::enumerable_thread_specific<std::vector<double>> rows(
       [w] { return std::vector<double>(2 * w); });
-  const double sum = sum_rows(0, r.height, [&](int y) {
+  using Sum = decltype(row_sum(nullptr, nullptr, w));
+  std::vector<Sum> per_row(size_t(r.height));
+  tbb::parallel_for(0, r.height, [&](int y) {
     std::vector<double>& buf = rows.local();
     double* a = buf.data();
     double* b = buf.data() + w;
-    double s = 0;
+    Sum s{};
     for (int c = 0; c < 3; ++c) {
       detail::convert_row(r, y, c, values, a);
       detail::convert_row(t, y, c, values, b);
-      for (size_t x = 0; x < w; ++x) s += term(a[x], b[x]);
+      s += row_sum(a, b, w);
     }
-    return s;
+    per_row[size_t(y)] = s;
   });
-  return sum / (3.0 * double(r.width) * double(r.height));
+  Sum total{};
+  for (const Sum& s : per_row) total += s;  // in row order: reproducible
+  return total;
 }
 
-double squared_error(double a, double b) { return (b - a) * (b - a); }
+// Sums of the squared, absolute and relative squared errors, vectorisable per row.
+struct ErrorSums {
+  double squared = 0, absolute = 0, relative = 0;
+  ErrorSums& operator+=(const ErrorSums& o) {
+    squared += o.squared;
+    absolute += o.absolute;
+    relative += o.relative;
+    return *this;
+  }
+};
+
+PB_METRICS_KERNEL double squared_error_row(const double* a, const double* b, size_t n) {
+  double s = 0;
+  for (size_t x = 0; x < n; ++x) s += (b[x] - a[x]) * (b[x] - a[x]);
+  return s;
+}
+
+PB_METRICS_KERNEL ErrorSums error_sums_row(const double* a, const double* b, size_t n) {
+  ErrorSums s;
+  for (size_t x = 0; x < n; ++x) {
+    const double d = b[x] - a[x];
+    s.squared += d * d;
+    s.absolute += detail::abs_d(d);
+    // Relative MSE as rendering papers use it (e.g. Rousselle et al. 2011): the squared error over
+    // the squared reference, with 0.01 keeping dark pixels from dominating.
+    s.relative += d * d / (a[x] * a[x] + 0.01);
+  }
+  return s;
+}
+
+double values_per_image(const io::Image& r) { return 3.0 * double(r.width) * double(r.height); }
 
 // scikit-image's peak_signal_noise_ratio with data_range = 1: 10 log10(1 / MSE).
 Psnr psnr_unchecked(const io::Image& r, const io::Image& t) {
-  const double mse = mean_over_channels(r, t, Values::display, squared_error);
+  const double mse = sum_over_channels(r, t, Values::display, squared_error_row) / values_per_image(r);
   Psnr p;
   p.identical = mse == 0.0;
   if (!p.identical) p.db = 10.0 * std::log10(1.0 / mse);
   return p;
 }
 
-double rmse_unchecked(const io::Image& r, const io::Image& t) {
-  return std::sqrt(mean_over_channels(r, t, Values::linear, squared_error));
+// Mean squared, absolute and relative squared error on linear values.
+ErrorSums linear_errors(const io::Image& r, const io::Image& t) {
+  ErrorSums s = sum_over_channels(r, t, Values::linear, error_sums_row);
+  const double n = values_per_image(r);
+  return {s.squared / n, s.absolute / n, s.relative / n};
 }
 
-double mae_unchecked(const io::Image& r, const io::Image& t) {
-  return mean_over_channels(r, t, Values::linear,
-                            [](double a, double b) { return detail::abs_d(b - a); });
-}
-
-// Relative MSE as rendering papers use it (e.g. Rousselle et al. 2011): the squared error over the
-// squared reference, with 0.01 keeping dark pixels from dominating.
-double relmse_unchecked(const io::Image& r, const io::Image& t) {
-  return mean_over_channels(r, t, Values::linear,
-                            [](double a, double b) { return (b - a) * (b - a) / (a * a + 0.01); });
-}
-
-// Rec. 709 luma of the display-encoded colour channels, one value per pixel.
-std::vector<double> display_luma(const io::Image& frame) {
+// Rec. 709 luma of the display-encoded colour channels of row y; channel is scratch of width.
+void display_luma_row(const io::Image& frame, int y, double* luma, double* channel) {
   const size_t w = size_t(frame.width);
-  std::vector<double> luma(frame.pixel_count());
-  tbb::parallel_for(0, frame.height, [&](int y) {
-    std::vector<double> row(w);
-    double* out = luma.data() + size_t(y) * w;
-    const double weights[3] = {0.2126, 0.7152, 0.0722};
-    for (int c = 0; c < 3; ++c) {
-      detail::convert_row(frame, y, c, Values::display, row.data());
-      for (size_t x = 0; x < w; ++x) out[x] = (c == 0 ? 0.0 : out[x]) + weights[c] * row[x];
-    }
-  });
-  return luma;
+  const double weights[3] = {0.2126, 0.7152, 0.0722};
+  for (int c = 0; c < 3; ++c) {
+    detail::convert_row(frame, y, c, Values::display, channel);
+    for (size_t x = 0; x < w; ++x) luma[x] = (c == 0 ? 0.0 : luma[x]) + weights[c] * channel[x];
+  }
 }
 
 }  // namespace
@@ -90,17 +109,17 @@ Psnr psnr(const io::Image& reference, const io::Image& test) {
 
 double rmse(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "RMSE");
-  return rmse_unchecked(reference, test);
+  return std::sqrt(linear_errors(reference, test).squared);
 }
 
 double mae(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "MAE");
-  return mae_unchecked(reference, test);
+  return linear_errors(reference, test).absolute;
 }
 
 double relmse(const io::Image& reference, const io::Image& test) {
   detail::check_pair(reference, test, "relMSE");
-  return relmse_unchecked(reference, test);
+  return linear_errors(reference, test).relative;
 }
 
 Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOptions& options,
@@ -114,9 +133,10 @@ Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOpt
   const Psnr p = psnr_unchecked(reference, test);
   s.psnr = p.db;
   s.identical = p.identical;
-  s.rmse = rmse_unchecked(reference, test);
-  s.mae = mae_unchecked(reference, test);
-  s.relmse = relmse_unchecked(reference, test);
+  const ErrorSums e = linear_errors(reference, test);
+  s.rmse = std::sqrt(e.squared);
+  s.mae = e.absolute;
+  s.relmse = e.relative;
   return s;
 }
 
@@ -137,22 +157,30 @@ double temporal_instability(const std::vector<io::Image>& reference_frames,
                                    reference_frames[i].width, reference_frames[i].height,
                                    first.width, first.height));
   }
-  std::vector<double> prev_r = display_luma(reference_frames[0]);
-  std::vector<double> prev_t = display_luma(test_frames[0]);
+  // Row by row through all frames, so only a few rows of luma exist at a time.
   const size_t w = size_t(first.width);
-  double total = 0;
-  for (size_t i = 1; i < reference_frames.size(); ++i) {
-    std::vector<double> cur_r = display_luma(reference_frames[i]);
-    std::vector<double> cur_t = display_luma(test_frames[i]);
-    total += sum_rows(0, first.height, [&](int y) {
-      double s = 0;
-      for (size_t x = size_t(y) * w, end = x + w; x < end; ++x)
+  tbb::enumerable_thread_specific<std::vector<double>> scratch(
+      [w] { return std::vector<double>(5 * w); });
+  const double total = sum_rows(0, first.height, [&](int y) {
+    std::vector<double>& buf = scratch.local();
+    double* prev_r = buf.data();
+    double* prev_t = prev_r + w;
+    double* cur_r = prev_t + w;
+    double* cur_t = cur_r + w;
+    double* channel = cur_t + w;
+    display_luma_row(reference_frames[0], y, prev_r, channel);
+    display_luma_row(test_frames[0], y, prev_t, channel);
+    double s = 0;
+    for (size_t i = 1; i < reference_frames.size(); ++i) {
+      display_luma_row(reference_frames[i], y, cur_r, channel);
+      display_luma_row(test_frames[i], y, cur_t, channel);
+      for (size_t x = 0; x < w; ++x)
         s += detail::abs_d((cur_t[x] - prev_t[x]) - (cur_r[x] - prev_r[x]));
-      return s;
-    });
-    prev_r = std::move(cur_r);
-    prev_t = std::move(cur_t);
-  }
+      std::swap(prev_r, cur_r);
+      std::swap(prev_t, cur_t);
+    }
+    return s;
+  });
   return total / (double(reference_frames.size() - 1) * double(first.pixel_count()));
 }
 
