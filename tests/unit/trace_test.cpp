@@ -50,12 +50,13 @@ void append(scene::Mesh& to, const scene::Mesh& from) {
   for (auto t : from.triangles) to.triangles.push_back(t + glm::uvec3(base));
 }
 
-// Axis-aligned box; faces point outward, or inward for an enclosure.
+// Axis-aligned box; faces point outward, or inward for an enclosure (each face's (a, b) order below
+// winds it inward).
 scene::Mesh box_mesh(glm::vec3 lo, glm::vec3 hi, bool inward) {
   scene::Mesh m;
   glm::vec3 d = hi - lo;
   glm::vec3 ex{d.x, 0, 0}, ey{0, d.y, 0}, ez{0, 0, d.z};
-  auto face = [&](glm::vec3 c, glm::vec3 a, glm::vec3 b) { append(m, inward ? quad_mesh(c, b, a) : quad_mesh(c, a, b)); };
+  auto face = [&](glm::vec3 c, glm::vec3 a, glm::vec3 b) { append(m, inward ? quad_mesh(c, a, b) : quad_mesh(c, b, a)); };
   face(lo, ez, ex);            // -y
   face(lo + ey, ex, ez);       // +y
   face(lo, ey, ez);            // -x

@@ -65,37 +65,47 @@ EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& sta
   RTCDevice dev = device();
   top_ = rtcNewScene(dev);
   rtcSetSceneFlags(top_, RTC_SCENE_FLAG_DYNAMIC);
-  rtcSetSceneBuildQuality(top_, RTC_BUILD_QUALITY_LOW);
+  rtcSetSceneBuildQuality(top_, RTC_BUILD_QUALITY_MEDIUM);
   objects_.resize(scene.objects.size());
   for (uint32_t i = 0; i < objects_.size(); ++i) {
     const scene::Object& object = scene.objects[i];
     ObjectData& data = objects_[i];
     bool deforms = object.shape && object.shape->animated();
-    data.scene = rtcNewScene(dev);
-    rtcSetSceneBuildQuality(data.scene, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
-    if (deforms) rtcSetSceneFlags(data.scene, RTC_SCENE_FLAG_DYNAMIC);
-    data.geometry = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuildQuality(data.geometry, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
     if (!object.shape && object.mesh.triangles.empty())
       throw InputError(fmt::format("object '{}' has neither a shape nor a mesh", object.name));
-    const scene::Mesh* mesh = &object.mesh;
+    data.mesh = &object.mesh;
     if (deforms || object.mesh.triangles.empty()) {  // a deforming shape: its mesh at this frame
       data.deformed = std::make_unique<scene::Mesh>(object.shape->tessellate(state.time));
-      mesh = data.deformed.get();
+      data.mesh = data.deformed.get();
     }
-    if (mesh->triangles.empty()) throw InputError(fmt::format("object '{}' has no triangles", object.name));
+    const scene::Mesh& mesh = *data.mesh;
+    if (mesh.triangles.empty()) throw InputError(fmt::format("object '{}' has no triangles", object.name));
+    data.flattened = options_.flatten_static && !deforms && !object.transform.animated();
+    data.geometry = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(data.geometry, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
     auto* index = static_cast<glm::uvec3*>(rtcSetNewGeometryBuffer(
-        data.geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), mesh->triangles.size()));
-    std::memcpy(index, mesh->triangles.data(), mesh->triangles.size() * sizeof(glm::uvec3));
+        data.geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), mesh.triangles.size()));
+    std::memcpy(index, mesh.triangles.data(), mesh.triangles.size() * sizeof(glm::uvec3));
     rtcSetNewGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3),
-                            mesh->positions.size());
-    set_vertices(data, *mesh);
-    rtcAttachGeometry(data.scene, data.geometry);
-    rtcCommitScene(data.scene);
-    data.instance = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
-    rtcSetGeometryInstancedScene(data.instance, data.scene);
-    place_object(i, i < state.object_to_world.size() ? state.object_to_world[i] : glm::mat4(1.0f));
-    rtcAttachGeometryByID(top_, data.instance, i);
+                            mesh.positions.size());
+    data.local_bounds = Aabb{};
+    for (const auto& p : mesh.positions) data.local_bounds.extend(p);
+    glm::mat4 to_world = i < state.object_to_world.size() ? state.object_to_world[i] : glm::mat4(1.0f);
+    if (data.flattened) {
+      rtcAttachGeometryByID(top_, data.geometry, i);
+      place_object(i, to_world);  // writes the world-space vertices
+    } else {
+      data.scene = rtcNewScene(dev);
+      rtcSetSceneBuildQuality(data.scene, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+      if (deforms) rtcSetSceneFlags(data.scene, RTC_SCENE_FLAG_DYNAMIC);
+      set_vertices(data, mesh);
+      rtcAttachGeometry(data.scene, data.geometry);
+      rtcCommitScene(data.scene);
+      data.instance = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(data.instance, data.scene);
+      place_object(i, to_world);
+      rtcAttachGeometryByID(top_, data.instance, i);
+    }
   }
   light_geometry_.assign(state.lights.size(), nullptr);
   place_lights();
@@ -116,9 +126,7 @@ EmbreeScene::~EmbreeScene() {
 void EmbreeScene::set_vertices(ObjectData& data, const scene::Mesh& mesh) {
   auto* vertices = static_cast<glm::vec3*>(rtcGetGeometryBufferData(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0));
   std::memcpy(vertices, mesh.positions.data(), mesh.positions.size() * sizeof(glm::vec3));
-  data.local_bounds = Aabb{};
-  for (const auto& p : mesh.positions) data.local_bounds.extend(p);
-  data.mesh = &mesh;
+  data.geometry_mesh = &mesh;
   rtcUpdateGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(data.geometry);
 }
@@ -126,6 +134,24 @@ void EmbreeScene::set_vertices(ObjectData& data, const scene::Mesh& mesh) {
 void EmbreeScene::place_object(uint32_t i, const glm::mat4& to_world) {
   ObjectData& data = objects_[i];
   data.to_world = to_world;
+  if (data.flattened) {
+    const scene::Mesh& mesh = *data.mesh;
+    glm::mat3 nm = glm::transpose(glm::inverse(glm::mat3(to_world)));
+    data.world_mesh.positions.resize(mesh.positions.size());
+    data.world_mesh.normals.resize(mesh.normals.size());
+    data.world_mesh.triangles = mesh.triangles;
+    data.bounds = Aabb{};
+    for (size_t v = 0; v < mesh.positions.size(); ++v) {
+      data.world_mesh.positions[v] = glm::vec3(to_world * glm::vec4(mesh.positions[v], 1.f));
+      data.bounds.extend(data.world_mesh.positions[v]);
+    }
+    for (size_t v = 0; v < mesh.normals.size(); ++v) data.world_mesh.normals[v] = nm * mesh.normals[v];
+    data.geometry_to_world = glm::mat4(1.0f);
+    data.normal_to_world = glm::mat3(1.0f);
+    set_vertices(data, data.world_mesh);
+    return;
+  }
+  data.geometry_to_world = to_world;
   data.normal_to_world = glm::transpose(glm::inverse(glm::mat3(to_world)));
   data.bounds = transform_bounds(data.local_bounds, to_world);
   rtcSetGeometryTransform(data.instance, 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &data.to_world[0][0]);
@@ -172,6 +198,9 @@ void EmbreeScene::update(const scene::FrameState& state) {
         throw Error(fmt::format("object '{}': a deforming shape must keep its vertex and triangle count",
                                 scene_.objects[i].name));
       data.deformed = std::move(mesh);
+      data.mesh = data.deformed.get();
+      data.local_bounds = Aabb{};
+      for (const auto& p : data.mesh->positions) data.local_bounds.extend(p);
       set_vertices(data, *data.deformed);
       rtcCommitScene(data.scene);  // refit
       place_object(i, data.to_world);
@@ -207,23 +236,26 @@ bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float
   hit.primitive = rh.hit.primID;
   hit.barycentric = {rh.hit.u, rh.hit.v};
   float w = 1.f - rh.hit.u - rh.hit.v;
-  if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
-    uint32_t object = rh.hit.instID[0];
+  uint32_t object = rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID ? rh.hit.instID[0] : rh.hit.geomID;
+  if (object < objects_.size()) {
     hit.object = object;
     hit.material = scene_.objects[object].material;
     const ObjectData& data = objects_[object];
-    const scene::Mesh& mesh = *data.mesh;
+    const scene::Mesh& mesh = *data.geometry_mesh;
     const glm::uvec3 tri = mesh.triangles[rh.hit.primID];
-    glm::vec3 p0 = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri.x], 1.f));
-    glm::vec3 p1 = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri.y], 1.f));
-    glm::vec3 p2 = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri.z], 1.f));
+    glm::vec3 p0 = mesh.positions[tri.x], p1 = mesh.positions[tri.y], p2 = mesh.positions[tri.z];
+    if (!data.flattened) {
+      p0 = glm::vec3(data.geometry_to_world * glm::vec4(p0, 1.f));
+      p1 = glm::vec3(data.geometry_to_world * glm::vec4(p1, 1.f));
+      p2 = glm::vec3(data.geometry_to_world * glm::vec4(p2, 1.f));
+    }
     hit.position = w * p0 + rh.hit.u * p1 + rh.hit.v * p2;
     glm::vec3 ng = glm::cross(p1 - p0, p2 - p0);
     float len = glm::length(ng);
     ng = len > 0 ? ng / len : glm::vec3(0, 1, 0);
     if (!mesh.normals.empty()) {
       glm::vec3 n = w * mesh.normals[tri.x] + rh.hit.u * mesh.normals[tri.y] + rh.hit.v * mesh.normals[tri.z];
-      n = data.normal_to_world * n;
+      if (!data.flattened) n = data.normal_to_world * n;
       float nl = glm::length(n);
       hit.shading_normal = nl > 0 ? n / nl : ng;
       if (glm::dot(ng, hit.shading_normal) < 0) ng = -ng;
@@ -232,7 +264,6 @@ bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float
     }
     hit.geometric_normal = ng;
   } else {
-    uint32_t object = rh.hit.geomID;
     hit.object = object;
     hit.material = 0;
     hit.position = origin + hit.t * dir;
@@ -260,11 +291,11 @@ bool EmbreeScene::occluded(const glm::vec3& origin, const glm::vec3& dir, float 
 
 Triangle EmbreeScene::triangle(uint32_t object, uint32_t primitive) const {
   const ObjectData& data = objects_[object];
-  const scene::Mesh& mesh = *data.mesh;
+  const scene::Mesh& mesh = *data.geometry_mesh;
   const glm::uvec3 tri = mesh.triangles[primitive];
   Triangle out;
   for (int k = 0; k < 3; ++k) {
-    out.p[k] = glm::vec3(data.to_world * glm::vec4(mesh.positions[tri[k]], 1.f));
+    out.p[k] = glm::vec3(data.geometry_to_world * glm::vec4(mesh.positions[tri[k]], 1.f));
     out.n[k] = mesh.normals.empty() ? glm::vec3(0.f) : data.normal_to_world * mesh.normals[tri[k]];
   }
   return out;

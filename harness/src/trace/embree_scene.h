@@ -53,6 +53,10 @@ struct Aabb {
 
 struct EmbreeOptions {
   bool quad_lights_as_geometry = true;
+  // Objects that never move (Object::moves() false) go into the top-level scene in world space rather
+  // than behind an instance: one BVH level less on every ray. If such an object's transform changes
+  // anyway, its vertices are re-transformed (correct, just slower than an instance).
+  bool flatten_static = true;
 };
 
 class EmbreeScene {
@@ -89,13 +93,17 @@ class EmbreeScene {
 
  private:
   struct ObjectData {
-    RTCScene scene = nullptr;
-    RTCGeometry geometry = nullptr;  // triangles, in the object's own scene
-    RTCGeometry instance = nullptr;  // in the top-level scene
-    glm::mat4 to_world{1.0f};
-    glm::mat3 normal_to_world{1.0f};
-    const scene::Mesh* mesh = nullptr;
+    bool flattened = false;          // world-space triangles in the top-level scene
+    RTCScene scene = nullptr;        // instanced: the object's own scene
+    RTCGeometry geometry = nullptr;  // triangles (in `scene`, or in the top-level scene if flattened)
+    RTCGeometry instance = nullptr;  // instanced: in the top-level scene
+    glm::mat4 to_world{1.0f};        // the frame's object-to-world transform
+    glm::mat4 geometry_to_world{1.0f};  // of the vertices the BVH holds (identity when flattened)
+    glm::mat3 normal_to_world{1.0f};    // inverse transpose of geometry_to_world
+    const scene::Mesh* mesh = nullptr;  // object space
+    const scene::Mesh* geometry_mesh = nullptr;  // what the BVH holds: *mesh, or world_mesh
     std::unique_ptr<scene::Mesh> deformed;  // owned current mesh of an animated shape
+    scene::Mesh world_mesh;                 // flattened: the mesh in world space
     Aabb local_bounds;                      // object space
     Aabb bounds;                            // world
   };

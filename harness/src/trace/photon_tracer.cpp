@@ -238,26 +238,56 @@ void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, bool keep
   }
 }
 
-// Concatenates block outputs in block order (the fixed partition makes this thread-count independent).
-void gather(std::vector<BlockOutput>& blocks, uint32_t path_offset, bool keep, PhotonBatch& out, TraceStats& stats) {
-  size_t photons = out.photons.size(), vertices = out.paths.vertices.size();
-  for (auto& b : blocks) {
-    for (auto& p : b.paths) {
-      p.first_photon += uint32_t(out.photons.size());
-      p.first_vertex += uint32_t(out.paths.vertices.size());
-    }
-    for (auto& ph : b.photons) ph.path += path_offset;
-    if (keep) {
-      out.paths.paths.insert(out.paths.paths.end(), b.paths.begin(), b.paths.end());
-      out.paths.vertices.insert(out.paths.vertices.end(), b.vertices.begin(), b.vertices.end());
-    }
-    out.photons.insert(out.photons.end(), b.photons.begin(), b.photons.end());
-    stats.rays += b.rays;
-    stats.paths_retraced += b.paths_retraced;
-    stats.segments_retraced += b.segments_retraced;
+// Concatenates block outputs in block order (the fixed partition makes this thread-count independent):
+// sizes first, then every block copies itself into place in parallel.
+void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
+            PhotonBatch& out, TraceStats& stats) {
+  std::vector<size_t> photon_at(block_count + 1), vertex_at(block_count + 1), path_at(block_count + 1);
+  photon_at[0] = out.photons.size();
+  vertex_at[0] = out.paths.vertices.size();
+  path_at[0] = out.paths.paths.size();
+  for (size_t b = 0; b < block_count; ++b) {
+    photon_at[b + 1] = photon_at[b] + blocks[b].photons.size();
+    vertex_at[b + 1] = vertex_at[b] + (keep ? blocks[b].vertices.size() : 0);
+    path_at[b + 1] = path_at[b] + (keep ? blocks[b].paths.size() : 0);
+    stats.rays += blocks[b].rays;
+    stats.paths_retraced += blocks[b].paths_retraced;
+    stats.segments_retraced += blocks[b].segments_retraced;
   }
-  (void)photons;
-  (void)vertices;
+  out.photons.resize(photon_at[block_count]);
+  if (keep) {
+    out.paths.vertices.resize(vertex_at[block_count]);
+    out.paths.paths.resize(path_at[block_count]);
+  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, block_count, 4), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b != r.end(); ++b) {
+      BlockOutput& o = blocks[b];
+      PhotonRecord* ph = out.photons.data() + photon_at[b];
+      for (size_t i = 0; i < o.photons.size(); ++i) {
+        ph[i] = o.photons[i];
+        ph[i].path += path_offset;
+      }
+      if (!keep) continue;
+      std::copy(o.vertices.begin(), o.vertices.end(), out.paths.vertices.begin() + vertex_at[b]);
+      LightPath* paths = out.paths.paths.data() + path_at[b];
+      for (size_t i = 0; i < o.paths.size(); ++i) {
+        paths[i] = o.paths[i];
+        paths[i].first_photon += uint32_t(photon_at[b]);
+        paths[i].first_vertex += uint32_t(vertex_at[b]);
+      }
+    }
+  });
+}
+
+// Block outputs reused from call to call, so their memory is not faulted in again every frame.
+void reset_blocks(std::vector<BlockOutput>& blocks, size_t count) {
+  if (blocks.size() < count) blocks.resize(count);
+  for (size_t b = 0; b < count; ++b) {
+    blocks[b].paths.clear();
+    blocks[b].vertices.clear();
+    blocks[b].photons.clear();
+    blocks[b].rays = blocks[b].paths_retraced = blocks[b].segments_retraced = 0;
+  }
 }
 
 // The world as a path set remembers it: per emitter, what decides where its photons start.
@@ -333,7 +363,13 @@ std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& 
   return count;
 }
 
-EmbreePhotonTracer::EmbreePhotonTracer(const EmbreeScene& world) : world_(world) {}
+struct EmbreePhotonTracer::Scratch {
+  std::vector<BlockOutput> blocks;
+};
+
+EmbreePhotonTracer::EmbreePhotonTracer(const EmbreeScene& world)
+    : world_(world), scratch_(std::make_unique<Scratch>()) {}
+EmbreePhotonTracer::~EmbreePhotonTracer() = default;
 
 uint32_t EmbreePhotonTracer::light_count() const { return LightSet(world_).size(); }
 
@@ -381,7 +417,8 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     for (uint32_t e = 0; e < lights.size(); ++e)
       for (uint32_t j = 0; j < alloc[e]; ++j) tasks.push_back({e, emitted[e] + j});
     uint32_t blocks = uint32_t((tasks.size() + kBlockSize - 1) / kBlockSize);
-    std::vector<BlockOutput> outputs(blocks);
+    std::vector<BlockOutput>& outputs = scratch_->blocks;
+    reset_blocks(outputs, blocks);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
       std::vector<PathVertex> verts;
       std::vector<PhotonRecord> photons;
@@ -399,7 +436,7 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
         }
       }
     });
-    gather(outputs, total, keep, out, stats);
+    gather(outputs, blocks, total, keep, out, stats);
     for (uint32_t e = 0; e < lights.size(); ++e) emitted[e] += alloc[e];
     total += uint32_t(tasks.size());
     if (settings.photon_target == 0 || out.photons.size() >= settings.photon_target ||
@@ -502,7 +539,8 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
   Context c{&world_, &lights, &densities_, old.seed, old.max_bounces, old.store, old.rr_start, &emission_count};
   uint32_t n_paths = uint32_t(old.paths.size());
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
-  std::vector<BlockOutput> outputs(blocks);
+  std::vector<BlockOutput>& outputs = scratch_->blocks;
+  reset_blocks(outputs, blocks);
   const std::vector<PhotonRecord>& old_photons = batch.photons;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
     std::vector<PathVertex> verts;
@@ -584,7 +622,7 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
   });
   PhotonBatch next;
   TraceStats stats;
-  gather(outputs, 0, true, next, stats);
+  gather(outputs, blocks, 0, true, next, stats);
   next.paths.object_to_world.resize(n_objects);
   for (uint32_t ob = 0; ob < n_objects; ++ob) next.paths.object_to_world[ob] = world_.object_to_world(ob);
   next.paths.light_state = std::move(now_state);

@@ -31,6 +31,7 @@ namespace pb::trace {
 class EmbreePhotonTracer final : public PhotonTracer {
  public:
   explicit EmbreePhotonTracer(const EmbreeScene& world);
+  ~EmbreePhotonTracer() override;
   uint32_t light_count() const override;
   glm::vec3 light_power(uint32_t light) const override;
   void set_emission_density(uint32_t light, const EmissionDensity* density) override;
@@ -42,7 +43,9 @@ class EmbreePhotonTracer final : public PhotonTracer {
   static std::vector<uint32_t> split_paths(const std::vector<float>& powers, uint32_t paths);
 
  private:
+  struct Scratch;
   const EmbreeScene& world_;
+  std::unique_ptr<Scratch> scratch_;
   std::vector<std::shared_ptr<const Distribution2D>> densities_;
   std::vector<uint32_t> density_version_;
 };

@@ -136,7 +136,7 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
     if (!world.intersect(origin, dir, kInfinity, hit)) break;
     glm::vec3 wo = -dir;
     glm::vec3 le = lights.emitted(hit, wo);
-    if (max3(le) > 0 && !(state.anchor && prev_specular)) {
+    if (max3(le) > 0 && !(state.anchor && prev_specular) && (wanted & (1u << state.classify()))) {
       float w = 1.f;
       if (!prev_delta) w = power_heuristic(prev_pdf, lights.pdf_incident(prev_position, hit));
       out.value[state.classify()] += beta * le * w;
@@ -147,7 +147,7 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
     ClassState next = state.push(diffuse);
     if ((next.reachable() & wanted) == 0) break;
     // Next-event estimation (skipped where SPPM owns the path: a specular vertex after the anchor).
-    if (bsdf.can_eval() && !(next.anchor && !diffuse)) {
+    if (bsdf.can_eval() && !(next.anchor && !diffuse) && (wanted & (1u << next.classify()))) {
       IncidentSample is;
       float u_select = rng.next_float();
       glm::vec2 u = rng.next_2d();
@@ -418,7 +418,12 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
       PhotonBatch batch;
       TraceSettings ts;
       ts.paths = options.sppm_photons;
-      ts.store = kCausticPhotons | kCausticIndirectPhotons;
+      // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and specular.
+      ts.store = 0;
+      if (wanted & (class_bit(PathClass::caustics) | class_bit(PathClass::indirect_caustics)))
+        ts.store |= kCausticPhotons;
+      if (wanted & (class_bit(PathClass::indirect) | class_bit(PathClass::specular)))
+        ts.store |= kCausticIndirectPhotons;
       ts.max_bounces = std::min(31u, std::max(1u, options.max_depth));
       ts.seed = hash_combine(iteration_seed, 0x9407u);
       ts.seed_per_frame = false;

@@ -12,44 +12,55 @@ namespace {
 // the index). Dimension d >= 1 uses the primitive polynomial of degree s with inner coefficients `a`
 // and initial odd integers m_1..m_s (Joe & Kuo 2008, table entries d = 2, 3, 4); the rest follow the
 // recurrence m_k = 2 a_1 m_{k-1} ^ 4 a_2 m_{k-2} ^ ... ^ 2^s m_{k-s} ^ m_{k-s}.
-struct SobolMatrices {
+constexpr std::array<std::array<uint32_t, 32>, 4> make_sobol_matrices() {
   std::array<std::array<uint32_t, 32>, 4> v{};
-  SobolMatrices() {
-    for (int k = 0; k < 32; ++k) v[0][k] = 1u << (31 - k);
-    struct Poly {
-      int s;
-      uint32_t a;
-      std::array<uint32_t, 3> m;
-    };
-    const Poly polys[3] = {{1, 0, {1, 0, 0}}, {2, 1, {1, 3, 0}}, {3, 1, {1, 3, 1}}};
-    for (int d = 1; d < 4; ++d) {
-      const Poly& p = polys[d - 1];
-      std::array<uint32_t, 33> m{};  // 1-based
-      for (int k = 1; k <= p.s; ++k) m[k] = p.m[k - 1];
-      for (int k = p.s + 1; k <= 32; ++k) {
-        uint32_t value = m[k - p.s] ^ (m[k - p.s] << p.s);
-        for (int j = 1; j < p.s; ++j)
-          if ((p.a >> (p.s - 1 - j)) & 1u) value ^= m[k - j] << j;
-        m[k] = value;
-      }
-      for (int k = 1; k <= 32; ++k) v[d][k - 1] = m[k] << (32 - k);
+  for (int k = 0; k < 32; ++k) v[0][k] = 1u << (31 - k);
+  struct Poly {
+    int s;
+    uint32_t a;
+    uint32_t m[3];
+  };
+  const Poly polys[3] = {{1, 0, {1, 0, 0}}, {2, 1, {1, 3, 0}}, {3, 1, {1, 3, 1}}};
+  for (int d = 1; d < 4; ++d) {
+    const Poly& p = polys[d - 1];
+    uint32_t m[33] = {};  // 1-based
+    for (int k = 1; k <= p.s; ++k) m[k] = p.m[k - 1];
+    for (int k = p.s + 1; k <= 32; ++k) {
+      uint32_t value = m[k - p.s] ^ (m[k - p.s] << p.s);
+      for (int j = 1; j < p.s; ++j)
+        if ((p.a >> (p.s - 1 - j)) & 1u) value ^= m[k - j] << j;
+      m[k] = value;
     }
+    for (int k = 1; k <= 32; ++k) v[d][k - 1] = m[k] << (32 - k);
   }
-};
-
-const SobolMatrices& sobol_matrices() {
-  static const SobolMatrices matrices;
-  return matrices;
+  return v;
 }
+
+// Byte tables: the matrix-vector product over GF(2) of one index byte, so a point costs four lookups
+// (the photon tracer evaluates several per bounce).
+struct SobolTables {
+  uint32_t t[4][4][256];
+};
+constexpr SobolTables make_sobol_tables() {
+  SobolTables tables{};
+  auto v = make_sobol_matrices();
+  for (int d = 0; d < 4; ++d)
+    for (int byte = 0; byte < 4; ++byte)
+      for (uint32_t x = 0; x < 256; ++x) {
+        uint32_t r = 0;
+        for (int bit = 0; bit < 8; ++bit)
+          if ((x >> bit) & 1u) r ^= v[d][byte * 8 + bit];
+        tables.t[d][byte][x] = r;
+      }
+  return tables;
+}
+constexpr SobolTables kSobolTables = make_sobol_tables();
 
 }  // namespace
 
 uint32_t sobol_u32(uint32_t index, int dimension) {
-  const auto& v = sobol_matrices().v[dimension];
-  uint32_t result = 0;
-  for (int k = 0; index; ++k, index >>= 1)
-    if (index & 1u) result ^= v[k];
-  return result;
+  const auto& t = kSobolTables.t[dimension];
+  return t[0][index & 0xffu] ^ t[1][(index >> 8) & 0xffu] ^ t[2][(index >> 16) & 0xffu] ^ t[3][index >> 24];
 }
 
 Distribution2D::Distribution2D(int width, int height, const std::vector<float>& values)

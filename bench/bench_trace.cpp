@@ -1,0 +1,179 @@
+// bench_trace: ray throughput of our Embree path tracer (the reference renderer) next to Embree's own
+// `pathtracer` tutorial (Debian package embree-tools) on the same triangles and camera, as a ratio
+// (issue 4 target: at least 0.8x), plus the photon tracer's throughput on the same scene.
+//
+//   bench_trace [--scene scenes/cornell-box.yaml] [--spp 8] [--depth 8] [--frames 5] [--pathtracer PATH]
+//
+// The scene's triangles are written in world space to an OBJ (+ MTL with Kd) in a temporary directory;
+// the tutorial renders it at 640x360 with the same camera (--vp/--vi/--vu/--fov, vertical fov), the
+// same samples per pixel and path length, and reports Mrays/s from its own ray counters
+// (BENCHMARK_RENDER_MRAYPS_AVG of --benchmark). Both sides use all hardware threads.
+#include <fmt/format.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <glm/glm.hpp>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "photonbench/photons.h"
+#include "scene/scene.h"
+#include "trace/embree_scene.h"
+#include "trace/photon_tracer.h"
+#include "trace/reference.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void write_obj(const pb::scene::Scene& scene, const pb::scene::FrameState& state, const fs::path& dir) {
+  std::ofstream mtl(dir / "scene.mtl");
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    const auto& mat = scene.materials[m];
+    mtl << fmt::format("newmtl m{}\nKd {} {} {}\n", m, mat.albedo.x, mat.albedo.y, mat.albedo.z);
+  }
+  std::ofstream obj(dir / "scene.obj");
+  obj << "mtllib scene.mtl\n";
+  size_t base = 1;
+  for (size_t o = 0; o < scene.objects.size(); ++o) {
+    const auto& mesh = scene.objects[o].mesh;
+    glm::mat4 m = o < state.object_to_world.size() ? state.object_to_world[o] : glm::mat4(1.f);
+    glm::mat3 nm = glm::transpose(glm::inverse(glm::mat3(m)));
+    obj << fmt::format("o {}\nusemtl m{}\n", scene.objects[o].name, scene.objects[o].material);
+    for (const auto& p : mesh.positions) {
+      glm::vec3 w = glm::vec3(m * glm::vec4(p, 1.f));
+      obj << fmt::format("v {} {} {}\n", w.x, w.y, w.z);
+    }
+    for (const auto& n : mesh.normals) {
+      glm::vec3 w = glm::normalize(nm * n);
+      obj << fmt::format("vn {} {} {}\n", w.x, w.y, w.z);
+    }
+    bool normals = mesh.normals.size() == mesh.positions.size();
+    for (const auto& t : mesh.triangles) {
+      if (normals)
+        obj << fmt::format("f {0}//{0} {1}//{1} {2}//{2}\n", t.x + base, t.y + base, t.z + base);
+      else
+        obj << fmt::format("f {} {} {}\n", t.x + base, t.y + base, t.z + base);
+    }
+    base += mesh.positions.size();
+  }
+}
+
+std::string run_capture(const std::string& command) {
+  std::string out;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return out;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), int(buf.size()), pipe)) out += buf.data();
+  pclose(pipe);
+  return out;
+}
+
+double parse_value(const std::string& text, const std::string& key) {
+  size_t at = text.find(key + " ");
+  if (at == std::string::npos) return -1;
+  return std::atof(text.c_str() + at + key.size() + 1);
+}
+
+std::string find_pathtracer() {
+  for (const char* p : {"/usr/bin/pathtracer", "/usr/local/bin/pathtracer"})
+    if (fs::exists(p)) return p;
+  std::string listed = run_capture("dpkg -L embree-tools 2>/dev/null | grep '/pathtracer$' | head -n1");
+  while (!listed.empty() && (listed.back() == '\n' || listed.back() == '\r')) listed.pop_back();
+  return listed;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // The source tree is two levels above this file (bench/CMakeLists.txt defines no PB_SOURCE_DIR).
+  const fs::path source_dir = fs::path(__FILE__).parent_path().parent_path();
+  std::map<std::string, std::string> opt = {{"--scene", (source_dir / "scenes/cornell-box.yaml").string()},
+                                            {"--spp", "8"},
+                                            {"--depth", "8"},
+                                            {"--frames", "5"},
+                                            {"--pathtracer", ""}};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!opt.count(argv[i])) {
+      std::fprintf(stderr, "usage: bench_trace [--scene FILE] [--spp N] [--depth N] [--frames N] [--pathtracer PATH]\n");
+      return 2;
+    }
+    opt[argv[i]] = argv[i + 1];
+  }
+  const int width = 640, height = 360;
+  const uint32_t spp = uint32_t(std::stoul(opt["--spp"])), depth = uint32_t(std::stoul(opt["--depth"]));
+  const int frames = std::stoi(opt["--frames"]);
+
+  pb::scene::Scene scene = pb::scene::load_scene(opt["--scene"]);
+  pb::scene::FrameState state = scene.at(0);
+  pb::trace::EmbreeScene world(scene, state);
+  size_t triangles = 0;
+  for (const auto& o : scene.objects) triangles += o.mesh.triangle_count();
+  std::printf("bench_trace: %s, %zu triangles, %dx%d, %u spp, max path length %u\n", scene.name.c_str(), triangles,
+              width, height, spp, depth);
+
+  // ---- ours: the reference path tracer (NEE + MIS), all classes' bookkeeping included ----
+  pb::trace::ReferenceOptions o;
+  o.samples = spp;
+  o.max_depth = depth;
+  auto mask = pb::trace::class_bit(pb::trace::PathClass::combined);
+  pb::trace::render_reference_classes(world, width, height, mask, o);  // warm-up
+  std::vector<double> ours;
+  for (int f = 0; f < frames; ++f) {
+    o.seed = uint32_t(f + 2);
+    auto r = pb::trace::render_reference_classes(world, width, height, mask, o);
+    ours.push_back(r.mrays_per_second());
+  }
+  std::sort(ours.begin(), ours.end());
+  double ours_median = ours[ours.size() / 2];
+
+  // ---- the photon tracer on the same scene ----
+  pb::trace::EmbreePhotonTracer tracer(world);
+  pb::trace::TraceSettings ts;
+  ts.paths = 500000;
+  ts.store = pb::trace::kAllPhotons;
+  pb::trace::PhotonBatch batch;
+  tracer.trace(ts, batch);
+  std::vector<double> photon_rates;
+  for (int f = 0; f < frames; ++f) photon_rates.push_back(tracer.trace(ts, batch).mrays_per_second());
+  std::sort(photon_rates.begin(), photon_rates.end());
+
+  // ---- Embree's pathtracer tutorial on the same OBJ and camera ----
+  fs::path dir = fs::temp_directory_path() / fmt::format("pb_bench_trace_{}", ::getpid());
+  fs::create_directories(dir);
+  write_obj(scene, state, dir);
+  std::string pathtracer = opt["--pathtracer"].empty() ? find_pathtracer() : opt["--pathtracer"];
+  double theirs = -1;
+  if (pathtracer.empty()) {
+    std::printf("embree pathtracer not found (install embree-tools); no ratio\n");
+  } else {
+    const auto& c = state.camera;
+    glm::vec3 light = state.lights.empty() ? glm::vec3(0, 1, 0) : state.lights[0].position;
+    glm::vec3 power = state.lights.empty() ? glm::vec3(1) : state.lights[0].radiant;
+    std::string cmd = fmt::format(
+        "cd '{}' && '{}' -i scene.obj --vp {} {} {} --vi {} {} {} --vu {} {} {} --fov {} --size {} {} --spp {} "
+        "--max-path-length {} --pointlight {} {} {} {} {} {} --benchmark 1 {} 2>&1",
+        dir.string(), pathtracer, c.position.x, c.position.y, c.position.z, c.target.x, c.target.y, c.target.z,
+        c.up.x, c.up.y, c.up.z, glm::degrees(c.fov_y), width, height, spp, depth, light.x, light.y, light.z,
+        power.x, power.y, power.z, frames);
+    std::string out = run_capture(cmd);
+    theirs = parse_value(out, "BENCHMARK_RENDER_MRAYPS_AVG");
+    if (theirs <= 0) std::printf("could not read the tutorial's Mrays/s; its output:\n%s\n", out.c_str());
+  }
+  fs::remove_all(dir);
+
+  std::printf("%-34s %10s\n", "", "Mrays/s");
+  std::printf("%-34s %10.2f\n", "photonbench reference path tracer", ours_median);
+  if (theirs > 0) std::printf("%-34s %10.2f\n", "embree pathtracer tutorial", theirs);
+  std::printf("%-34s %10.2f\n", "photonbench photon tracer", photon_rates[photon_rates.size() / 2]);
+  if (theirs > 0) std::printf("ratio (ours / embree): %.2fx  (target >= 0.8x)\n", ours_median / theirs);
+  return 0;
+}

@@ -1,0 +1,109 @@
+// `photonbench reference SCENE`: renders reference images of a scene's frames into the content-addressed
+// cache (resumable: what is cached is skipped), with progress. The loop itself is
+// pb::trace::render_references, which the runner calls for the frames a config scores.
+#include <fmt/format.h>
+
+#include <bit>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "cli/command.h"
+#include "photonbench/error.h"
+#include "scene/scene.h"
+#include "trace/reference.h"
+
+namespace {
+
+struct Args {
+  std::string scene;
+  std::string frames;
+  std::vector<std::string> classes;
+  uint32_t samples = 256;
+  uint32_t photons = 200000;
+  std::string resolution = "640x360";
+  std::string cache = "results/reference-cache";
+  uint32_t seed = 1;
+  float rel_error = 0;
+  int threads = 0;
+};
+
+// "a:b" (inclusive), "a" or "" (the scene's default animation).
+std::pair<uint32_t, uint32_t> parse_frames(const std::string& text, uint32_t default_frames) {
+  if (text.empty()) return {0, default_frames > 0 ? default_frames - 1 : 0};
+  try {
+    size_t colon = text.find(':');
+    if (colon == std::string::npos) {
+      uint32_t f = uint32_t(std::stoul(text));
+      return {f, f};
+    }
+    uint32_t a = uint32_t(std::stoul(text.substr(0, colon))), b = uint32_t(std::stoul(text.substr(colon + 1)));
+    if (b < a) throw pb::InputError("");
+    return {a, b};
+  } catch (const std::exception&) {
+    throw pb::InputError(fmt::format("--frames: '{}' is not FIRST:LAST or FRAME", text));
+  }
+}
+
+std::pair<int, int> parse_resolution(const std::string& text) {
+  int w = 0, h = 0;
+  char x = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w <= 0 || h <= 0 ||
+      w > 16384 || h > 16384)
+    throw pb::InputError(fmt::format("--resolution: '{}' is not WIDTHxHEIGHT", text));
+  return {w, h};
+}
+
+void add_reference(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand(
+      "reference", "render reference images (path tracing + SPPM) of a scene's frames into the cache");
+  cmd->add_option("scene", args->scene, "scene name (under scenes/) or path to a scene file")->required();
+  cmd->add_option("--frames", args->frames, "FIRST:LAST or FRAME (default: the scene's animation)");
+  std::string class_help = "path class, repeatable: ";
+  for (auto c : pb::trace::all_path_classes())
+    class_help += fmt::format("{} ({}); ", pb::trace::path_class_name(c), pb::trace::path_class_expression(c));
+  cmd->add_option("--class", args->classes, class_help + "default combined");
+  cmd->add_option("--samples", args->samples, "samples per pixel (= SPPM iterations)")->check(CLI::Range(1u, 1u << 24));
+  cmd->add_option("--photons", args->photons, "photon paths per SPPM iteration")->check(CLI::Range(1u, 1u << 26));
+  cmd->add_option("--resolution", args->resolution, "WIDTHxHEIGHT");
+  cmd->add_option("--cache", args->cache, "cache directory");
+  cmd->add_option("--seed", args->seed, "random seed");
+  cmd->add_option("--rel-error", args->rel_error, "stop a frame early at this estimated relative RMS error")
+      ->check(CLI::Range(0.f, 1.f));
+  cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")->check(CLI::Range(0, 4096));
+  cmd->callback([args, &exit_code] {
+    auto file = pb::scene::find_scene(args->scene, {});
+    pb::scene::Scene scene = pb::scene::load_scene(file);
+    auto [first, last] = parse_frames(args->frames, scene.default_frames);
+    auto [width, height] = parse_resolution(args->resolution);
+    uint32_t mask = 0;
+    if (args->classes.empty()) args->classes.push_back("combined");
+    for (const auto& name : args->classes) {
+      auto c = pb::trace::parse_path_class(name);
+      if (!c) throw pb::InputError(fmt::format("--class: unknown path class '{}'", name));
+      mask |= pb::trace::class_bit(*c);
+    }
+    pb::trace::ReferenceOptions options;
+    options.samples = args->samples;
+    options.sppm_photons = args->photons;
+    options.seed = args->seed;
+    options.rel_error = args->rel_error;
+    options.threads = args->threads;
+    pb::trace::ReferenceCache cache(args->cache);
+    std::printf("reference: %s frames %u..%u, %dx%d, %d class(es), %u samples, cache %s\n", scene.name.c_str(),
+                first, last, width, height, std::popcount(mask), args->samples, args->cache.c_str());
+    std::fflush(stdout);
+    auto report = pb::trace::render_references(scene, first, last, mask, width, height, options, cache,
+                                               [](const std::string& line) {
+                                                 std::printf("%s\n", line.c_str());
+                                                 std::fflush(stdout);
+                                               });
+    std::printf("reference: %d rendered, %d cached, %.1f s\n", report.rendered, report.cached, report.seconds);
+    exit_code = 0;
+  });
+}
+
+pb::cli::CommandRegistration registration{"reference", add_reference};
+
+}  // namespace

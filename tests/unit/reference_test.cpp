@@ -1,0 +1,401 @@
+// The reference renderer (src/trace/reference.h): analytic images first (camera model, white furnace,
+// a point light over a plane, a caustic through a flat mirror), then the statistics of convergence
+// (path tracing at samples^-1/2, SPPM's caustics converging), the path-class partition and the cache.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include "trace/embree_scene.h"
+#include "trace/reference.h"
+#include "trace/sampling.h"
+
+namespace pb::trace {
+namespace {
+
+// ---- scenes built in code ------------------------------------------------------------------------
+
+class FixedShape final : public scene::Shape {
+ public:
+  explicit FixedShape(scene::Mesh mesh) : mesh_(std::move(mesh)) {}
+  scene::Mesh tessellate(float) const override { return mesh_; }
+  std::string kind() const override { return "fixed"; }
+
+ private:
+  scene::Mesh mesh_;
+};
+
+scene::Mesh quad_mesh(glm::vec3 corner, glm::vec3 eu, glm::vec3 ev) {
+  scene::Mesh m;
+  glm::vec3 n = glm::normalize(glm::cross(eu, ev));
+  m.positions = {corner, corner + eu, corner + eu + ev, corner + ev};
+  m.normals = {n, n, n, n};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return m;
+}
+
+scene::Mesh box_mesh(glm::vec3 lo, glm::vec3 hi, bool inward) {
+  scene::Mesh m;
+  glm::vec3 d = hi - lo;
+  glm::vec3 ex{d.x, 0, 0}, ey{0, d.y, 0}, ez{0, 0, d.z};
+  auto face = [&](glm::vec3 c, glm::vec3 a, glm::vec3 b) {
+    scene::Mesh q = inward ? quad_mesh(c, a, b) : quad_mesh(c, b, a);
+    uint32_t base = uint32_t(m.positions.size());
+    m.positions.insert(m.positions.end(), q.positions.begin(), q.positions.end());
+    m.normals.insert(m.normals.end(), q.normals.begin(), q.normals.end());
+    for (auto t : q.triangles) m.triangles.push_back(t + glm::uvec3(base));
+  };
+  face(lo, ez, ex);
+  face(lo + ey, ex, ez);
+  face(lo, ey, ez);
+  face(lo + ex, ez, ey);
+  face(lo, ex, ey);
+  face(lo + ez, ey, ex);
+  return m;
+}
+
+scene::Mesh sphere_mesh(glm::vec3 c, float r, int seg) {
+  scene::Mesh m;
+  int stacks = seg / 2;
+  for (int i = 0; i <= stacks; ++i)
+    for (int j = 0; j <= seg; ++j) {
+      float th = kPi * i / stacks, ph = 2 * kPi * j / seg;
+      glm::vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
+      m.positions.push_back(c + r * n);
+      m.normals.push_back(n);
+    }
+  for (int i = 0; i < stacks; ++i)
+    for (int j = 0; j < seg; ++j) {
+      uint32_t a = i * (seg + 1) + j, b = a + seg + 1;
+      if (i > 0) m.triangles.push_back({a, a + 1, b});
+      if (i < stacks - 1) m.triangles.push_back({a + 1, b + 1, b});
+    }
+  return m;
+}
+
+struct TestScene {
+  scene::Scene scene;
+  scene::FrameState state;
+  uint32_t material(scene::MaterialType type, glm::vec3 albedo, glm::vec3 emission = glm::vec3(0.f)) {
+    scene::Material m;
+    m.name = "m" + std::to_string(scene.materials.size());
+    m.type = type;
+    m.albedo = albedo;
+    m.emission = emission;
+    scene.materials.push_back(m);
+    return uint32_t(scene.materials.size() - 1);
+  }
+  void object(scene::Mesh mesh, uint32_t material) {
+    scene::Object o;
+    o.name = "o" + std::to_string(scene.objects.size());
+    o.shape = std::make_shared<FixedShape>(mesh);
+    o.mesh = std::move(mesh);
+    o.material = material;
+    scene.objects.push_back(std::move(o));
+    state.object_to_world.push_back(glm::mat4(1.f));
+  }
+  void camera(glm::vec3 position, glm::vec3 target, glm::vec3 up, float fov_deg) {
+    state.camera.position = position;
+    state.camera.target = target;
+    state.camera.up = up;
+    state.camera.fov_y = glm::radians(fov_deg);
+  }
+  void point_light(glm::vec3 p, float intensity) {
+    scene::Light l;
+    l.type = scene::LightType::point;
+    l.position = p;
+    l.radiant = glm::vec3(intensity);
+    state.lights.push_back(l);
+  }
+};
+
+scene::Scene load(const char* name) { return scene::load_scene(std::filesystem::path(PB_SOURCE_DIR) / "scenes" / name); }
+
+double mean_channel(const io::Image& img, int c) {
+  double s = 0;
+  for (size_t i = 0; i < img.pixel_count(); ++i) s += img.pixels[i * img.channels + c];
+  return s / img.pixel_count();
+}
+
+// relMSE with a floor of 1% of the mean squared reference, so black pixels do not dominate.
+double rel_mse(const io::Image& x, const io::Image& ref) {
+  double mean2 = 0;
+  for (float v : ref.pixels) mean2 += double(v) * v;
+  mean2 /= ref.pixels.size();
+  double acc = 0;
+  for (size_t i = 0; i < ref.pixels.size(); ++i) {
+    double d = double(x.pixels[i]) - ref.pixels[i];
+    acc += d * d / (double(ref.pixels[i]) * ref.pixels[i] + 0.01 * mean2);
+  }
+  return acc / ref.pixels.size();
+}
+
+double rmse(const io::Image& x, const io::Image& ref) {
+  double acc = 0;
+  for (size_t i = 0; i < ref.pixels.size(); ++i) acc += std::pow(double(x.pixels[i]) - ref.pixels[i], 2.0);
+  return std::sqrt(acc / ref.pixels.size());
+}
+
+// ---- camera ----------------------------------------------------------------------------------------
+
+// A point along the ray through pixel position (px, py) projects back to (px, py) with the harness's
+// Camera::view / projection (Vulkan clip space, y down): references and rasterised techniques see the
+// same pixels.
+TEST(Reference, CameraRaysMatchViewAndProjection) {
+  scene::Camera cam;
+  cam.position = {0.3f, 1.2f, 2.5f};
+  cam.target = {0.1f, 0.4f, -0.2f};
+  cam.up = {0, 1, 0};
+  cam.fov_y = glm::radians(50.f);
+  const int w = 160, h = 90;
+  glm::mat4 clip_from_world = cam.projection(float(w) / h) * cam.view();
+  for (glm::vec2 p : {glm::vec2(0.5f, 0.5f), glm::vec2(159.5f, 0.5f), glm::vec2(80, 45), glm::vec2(12.25f, 77.5f)}) {
+    CameraRay ray = camera_ray(cam, w, h, p.x, p.y);
+    glm::vec4 clip = clip_from_world * glm::vec4(ray.origin + 3.f * ray.direction, 1.f);
+    glm::vec2 ndc = glm::vec2(clip) / clip.w;
+    EXPECT_NEAR((ndc.x + 1) * 0.5f * w, p.x, 1e-3f);
+    EXPECT_NEAR((ndc.y + 1) * 0.5f * h, p.y, 1e-3f);
+  }
+}
+
+// ---- analytic images -------------------------------------------------------------------------------
+
+ReferenceOptions quick(uint32_t samples) {
+  ReferenceOptions o;
+  o.samples = samples;
+  o.sppm_photons = 20000;
+  return o;
+}
+
+// A white (albedo 1) diffuse ball inside a closed enclosure whose walls emit L = 1 and reflect nothing:
+// the ball reflects exactly what it receives, so every pixel shows radiance 1 (the "white furnace").
+TEST(Reference, WhiteFurnaceBallInUniformEmitterIsInvisible) {
+  TestScene t;
+  t.object(box_mesh({-2, -2, -2}, {2, 2, 2}, true),
+           t.material(scene::MaterialType::emissive, glm::vec3(0.f), glm::vec3(1.f)));
+  t.object(sphere_mesh({0, 0, 0}, 0.6f, 48), t.material(scene::MaterialType::diffuse, glm::vec3(1.f)));
+  t.camera({0, 0.2f, 1.8f}, {0, 0, 0}, {0, 1, 0}, 50.f);
+  // Few pixels, many samples: the per-sample spread of NEE + MIS here is about 0.3.
+  io::Image img = render_reference(t.scene, t.state, PathClass::combined, 8, 8, quick(32768), {});
+  double worst = 0;
+  for (float v : img.pixels) worst = std::max(worst, std::abs(v - 1.0));
+  EXPECT_LT(worst, 0.01);
+  EXPECT_NEAR(mean_channel(img, 1), 1.0, 0.002);
+}
+
+// A closed enclosure of diffuse emitters with albedo 1/2 and L_e = 1: L = L_e + a L, so L = 2 everywhere
+// (all interreflections, Russian roulette included).
+TEST(Reference, WhiteFurnaceEmittingEnclosureReachesTheNeumannSum) {
+  TestScene t;
+  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
+           t.material(scene::MaterialType::emissive, glm::vec3(0.5f), glm::vec3(1.f)));
+  t.camera({0.2f, 0.1f, 0.5f}, {0, 0, -1}, {0, 1, 0}, 70.f);
+  io::Image img = render_reference(t.scene, t.state, PathClass::combined, 8, 8, quick(32768), {});
+  double worst = 0;
+  for (float v : img.pixels) worst = std::max(worst, std::abs(v / 2.0 - 1.0));
+  EXPECT_LT(worst, 0.01);
+  EXPECT_NEAR(mean_channel(img, 0), 2.0, 0.004);
+}
+
+// A point light of intensity I at height h over a Lambertian plane of albedo a: L = a / pi * I cos / r^2
+// at every point. Checked on a row of pixels against the analytic value averaged over each pixel.
+TEST(Reference, PointLightOverPlaneMatchesInverseSquareCosineLaw) {
+  TestScene t;
+  const float albedo = 0.6f, intensity = 2.f;
+  const glm::vec3 light{0.3f, 1.f, -0.2f};
+  t.object(quad_mesh({-5, 0, 5}, {10, 0, 0}, {0, 0, -10}), t.material(scene::MaterialType::diffuse, glm::vec3(albedo)));
+  t.point_light(light, intensity);
+  t.camera({0, 2, 0.01f}, {0, 0, 0}, {0, 0, -1}, 60.f);
+  const int w = 48, h = 32;
+  io::Image img = render_reference(t.scene, t.state, PathClass::direct, w, h, quick(64), {});
+  io::Image combined = render_reference(t.scene, t.state, PathClass::combined, w, h, quick(64), {});
+  int y = 13;
+  for (int x = 0; x < w; ++x) {
+    double expected = 0;
+    for (int sy = 0; sy < 4; ++sy)
+      for (int sx = 0; sx < 4; ++sx) {
+        CameraRay r = camera_ray(t.state.camera, w, h, x + (sx + 0.5f) / 4, y + (sy + 0.5f) / 4);
+        glm::vec3 p = r.origin + r.direction * (-r.origin.y / r.direction.y);
+        glm::vec3 d = light - p;
+        double r2 = glm::dot(d, d);
+        expected += albedo / M_PI * intensity * (d.y / std::sqrt(r2)) / r2 / 16;
+      }
+    EXPECT_NEAR(img.at(x, y, 0) / expected, 1.0, 0.01) << "x " << x;
+    EXPECT_NEAR(combined.at(x, y, 2) / expected, 1.0, 0.01) << "x " << x;  // nothing else lights it
+  }
+}
+
+// Point light between a horizontal mirror and a diffuse ceiling: the ceiling's caustic (C D S L) is the
+// light of the mirror image of the source, a / pi * I cos / r^2 with r from the image below the mirror.
+// Only photons reach it (a point light seen through a perfect mirror), so this checks SPPM end to end.
+TEST(Reference, MirrorCausticMatchesTheImageSource) {
+  TestScene t;
+  const float albedo = 0.8f, intensity = 1.f;
+  t.object(quad_mesh({-4, 1, -4}, {8, 0, 0}, {0, 0, 8}), t.material(scene::MaterialType::diffuse, glm::vec3(albedo)));
+  t.object(quad_mesh({-6, 0, 6}, {12, 0, 0}, {0, 0, -12}), t.material(scene::MaterialType::mirror, glm::vec3(0.f)));
+  t.point_light({0, 0.4f, 0}, intensity);
+  t.camera({0, 0.8f, 0.01f}, {0, 1, 0}, {0, 0, -1}, 90.f);
+  const int w = 32, h = 24;
+  ReferenceOptions o = quick(64);
+  o.sppm_photons = 100000;
+  o.sppm_radius = 0.1f;  // the caustic is smooth here (its source is 1.4 m away): blur bias < 1%
+  EmbreeScene world(t.scene, t.state);
+  ReferenceResult r = render_reference_classes(world, w, h, class_bit(PathClass::caustics) | class_bit(PathClass::direct), o);
+  const io::Image& caustic = r.images[int(PathClass::caustics)];
+  const io::Image& direct = r.images[int(PathClass::direct)];
+  const glm::vec3 image_source{0, -0.4f, 0}, source{0, 0.4f, 0};
+  double worst = 0;
+  for (int y = 4; y < h - 4; y += 3)
+    for (int x = 4; x < w - 4; ++x) {
+      CameraRay ray = camera_ray(t.state.camera, w, h, x + 0.5f, y + 0.5f);
+      glm::vec3 p = ray.origin + ray.direction * ((1 - ray.origin.y) / ray.direction.y);
+      auto law = [&](glm::vec3 s) {
+        glm::vec3 d = s - p;
+        double r2 = glm::dot(d, d);
+        return albedo / M_PI * intensity * (-d.y / std::sqrt(r2)) / r2;
+      };
+      worst = std::max(worst, std::abs(caustic.at(x, y, 0) / law(image_source) - 1.0));
+      EXPECT_NEAR(direct.at(x, y, 0) / law(source), 1.0, 0.01);
+    }
+  EXPECT_LT(worst, 0.04);  // density estimation noise (about 2% here) and the blur of the radius
+  EXPECT_EQ(r.sppm_iterations, 64u);
+  RecordProperty("worst", std::to_string(worst));
+}
+
+// ---- convergence -----------------------------------------------------------------------------------
+
+// Path tracing is unbiased with independent samples: RMSE against a 16x longer render of another seed
+// falls as samples^-1/2 (issue 4: log-log slope in [-0.6, -0.4]).
+TEST(Reference, PathTracerRmseFallsAsInverseSquareRootOfSamples) {
+  scene::Scene scene = load("cornell-box.yaml");
+  scene::FrameState state = scene.at(0);
+  EmbreeScene world(scene, state);
+  const int w = 32, h = 24;
+  ReferenceOptions o;
+  o.seed = 99;
+  o.samples = 2048;
+  io::Image ref = render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
+  std::vector<double> xs, ys;
+  for (uint32_t spp : {8u, 32u, 128u}) {
+    o.seed = 1;
+    o.samples = spp;
+    io::Image img = render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
+    xs.push_back(std::log(double(spp)));
+    ys.push_back(std::log(rmse(img, ref)));
+  }
+  double mx = (xs[0] + xs[1] + xs[2]) / 3, my = (ys[0] + ys[1] + ys[2]) / 3, sxy = 0, sxx = 0;
+  for (int i = 0; i < 3; ++i) sxy += (xs[i] - mx) * (ys[i] - my), sxx += (xs[i] - mx) * (xs[i] - mx);
+  double slope = sxy / sxx;
+  EXPECT_GE(slope, -0.6);
+  EXPECT_LE(slope, -0.4);
+  RecordProperty("slope", std::to_string(slope));
+}
+
+// SPPM's caustic image on cornell-glass gets closer to a long render with every step in iterations.
+TEST(Reference, SppmCausticRelMseDecreasesOverIterations) {
+  scene::Scene scene = load("cornell-glass.yaml");
+  scene::FrameState state = scene.at(0);
+  EmbreeScene world(scene, state);
+  const int w = 32, h = 24;
+  ReferenceOptions o = quick(400);
+  o.seed = 7;
+  io::Image ref = render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
+  ASSERT_GT(mean_channel(ref, 0), 0.0);
+  double previous = 1e30;
+  for (uint32_t iterations : {4u, 16u, 64u}) {
+    o.seed = 1;
+    o.samples = iterations;
+    io::Image img = render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
+    double e = rel_mse(img, ref);
+    EXPECT_LT(e, previous) << iterations << " iterations";
+    previous = e;
+  }
+}
+
+// ---- path classes ----------------------------------------------------------------------------------
+
+TEST(Reference, PathClassesPartitionTheImage) {
+  EXPECT_EQ(parse_path_class("indirect_caustics"), PathClass::indirect_caustics);
+  EXPECT_FALSE(parse_path_class("caustic").has_value());
+  EXPECT_EQ(path_class_expression(PathClass::caustics), "C D S+ L");
+  scene::Scene scene = load("cornell-glass.yaml");
+  EmbreeScene world(scene, scene.at(0));
+  ReferenceResult r = render_reference_classes(world, 24, 18, kAllPathClasses, quick(16));
+  const io::Image& combined = r.images[int(PathClass::combined)];
+  double class_energy[5] = {};
+  for (size_t i = 0; i < combined.pixels.size(); ++i) {
+    double sum = 0;
+    for (int c = 0; c < 5; ++c) {
+      float v = r.images[c].pixels[i];
+      ASSERT_GE(v, 0.f);
+      sum += v;
+      class_energy[c] += v;
+    }
+    ASSERT_NEAR(sum, combined.pixels[i], 1e-5 * (1 + sum));
+  }
+  for (int c = 0; c < 5; ++c) EXPECT_GT(class_energy[c], 0.0) << path_class_name(PathClass(c));
+  // Without specular surfaces the specular-involving classes are exactly empty.
+  scene::Scene box = load("cornell-box.yaml");
+  EmbreeScene box_world(box, box.at(0));
+  ReferenceResult b = render_reference_classes(box_world, 16, 12, kAllPathClasses, quick(4));
+  for (PathClass c : {PathClass::caustics, PathClass::indirect_caustics, PathClass::specular})
+    EXPECT_EQ(mean_channel(b.images[int(c)], 0), 0.0) << path_class_name(c);
+  EXPECT_EQ(b.sppm_iterations, 0u);
+}
+
+// ---- cache -----------------------------------------------------------------------------------------
+
+TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
+  auto dir = std::filesystem::path(testing::TempDir()) / "pb_reference_cache_test";
+  std::filesystem::remove_all(dir);
+  scene::Scene scene = load("cornell-box.yaml");
+  ReferenceCache cache(dir);
+  ReferenceOptions o = quick(4);
+  scene::FrameState f0 = scene.at(0), f1 = scene.at(1);
+  std::string k = cache.key(scene, f0, PathClass::direct, 16, 12, o);
+  EXPECT_EQ(k, cache.key(scene, scene.at(0), PathClass::direct, 16, 12, o));
+  EXPECT_NE(k, cache.key(scene, f1, PathClass::direct, 16, 12, o));
+  EXPECT_NE(k, cache.key(scene, f0, PathClass::combined, 16, 12, o));
+  EXPECT_NE(k, cache.key(scene, f0, PathClass::direct, 16, 13, o));
+  EXPECT_FALSE(cache.has(scene, f0, PathClass::direct, 16, 12, o));
+
+  io::Image a = cache.get_or_render(scene, f0, PathClass::direct, 16, 12, o);
+  EXPECT_TRUE(cache.has(scene, f0, PathClass::direct, 16, 12, o));
+  std::ifstream side(dir / (k + ".json"));
+  nlohmann::json j = nlohmann::json::parse(side);
+  EXPECT_EQ(j["samples"], 4);
+  EXPECT_EQ(j["class"], "direct");
+  EXPECT_EQ(j["frame"], 0);
+  EXPECT_EQ(j["scene"], "cornell-box");
+  io::Image b = cache.get_or_render(scene, f0, PathClass::direct, 16, 12, o);
+  EXPECT_EQ(a.pixels, b.pixels);
+  // More samples than stored: not a hit.
+  ReferenceOptions more = o;
+  more.samples = 8;
+  EXPECT_FALSE(cache.has(scene, f0, PathClass::direct, 16, 12, more));
+
+  int lines = 0;
+  ReferenceJobReport first = render_references(scene, 0, 1, class_bit(PathClass::direct) | class_bit(PathClass::combined),
+                                               16, 12, o, cache, [&](const std::string&) { ++lines; });
+  EXPECT_EQ(first.cached, 1);
+  EXPECT_EQ(first.rendered, 3);
+  ReferenceJobReport again = render_references(scene, 0, 1, class_bit(PathClass::direct) | class_bit(PathClass::combined),
+                                               16, 12, o, cache, {});
+  EXPECT_EQ(again.rendered, 0);
+  EXPECT_EQ(again.cached, 4);
+  int files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    std::string ext = e.path().extension().string();
+    EXPECT_TRUE(ext == ".exr" || ext == ".json") << e.path();  // no temporary leftovers
+    ++files;
+  }
+  EXPECT_EQ(files, 8);
+  EXPECT_GT(lines, 0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace pb::trace
