@@ -70,6 +70,8 @@ class SharedPasses {
   virtual void gbuffer() = 0;                                 // pass "gbuffer"
   virtual void direct_light() = 0;                            // pass "direct-light" (shadow maps nested)
   virtual void shade(const gpu::Image* indirect_radiance) = 0;  // pass "shade": final = emitted + direct + indirect
+  // Shadow-map resolution (texels per tile side) and biases; call in setup to change the defaults.
+  virtual void configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) = 0;
   virtual GBuffer gbuffer_images() const = 0;
   virtual const gpu::Image& direct_image() const = 0;
   // Bindable scene data for a technique's own shaders (layouts in harness/shaders/scene_layout.h).

@@ -150,6 +150,10 @@ class Device {
                                    std::vector<Binding> bindings, uint32_t push_bytes);
   Pipeline create_graphics_pipeline(const GraphicsPipelineDesc& desc);
 
+  // Dynamic rendering, core on 1.3 devices and VK_KHR_dynamic_rendering on 1.2 ones.
+  void begin_rendering(vk::CommandBuffer cmd, const vk::RenderingInfo& info) const;
+  void end_rendering(vk::CommandBuffer cmd) const;
+
   // Records with `record`, submits, waits. For set-up work and read-backs, never inside a frame.
   void submit_and_wait(const std::function<void(vk::CommandBuffer)>& record);
   void upload(const Buffer& dst, const void* data, vk::DeviceSize bytes, vk::DeviceSize offset = 0);
@@ -161,6 +165,10 @@ class Device {
   uint64_t allocated_bytes() const { return allocated_bytes_; }
   uint64_t validation_errors() const;
   std::string first_validation_error() const;
+
+  // One nearest-neighbour, clamp-to-edge sampler for every sampled binding: techniques read textures
+  // with texelFetch or unfiltered lookups; shadow-map depth compares are done in the shader.
+  vk::Sampler nearest_sampler() const { return *nearest_sampler_; }
 
   void set_debug_name(uint64_t handle, vk::ObjectType type, const std::string& name) const;
   void release(vk::DeviceSize bytes) { allocated_bytes_ -= bytes; }
@@ -177,6 +185,7 @@ class Device {
   vk::raii::Device device_{nullptr};
   vk::raii::Queue queue_{nullptr};
   vk::raii::CommandPool command_pool_{nullptr};
+  vk::raii::Sampler nearest_sampler_{nullptr};
   uint32_t queue_family_ = 0;
   std::string name_, driver_;
   double timestamp_period_ns_ = 1;

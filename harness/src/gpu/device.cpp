@@ -37,7 +37,9 @@ bool has_device_extension(const vk::raii::PhysicalDevice& physical, const char* 
 }
 
 vk::raii::Instance make_instance(const vk::raii::Context& context, bool validation, bool debug_utils) {
-  vk::ApplicationInfo app{"photonbench", 1, "photonbench", 1, VK_API_VERSION_1_2};
+  // Ask for 1.3 so core 1.3 entry points (dynamic rendering) are dispatched on 1.3 devices; 1.2 devices
+  // use the KHR extension instead (see begin_rendering).
+  vk::ApplicationInfo app{"photonbench", 1, "photonbench", 1, VK_API_VERSION_1_3};
   std::vector<const char*> layers, extensions;
   if (validation) {
     if (!has_layer(context, "VK_LAYER_KHRONOS_validation"))
@@ -173,6 +175,10 @@ Device::Device(const Options& options) {
   queue_ = vk::raii::Queue(device_, queue_family_, 0);
   command_pool_ = vk::raii::CommandPool(
       device_, {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, queue_family_});
+  nearest_sampler_ = vk::raii::Sampler(
+      device_, vk::SamplerCreateInfo{{}, vk::Filter::eNearest, vk::Filter::eNearest, vk::SamplerMipmapMode::eNearest,
+                                     vk::SamplerAddressMode::eClampToEdge, vk::SamplerAddressMode::eClampToEdge,
+                                     vk::SamplerAddressMode::eClampToEdge});
 }
 
 Device::~Device() {
@@ -335,6 +341,18 @@ void Device::read_image(const Image& image, std::vector<float>& rgba) {
   });
   rgba.resize(size_t(extent.width) * extent.height * 4);
   std::memcpy(rgba.data(), staging.mapped(), bytes);
+}
+
+void Device::begin_rendering(vk::CommandBuffer cmd, const vk::RenderingInfo& info) const {
+  const auto& d = *device_.getDispatcher();
+  auto begin = d.vkCmdBeginRendering ? d.vkCmdBeginRendering : d.vkCmdBeginRenderingKHR;
+  begin(cmd, reinterpret_cast<const VkRenderingInfo*>(&info));
+}
+
+void Device::end_rendering(vk::CommandBuffer cmd) const {
+  const auto& d = *device_.getDispatcher();
+  auto end = d.vkCmdEndRendering ? d.vkCmdEndRendering : d.vkCmdEndRenderingKHR;
+  end(cmd);
 }
 
 void full_barrier(vk::CommandBuffer cmd) {

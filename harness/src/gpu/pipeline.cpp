@@ -22,21 +22,6 @@ vk::raii::ShaderModule make_module(const vk::raii::Device& device, std::span<con
   return vk::raii::ShaderModule(device, vk::ShaderModuleCreateInfo{{}, spirv.size_bytes(), spirv.data()});
 }
 
-// One nearest-neighbour sampler for every sampled binding: techniques read textures with texelFetch or
-// unfiltered lookups; the depth compare of shadow maps is done in the shader.
-const vk::raii::Sampler& shared_sampler(const vk::raii::Device& device) {
-  static thread_local const vk::raii::Device* owner = nullptr;
-  static thread_local std::unique_ptr<vk::raii::Sampler> sampler;
-  if (owner != &device) {
-    vk::SamplerCreateInfo info{{}, vk::Filter::eNearest, vk::Filter::eNearest, vk::SamplerMipmapMode::eNearest,
-                               vk::SamplerAddressMode::eClampToEdge, vk::SamplerAddressMode::eClampToEdge,
-                               vk::SamplerAddressMode::eClampToEdge};
-    sampler = std::make_unique<vk::raii::Sampler>(device, info);
-    owner = &device;
-  }
-  return *sampler;
-}
-
 void make_layouts(const vk::raii::Device& device, Pipeline& pipeline, const std::vector<Binding>& bindings,
                   vk::ShaderStageFlags stages, uint32_t push_bytes, vk::raii::DescriptorSetLayout& set_layout,
                   vk::raii::PipelineLayout& layout) {
@@ -170,7 +155,7 @@ void Pipeline::bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resou
       auto sampled = std::get<Sampled>(resource);
       if (bindings_[index] != Binding::sampled_image)
         throw Error(fmt::format("pipeline '{}' binding {} is not a sampled image", name_, index));
-      image_infos.push_back({*shared_sampler(device_->device()), sampled.image->view(), vk::ImageLayout::eGeneral});
+      image_infos.push_back({device_->nearest_sampler(), sampled.image->view(), vk::ImageLayout::eGeneral});
       write.pImageInfo = &image_infos.back();
     }
     writes.push_back(write);

@@ -77,10 +77,7 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
   depth_ = device.create_image("gbuffer/depth", extent, kDepth, I::eDepthStencilAttachment | I::eSampled);
   direct_ = device.create_image("direct/radiance", extent, kColor, I::eStorage);
   final_ = device.create_image("output/radiance", extent, kColor, I::eStorage);
-  uint32_t size = options.shadow_map_size;
-  uint32_t rows = std::max<uint32_t>((tile_count_ + tiles_per_row_ - 1) / tiles_per_row_, 1);
-  shadow_atlas_ = device.create_image("shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
-                                      I::eDepthStencilAttachment | I::eSampled);
+  create_shadow_atlas();
 
   GraphicsPipelineDesc gbuffer{"gbuffer", kgbuffer_vert_spv, kgbuffer_frag_spv,
                                {Binding::storage_buffer, Binding::storage_buffer}, sizeof(DrawPush),
@@ -102,6 +99,24 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
       {B::storage_buffer, B::storage_buffer, B::storage_image, B::storage_image, B::storage_image, B::storage_image,
        B::storage_image},
       sizeof(uint32_t));
+}
+
+void ScenePasses::create_shadow_atlas() {
+  uint32_t size = options_.shadow_map_size;
+  uint32_t rows = std::max<uint32_t>((tile_count_ + tiles_per_row_ - 1) / tiles_per_row_, 1);
+  shadow_atlas_ = Image();  // release the old atlas first: GPU memory is counted per cell
+  shadow_atlas_ = device_.create_image("shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
+                                       vk::ImageUsageFlagBits::eDepthStencilAttachment | vk::ImageUsageFlagBits::eSampled);
+}
+
+void ScenePasses::configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) {
+  if (map_size < 16 || map_size > 4096) throw Error(fmt::format("shadow map size {} outside [16, 4096]", map_size));
+  options_.shadow_relative_bias = relative_bias;
+  options_.shadow_normal_offset = normal_offset_m;
+  if (map_size != options_.shadow_map_size) {
+    options_.shadow_map_size = map_size;
+    create_shadow_atlas();
+  }
 }
 
 void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name) {
@@ -189,7 +204,7 @@ void ScenePasses::gbuffer() {
                                     vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
                                     vk::ClearDepthStencilValue(1.f, 0)};
   vk::Rect2D area{{0, 0}, {width_, height_}};
-  cmd.beginRendering(vk::RenderingInfo{{}, area, 1, 0, colors, &depth});
+  device_.begin_rendering(cmd, vk::RenderingInfo{{}, area, 1, 0, colors, &depth});
   // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is plain.
   cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
   cmd.setScissor(0, area);
@@ -201,7 +216,7 @@ void ScenePasses::gbuffer() {
     cmd.bindIndexBuffer(meshes_[i].indices.handle(), 0, vk::IndexType::eUint32);
     cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
   }
-  cmd.endRendering();
+  device_.end_rendering(cmd);
 }
 
 void ScenePasses::shadow_maps() {
@@ -211,7 +226,7 @@ void ScenePasses::shadow_maps() {
   vk::RenderingAttachmentInfo depth{shadow_atlas_.view(), vk::ImageLayout::eGeneral, {}, {}, {},
                                     vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
                                     vk::ClearDepthStencilValue(1.f, 0)};
-  cmd.beginRendering(vk::RenderingInfo{{}, {{0, 0}, atlas}, 1, 0, {}, &depth});
+  device_.begin_rendering(cmd, vk::RenderingInfo{{}, {{0, 0}, atlas}, 1, 0, {}, &depth});
   uint32_t size = options_.shadow_map_size;
   for (uint32_t tile = 0; tile < tile_count_; ++tile) {
     int32_t x = int32_t((tile % tiles_per_row_) * size), y = int32_t((tile / tiles_per_row_) * size);
@@ -226,7 +241,7 @@ void ScenePasses::shadow_maps() {
       cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
     }
   }
-  cmd.endRendering();
+  device_.end_rendering(cmd);
 }
 
 void ScenePasses::direct_light() {

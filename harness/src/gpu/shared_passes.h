@@ -31,6 +31,7 @@ class ScenePasses : public SharedPasses {
   void gbuffer() override;
   void direct_light() override;
   void shade(const Image* indirect_radiance) override;
+  void configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) override;
   GBuffer gbuffer_images() const override { return {&position_, &normal_, &albedo_, &depth_}; }
   const Image& direct_image() const override { return direct_; }
   const Buffer& frame_buffer() const override { return frame_; }
@@ -45,6 +46,7 @@ class ScenePasses : public SharedPasses {
   };
   void upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name);
   void shadow_maps();
+  void create_shadow_atlas();
 
   Device& device_;
   const scene::Scene& scene_;

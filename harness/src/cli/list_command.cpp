@@ -1,0 +1,73 @@
+// `photonbench list techniques|scenes|devices`: what can be named in a config.
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "cli/command.h"
+#include "photonbench/gpu.h"
+#include "run/plugins.h"
+#include "scene/scene.h"
+
+namespace {
+
+void list_techniques(const std::vector<std::string>& plugin_dirs) {
+  std::vector<std::filesystem::path> dirs(plugin_dirs.begin(), plugin_dirs.end());
+  pb::run::PluginRegistry plugins(dirs);
+  for (const auto& name : plugins.names()) {
+    const pb::run::Plugin* plugin = plugins.find(name);
+    if (!plugin->loaded()) {
+      std::printf("%s  (%s)\n  cannot load: %s\n\n", name.c_str(), plugin->file.c_str(),
+                  (plugin->load_error + plugin->version_error).c_str());
+      continue;
+    }
+    const auto& d = *plugin->descriptor;
+    std::printf("%s  [%s]  %s\n", d.name, d.path_class, d.summary);
+    for (uint32_t i = 0; i < d.param_count; ++i) {
+      const auto& p = d.params[i];
+      std::string range = p.type == PB_PARAM_ENUM   ? std::string(p.choices)
+                          : p.type == PB_PARAM_BOOL ? "true|false"
+                                                    : fmt::format("[{}, {}]", p.min_value, p.max_value);
+      std::printf("  %-22s %-5s default %-10s %-18s %s%s%s\n", p.name, pb::run::param_type_name(p).c_str(),
+                  pb::run::param_default_text(p).c_str(), range.c_str(), p.doc,
+                  p.unit && *p.unit ? " (" : "", p.unit && *p.unit ? (std::string(p.unit) + ")").c_str() : "");
+    }
+    std::printf("\n");
+  }
+}
+
+void list_scenes() {
+  std::filesystem::path dir = std::filesystem::path(PB_SOURCE_DIR) / "scenes";
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& file : files) {
+    try {
+      auto scene = pb::scene::load_scene(file);
+      std::printf("%-22s %s\n", file.stem().c_str(), scene.purpose.c_str());
+    } catch (const std::exception& e) {
+      std::printf("%-22s (does not load: %s)\n", file.stem().c_str(), e.what());
+    }
+  }
+}
+
+void add_list(CLI::App& app, int& exit_code) {
+  auto what = std::make_shared<std::string>();
+  auto plugin_dirs = std::make_shared<std::vector<std::string>>();
+  auto* cmd = app.add_subcommand("list", "list techniques (with their parameters), scenes or devices");
+  cmd->add_option("what", *what, "techniques, scenes or devices")
+      ->required()
+      ->check(CLI::IsMember({"techniques", "scenes", "devices"}));
+  cmd->add_option("--plugin-dir", *plugin_dirs, "also look for technique plugins here");
+  cmd->callback([what, plugin_dirs, &exit_code] {
+    if (*what == "techniques") list_techniques(*plugin_dirs);
+    if (*what == "scenes") list_scenes();
+    if (*what == "devices")
+      for (const auto& name : pb::gpu::Device::list_devices()) std::printf("%s\n", name.c_str());
+    exit_code = 0;
+  });
+}
+
+pb::cli::CommandRegistration registration{"list", add_list};
+
+}  // namespace

@@ -1,0 +1,38 @@
+// `photonbench run CONFIG`: the benchmark. `photonbench __cell RUN_DIR CELL` is its hidden child: one
+// cell in its own process.
+#include "cli/command.h"
+#include "run/cell_runner.h"
+#include "run/runner.h"
+
+namespace {
+
+void add_run(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<pb::run::RunOptions>();
+  auto* cmd = app.add_subcommand("run", "run a benchmark config: every cell, timed and scored");
+  cmd->add_option("config", options->config_file, "the YAML config")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", options->out_dir, "run folder (default results/<name>-<time>)");
+  cmd->add_option("--device", options->device, "Vulkan device whose name contains this (default: lavapipe)");
+  cmd->add_option("--set", options->overrides, "override a config key: key.path=value (repeatable)");
+  cmd->add_flag("--resume", options->resume, "continue the run in --out, skipping complete cells");
+  cmd->add_flag("--validation", options->validation, "Vulkan validation layers on; an error fails the cell");
+  cmd->callback([options, &exit_code] {
+    if (std::getenv("PB_VALIDATION")) options->validation = true;
+    exit_code = pb::run::run_benchmark(*options);
+  });
+}
+
+void add_cell(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<pb::run::CellRunOptions>();
+  auto* cmd = app.add_subcommand("__cell", "");  // an empty description hides it from --help
+  cmd->group("");
+  cmd->add_option("run_dir", options->run_dir)->required();
+  cmd->add_option("cell", options->cell_id)->required();
+  cmd->add_option("--device", options->device);
+  cmd->add_flag("--validation", options->validation);
+  cmd->callback([options, &exit_code] { exit_code = pb::run::run_cell(*options); });
+}
+
+pb::cli::CommandRegistration run_registration{"run", add_run};
+pb::cli::CommandRegistration cell_registration{"__cell", add_cell};
+
+}  // namespace

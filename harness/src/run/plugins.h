@@ -1,0 +1,49 @@
+// Finding and loading technique plugins. Plugins load only from the build's plugin directory and from
+// directories named by --plugin-dir or the config's `plugin_dirs`: never from the working directory.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "photonbench/plugin.h"
+
+namespace pb::run {
+
+// A plugin file that was found, and what loading it gave: the descriptor, or the loader's own error.
+struct Plugin {
+  std::string name;
+  std::filesystem::path file;
+  const pb_technique_descriptor* descriptor = nullptr;
+  std::string load_error;      // dlopen / dlsym error text: fails only this plugin's cells
+  std::string version_error;   // API version mismatch: bad input
+  void* handle = nullptr;
+  bool loaded() const { return descriptor != nullptr; }
+};
+
+class PluginRegistry {
+ public:
+  // The build's plugin directory comes first, then `extra_dirs` in order; a later directory's plugin
+  // of the same name replaces an earlier one (so a config can test a modified technique).
+  explicit PluginRegistry(const std::vector<std::filesystem::path>& extra_dirs);
+  ~PluginRegistry();
+  PluginRegistry(const PluginRegistry&) = delete;
+  PluginRegistry& operator=(const PluginRegistry&) = delete;
+
+  static std::filesystem::path build_plugin_dir();
+  std::vector<std::string> names() const;
+  const Plugin* find(const std::string& name);  // loads on first use; null when no such file
+
+ private:
+  std::vector<std::filesystem::path> dirs_;
+  std::map<std::string, std::filesystem::path> files_;
+  std::map<std::string, std::unique_ptr<Plugin>> loaded_;
+};
+
+// The type of a parameter spec as a word ("int", "float", "bool", "enum") and its default as text.
+std::string param_type_name(const pb_param_spec& spec);
+std::string param_default_text(const pb_param_spec& spec);
+
+}  // namespace pb::run

@@ -1,0 +1,66 @@
+#include "run/profiler.h"
+
+#include <fmt/format.h>
+
+#include "photonbench/error.h"
+
+namespace pb::run {
+
+Profiler::Profiler(gpu::Device& device, std::function<vk::CommandBuffer()> cmd, uint32_t max_passes)
+    : device_(device), cmd_(std::move(cmd)), max_passes_(max_passes) {
+  pool_ = vk::raii::QueryPool(device.device(),
+                              vk::QueryPoolCreateInfo{{}, vk::QueryType::eTimestamp, 2 * max_passes});
+}
+
+void Profiler::begin_frame() {
+  pool_.reset(0, 2 * max_passes_);  // host query reset (Vulkan 1.2)
+  passes_.clear();
+  stack_.clear();
+}
+
+int Profiler::begin_pass(std::string_view name) {
+  if (passes_.size() >= max_passes_)
+    throw Error(fmt::format("more than {} passes in one frame", max_passes_));
+  std::string full = stack_.empty() ? std::string(name) : passes_[stack_.back()].name + "/" + std::string(name);
+  int index = int(passes_.size());
+  passes_.push_back({full, int(stack_.size()), uint32_t(2 * index), std::chrono::steady_clock::now()});
+  stack_.push_back(index);
+  vk::CommandBuffer cmd = cmd_();
+  gpu::full_barrier(cmd);
+  cmd.writeTimestamp(vk::PipelineStageFlagBits::eTopOfPipe, *pool_, passes_[index].query);
+  return index;
+}
+
+void Profiler::end_pass(int pass) {
+  if (stack_.empty() || stack_.back() != pass) throw Error("pass scopes must end in reverse order of beginning");
+  vk::CommandBuffer cmd = cmd_();
+  gpu::full_barrier(cmd);
+  cmd.writeTimestamp(vk::PipelineStageFlagBits::eBottomOfPipe, *pool_, passes_[pass].query + 1);
+  Open& open = passes_[pass];
+  open.cpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - open.cpu_start).count();
+  if (on_pass_end) {
+    on_pass_end(open.name, open.cpu_ms);
+    open.cpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - open.cpu_start).count();
+  }
+  open.closed = true;
+  stack_.pop_back();
+}
+
+std::vector<PassSample> Profiler::end_frame() {
+  std::vector<PassSample> samples;
+  if (passes_.empty()) return samples;
+  if (!stack_.empty()) throw Error(fmt::format("pass '{}' was never ended", passes_[stack_.back()].name));
+  std::vector<uint64_t> stamps(2 * passes_.size());
+  auto result = pool_.getResults<uint64_t>(0, uint32_t(stamps.size()), stamps.size() * sizeof(uint64_t),
+                                           sizeof(uint64_t), vk::QueryResultFlagBits::e64 | vk::QueryResultFlagBits::eWait);
+  stamps = result.second;
+  uint64_t mask = device_.timestamp_valid_bits() >= 64 ? ~0ull : ((1ull << device_.timestamp_valid_bits()) - 1);
+  for (const Open& open : passes_) {
+    uint64_t begin = stamps[open.query] & mask, end = stamps[open.query + 1] & mask;
+    double gpu_ms = double((end - begin) & mask) * device_.timestamp_period_ns() * 1e-6;
+    samples.push_back({open.name, open.depth, gpu_ms, open.cpu_ms});
+  }
+  return samples;
+}
+
+}  // namespace pb::run

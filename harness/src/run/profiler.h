@@ -1,0 +1,52 @@
+// Named, nestable pass timing (research/anchors-style.md rule 7): each pass takes a pair of timestamp
+// queries from a per-frame pool, bracketed by full barriers (the spec lets later commands overlap a
+// timestamp write), plus a CPU monotonic clock. Results are read as 64-bit values after the frame's
+// fence and converted with timestampPeriod.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "photonbench/context.h"
+#include "photonbench/gpu.h"
+
+namespace pb::run {
+
+struct PassSample {
+  std::string name;  // "outer/inner" for nested passes
+  int depth = 0;     // 0 for top-level passes
+  double gpu_ms = 0, cpu_ms = 0;
+  double ms() const { return gpu_ms > cpu_ms ? gpu_ms : cpu_ms; }  // the pass's time: where it ran
+};
+
+class Profiler : public PassRecorder {
+ public:
+  Profiler(gpu::Device& device, std::function<vk::CommandBuffer()> cmd, uint32_t max_passes = 256);
+  void begin_frame();                 // host-resets the queries, clears the samples
+  std::vector<PassSample> end_frame();  // after the frame's fence: reads the timestamps
+
+  int begin_pass(std::string_view name) override;
+  void end_pass(int pass) override;
+  // Called at the end of a pass with its CPU time so far; the testing hook uses it to slow one pass.
+  std::function<void(const std::string& name, double cpu_ms)> on_pass_end;
+
+ private:
+  gpu::Device& device_;
+  std::function<vk::CommandBuffer()> cmd_;
+  vk::raii::QueryPool pool_{nullptr};
+  uint32_t max_passes_;
+  struct Open {
+    std::string name;
+    int depth;
+    uint32_t query;
+    std::chrono::steady_clock::time_point cpu_start;
+    double cpu_ms = 0;
+    bool closed = false;
+  };
+  std::vector<Open> passes_;
+  std::vector<int> stack_;
+};
+
+}  // namespace pb::run
