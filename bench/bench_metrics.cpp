@@ -4,6 +4,10 @@
 // evaluation, scikit-image's structural_similarity 1.6 s. Targets: FLIP 2x, SSIM 10x.
 //
 //   bench_metrics [repetitions (default 5)] [threads (default: all cores)]
+#include <sys/resource.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,10 +17,6 @@
 #include <random>
 #include <string>
 #include <vector>
-
-#include <sys/resource.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include "io/image.h"
 #include "metrics/metrics.h"

@@ -1,6 +1,9 @@
 // Metrics against their reference implementations (tests/data/metrics/expected.json: the FLIP v1.6
 // tool and scikit-image 0.19) and against values worked out by hand.
+#include "metrics/metrics.h"
+
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <filesystem>
@@ -10,10 +13,7 @@
 #include <string>
 #include <vector>
 
-#include <tbb/global_control.h>
-
 #include "io/image.h"
-#include "metrics/metrics.h"
 #include "photonbench/error.h"
 
 namespace pb::metrics {
@@ -43,8 +43,9 @@ io::Image card(int w, int h, unsigned seed) {
   io::Image image(w, h, 3, false);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      int base[3] = {255 * x / w, 255 * y / h, (x - w / 2) * (x - w / 2) + (y - h / 2) * (y - h / 2) <
-                                                       (w * h) / 16 ? 220 : 40};
+      int base[3] = {
+          255 * x / w, 255 * y / h,
+          (x - w / 2) * (x - w / 2) + (y - h / 2) * (y - h / 2) < (w * h) / 16 ? 220 : 40};
       for (int c = 0; c < 3; ++c)
         image.at(x, y, c) = float(std::clamp(base[c] + noise(rng), 0, 255)) / 255.f;
     }
@@ -129,16 +130,19 @@ std::vector<double> naive_ldr_flip(const io::Image& ref, const io::Image& test, 
       for (int x = 0; x < w; ++x) {
         double l[3], xyz[3];
         for (int c = 0; c < 3; ++c) l[c] = decode(rgb(im, x, y, c));
-        for (int r = 0; r < 3; ++r) xyz[r] = (m[r][0] * l[0] + m[r][1] * l[1] + m[r][2] * l[2]) / white[r];
+        for (int r = 0; r < 3; ++r)
+          xyz[r] = (m[r][0] * l[0] + m[r][1] * l[1] + m[r][2] * l[2]) / white[r];
         ycc[i].push_back({116 * xyz[1] - 16, 500 * (xyz[0] - xyz[1]), 200 * (xyz[1] - xyz[2])});
       }
   }
   auto at = [&](int i, int x, int y) {
     return ycc[i][size_t(std::clamp(y, 0, h - 1)) * size_t(w) + size_t(std::clamp(x, 0, w - 1))];
   };
-  // Spatial CSF filters (Section 4.1), 2-D, each normalised to sum 1.
+  // Spatial CSF filters, 2-D, each normalised to sum 1.
   const int rs = int(std::ceil(3 * std::sqrt(0.04 / (2 * pi * pi)) * ppd));
-  auto csf = [&](double d2, double a, double b) { return a * std::sqrt(pi / b) * std::exp(-pi * pi * d2 / b); };
+  auto csf = [&](double d2, double a, double b) {
+    return a * std::sqrt(pi / b) * std::exp(-pi * pi * d2 / b);
+  };
   std::vector<double> fy, fx, fz;
   double sy = 0, sx = 0, sz = 0;
   for (int j = -rs; j <= rs; ++j)
@@ -151,7 +155,7 @@ std::vector<double> naive_ldr_flip(const io::Image& ref, const io::Image& test, 
       sx += fx.back();
       sz += fz.back();
     }
-  // Feature filters (Section 4.3): Gaussian and derivatives, signed parts normalised to +-1.
+  // Feature filters: Gaussian and derivatives, signed parts normalised to +-1.
   const double sd = 0.5 * 0.082 * ppd;
   const int rf = int(std::ceil(3 * sd));
   std::vector<double> g, dg, ddg;
@@ -189,11 +193,14 @@ std::vector<double> naive_ldr_flip(const io::Image& ref, const io::Image& test, 
   auto hyab = [](std::array<double, 3> a, std::array<double, 3> b) {
     return std::fabs(a[0] - b[0]) + std::hypot(a[1] - b[1], a[2] - b[2]);
   };
-  const double cmax = std::pow(hyab(hunt_lab({116 * 0.715168678767756 - 16, 500 * (0.357584339383878 / 0.950428545 - 0.715168678767756),
-                                               200 * (0.715168678767756 - 0.11919477979462598 / 1.088900371)}),
-                                    hunt_lab({116 * 0.07219231536073371 - 16, 500 * (0.1804807884018343 / 0.950428545 - 0.07219231536073371),
-                                              200 * (0.07219231536073371 - 0.9505321522496607 / 1.088900371)})),
-                               0.7);
+  const double cmax =
+      std::pow(hyab(hunt_lab({116 * 0.715168678767756 - 16,
+                              500 * (0.357584339383878 / 0.950428545 - 0.715168678767756),
+                              200 * (0.715168678767756 - 0.11919477979462598 / 1.088900371)}),
+                    hunt_lab({116 * 0.07219231536073371 - 16,
+                              500 * (0.1804807884018343 / 0.950428545 - 0.07219231536073371),
+                              200 * (0.07219231536073371 - 0.9505321522496607 / 1.088900371)})),
+               0.7);
   const double pccmax = 0.4 * cmax;
   std::vector<double> out;
   for (int y = 0; y < h; ++y)
@@ -225,7 +232,8 @@ std::vector<double> naive_ldr_flip(const io::Image& ref, const io::Image& test, 
       }
       double cd = std::pow(hyab(hunt_lab(f[0]), hunt_lab(f[1])), 0.7);
       cd = cd < pccmax ? cd * 0.95 / pccmax : 0.95 + (cd - pccmax) / (cmax - pccmax) * 0.05;
-      const double fd = std::sqrt(std::max(std::fabs(edge[0] - edge[1]), std::fabs(point[0] - point[1])) / std::sqrt(2.0));
+      const double fd = std::sqrt(
+          std::max(std::fabs(edge[0] - edge[1]), std::fabs(point[0] - point[1])) / std::sqrt(2.0));
       out.push_back(std::pow(cd, 1 - fd));
     }
   return out;

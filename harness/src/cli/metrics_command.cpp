@@ -27,12 +27,9 @@ struct MetricsArgs {
 // Keys in the order the issue documents them (ordered_json keeps insertion order).
 nlohmann::ordered_json to_json(const pb::metrics::Scores& s) {
   nlohmann::ordered_json j;
-  j["flip"] = {{"mean", s.flip.mean},
-               {"weighted_median", s.flip.weighted_median},
-               {"q1", s.flip.q1},
-               {"q3", s.flip.q3},
-               {"min", s.flip.min},
-               {"max", s.flip.max}};
+  j["flip"] = {{"mean", s.flip.mean}, {"weighted_median", s.flip.weighted_median},
+               {"q1", s.flip.q1},     {"q3", s.flip.q3},
+               {"min", s.flip.min},   {"max", s.flip.max}};
   j["ssim"] = s.ssim;
   j["psnr"] = s.psnr ? nlohmann::ordered_json(*s.psnr) : nlohmann::ordered_json(nullptr);
   j["identical"] = s.identical;
@@ -69,14 +66,16 @@ void run(const MetricsArgs& a) {
   pb::io::Image error_map;
   pb::metrics::Scores scores;
   try {
-    scores = pb::metrics::evaluate(reference, test, options, a.error_map.empty() ? nullptr : &error_map);
+    scores =
+        pb::metrics::evaluate(reference, test, options, a.error_map.empty() ? nullptr : &error_map);
   } catch (const pb::InputError& e) {
     // The metrics do not know the file names; the user needs them.
     throw pb::InputError(fmt::format("{} vs {}: {}", a.reference, a.test, e.what()));
   }
   if (!a.error_map.empty()) {
     // PNG: the magma-mapped map the FLIP papers show; EXR: the raw error values.
-    const bool exr = a.error_map.size() >= 4 && a.error_map.substr(a.error_map.size() - 4) == ".exr";
+    const bool exr =
+        a.error_map.size() >= 4 && a.error_map.substr(a.error_map.size() - 4) == ".exr";
     pb::io::write_image(a.error_map, exr ? error_map : pb::metrics::magma(error_map));
   }
   if (a.json)

@@ -26,9 +26,12 @@ Tonemapper parse_tonemapper(std::string_view name) {
 
 const char* to_string(Tonemapper tonemapper) {
   switch (tonemapper) {
-    case Tonemapper::aces: return "aces";
-    case Tonemapper::hable: return "hable";
-    case Tonemapper::reinhard: return "reinhard";
+    case Tonemapper::aces:
+      return "aces";
+    case Tonemapper::hable:
+      return "hable";
+    case Tonemapper::reinhard:
+      return "reinhard";
   }
   return "?";
 }
@@ -99,8 +102,8 @@ PB_METRICS_KERNEL void ldr_display_row(const float* in, size_t stride, size_t n,
 }
 
 // 8-bit codes through the table; returns false if some value was not one (left as -1).
-PB_METRICS_KERNEL bool ldr_linear_row(const float* in, size_t stride, size_t n,
-                                      const double* table, double* out) {
+PB_METRICS_KERNEL bool ldr_linear_row(const float* in, size_t stride, size_t n, const double* table,
+                                      double* out) {
   int all_codes = 1;
   for (size_t i = 0; i < n; ++i) {
     const int k = code_or_minus_one(in[i * stride]);
@@ -132,7 +135,8 @@ void check_pair(const io::Image& reference, const io::Image& test, std::string_v
 
 void convert_row(const io::Image& image, int y, int channel, Values values, double* out) {
   const size_t stride = size_t(image.channels), n = size_t(image.width);
-  const float* in = image.pixels.data() + size_t(y) * n * stride + size_t(image.channels == 1 ? 0 : channel);
+  const float* in =
+      image.pixels.data() + size_t(y) * n * stride + size_t(image.channels == 1 ? 0 : channel);
   if (image.linear) {
     if (values == Values::display) {
       hdr_display_row(in, stride, n, out);  // clamp to [0, 1], then sRGB encode
@@ -143,10 +147,9 @@ void convert_row(const io::Image& image, int y, int channel, Values values, doub
   }
   if (values == Values::display)
     ldr_display_row(in, stride, n, out);
-  else
-    if (!ldr_linear_row(in, stride, n, decoded_codes().data(), out))
-      for (size_t i = 0; i < n; ++i)  // values that are not 8-bit codes: decode exactly
-        if (out[i] < 0.0) out[i] = srgb_decode_exact(std::clamp(double(in[i * stride]), 0.0, 1.0));
+  else if (!ldr_linear_row(in, stride, n, decoded_codes().data(), out))
+    for (size_t i = 0; i < n; ++i)  // values that are not 8-bit codes: decode exactly
+      if (out[i] < 0.0) out[i] = srgb_decode_exact(std::clamp(double(in[i * stride]), 0.0, 1.0));
 }
 
 }  // namespace detail

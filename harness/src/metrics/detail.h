@@ -2,6 +2,9 @@
 // the hot loops use. Not part of the metrics API.
 #pragma once
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -9,14 +12,12 @@
 #include <string_view>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "io/image.h"
 
 // Hot loops are compiled for AVX-512, AVX2 and baseline x86-64 and the best one is picked when the
-// library loads (GCC function multi-versioning), so the build needs no -march flag and still uses the
-// wide vector units where they exist. Functions they call inline are compiled for the same target.
+// library loads (GCC function multi-versioning), so the build needs no -march flag and still uses
+// the wide vector units where they exist. Functions they call inline are compiled for the same
+// target.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define PB_METRICS_KERNEL \
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
@@ -78,7 +79,8 @@ double sum_rows(int begin, int end, const RowSum& row_sum) {
   return total;
 }
 
-// ---- Vectorisable elementary functions -----------------------------------------------------------
+// ---- Vectorisable elementary functions ---------------------------------------------------------
+//
 // The loops over pixels call these instead of std::pow/std::cbrt/std::fmin, which GCC turns into
 // library calls and so cannot vectorise. The transcendental ones have a relative error of about
 // 2e-7 (a few float ulps), far below what the metrics resolve.

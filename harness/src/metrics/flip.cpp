@@ -1,15 +1,17 @@
-// FLIP: LDR-FLIP (Andersson et al., HPG 2020) and HDR-FLIP (Andersson et al., EG 2021), matching the
-// NVIDIA reference tool v1.6 (its default viewing condition, tone mappers, exposure range and pooling).
+// FLIP: LDR-FLIP (Andersson et al., HPG 2020) and HDR-FLIP (Andersson et al., EG 2021), matching
+// the NVIDIA reference tool v1.6 (its default viewing condition, tone mappers, exposure range and
+// pooling).
 //
-// Per pixel, FLIP compares a colour difference (the images filtered by contrast sensitivity functions
-// in the YCxCz opponent space, then the HyAB distance of Hunt-adjusted CIELab values) with a feature
-// difference (edges and points found by first and second derivatives of a Gaussian on the
-// achromatic channel): error = colour_difference ^ (1 - feature_difference). HDR-FLIP tone maps
-// both images at several exposures and keeps each pixel's largest LDR-FLIP error.
+// Per pixel, FLIP compares a colour difference (the images filtered by contrast sensitivity
+// functions in the YCxCz opponent space, then the HyAB distance of Hunt-adjusted CIELab values)
+// with a feature difference (edges and points found by first and second derivatives of a Gaussian
+// on the achromatic channel): error = colour_difference ^ (1 - feature_difference). HDR-FLIP tone
+// maps both images at several exposures and keeps each pixel's largest LDR-FLIP error.
 //
-// The work is one fused pass per image pair (and per exposure): for each output row the separable
-// filters run vertically (straight from the full-size YCxCz planes) and then horizontally (on one
-// padded row), and the per-pixel differences follow while the row is still in cache. Clamp-to-edge
+// The work is one fused pass per image pair (and per exposure), tile by tile: input rows are
+// converted to YCxCz into a small ring as the tile moves down, the separable filters run vertically
+// (over the ring) and then horizontally (on one padded row), and the per-pixel differences follow
+// while the row is still in cache; nothing image-sized is written but the error map. Clamp-to-edge
 // borders in both directions make vertical-then-horizontal equal to the reference's opposite order.
 #include <fmt/format.h>
 #include <tbb/blocked_range2d.h>
@@ -28,14 +30,14 @@
 namespace pb::metrics {
 namespace {
 
+using detail::abs_f;
 using detail::clamp01;
 using detail::fast_cbrt;
 using detail::fast_pow;
-using detail::abs_f;
 using detail::max_f;
 using detail::sqrt_f;
 
-// HPG 2020, Section 4: colour-difference exponent q_c, the error p_c * cmax where the colour
+// HPG 2020's constants: colour-difference exponent q_c, the error p_c * cmax where the colour
 // error's remapping changes slope and the value p_t it maps to, feature filter width w (degrees)
 // and feature exponent q_f.
 constexpr float kQc = 0.7f, kPc = 0.4f, kPt = 0.95f, kW = 0.082f, kQf = 0.5f;
@@ -43,7 +45,7 @@ constexpr float kPi = 3.14159265358979f;
 
 // The contrast sensitivity functions of Y, Cx and Cz as sums of two Gaussians
 // a1 sqrt(pi / b1) exp(-pi^2 x^2 / b1) + a2 sqrt(pi / b2) exp(-pi^2 x^2 / b2), x in degrees
-// (HPG 2020, Section 4.1 and its Table 1).
+// (HPG 2020, the colour pipeline's spatial filtering).
 struct Csf {
   float a1, b1, a2, b2;
 };
@@ -55,7 +57,7 @@ constexpr Csf kCsfCz{34.1f, 0.04f, 13.5f, 0.025f};
 constexpr float kWhite[3] = {0.950428545f, 1.f, 1.088900371f};
 constexpr float kInvWhite[3] = {1.052156925f, 1.f, 0.918357670f};
 
-// Tone curves of HDR-FLIP (EG 2021, Section 4.1) as (c0 x^2 + c1 x + c2) / (c3 x^2 + c4 x + c5).
+// Tone curves of HDR-FLIP (EG 2021) as (c0 x^2 + c1 x + c2) / (c3 x^2 + c4 x + c5).
 // ACES (Narkowicz's fit) carries the 0.6 that cancels its built-in pre-exposure; Hable is the
 // Uncharted 2 curve; Reinhard's row only serves the exposure computation (its curve scales colour
 // by 1 / (1 + luminance)).
@@ -86,7 +88,8 @@ const float* tone_curve(Tonemapper tm) { return kToneCurves[int(tm)]; }
   b = 0.055639423f * x - 0.204011202f * y + 1.057148933f * z;
 }
 
-// Linear RGB in [0, 1] to YCxCz (HPG 2020, Section 4.1: the linearised CIELab of Zhang and Wandell).
+// Linear RGB in [0, 1] to YCxCz, the linearised CIELab of Zhang and Wandell that HPG 2020 filters
+// in.
 [[gnu::always_inline]] inline void rgb_to_ycxcz(float r, float g, float b, float& yy, float& cx,
                                                 float& cz) {
   float x, y, z;
@@ -108,7 +111,7 @@ const float* tone_curve(Tonemapper tm) { return kToneCurves[int(tm)]; }
 }
 
 // A filtered YCxCz value back to linear RGB, clamped to the displayable [0, 1] (HPG 2020,
-// Section 4.1), then to CIELab with Hunt's chroma adjustment a, b *= 0.01 L (Section 4.2).
+// the colour pipeline), then to CIELab with Hunt's chroma adjustment a, b *= 0.01 L.
 [[gnu::always_inline]] inline void ycxcz_to_hunt_lab(float yy, float cx, float cz, float& l,
                                                      float& a, float& b) {
   const float fy = (yy + 16.f) / 116.f;
@@ -125,7 +128,7 @@ const float* tone_curve(Tonemapper tm) { return kToneCurves[int(tm)]; }
 }
 
 // The largest colour distance FLIP can see, between Hunt-adjusted green and blue (HPG 2020,
-// Section 4.2), raised to q_c. Computed with std:: functions like the reference.
+// its colour metric), raised to q_c. Computed with std:: functions like the reference.
 float max_colour_distance() {
   auto hunt_lab = [](float r, float g, float b) {
     float x, y, z;
@@ -140,9 +143,9 @@ float max_colour_distance() {
     return std::array<float, 3>{l, 0.01f * l * 500.f * (lx - ly), 0.01f * l * 200.f * (ly - lz)};
   };
   auto green = hunt_lab(0, 1, 0), blue = hunt_lab(0, 0, 1);
-  float hyab = std::fabs(green[0] - blue[0]) +
-               std::sqrt((green[1] - blue[1]) * (green[1] - blue[1]) +
-                         (green[2] - blue[2]) * (green[2] - blue[2]));
+  float hyab =
+      std::fabs(green[0] - blue[0]) + std::sqrt((green[1] - blue[1]) * (green[1] - blue[1]) +
+                                                (green[2] - blue[2]) * (green[2] - blue[2]));
   return std::pow(hyab, kQc);
 }
 
@@ -193,7 +196,7 @@ Filters make_filters(float ppd) {
     f.cz2[i] *= norm_cz;
   }
 
-  // Feature detection (HPG 2020, Section 4.3): a Gaussian of standard deviation w/2 degrees and its
+  // Feature detection (HPG 2020, the feature pipeline): a Gaussian of standard deviation w/2 degrees and its
   // derivatives, the derivatives' positive and negative weights each normalised to sum to +-1.
   const float sd = 0.5f * kW * ppd;
   f.feature_radius = int(std::ceil(3.f * sd));
@@ -261,7 +264,7 @@ template <int S>
                  cz[i]);
 }
 
-// Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021, Section 4.1).
+// Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021).
 template <int S>
 [[gnu::always_inline]] inline void hdr_body(const float* px, int n, float scale, Tonemapper tm,
                                             float* yy, float* cx, float* cz) {
@@ -295,7 +298,7 @@ struct FlipPass {
   const Filters* filters = nullptr;
   float cmax = 0, pccmax = 0;
   // width * height, zero before the first pass; each pass keeps the larger error per pixel, which
-  // is HDR-FLIP's maximum over exposures (EG 2021, Section 4.3).
+  // is HDR-FLIP's maximum over exposures (EG 2021).
   float* error = nullptr;
   // Per-thread scratch, kept across tiles and exposures so large buffers are allocated once.
   tbb::enumerable_thread_specific<std::vector<float>>* scratch = nullptr;
@@ -306,15 +309,22 @@ struct FlipPass {
                                                 float* yy, float* cx, float* cz) {
   const io::Image& image = *p.images[img];
   const int stride = image.channels;
-  const float* px = image.pixels.data() + (size_t(y) * size_t(image.width) + size_t(c0)) * size_t(stride);
+  const float* px =
+      image.pixels.data() + (size_t(y) * size_t(image.width) + size_t(c0)) * size_t(stride);
   if (!p.hdr) {
-    if (stride == 3) ldr_body<3>(px, n, yy, cx, cz);
-    else if (stride == 4) ldr_body<4>(px, n, yy, cx, cz);
-    else ldr_body<1>(px, n, yy, cx, cz);
+    if (stride == 3)
+      ldr_body<3>(px, n, yy, cx, cz);
+    else if (stride == 4)
+      ldr_body<4>(px, n, yy, cx, cz);
+    else
+      ldr_body<1>(px, n, yy, cx, cz);
   } else {
-    if (stride == 3) hdr_body<3>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
-    else if (stride == 4) hdr_body<4>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
-    else hdr_body<1>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
+    if (stride == 3)
+      hdr_body<3>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
+    else if (stride == 4)
+      hdr_body<4>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
+    else
+      hdr_body<1>(px, n, p.exposure_scale, p.tonemapper, yy, cx, cz);
   }
 }
 
@@ -339,11 +349,11 @@ struct FlipPass {
   const float low_slope = kPt / pccmax, high_slope = (1.f - kPt) / (cmax - pccmax);
   // The feature filters ran on Y in [0, 100]; the reference runs them on (Y + 16) / 116. Every
   // feature response has a derivative along one axis, which cancels the offset, so only the scale
-  // remains; with FLIP's normalisation by sqrt(2) (HPG 2020, eq. 9):
+  // remains; with FLIP's normalisation of the difference by sqrt(2):
   const float feature_scale = 0.70710678f / 116.f;
   static_assert(kQf == 0.5f, "the feature exponent is applied as a square root");
   for (int j = 0; j < n; ++j) {
-    // Colour difference (HPG 2020, Section 4.2): HyAB of the Hunt-adjusted Lab values, raised to
+    // Colour difference (HPG 2020, colour pipeline): HyAB of the Hunt-adjusted Lab values, raised to
     // q_c, remapped to [0, 1] with p_c * cmax going to p_t.
     float l1, a1, b1, l2, a2, b2;
     ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
@@ -351,7 +361,7 @@ struct FlipPass {
     const float da = a1 - a2, db = b1 - b2;
     float colour = fast_pow(abs_f(l1 - l2) + sqrt_f(da * da + db * db), kQc);
     colour = colour < pccmax ? colour * low_slope : kPt + (colour - pccmax) * high_slope;
-    // Feature difference (Section 4.3): the larger change of edge or point strength, raised to
+    // Feature difference (feature pipeline): the larger change of edge or point strength, raised to
     // q_f = 1/2.
     const float edge_r = sqrt_f(rdx[j] * rdx[j] + rdy[j] * rdy[j]);
     const float edge_t = sqrt_f(tdx[j] * tdx[j] + tdy[j] * tdy[j]);
@@ -359,7 +369,7 @@ struct FlipPass {
     const float point_t = sqrt_f(tddx[j] * tddx[j] + tddy[j] * tddy[j]);
     const float feature =
         sqrt_f(feature_scale * max_f(abs_f(edge_r - edge_t), abs_f(point_r - point_t)));
-    // Section 4.4: features amplify the colour error.
+    // Final error: features amplify the colour error.
     const float e = fast_pow(colour, 1.f - feature);
     out[j] = max_f(out[j], e);
   }
@@ -388,7 +398,8 @@ PB_METRICS_KERNEL void flip_tile(const FlipPass& p, int y0, int y1, int x0, int 
   // (Lambdas here stay trivial: a lambda is its own function, compiled for the baseline target
   // unless inlined, so the conversion loops are called directly.)
   auto ring_row = [&](int img, int plane, int y) {  // y: an image row, already clamped
-    return scratch.data() + (size_t(img * 3 + plane) * size_t(ring) + size_t(y % ring)) * size_t(count);
+    return scratch.data() +
+           (size_t(img * 3 + plane) * size_t(ring) + size_t(y % ring)) * size_t(count);
   };
   const float* rows[512];  // taps; make_filters keeps 2 * pad + 1 below this
   auto vertical_rows = [&](int img, int plane, int y, int radius) {
@@ -460,14 +471,14 @@ void run_pass(const FlipPass& pass) {
   // Tall tiles keep the ring's halo rows (converted twice) few; a few hundred columns keep a tile's
   // ring in the core's L2 cache.
   const int tile_rows = 64, tile_cols = 256;
-  tbb::parallel_for(
-      tbb::blocked_range2d<int>(0, pass.height, tile_rows, 0, pass.width, tile_cols),
-      [&](const tbb::blocked_range2d<int>& r) {
-        flip_tile(pass, r.rows().begin(), r.rows().end(), r.cols().begin(), r.cols().end());
-      });
+  tbb::parallel_for(tbb::blocked_range2d<int>(0, pass.height, tile_rows, 0, pass.width, tile_cols),
+                    [&](const tbb::blocked_range2d<int>& r) {
+                      flip_tile(pass, r.rows().begin(), r.rows().end(), r.cols().begin(),
+                                r.cols().end());
+                    });
 }
 
-// EG 2021, Section 4.2 (and the reference tool's computeExposures): the start exposure maps the
+// EG 2021's automatic exposure range (as the reference tool's computeExposures): the start exposure maps the
 // largest reference luminance, the stop exposure the median luminance, to the tone curve's 0.85.
 HdrExposures automatic_exposures(const io::Image& reference, Tonemapper tm) {
   const float* c = tone_curve(tm);
@@ -601,8 +612,8 @@ FlipStats pool_flip(const io::Image& error_map) {
 FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOptions& options) {
   detail::check_pair(reference, test, "FLIP");
   if (!(options.pixels_per_degree > 0.0) || !std::isfinite(options.pixels_per_degree))
-    throw InputError(fmt::format("FLIP: pixels per degree must be positive, not {}",
-                                 options.pixels_per_degree));
+    throw InputError(
+        fmt::format("FLIP: pixels per degree must be positive, not {}", options.pixels_per_degree));
   const int w = reference.width, h = reference.height;
   const Filters filters = make_filters(float(options.pixels_per_degree));
   const float cmax = max_colour_distance();
@@ -642,9 +653,9 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
     e.count = options.num_exposures.value_or(
         int(std::max(2.0f, std::ceil(float(e.stop) - float(e.start)))));
     if (e.count < 1)
-      throw InputError(fmt::format("FLIP: the number of exposures must be 1 or more, not {}",
-                                   e.count));
-    // EG 2021, Section 4.3: LDR-FLIP at evenly spaced exposures, the per-pixel maximum kept.
+      throw InputError(
+          fmt::format("FLIP: the number of exposures must be 1 or more, not {}", e.count));
+    // EG 2021: LDR-FLIP at evenly spaced exposures, the per-pixel maximum kept.
     const float start = float(e.start), stop = float(e.stop);
     const float step = e.count > 1 ? (stop - start) / float(e.count - 1) : 0.f;
     for (int i = 0; i < e.count; ++i) {

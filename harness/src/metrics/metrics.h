@@ -2,9 +2,9 @@
 //
 // Each metric reproduces a reference implementation, and the conformance set in tests/data/metrics
 // holds the values those implementations give:
-//   FLIP  Andersson et al., "FLIP: A Difference Evaluator for Alternating Images", HPG 2020 (LDR-FLIP),
-//         and "Visualizing Errors in Rendered High Dynamic Range Images", EG 2021 (HDR-FLIP), with the
-//         defaults of the NVIDIA reference tool v1.6.
+//   FLIP  LDR-FLIP: Andersson et al., "FLIP: A Difference Evaluator for Alternating Images",
+//         HPG 2020; HDR-FLIP: Andersson et al., "Visualizing Errors in Rendered High Dynamic Range
+//         Images", EG 2021; both with the defaults of the NVIDIA reference tool v1.6.
 //   SSIM  Wang et al., "Image Quality Assessment: From Error Visibility to Structural Similarity",
 //         IEEE TIP 2004, computed as scikit-image's structural_similarity with Gaussian weights.
 //   PSNR  as scikit-image's peak_signal_noise_ratio with data range 1.
@@ -41,7 +41,7 @@ struct FlipOptions {
   double pixels_per_degree = kDefaultPixelsPerDegree;
   Tonemapper tonemapper = Tonemapper::aces;  // HDR-FLIP only
   // HDR-FLIP exposure range in stops. Unset values are computed from the reference image as the
-  // reference tool does (EG 2021, Section 4.2): start from the largest luminance, stop from the
+  // reference tool does (EG 2021, the automatic exposure range): start from the largest luminance, stop from the
   // median, count = max(2, ceil(stop - start)).
   std::optional<double> start_exposure, stop_exposure;
   std::optional<int> num_exposures;
@@ -61,7 +61,7 @@ struct HdrExposures {
 
 struct FlipResult {
   FlipStats stats;
-  io::Image error_map;                   // 1 channel, values in [0, 1], linear = false
+  io::Image error_map;                    // 1 channel, values in [0, 1], linear = false
   std::optional<HdrExposures> exposures;  // the range HDR-FLIP used; empty for LDR-FLIP
 };
 
@@ -98,8 +98,8 @@ struct Scores {
 Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOptions& options = {},
                 io::Image* flip_error_map = nullptr);
 
-// The magma colour map (matplotlib's, as the reference tool uses it) applied to an error map's first
-// channel: 3 channels, display-encoded (linear = false), ready for io::write_image(".png").
+// The magma colour map (matplotlib's, as the reference tool uses it) applied to an error map's
+// first channel: 3 channels, display-encoded (linear = false), ready for io::write_image(".png").
 io::Image magma(const io::Image& error_map);
 
 // Flicker that per-frame error misses: the mean over pixels and consecutive frame pairs of

@@ -19,7 +19,8 @@ using detail::Values;
 // Converts both images row by row and returns the sum over rows of row_sum(a, b, width), a and b
 // the reference's and test's values of one colour channel of one row, over all three channels.
 template <typename RowSum>
-auto sum_over_channels(const io::Image& r, const io::Image& t, Values values, const RowSum& row_sum) {
+auto sum_over_channels(const io::Image& r, const io::Image& t, Values values,
+                       const RowSum& row_sum) {
   const size_t w = size_t(r.width);
   tbb::enumerable_thread_specific<std::vector<double>> rows(
       [w] { return std::vector<double>(2 * w); });
@@ -76,7 +77,8 @@ double values_per_image(const io::Image& r) { return 3.0 * double(r.width) * dou
 
 // scikit-image's peak_signal_noise_ratio with data_range = 1: 10 log10(1 / MSE).
 Psnr psnr_unchecked(const io::Image& r, const io::Image& t) {
-  const double mse = sum_over_channels(r, t, Values::display, squared_error_row) / values_per_image(r);
+  const double mse =
+      sum_over_channels(r, t, Values::display, squared_error_row) / values_per_image(r);
   Psnr p;
   p.identical = mse == 0.0;
   if (!p.identical) p.db = 10.0 * std::log10(1.0 / mse);
