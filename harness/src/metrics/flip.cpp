@@ -196,8 +196,9 @@ Filters make_filters(float ppd) {
     f.cz2[i] *= norm_cz;
   }
 
-  // Feature detection (HPG 2020, the feature pipeline): a Gaussian of standard deviation w/2 degrees and its
-  // derivatives, the derivatives' positive and negative weights each normalised to sum to +-1.
+  // Feature detection (HPG 2020, the feature pipeline): a Gaussian of standard deviation w/2
+  // degrees and its derivatives, the derivatives' positive and negative weights each normalised to
+  // sum to +-1.
   const float sd = 0.5f * kW * ppd;
   f.feature_radius = int(std::ceil(3.f * sd));
   float sum_g = 0, dg_pos = 0, dg_neg = 0, ddg_pos = 0, ddg_neg = 0;
@@ -353,8 +354,8 @@ struct FlipPass {
   const float feature_scale = 0.70710678f / 116.f;
   static_assert(kQf == 0.5f, "the feature exponent is applied as a square root");
   for (int j = 0; j < n; ++j) {
-    // Colour difference (HPG 2020, colour pipeline): HyAB of the Hunt-adjusted Lab values, raised to
-    // q_c, remapped to [0, 1] with p_c * cmax going to p_t.
+    // Colour difference (HPG 2020, colour pipeline): HyAB of the Hunt-adjusted Lab values, raised
+    // to q_c, remapped to [0, 1] with p_c * cmax going to p_t.
     float l1, a1, b1, l2, a2, b2;
     ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
     ycxcz_to_hunt_lab(ty[j], tcx[j], tcz[j], l2, a2, b2);
@@ -478,8 +479,9 @@ void run_pass(const FlipPass& pass) {
                     });
 }
 
-// EG 2021's automatic exposure range (as the reference tool's computeExposures): the start exposure maps the
-// largest reference luminance, the stop exposure the median luminance, to the tone curve's 0.85.
+// EG 2021's automatic exposure range (as the reference tool's computeExposures): the start exposure
+// maps the largest reference luminance, the stop exposure the median luminance, to the tone curve's
+// 0.85.
 HdrExposures automatic_exposures(const io::Image& reference, Tonemapper tm) {
   const float* c = tone_curve(tm);
   const float t = 0.85f;

@@ -41,8 +41,8 @@ struct FlipOptions {
   double pixels_per_degree = kDefaultPixelsPerDegree;
   Tonemapper tonemapper = Tonemapper::aces;  // HDR-FLIP only
   // HDR-FLIP exposure range in stops. Unset values are computed from the reference image as the
-  // reference tool does (EG 2021, the automatic exposure range): start from the largest luminance, stop from the
-  // median, count = max(2, ceil(stop - start)).
+  // reference tool does (EG 2021, the automatic exposure range): start from the largest luminance,
+  // stop from the median, count = max(2, ceil(stop - start)).
   std::optional<double> start_exposure, stop_exposure;
   std::optional<int> num_exposures;
 };
