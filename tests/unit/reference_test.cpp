@@ -1,6 +1,9 @@
-// The reference renderer (src/trace/reference.h): analytic images first (camera model, white furnace,
-// a point light over a plane, a caustic through a flat mirror), then the statistics of convergence
-// (path tracing at samples^-1/2, SPPM's caustics converging), the path-class partition and the cache.
+// The reference renderer (src/trace/reference.h): analytic images first (camera model, white
+// furnace, a point light over a plane, a caustic through a flat mirror), then the statistics of
+// convergence (path tracing at samples^-1/2, SPPM's caustics converging), the path-class partition
+// and the cache.
+#include "trace/reference.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,13 +13,13 @@
 #include <nlohmann/json.hpp>
 
 #include "trace/embree_scene.h"
-#include "trace/reference.h"
 #include "trace/sampling.h"
 
 namespace pb::trace {
 namespace {
 
-// ---- scenes built in code ------------------------------------------------------------------------
+// ---- scenes built in code
+// ------------------------------------------------------------------------
 
 class FixedShape final : public scene::Shape {
  public:
@@ -79,7 +82,8 @@ scene::Mesh sphere_mesh(glm::vec3 c, float r, int seg) {
 struct TestScene {
   scene::Scene scene;
   scene::FrameState state;
-  uint32_t material(scene::MaterialType type, glm::vec3 albedo, glm::vec3 emission = glm::vec3(0.f)) {
+  uint32_t material(scene::MaterialType type, glm::vec3 albedo,
+                    glm::vec3 emission = glm::vec3(0.f)) {
     scene::Material m;
     m.name = "m" + std::to_string(scene.materials.size());
     m.type = type;
@@ -112,7 +116,9 @@ struct TestScene {
   }
 };
 
-scene::Scene load(const char* name) { return scene::load_scene(std::filesystem::path(PB_SOURCE_DIR) / "scenes" / name); }
+scene::Scene load(const char* name) {
+  return scene::load_scene(std::filesystem::path(PB_SOURCE_DIR) / "scenes" / name);
+}
 
 double mean_channel(const io::Image& img, int c) {
   double s = 0;
@@ -135,15 +141,17 @@ double rel_mse(const io::Image& x, const io::Image& ref) {
 
 double rmse(const io::Image& x, const io::Image& ref) {
   double acc = 0;
-  for (size_t i = 0; i < ref.pixels.size(); ++i) acc += std::pow(double(x.pixels[i]) - ref.pixels[i], 2.0);
+  for (size_t i = 0; i < ref.pixels.size(); ++i)
+    acc += std::pow(double(x.pixels[i]) - ref.pixels[i], 2.0);
   return std::sqrt(acc / ref.pixels.size());
 }
 
-// ---- camera ----------------------------------------------------------------------------------------
+// ---- camera
+// ----------------------------------------------------------------------------------------
 
-// A point along the ray through pixel position (px, py) projects back to (px, py) with the harness's
-// Camera::view / projection (Vulkan clip space, y down): references and rasterised techniques see the
-// same pixels.
+// A point along the ray through pixel position (px, py) projects back to (px, py) with the
+// harness's Camera::view / projection (Vulkan clip space, y down): references and rasterised
+// techniques see the same pixels.
 TEST(Reference, CameraRaysMatchViewAndProjection) {
   scene::Camera cam;
   cam.position = {0.3f, 1.2f, 2.5f};
@@ -152,7 +160,8 @@ TEST(Reference, CameraRaysMatchViewAndProjection) {
   cam.fov_y = glm::radians(50.f);
   const int w = 160, h = 90;
   glm::mat4 clip_from_world = cam.projection(float(w) / h) * cam.view();
-  for (glm::vec2 p : {glm::vec2(0.5f, 0.5f), glm::vec2(159.5f, 0.5f), glm::vec2(80, 45), glm::vec2(12.25f, 77.5f)}) {
+  for (glm::vec2 p : {glm::vec2(0.5f, 0.5f), glm::vec2(159.5f, 0.5f), glm::vec2(80, 45),
+                      glm::vec2(12.25f, 77.5f)}) {
     CameraRay ray = camera_ray(cam, w, h, p.x, p.y);
     glm::vec4 clip = clip_from_world * glm::vec4(ray.origin + 3.f * ray.direction, 1.f);
     glm::vec2 ndc = glm::vec2(clip) / clip.w;
@@ -161,7 +170,8 @@ TEST(Reference, CameraRaysMatchViewAndProjection) {
   }
 }
 
-// ---- analytic images -------------------------------------------------------------------------------
+// ---- analytic images
+// -------------------------------------------------------------------------------
 
 ReferenceOptions quick(uint32_t samples) {
   ReferenceOptions o;
@@ -170,13 +180,15 @@ ReferenceOptions quick(uint32_t samples) {
   return o;
 }
 
-// A white (albedo 1) diffuse ball inside a closed enclosure whose walls emit L = 1 and reflect nothing:
-// the ball reflects exactly what it receives, so every pixel shows radiance 1 (the "white furnace").
+// A white (albedo 1) diffuse ball inside a closed enclosure whose walls emit L = 1 and reflect
+// nothing: the ball reflects exactly what it receives, so every pixel shows radiance 1 (the "white
+// furnace").
 TEST(Reference, WhiteFurnaceBallInUniformEmitterIsInvisible) {
   TestScene t;
   t.object(box_mesh({-2, -2, -2}, {2, 2, 2}, true),
            t.material(scene::MaterialType::emissive, glm::vec3(0.f), glm::vec3(1.f)));
-  t.object(sphere_mesh({0, 0, 0}, 0.6f, 48), t.material(scene::MaterialType::diffuse, glm::vec3(1.f)));
+  t.object(sphere_mesh({0, 0, 0}, 0.6f, 48),
+           t.material(scene::MaterialType::diffuse, glm::vec3(1.f)));
   t.camera({0, 0.2f, 1.8f}, {0, 0, 0}, {0, 1, 0}, 50.f);
   // Few pixels, many samples: the per-sample spread of NEE + MIS here is about 0.3.
   io::Image img = render_reference(t.scene, t.state, PathClass::combined, 8, 8, quick(32768), {});
@@ -186,8 +198,8 @@ TEST(Reference, WhiteFurnaceBallInUniformEmitterIsInvisible) {
   EXPECT_NEAR(mean_channel(img, 1), 1.0, 0.002);
 }
 
-// A closed enclosure of diffuse emitters with albedo 1/2 and L_e = 1: L = L_e + a L, so L = 2 everywhere
-// (all interreflections, Russian roulette included).
+// A closed enclosure of diffuse emitters with albedo 1/2 and L_e = 1: L = L_e + a L, so L = 2
+// everywhere (all interreflections, Russian roulette included).
 TEST(Reference, WhiteFurnaceEmittingEnclosureReachesTheNeumannSum) {
   TestScene t;
   t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
@@ -200,13 +212,15 @@ TEST(Reference, WhiteFurnaceEmittingEnclosureReachesTheNeumannSum) {
   EXPECT_NEAR(mean_channel(img, 0), 2.0, 0.004);
 }
 
-// A point light of intensity I at height h over a Lambertian plane of albedo a: L = a / pi * I cos / r^2
-// at every point. Checked on a row of pixels against the analytic value averaged over each pixel.
+// A point light of intensity I at height h over a Lambertian plane of albedo a: L = a / pi * I cos
+// / r^2 at every point. Checked on a row of pixels against the analytic value averaged over each
+// pixel.
 TEST(Reference, PointLightOverPlaneMatchesInverseSquareCosineLaw) {
   TestScene t;
   const float albedo = 0.6f, intensity = 2.f;
   const glm::vec3 light{0.3f, 1.f, -0.2f};
-  t.object(quad_mesh({-5, 0, 5}, {10, 0, 0}, {0, 0, -10}), t.material(scene::MaterialType::diffuse, glm::vec3(albedo)));
+  t.object(quad_mesh({-5, 0, 5}, {10, 0, 0}, {0, 0, -10}),
+           t.material(scene::MaterialType::diffuse, glm::vec3(albedo)));
   t.point_light(light, intensity);
   t.camera({0, 2, 0.01f}, {0, 0, 0}, {0, 0, -1}, 60.f);
   const int w = 48, h = 32;
@@ -228,14 +242,17 @@ TEST(Reference, PointLightOverPlaneMatchesInverseSquareCosineLaw) {
   }
 }
 
-// Point light between a horizontal mirror and a diffuse ceiling: the ceiling's caustic (C D S L) is the
-// light of the mirror image of the source, a / pi * I cos / r^2 with r from the image below the mirror.
-// Only photons reach it (a point light seen through a perfect mirror), so this checks SPPM end to end.
+// Point light between a horizontal mirror and a diffuse ceiling: the ceiling's caustic (C D S L) is
+// the light of the mirror image of the source, a / pi * I cos / r^2 with r from the image below the
+// mirror. Only photons reach it (a point light seen through a perfect mirror), so this checks SPPM
+// end to end.
 TEST(Reference, MirrorCausticMatchesTheImageSource) {
   TestScene t;
   const float albedo = 0.8f, intensity = 1.f;
-  t.object(quad_mesh({-4, 1, -4}, {8, 0, 0}, {0, 0, 8}), t.material(scene::MaterialType::diffuse, glm::vec3(albedo)));
-  t.object(quad_mesh({-6, 0, 6}, {12, 0, 0}, {0, 0, -12}), t.material(scene::MaterialType::mirror, glm::vec3(0.f)));
+  t.object(quad_mesh({-4, 1, -4}, {8, 0, 0}, {0, 0, 8}),
+           t.material(scene::MaterialType::diffuse, glm::vec3(albedo)));
+  t.object(quad_mesh({-6, 0, 6}, {12, 0, 0}, {0, 0, -12}),
+           t.material(scene::MaterialType::mirror, glm::vec3(0.f)));
   t.point_light({0, 0.4f, 0}, intensity);
   t.camera({0, 0.8f, 0.01f}, {0, 1, 0}, {0, 0, -1}, 90.f);
   const int w = 32, h = 24;
@@ -243,7 +260,8 @@ TEST(Reference, MirrorCausticMatchesTheImageSource) {
   o.sppm_photons = 100000;
   o.sppm_radius = 0.1f;  // the caustic is smooth here (its source is 1.4 m away): blur bias < 1%
   EmbreeScene world(t.scene, t.state);
-  ReferenceResult r = render_reference_classes(world, w, h, class_bit(PathClass::caustics) | class_bit(PathClass::direct), o);
+  ReferenceResult r = render_reference_classes(
+      world, w, h, class_bit(PathClass::caustics) | class_bit(PathClass::direct), o);
   const io::Image& caustic = r.images[int(PathClass::caustics)];
   const io::Image& direct = r.images[int(PathClass::direct)];
   const glm::vec3 image_source{0, -0.4f, 0}, source{0, 0.4f, 0};
@@ -265,10 +283,11 @@ TEST(Reference, MirrorCausticMatchesTheImageSource) {
   RecordProperty("worst", std::to_string(worst));
 }
 
-// ---- convergence -----------------------------------------------------------------------------------
+// ---- convergence
+// -----------------------------------------------------------------------------------
 
-// Path tracing is unbiased with independent samples: RMSE against a 16x longer render of another seed
-// falls as samples^-1/2 (issue 4: log-log slope in [-0.6, -0.4]).
+// Path tracing is unbiased with independent samples: RMSE against a 16x longer render of another
+// seed falls as samples^-1/2 (issue 4: log-log slope in [-0.6, -0.4]).
 TEST(Reference, PathTracerRmseFallsAsInverseSquareRootOfSamples) {
   scene::Scene scene = load("cornell-box.yaml");
   scene::FrameState state = scene.at(0);
@@ -277,17 +296,20 @@ TEST(Reference, PathTracerRmseFallsAsInverseSquareRootOfSamples) {
   ReferenceOptions o;
   o.seed = 99;
   o.samples = 2048;
-  io::Image ref = render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
+  io::Image ref =
+      render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
   std::vector<double> xs, ys;
   for (uint32_t spp : {8u, 32u, 128u}) {
     o.seed = 1;
     o.samples = spp;
-    io::Image img = render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
+    io::Image img =
+        render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
     xs.push_back(std::log(double(spp)));
     ys.push_back(std::log(rmse(img, ref)));
   }
   double mx = (xs[0] + xs[1] + xs[2]) / 3, my = (ys[0] + ys[1] + ys[2]) / 3, sxy = 0, sxx = 0;
-  for (int i = 0; i < 3; ++i) sxy += (xs[i] - mx) * (ys[i] - my), sxx += (xs[i] - mx) * (xs[i] - mx);
+  for (int i = 0; i < 3; ++i)
+    sxy += (xs[i] - mx) * (ys[i] - my), sxx += (xs[i] - mx) * (xs[i] - mx);
   double slope = sxy / sxx;
   EXPECT_GE(slope, -0.6);
   EXPECT_LE(slope, -0.4);
@@ -302,20 +324,23 @@ TEST(Reference, SppmCausticRelMseDecreasesOverIterations) {
   const int w = 32, h = 24;
   ReferenceOptions o = quick(400);
   o.seed = 7;
-  io::Image ref = render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
+  io::Image ref =
+      render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
   ASSERT_GT(mean_channel(ref, 0), 0.0);
   double previous = 1e30;
   for (uint32_t iterations : {4u, 16u, 64u}) {
     o.seed = 1;
     o.samples = iterations;
-    io::Image img = render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
+    io::Image img =
+        render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
     double e = rel_mse(img, ref);
     EXPECT_LT(e, previous) << iterations << " iterations";
     previous = e;
   }
 }
 
-// ---- path classes ----------------------------------------------------------------------------------
+// ---- path classes
+// ----------------------------------------------------------------------------------
 
 TEST(Reference, PathClassesPartitionTheImage) {
   EXPECT_EQ(parse_path_class("indirect_caustics"), PathClass::indirect_caustics);
@@ -346,7 +371,8 @@ TEST(Reference, PathClassesPartitionTheImage) {
   EXPECT_EQ(b.sppm_iterations, 0u);
 }
 
-// ---- cache -----------------------------------------------------------------------------------------
+// ---- cache
+// -----------------------------------------------------------------------------------------
 
 TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
   auto dir = std::filesystem::path(testing::TempDir()) / "pb_reference_cache_test";
@@ -378,12 +404,14 @@ TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
   EXPECT_FALSE(cache.has(scene, f0, PathClass::direct, 16, 12, more));
 
   int lines = 0;
-  ReferenceJobReport first = render_references(scene, 0, 1, class_bit(PathClass::direct) | class_bit(PathClass::combined),
-                                               16, 12, o, cache, [&](const std::string&) { ++lines; });
+  ReferenceJobReport first =
+      render_references(scene, 0, 1, class_bit(PathClass::direct) | class_bit(PathClass::combined),
+                        16, 12, o, cache, [&](const std::string&) { ++lines; });
   EXPECT_EQ(first.cached, 1);
   EXPECT_EQ(first.rendered, 3);
-  ReferenceJobReport again = render_references(scene, 0, 1, class_bit(PathClass::direct) | class_bit(PathClass::combined),
-                                               16, 12, o, cache, {});
+  ReferenceJobReport again =
+      render_references(scene, 0, 1, class_bit(PathClass::direct) | class_bit(PathClass::combined),
+                        16, 12, o, cache, {});
   EXPECT_EQ(again.rendered, 0);
   EXPECT_EQ(again.cached, 4);
   int files = 0;

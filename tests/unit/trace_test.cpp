@@ -1,7 +1,7 @@
-// Photon tracer, Embree scene, sampling and BSDFs (src/trace). Ordered from construction to statistics:
-// geometry queries, exact power bookkeeping per light type, footprints against closed forms, path
-// re-validation, determinism across thread counts, then the sampling routines (Sobol stratification,
-// chi-square of the emission density, GGX/Fresnel consistency and energy).
+// Photon tracer, Embree scene, sampling and BSDFs (src/trace). Ordered from construction to
+// statistics: geometry queries, exact power bookkeeping per light type, footprints against closed
+// forms, path re-validation, determinism across thread counts, then the sampling routines (Sobol
+// stratification, chi-square of the emission density, GGX/Fresnel consistency and energy).
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -21,7 +21,8 @@
 namespace pb::trace {
 namespace {
 
-// ---- scenes built in code ------------------------------------------------------------------------
+// ---- scenes built in code
+// ------------------------------------------------------------------------
 
 class FixedShape final : public scene::Shape {
  public:
@@ -56,13 +57,15 @@ scene::Mesh box_mesh(glm::vec3 lo, glm::vec3 hi, bool inward) {
   scene::Mesh m;
   glm::vec3 d = hi - lo;
   glm::vec3 ex{d.x, 0, 0}, ey{0, d.y, 0}, ez{0, 0, d.z};
-  auto face = [&](glm::vec3 c, glm::vec3 a, glm::vec3 b) { append(m, inward ? quad_mesh(c, a, b) : quad_mesh(c, b, a)); };
-  face(lo, ez, ex);            // -y
-  face(lo + ey, ex, ez);       // +y
-  face(lo, ey, ez);            // -x
-  face(lo + ex, ez, ey);       // +x
-  face(lo, ex, ey);            // -z
-  face(lo + ez, ey, ex);       // +z
+  auto face = [&](glm::vec3 c, glm::vec3 a, glm::vec3 b) {
+    append(m, inward ? quad_mesh(c, a, b) : quad_mesh(c, b, a));
+  };
+  face(lo, ez, ex);       // -y
+  face(lo + ey, ex, ez);  // +y
+  face(lo, ey, ez);       // -x
+  face(lo + ex, ez, ey);  // +x
+  face(lo, ex, ey);       // -z
+  face(lo + ez, ey, ex);  // +z
   return m;
 }
 
@@ -123,14 +126,16 @@ glm::dvec3 total_power(const std::vector<PhotonRecord>& photons) {
   return s;
 }
 
-// ---- Embree scene --------------------------------------------------------------------------------
+// ---- Embree scene
+// --------------------------------------------------------------------------------
 
 TEST(EmbreeScene, HitsReportObjectMaterialAndNormals) {
   TestScene t;
   uint32_t white = t.material(scene::MaterialType::diffuse);
   uint32_t red = t.material(scene::MaterialType::diffuse, {0.8f, 0.1f, 0.1f});
   t.object(quad_mesh({-1, 0, 1}, {2, 0, 0}, {0, 0, -2}), white);
-  uint32_t ball = t.object(sphere_mesh({0, 0, 0}, 0.25f, 32), red, glm::translate(glm::mat4(1.f), {0, 1, 0}));
+  uint32_t ball =
+      t.object(sphere_mesh({0, 0, 0}, 0.25f, 32), red, glm::translate(glm::mat4(1.f), {0, 1, 0}));
   EmbreeScene world(t.scene, t.state);
   Hit hit;
   ASSERT_TRUE(world.intersect({0, 3, 0}, {0, -1, 0}, 100.f, hit));
@@ -153,7 +158,8 @@ TEST(EmbreeScene, HitsReportObjectMaterialAndNormals) {
   EXPECT_NEAR(b.hi.y, 1.25f, 1e-3f);
 }
 
-// ---- power bookkeeping ---------------------------------------------------------------------------
+// ---- power bookkeeping
+// ---------------------------------------------------------------------------
 
 TraceSettings direct_only(uint32_t paths) {
   TraceSettings s;
@@ -164,8 +170,8 @@ TraceSettings direct_only(uint32_t paths) {
   return s;
 }
 
-// Point light 1 m above the centre of a 2 m square: the square subtends 4 asin(1/2) = 2 pi / 3 sr, so
-// the first hits receive I 2 pi / 3 (Van Oosterom & Strackee's rectangle formula).
+// Point light 1 m above the centre of a 2 m square: the square subtends 4 asin(1/2) = 2 pi / 3 sr,
+// so the first hits receive I 2 pi / 3 (Van Oosterom & Strackee's rectangle formula).
 TEST(PhotonTracer, PointLightFirstHitPowerIsIntensityTimesSolidAngle) {
   TestScene t;
   t.object(quad_mesh({-1, 0, 1}, {2, 0, 0}, {0, 0, -2}), t.material(scene::MaterialType::diffuse));
@@ -242,9 +248,11 @@ TEST(PhotonTracer, DirectionalLightCoversTheSceneAndDeliversIrradianceTimesArea)
 
 TEST(PhotonTracer, PathsAreSplitByPowerAndPhotonTargetKeepsPowerUnbiased) {
   EXPECT_EQ(EmbreePhotonTracer::split_paths({1.f, 3.f}, 1000), (std::vector<uint32_t>{250, 750}));
-  EXPECT_EQ(EmbreePhotonTracer::split_paths({1.f, 0.f, 1000.f}, 10), (std::vector<uint32_t>{1, 0, 9}));
+  EXPECT_EQ(EmbreePhotonTracer::split_paths({1.f, 0.f, 1000.f}, 10),
+            (std::vector<uint32_t>{1, 0, 9}));
   TestScene t;
-  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true), t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
+  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
   t.light(point_light({0.3f, 0.2f, 0}, 1.f));
   t.light(point_light({-0.3f, 0.2f, 0}, 3.f));
   EmbreeScene world(t.scene, t.state);
@@ -271,10 +279,12 @@ TEST(PhotonTracer, PathsAreSplitByPowerAndPhotonTargetKeepsPowerUnbiased) {
 }
 
 // Rough interreflection bookkeeping: in a closed box of albedo a, the expected power stored at
-// interaction k is Phi a^k (each bounce keeps a fraction a, Russian roulette keeps the expectation).
+// interaction k is Phi a^k (each bounce keeps a fraction a, Russian roulette keeps the
+// expectation).
 TEST(PhotonTracer, RussianRouletteKeepsExpectedPowerPerBounce) {
   TestScene t;
-  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true), t.material(scene::MaterialType::diffuse, glm::vec3(0.5f)));
+  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.5f)));
   t.light(point_light({0, 0, 0}, 1.f));
   EmbreeScene world(t.scene, t.state);
   EmbreePhotonTracer tracer(world);
@@ -288,7 +298,8 @@ TEST(PhotonTracer, RussianRouletteKeepsExpectedPowerPerBounce) {
   double per_bounce[6] = {};
   for (const auto& p : batch.photons) per_bounce[p.bounce] += p.power.x;
   double phi = 4 * M_PI;
-  for (int k = 0; k < 4; ++k) EXPECT_NEAR(per_bounce[k] / (phi * std::pow(0.5, k)), 1.0, 0.02) << "bounce " << k;
+  for (int k = 0; k < 4; ++k)
+    EXPECT_NEAR(per_bounce[k] / (phi * std::pow(0.5, k)), 1.0, 0.02) << "bounce " << k;
 }
 
 // A smooth glass slab at normal incidence transmits T = (1 - R) / (1 + R) of the light once every
@@ -320,14 +331,16 @@ TEST(PhotonTracer, SmoothDielectricSlabTransmitsTheFresnelSeriesSum) {
   EXPECT_EQ(fresnel_dielectric(-0.5f, 1.5f), 1.f);  // beyond the critical angle inside the glass
 }
 
-// ---- footprints ----------------------------------------------------------------------------------
+// ---- footprints
+// ----------------------------------------------------------------------------------
 
-// N photons of a point light share the sphere equally, 4 pi / N sr each, so on a plane at distance r
-// and incidence theta a photon covers 4 pi r^2 / (N cos theta). Through a flat mirror the same holds
-// with r the unfolded path length (the mirror image of the light).
+// N photons of a point light share the sphere equally, 4 pi / N sr each, so on a plane at distance
+// r and incidence theta a photon covers 4 pi r^2 / (N cos theta). Through a flat mirror the same
+// holds with r the unfolded path length (the mirror image of the light).
 TEST(PhotonTracer, FootprintMatchesTheAreaPerPhotonDirectAndThroughAMirror) {
   TestScene t;
-  t.object(quad_mesh({-3, 2, -3}, {6, 0, 0}, {0, 0, 6}), t.material(scene::MaterialType::diffuse));  // ceiling
+  t.object(quad_mesh({-3, 2, -3}, {6, 0, 0}, {0, 0, 6}),
+           t.material(scene::MaterialType::diffuse));  // ceiling
   uint32_t mirror = t.material(scene::MaterialType::mirror);
   t.object(quad_mesh({-9, 0, 9}, {18, 0, 0}, {0, 0, -18}), mirror);
   t.light(point_light({0, 1, 0}, 1.f));
@@ -357,8 +370,9 @@ TEST(PhotonTracer, FootprintMatchesTheAreaPerPhotonDirectAndThroughAMirror) {
   EXPECT_GT(checked[1], 1000);
 }
 
-// A glass ball focuses the light: behind it the caustic photons are denser, so their footprints must be
-// smaller than a direct photon's at the same place (the normal's curvature enters the differentials).
+// A glass ball focuses the light: behind it the caustic photons are denser, so their footprints
+// must be smaller than a direct photon's at the same place (the normal's curvature enters the
+// differentials).
 TEST(PhotonTracer, CausticFootprintsShrinkBehindAFocusingBall) {
   TestScene t;
   t.object(quad_mesh({-3, 0, 3}, {6, 0, 0}, {0, 0, -6}), t.material(scene::MaterialType::diffuse));
@@ -378,20 +392,23 @@ TEST(PhotonTracer, CausticFootprintsShrinkBehindAFocusingBall) {
   double mean_area = 0;
   for (const auto& p : batch.photons) {
     // Refracted in and out (S S D); singly reflected photons land elsewhere.
-    if (glm::length(glm::vec2(p.position.x, p.position.z)) > 0.05f || p.bounce != 2 || p.specular_mask != 3u)
+    if (glm::length(glm::vec2(p.position.x, p.position.z)) > 0.05f || p.bounce != 2 ||
+        p.specular_mask != 3u)
       continue;
     ++near_axis;
     mean_area += glm::length(glm::cross(p.footprint_u, p.footprint_v));
   }
   ASSERT_GT(near_axis, 50);
   mean_area /= near_axis;
-  // Density of photons near the axis relative to the unobstructed density, as the footprint predicts.
+  // Density of photons near the axis relative to the unobstructed density, as the footprint
+  // predicts.
   double density_ratio = (near_axis / (M_PI * 0.05 * 0.05)) / (1.0 / direct_area);
   EXPECT_LT(mean_area, direct_area * 0.5);
   EXPECT_NEAR(direct_area / mean_area / density_ratio, 1.0, 0.35);
 }
 
-// ---- path re-validation --------------------------------------------------------------------------
+// ---- path re-validation
+// --------------------------------------------------------------------------
 
 TEST(PhotonTracer, RetraceInvalidKeepsValidPathsAndMatchesAFreshTrace) {
   TestScene t;
@@ -435,7 +452,8 @@ TEST(PhotonTracer, RetraceInvalidKeepsValidPathsAndMatchesAFreshTrace) {
     const LightPath &a = oldp.paths[i], &b = newp.paths[i];
     uint32_t same_prefix = 0;
     while (same_prefix < std::min(a.vertex_count, b.vertex_count) &&
-           std::memcmp(&oldp.vertices[a.first_vertex + same_prefix], &newp.vertices[b.first_vertex + same_prefix],
+           std::memcmp(&oldp.vertices[a.first_vertex + same_prefix],
+                       &newp.vertices[b.first_vertex + same_prefix],
                        offsetof(PathVertex, flags)) == 0)
       ++same_prefix;
     if (same_prefix == a.vertex_count && a.vertex_count == b.vertex_count) continue;
@@ -448,9 +466,10 @@ TEST(PhotonTracer, RetraceInvalidKeepsValidPathsAndMatchesAFreshTrace) {
       Aabb box;
       box.extend(c + glm::vec3(-0.31f, -0.01f, -0.31f));
       box.extend(c + glm::vec3(0.31f, 0.61f, 0.31f));
-      float len = same_prefix < a.vertex_count
-                      ? glm::length(oldp.vertices[a.first_vertex + same_prefix].position - from.position)
-                      : 100.f;
+      float len =
+          same_prefix < a.vertex_count
+              ? glm::length(oldp.vertices[a.first_vertex + same_prefix].position - from.position)
+              : 100.f;
       touches |= box.intersects(from.position, from.direction, len * 1.001f);
     }
     EXPECT_TRUE(touches) << "path " << i << " changed at vertex " << same_prefix;
@@ -473,7 +492,8 @@ TEST(PhotonTracer, RetraceInvalidKeepsValidPathsAndMatchesAFreshTrace) {
 
 TEST(PhotonTracer, RetraceInvalidRetracesWholePathsOfAMovedLight) {
   TestScene t;
-  t.object(box_mesh({-2, 0, -2}, {2, 3, 2}, true), t.material(scene::MaterialType::diffuse, glm::vec3(0.5f)));
+  t.object(box_mesh({-2, 0, -2}, {2, 3, 2}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.5f)));
   t.light(point_light({0, 2.5f, 0}, 1.f));
   t.light(point_light({1, 2.5f, 0}, 1.f));
   EmbreeScene world(t.scene, t.state);
@@ -492,11 +512,13 @@ TEST(PhotonTracer, RetraceInvalidRetracesWholePathsOfAMovedLight) {
     if (path.light == 1) EXPECT_EQ(batch.paths.vertices[path.first_vertex].position.x, 0.5f);
 }
 
-// ---- determinism ---------------------------------------------------------------------------------
+// ---- determinism
+// ---------------------------------------------------------------------------------
 
 TEST(PhotonTracer, DeterministicForAGivenSeedWhateverTheThreadCount) {
   TestScene t;
-  t.object(box_mesh({-1, 0, -1}, {1, 2, 1}, true), t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
+  t.object(box_mesh({-1, 0, -1}, {1, 2, 1}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
   uint32_t glass = t.material(scene::MaterialType::dielectric);
   t.object(sphere_mesh({0, 0.5f, 0}, 0.3f, 32), glass);
   t.light(point_light({0, 1.8f, 0}, 1.f));
@@ -509,7 +531,9 @@ TEST(PhotonTracer, DeterministicForAGivenSeedWhateverTheThreadCount) {
   tbb::task_arena(1).execute([&] { tracer.trace(s, one); });
   tbb::task_arena(2).execute([&] { tracer.trace(s, two); });
   ASSERT_EQ(one.photons.size(), two.photons.size());
-  EXPECT_EQ(std::memcmp(one.photons.data(), two.photons.data(), one.photons.size() * sizeof(PhotonRecord)), 0);
+  EXPECT_EQ(std::memcmp(one.photons.data(), two.photons.data(),
+                        one.photons.size() * sizeof(PhotonRecord)),
+            0);
   // A changing per-frame seed gives other photons, a fixed seed the same ones.
   scene::FrameState next = t.state;
   next.frame = 1;
@@ -522,13 +546,17 @@ TEST(PhotonTracer, DeterministicForAGivenSeedWhateverTheThreadCount) {
   world.update(t.state);
   tracer.trace(s, fixed0);
   ASSERT_EQ(fixed0.photons.size(), fixed1.photons.size());
-  EXPECT_EQ(std::memcmp(fixed0.photons.data(), fixed1.photons.data(), fixed0.photons.size() * sizeof(PhotonRecord)), 0);
+  EXPECT_EQ(std::memcmp(fixed0.photons.data(), fixed1.photons.data(),
+                        fixed0.photons.size() * sizeof(PhotonRecord)),
+            0);
 }
 
-// ---- sampling ------------------------------------------------------------------------------------
+// ---- sampling
+// ------------------------------------------------------------------------------------
 
-// Owen-scrambled Sobol pairs are (0, m, 2)-nets: each of the 2^m elementary intervals of every shape
-// holds exactly one of the first 2^m points, for both 2D projections of every dimension group.
+// Owen-scrambled Sobol pairs are (0, m, 2)-nets: each of the 2^m elementary intervals of every
+// shape holds exactly one of the first 2^m points, for both 2D projections of every dimension
+// group.
 TEST(Sampling, ScrambledSobolPairsAreNets) {
   const int m = 8, n = 1 << m;
   for (uint32_t group : {0u, 1u, 7u}) {
@@ -540,8 +568,10 @@ TEST(Sampling, ScrambledSobolPairsAreNets) {
       }
       for (int a = 0; a <= m; ++a) {
         std::vector<int> count(n, 0);
-        for (auto p : pts) ++count[int(p.x * (1 << a)) * (1 << (m - a)) + int(p.y * (1 << (m - a)))];
-        for (int c : count) ASSERT_EQ(c, 1) << "group " << group << " pair " << pair << " split " << a;
+        for (auto p : pts)
+          ++count[int(p.x * (1 << a)) * (1 << (m - a)) + int(p.y * (1 << (m - a)))];
+        for (int c : count)
+          ASSERT_EQ(c, 1) << "group " << group << " pair " << pair << " split " << a;
       }
     }
   }
@@ -557,7 +587,8 @@ TEST(Sampling, EmissionDensityChiSquare) {
   const int w = 8, h = 6;
   std::vector<float> texels(w * h);
   for (int j = 0; j < h; ++j)
-    for (int i = 0; i < w; ++i) texels[j * w + i] = (i == 3 && j == 2) ? 0.f : 1.f + i * j + (i % 3);
+    for (int i = 0; i < w; ++i)
+      texels[j * w + i] = (i == 3 && j == 2) ? 0.f : 1.f + i * j + (i % 3);
   Distribution2D dist(w, h, texels);
   double total = 0;
   for (float x : texels) total += x;
@@ -606,10 +637,12 @@ TEST(PhotonTracer, EmissionFollowsTheDensityTextureAndKeepsPower) {
   s.keep_paths = true;
   PhotonBatch batch;
   tracer.trace(s, batch);
-  // One texel of 16 has density 0: its sixteenth of the sphere gets no photons, the rest keeps its power.
+  // One texel of 16 has density 0: its sixteenth of the sphere gets no photons, the rest keeps its
+  // power.
   EXPECT_NEAR(total_power(batch.photons).x / (4 * M_PI * 15 / 16), 1.0, 0.005);
   std::vector<int> hist(16, 0);
-  for (const auto& p : batch.paths.paths) ++hist[int(p.emission_uv.y * 4) * 4 + int(p.emission_uv.x * 4)];
+  for (const auto& p : batch.paths.paths)
+    ++hist[int(p.emission_uv.y * 4) * 4 + int(p.emission_uv.x * 4)];
   double total = 0;
   for (float x : density.texels) total += x;
   double chi2 = 0;
@@ -627,7 +660,8 @@ TEST(PhotonTracer, EmissionFollowsTheDensityTextureAndKeepsPower) {
   tracer.set_emission_density(0, nullptr);
 }
 
-// ---- BSDFs ----------------------------------------------------------------------------------------
+// ---- BSDFs
+// ----------------------------------------------------------------------------------------
 
 Hit flat_hit() {
   Hit h;
@@ -666,11 +700,12 @@ TEST(Bsdf, SamplingAgreesWithEvalAndPdf) {
   }
 }
 
-// Directional albedo by Monte Carlo sampling must equal the quadrature of eval() over the sphere (the
-// sampler draws from the distribution eval/pdf describe), and the pdf must integrate to the fraction of
-// samples that succeed (a reflection below the horizon is a failed sample: single-scattering GGX loses
-// that energy, which grows with roughness: Heitz 2016). A smooth-ish conductor with F0 = 1 keeps almost
-// all; a rough dielectric's reflection plus transmission stays at or below 1.
+// Directional albedo by Monte Carlo sampling must equal the quadrature of eval() over the sphere
+// (the sampler draws from the distribution eval/pdf describe), and the pdf must integrate to the
+// fraction of samples that succeed (a reflection below the horizon is a failed sample:
+// single-scattering GGX loses that energy, which grows with roughness: Heitz 2016). A smooth-ish
+// conductor with F0 = 1 keeps almost all; a rough dielectric's reflection plus transmission stays
+// at or below 1.
 TEST(Bsdf, GgxEnergyMatchesQuadratureAndPdfNormalises) {
   Pcg32 rng(11, 2);
   struct Moments {
@@ -682,7 +717,8 @@ TEST(Bsdf, GgxEnergyMatchesQuadratureAndPdfNormalises) {
     const int n = 200000;
     for (int k = 0; k < n; ++k) {
       BsdfSample s;
-      if (bsdf.sample(wo, {rng.next_float(), rng.next_float(), rng.next_float()}, Transport::importance, s))
+      if (bsdf.sample(wo, {rng.next_float(), rng.next_float(), rng.next_float()},
+                      Transport::importance, s))
         acc += s.weight.x, ok += 1;
     }
     return Moments{acc / n, ok / n};
@@ -693,8 +729,8 @@ TEST(Bsdf, GgxEnergyMatchesQuadratureAndPdfNormalises) {
     double e = 0, p = 0;
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) {
-        // Poles of the grid along +-y, away from every lobe of the directions tested (a lobe on a pole
-        // of the equal-area grid is resolved poorly).
+        // Poles of the grid along +-y, away from every lobe of the directions tested (a lobe on a
+        // pole of the equal-area grid is resolved poorly).
         glm::vec3 v = sphere_from_unit({(i + 0.5f) / n, (j + 0.5f) / n});
         glm::vec3 wi{v.y, v.z, v.x};
         e += bsdf.eval(wo, wi, Transport::importance).x;

@@ -1,12 +1,13 @@
-// The photon tracer as technique plugins see it: the photon record, which photons to store, whole light
-// paths for reuse across frames, and the emission-density hook of adaptive emission.
+// The photon tracer as technique plugins see it: the photon record, which photons to store, whole
+// light paths for reuse across frames, and the emission-density hook of adaptive emission.
 //
-// The tracer runs on the CPU over the World's Embree scene (src/trace/), multi-threaded with oneTBB and
-// deterministic for a given seed whatever the thread count: path i always uses sample index i of an
-// Owen-scrambled Sobol sequence, and photons come back in path order.
+// The tracer runs on the CPU over the World's Embree scene (src/trace/), multi-threaded with oneTBB
+// and deterministic for a given seed whatever the thread count: path i always uses sample index i
+// of an Owen-scrambled Sobol sequence, and photons come back in path order.
 //
-// Units: positions in metres, power in watts per photon (RGB). Summing the power of every photon stored
-// at first hits gives the power the lights deliver to the scene (tests/unit/trace_test.cpp checks this).
+// Units: positions in metres, power in watts per photon (RGB). Summing the power of every photon
+// stored at first hits gives the power the lights deliver to the scene (tests/unit/trace_test.cpp
+// checks this).
 #pragma once
 
 #include <cstddef>
@@ -27,14 +28,14 @@ static_assert(offsetof(PhotonRecord, normal) == 48 && offsetof(PhotonRecord, spe
 static_assert(offsetof(PhotonRecord, footprint_u) == 64 && offsetof(PhotonRecord, light) == 76);
 static_assert(offsetof(PhotonRecord, footprint_v) == 80 && offsetof(PhotonRecord, flags) == 92);
 
-// Photons are classified by the light path expression from the light to the stored (diffuse) hit, in
-// Heckbert's notation read from the light: S is any non-diffuse interaction (mirror, smooth or rough
-// dielectric, rough conductor), D a diffuse one (diffuse and emissive materials). Photons are stored on
-// diffuse surfaces only. The four kinds partition all stored photons.
+// Photons are classified by the light path expression from the light to the stored (diffuse) hit,
+// in Heckbert's notation read from the light: S is any non-diffuse interaction (mirror, smooth or
+// rough dielectric, rough conductor), D a diffuse one (diffuse and emissive materials). Photons are
+// stored on diffuse surfaces only. The four kinds partition all stored photons.
 enum PhotonKind : uint32_t {
-  kDirectPhotons = 1u << 0,           // L D: the first hit (Paper I skips these: direct light is shaded)
-  kCausticPhotons = 1u << 1,          // L S+ D: the caustic map (AAPS stores only these)
-  kIndirectPhotons = 1u << 2,         // L D (D|S)* D: first hit diffuse, at least one more bounce
+  kDirectPhotons = 1u << 0,    // L D: the first hit (Paper I skips these: direct light is shaded)
+  kCausticPhotons = 1u << 1,   // L S+ D: the caustic map (AAPS stores only these)
+  kIndirectPhotons = 1u << 2,  // L D (D|S)* D: first hit diffuse, at least one more bounce
   kCausticIndirectPhotons = 1u << 3,  // L S+ D (D|S)* D: first hit specular, a diffuse hit between
   kAllPhotons = 15u,
   kPaperIPhotons = kCausticPhotons | kIndirectPhotons | kCausticIndirectPhotons,  // all but L D
@@ -49,60 +50,64 @@ inline PhotonKind photon_kind(uint32_t specular_mask, uint32_t bounce) {
   if (first_specular) return all_specular ? kCausticPhotons : kCausticIndirectPhotons;
   return kIndirectPhotons;
 }
-inline PhotonKind photon_kind(const PhotonRecord& p) { return photon_kind(p.specular_mask, p.bounce); }
+inline PhotonKind photon_kind(const PhotonRecord& p) {
+  return photon_kind(p.specular_mask, p.bounce);
+}
 
-// A 2D density over a light's emission domain [0,1]^2 (AAPS's ray-density texture, Paper II's target
-// distribution map): photons are emitted with probability proportional to the texel value, and their
-// power is divided by that probability, so the expected power per texel is unchanged -- except in
-// texels of density 0, which emit nothing (their share of the light is dropped on purpose). The domain of
-// each light type is equal-measure (uniform (u,v) emits power uniformly):
+// A 2D density over a light's emission domain [0,1]^2 (AAPS's ray-density texture, Paper II's
+// target distribution map): photons are emitted with probability proportional to the texel value,
+// and their power is divided by that probability, so the expected power per texel is unchanged --
+// except in texels of density 0, which emit nothing (their share of the light is dropped on
+// purpose). The domain of each light type is equal-measure (uniform (u,v) emits power uniformly):
 //   point: direction, z = 1 - 2u, phi = 2 pi v (equal-area sphere);
 //   spot: direction in the outer cone, cos(theta) = 1 - u (1 - cos(outer)), phi = 2 pi v;
 //   directional: the ray origin on a square perpendicular to the light covering the scene bounds;
 //   quad: the point position + u edge_u + v edge_v (directions cosine-distributed);
 //   emissive object: a point on its surface, u chooses the triangle by area.
-// Rows run along v (texel (i, j) covers u in [i/width, (i+1)/width), v in [j/height, (j+1)/height)).
+// Rows run along v (texel (i, j) covers u in [i/width, (i+1)/width), v in [j/height,
+// (j+1)/height)).
 struct EmissionDensity {
   int width = 0, height = 0;
   std::vector<float> texels;  // width * height, row-major by v; non-negative, not all zero
 };
 
 struct TraceSettings {
-  uint32_t paths = 100000;        // light paths emitted per trace, shared among lights by power
-  uint32_t photon_target = 0;     // > 0: emit more paths until this many photons are stored (Paper I
-                                  // §5); `paths` is then the first wave, and at most max_paths are used
+  uint32_t paths = 100000;  // light paths emitted per trace, shared among lights by power
+  uint32_t photon_target =
+      0;  // > 0: emit more paths until this many photons are stored (Paper I
+          // §5); `paths` is then the first wave, and at most max_paths are used
   uint32_t max_paths = 1u << 26;
-  uint32_t max_bounces = 8;       // surface interactions per path (stored or not), at most 31
+  uint32_t max_bounces = 8;         // surface interactions per path (stored or not), at most 31
   uint32_t store = kPaperIPhotons;  // PhotonKind mask
-  uint32_t rr_start = 1;          // Russian roulette from this interaction on (0 = the first hit)
+  uint32_t rr_start = 1;            // Russian roulette from this interaction on (0 = the first hit)
   uint32_t seed = 1;
-  bool seed_per_frame = true;     // true: the sequence is scrambled with hash(seed, frame) (fresh
-                                  // photons each frame); false: identical photons every frame
-  bool keep_paths = false;        // keep whole light paths for retrace_invalid (path verification)
+  bool seed_per_frame = true;  // true: the sequence is scrambled with hash(seed, frame) (fresh
+                               // photons each frame); false: identical photons every frame
+  bool keep_paths = false;     // keep whole light paths for retrace_invalid (path verification)
 };
 
 struct TraceStats {
-  uint64_t paths = 0;          // light paths emitted (or re-validated)
-  uint64_t rays = 0;           // rays traced: path segments, plus visibility rays of re-validation
-  uint64_t photons = 0;        // photons stored
-  uint64_t paths_retraced = 0;     // retrace_invalid: paths re-traced from some segment
+  uint64_t paths = 0;           // light paths emitted (or re-validated)
+  uint64_t rays = 0;            // rays traced: path segments, plus visibility rays of re-validation
+  uint64_t photons = 0;         // photons stored
+  uint64_t paths_retraced = 0;  // retrace_invalid: paths re-traced from some segment
   uint64_t segments_retraced = 0;  // retrace_invalid: segments replaced
   double seconds = 0;
   double mrays_per_second() const { return seconds > 0 ? rays / seconds * 1e-6 : 0.0; }
 };
 
-// One vertex of a stored light path: vertex 0 lies on the light, vertex k > 0 is the k-th surface hit.
-// The outgoing fields describe the segment that leaves the vertex; re-tracing from vertex k restarts
-// from them, so a re-traced path continues exactly as a fresh trace would.
+// One vertex of a stored light path: vertex 0 lies on the light, vertex k > 0 is the k-th surface
+// hit. The outgoing fields describe the segment that leaves the vertex; re-tracing from vertex k
+// restarts from them, so a re-traced path continues exactly as a fresh trace would.
 struct PathVertex {
   glm::vec3 position{0.0f};
-  uint32_t object = ~0u;          // Scene::objects index; ~0u on the light
-  glm::vec3 direction{0.0f};      // outgoing unit direction (unused on the last vertex)
-  uint32_t specular_mask = 0;     // interactions 0..k-1 (bit i: interaction i was S)
-  glm::vec3 power{0.0f};          // power carried by the outgoing segment, W
-  uint32_t flags = 0;             // PathVertex::kStored | kEscapes | kTerminated
-  glm::vec3 normal{0.0f};         // geometric normal (vertex 0: the light's, or 0 for a point light)
-  float spacing = 0;              // photon spacing in the emission domain, 1 / sqrt(N density)
+  uint32_t object = ~0u;       // Scene::objects index; ~0u on the light
+  glm::vec3 direction{0.0f};   // outgoing unit direction (unused on the last vertex)
+  uint32_t specular_mask = 0;  // interactions 0..k-1 (bit i: interaction i was S)
+  glm::vec3 power{0.0f};       // power carried by the outgoing segment, W
+  uint32_t flags = 0;          // PathVertex::kStored | kEscapes | kTerminated
+  glm::vec3 normal{0.0f};      // geometric normal (vertex 0: the light's, or 0 for a point light)
+  float spacing = 0;           // photon spacing in the emission domain, 1 / sqrt(N density)
   glm::vec3 dp_du{0.0f}, dp_dv{0.0f}, dd_du{0.0f}, dd_dv{0.0f};  // outgoing ray differentials
   static constexpr uint32_t kStored = 1;      // a photon was stored at this vertex
   static constexpr uint32_t kEscapes = 2;     // the outgoing segment left the scene (hit nothing)
@@ -137,8 +142,8 @@ struct PhotonBatch {
   TraceStats stats;
 };
 
-// The tracer of one World. It reads the World's current frame (lights, transforms) at each call, so the
-// runner's world.update(state) is all it needs between frames. Calls are not re-entrant.
+// The tracer of one World. It reads the World's current frame (lights, transforms) at each call, so
+// the runner's world.update(state) is all it needs between frames. Calls are not re-entrant.
 class PhotonTracer {
  public:
   virtual ~PhotonTracer() = default;
@@ -150,12 +155,12 @@ class PhotonTracer {
   virtual void set_emission_density(uint32_t light, const EmissionDensity* density) = 0;
   // Traces `settings.paths` fresh light paths (or until photon_target) in the current frame.
   virtual TraceStats trace(const TraceSettings& settings, PhotonBatch& out) = 0;
-  // Path verification (Paper II §3.2): tests every segment of the paths in `batch` (from a trace with
-  // keep_paths) against what moved since they were traced and re-traces each path from its first
-  // invalid segment; valid prefixes and their photons are kept. A path whose light changed is re-traced
-  // whole; if the settings or the lights' power split changed, everything is traced afresh. Re-traced
-  // parts continue the path's own sample sequence, so the result equals a fresh trace with the seed the
-  // paths were first traced with.
+  // Path verification (Paper II §3.2): tests every segment of the paths in `batch` (from a trace
+  // with keep_paths) against what moved since they were traced and re-traces each path from its
+  // first invalid segment; valid prefixes and their photons are kept. A path whose light changed is
+  // re-traced whole; if the settings or the lights' power split changed, everything is traced
+  // afresh. Re-traced parts continue the path's own sample sequence, so the result equals a fresh
+  // trace with the seed the paths were first traced with.
   virtual TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) = 0;
 };
 

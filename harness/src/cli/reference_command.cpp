@@ -1,5 +1,5 @@
-// `photonbench reference SCENE`: renders reference images of a scene's frames into the content-addressed
-// cache (resumable: what is cached is skipped), with progress. The loop itself is
+// `photonbench reference SCENE`: renders reference images of a scene's frames into the
+// content-addressed cache (resumable: what is cached is skipped), with progress. The loop itself is
 // pb::trace::render_references, which the runner calls for the frames a config scores.
 #include <fmt/format.h>
 
@@ -37,7 +37,8 @@ std::pair<uint32_t, uint32_t> parse_frames(const std::string& text, uint32_t def
       uint32_t f = uint32_t(std::stoul(text));
       return {f, f};
     }
-    uint32_t a = uint32_t(std::stoul(text.substr(0, colon))), b = uint32_t(std::stoul(text.substr(colon + 1)));
+    uint32_t a = uint32_t(std::stoul(text.substr(0, colon))),
+             b = uint32_t(std::stoul(text.substr(colon + 1)));
     if (b < a) throw pb::InputError("");
     return {a, b};
   } catch (const std::exception&) {
@@ -48,8 +49,8 @@ std::pair<uint32_t, uint32_t> parse_frames(const std::string& text, uint32_t def
 std::pair<int, int> parse_resolution(const std::string& text) {
   int w = 0, h = 0;
   char x = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w <= 0 || h <= 0 ||
-      w > 16384 || h > 16384)
+  if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w <= 0 ||
+      h <= 0 || w > 16384 || h > 16384)
     throw pb::InputError(fmt::format("--resolution: '{}' is not WIDTHxHEIGHT", text));
   return {w, h};
 }
@@ -57,21 +58,28 @@ std::pair<int, int> parse_resolution(const std::string& text) {
 void add_reference(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand(
-      "reference", "render reference images (path tracing + SPPM) of a scene's frames into the cache");
-  cmd->add_option("scene", args->scene, "scene name (under scenes/) or path to a scene file")->required();
+      "reference",
+      "render reference images (path tracing + SPPM) of a scene's frames into the cache");
+  cmd->add_option("scene", args->scene, "scene name (under scenes/) or path to a scene file")
+      ->required();
   cmd->add_option("--frames", args->frames, "FIRST:LAST or FRAME (default: the scene's animation)");
   std::string class_help = "path class, repeatable: ";
   for (auto c : pb::trace::all_path_classes())
-    class_help += fmt::format("{} ({}); ", pb::trace::path_class_name(c), pb::trace::path_class_expression(c));
+    class_help += fmt::format("{} ({}); ", pb::trace::path_class_name(c),
+                              pb::trace::path_class_expression(c));
   cmd->add_option("--class", args->classes, class_help + "default combined");
-  cmd->add_option("--samples", args->samples, "samples per pixel (= SPPM iterations)")->check(CLI::Range(1u, 1u << 24));
-  cmd->add_option("--photons", args->photons, "photon paths per SPPM iteration")->check(CLI::Range(1u, 1u << 26));
+  cmd->add_option("--samples", args->samples, "samples per pixel (= SPPM iterations)")
+      ->check(CLI::Range(1u, 1u << 24));
+  cmd->add_option("--photons", args->photons, "photon paths per SPPM iteration")
+      ->check(CLI::Range(1u, 1u << 26));
   cmd->add_option("--resolution", args->resolution, "WIDTHxHEIGHT");
   cmd->add_option("--cache", args->cache, "cache directory");
   cmd->add_option("--seed", args->seed, "random seed");
-  cmd->add_option("--rel-error", args->rel_error, "stop a frame early at this estimated relative RMS error")
+  cmd->add_option("--rel-error", args->rel_error,
+                  "stop a frame early at this estimated relative RMS error")
       ->check(CLI::Range(0.f, 1.f));
-  cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")->check(CLI::Range(0, 4096));
+  cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")
+      ->check(CLI::Range(0, 4096));
   cmd->callback([args, &exit_code] {
     auto file = pb::scene::find_scene(args->scene, {});
     pb::scene::Scene scene = pb::scene::load_scene(file);
@@ -91,15 +99,17 @@ void add_reference(CLI::App& app, int& exit_code) {
     options.rel_error = args->rel_error;
     options.threads = args->threads;
     pb::trace::ReferenceCache cache(args->cache);
-    std::printf("reference: %s frames %u..%u, %dx%d, %d class(es), %u samples, cache %s\n", scene.name.c_str(),
-                first, last, width, height, std::popcount(mask), args->samples, args->cache.c_str());
+    std::printf("reference: %s frames %u..%u, %dx%d, %d class(es), %u samples, cache %s\n",
+                scene.name.c_str(), first, last, width, height, std::popcount(mask), args->samples,
+                args->cache.c_str());
     std::fflush(stdout);
-    auto report = pb::trace::render_references(scene, first, last, mask, width, height, options, cache,
-                                               [](const std::string& line) {
+    auto report = pb::trace::render_references(scene, first, last, mask, width, height, options,
+                                               cache, [](const std::string& line) {
                                                  std::printf("%s\n", line.c_str());
                                                  std::fflush(stdout);
                                                });
-    std::printf("reference: %d rendered, %d cached, %.1f s\n", report.rendered, report.cached, report.seconds);
+    std::printf("reference: %d rendered, %d cached, %.1f s\n", report.rendered, report.cached,
+                report.seconds);
     exit_code = 0;
   });
 }

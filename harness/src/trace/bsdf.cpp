@@ -6,7 +6,8 @@
 namespace pb::trace {
 namespace {
 
-// ---- GGX (isotropic alpha), in a local frame with the macro normal along +z ----------------------
+// ---- GGX (isotropic alpha), in a local frame with the macro normal along +z
+// ----------------------
 
 float ggx_d(const glm::vec3& m, float alpha) {
   if (m.z <= 0) return 0;
@@ -48,9 +49,12 @@ glm::vec3 schlick(const glm::vec3& f0, float cos_theta) {
   return f0 + (1.f - f0) * m5;
 }
 
-glm::vec3 reflect_about(const glm::vec3& wo, const glm::vec3& n) { return 2.f * glm::dot(wo, n) * n - wo; }
+glm::vec3 reflect_about(const glm::vec3& wo, const glm::vec3& n) {
+  return 2.f * glm::dot(wo, n) * n - wo;
+}
 
-// Refraction of wo about n (facing wo) with eta = eta_i / eta_t; false on total internal reflection.
+// Refraction of wo about n (facing wo) with eta = eta_i / eta_t; false on total internal
+// reflection.
 bool refract_about(const glm::vec3& wo, const glm::vec3& n, float eta, glm::vec3& wi) {
   float cos_i = glm::dot(wo, n);
   float sin2_t = eta * eta * std::max(0.f, 1.f - cos_i * cos_i);
@@ -139,7 +143,8 @@ glm::vec3 Bsdf::eval_ggx(const glm::vec3& wo_world, const glm::vec3& wi_world, T
     if (!reflect) return glm::vec3(0.f);
     glm::vec3 m = glm::normalize(wo + wi);
     float d = ggx_d(m, alpha_);
-    glm::vec3 f = schlick(material_->specular, glm::dot(wo, m)) * (d * ggx_g2(wo, wi, alpha_) / (4.f * wo.z));
+    glm::vec3 f =
+        schlick(material_->specular, glm::dot(wo, m)) * (d * ggx_g2(wo, wi, alpha_) / (4.f * wo.z));
     *pdf = ggx_g1(wo, alpha_) * d / (4.f * wo.z);
     return f;  // f * cos_i: the cos_i of f's denominator cancels
   }
@@ -168,7 +173,8 @@ glm::vec3 Bsdf::eval_ggx(const glm::vec3& wo_world, const glm::vec3& wi_world, T
   return glm::vec3(ft);
 }
 
-bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode, BsdfSample& out) const {
+bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
+                  BsdfSample& out) const {
   float so = glm::dot(wo_world, ng_);
   if (so == 0) return false;
   float side = so > 0 ? 1.f : -1.f;
@@ -196,7 +202,8 @@ bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
   if (type == MaterialType::mirror || (delta_ && type == MaterialType::rough_conductor)) {
     out.wi = reflect_about(wo_world, n_side);
     if (glm::dot(out.wi, ng_) * side <= 0) return false;
-    out.weight = type == MaterialType::mirror ? material_->specular : schlick(material_->specular, wo.z);
+    out.weight =
+        type == MaterialType::mirror ? material_->specular : schlick(material_->specular, wo.z);
     out.pdf = 1;
     out.delta = true;
     out.normal = n_side;

@@ -12,7 +12,8 @@ namespace pb::trace {
 namespace {
 
 void report_embree_error(void*, RTCError code, const char* message) {
-  // Embree reports through this callback; a failed build then shows up as missing geometry, so say it.
+  // Embree reports through this callback; a failed build then shows up as missing geometry, so say
+  // it.
   std::fprintf(stderr, "embree error %d: %s\n", int(code), message ? message : "");
 }
 
@@ -28,7 +29,8 @@ Aabb transform_bounds(const Aabb& local, const glm::mat4& m) {
 }
 
 bool same_light_geometry(const scene::Light& a, const scene::Light& b) {
-  return a.type == b.type && a.position == b.position && a.edge_u == b.edge_u && a.edge_v == b.edge_v;
+  return a.type == b.type && a.position == b.position && a.edge_u == b.edge_u &&
+         a.edge_v == b.edge_v;
 }
 
 }  // namespace
@@ -53,14 +55,17 @@ bool Aabb::intersects(const glm::vec3& origin, const glm::vec3& dir, float tmax)
 RTCDevice EmbreeScene::device() {
   static RTCDevice device = [] {
     RTCDevice d = rtcNewDevice(nullptr);
-    if (!d) throw Error(fmt::format("embree: cannot create a device (error {})", int(rtcGetDeviceError(nullptr))));
+    if (!d)
+      throw Error(fmt::format("embree: cannot create a device (error {})",
+                              int(rtcGetDeviceError(nullptr))));
     rtcSetDeviceErrorFunction(d, report_embree_error, nullptr);
     return d;
   }();
   return device;
 }
 
-EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& state, EmbreeOptions options)
+EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& state,
+                         EmbreeOptions options)
     : scene_(scene), state_(state), options_(options) {
   RTCDevice dev = device();
   top_ = rtcNewScene(dev);
@@ -79,24 +84,29 @@ EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& sta
       data.mesh = data.deformed.get();
     }
     const scene::Mesh& mesh = *data.mesh;
-    if (mesh.triangles.empty()) throw InputError(fmt::format("object '{}' has no triangles", object.name));
+    if (mesh.triangles.empty())
+      throw InputError(fmt::format("object '{}' has no triangles", object.name));
     data.flattened = options_.flatten_static && !deforms && !object.transform.animated();
     data.geometry = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuildQuality(data.geometry, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
-    auto* index = static_cast<glm::uvec3*>(rtcSetNewGeometryBuffer(
-        data.geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), mesh.triangles.size()));
+    rtcSetGeometryBuildQuality(data.geometry,
+                               deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+    auto* index = static_cast<glm::uvec3*>(
+        rtcSetNewGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                sizeof(glm::uvec3), mesh.triangles.size()));
     std::memcpy(index, mesh.triangles.data(), mesh.triangles.size() * sizeof(glm::uvec3));
-    rtcSetNewGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3),
-                            mesh.positions.size());
+    rtcSetNewGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                            sizeof(glm::vec3), mesh.positions.size());
     data.local_bounds = Aabb{};
     for (const auto& p : mesh.positions) data.local_bounds.extend(p);
-    glm::mat4 to_world = i < state.object_to_world.size() ? state.object_to_world[i] : glm::mat4(1.0f);
+    glm::mat4 to_world =
+        i < state.object_to_world.size() ? state.object_to_world[i] : glm::mat4(1.0f);
     if (data.flattened) {
       rtcAttachGeometryByID(top_, data.geometry, i);
       place_object(i, to_world);  // writes the world-space vertices
     } else {
       data.scene = rtcNewScene(dev);
-      rtcSetSceneBuildQuality(data.scene, deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+      rtcSetSceneBuildQuality(data.scene,
+                              deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
       if (deforms) rtcSetSceneFlags(data.scene, RTC_SCENE_FLAG_DYNAMIC);
       set_vertices(data, mesh);
       rtcAttachGeometry(data.scene, data.geometry);
@@ -124,7 +134,8 @@ EmbreeScene::~EmbreeScene() {
 }
 
 void EmbreeScene::set_vertices(ObjectData& data, const scene::Mesh& mesh) {
-  auto* vertices = static_cast<glm::vec3*>(rtcGetGeometryBufferData(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0));
+  auto* vertices =
+      static_cast<glm::vec3*>(rtcGetGeometryBufferData(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0));
   std::memcpy(vertices, mesh.positions.data(), mesh.positions.size() * sizeof(glm::vec3));
   data.geometry_mesh = &mesh;
   rtcUpdateGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0);
@@ -145,7 +156,8 @@ void EmbreeScene::place_object(uint32_t i, const glm::mat4& to_world) {
       data.world_mesh.positions[v] = glm::vec3(to_world * glm::vec4(mesh.positions[v], 1.f));
       data.bounds.extend(data.world_mesh.positions[v]);
     }
-    for (size_t v = 0; v < mesh.normals.size(); ++v) data.world_mesh.normals[v] = nm * mesh.normals[v];
+    for (size_t v = 0; v < mesh.normals.size(); ++v)
+      data.world_mesh.normals[v] = nm * mesh.normals[v];
     data.geometry_to_world = glm::mat4(1.0f);
     data.normal_to_world = glm::mat3(1.0f);
     set_vertices(data, data.world_mesh);
@@ -167,11 +179,12 @@ void EmbreeScene::place_lights() {
     RTCGeometry& g = light_geometry_[l];
     if (!g) {
       g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* index = static_cast<glm::uvec3*>(
-          rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), 2));
+      auto* index = static_cast<glm::uvec3*>(rtcSetNewGeometryBuffer(
+          g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(glm::uvec3), 2));
       index[0] = {0, 1, 2};
       index[1] = {0, 2, 3};
-      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3), 4);
+      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3),
+                              4);
       rtcAttachGeometryByID(top_, g, light_object(l));
     }
     auto* v = static_cast<glm::vec3*>(rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_VERTEX, 0));
@@ -195,8 +208,9 @@ void EmbreeScene::update(const scene::FrameState& state) {
       auto mesh = std::make_unique<scene::Mesh>(scene_.objects[i].shape->tessellate(state.time));
       if (mesh->positions.size() != data.mesh->positions.size() ||
           mesh->triangles.size() != data.mesh->triangles.size())
-        throw Error(fmt::format("object '{}': a deforming shape must keep its vertex and triangle count",
-                                scene_.objects[i].name));
+        throw Error(
+            fmt::format("object '{}': a deforming shape must keep its vertex and triangle count",
+                        scene_.objects[i].name));
       data.deformed = std::move(mesh);
       data.mesh = data.deformed.get();
       data.local_bounds = Aabb{};
@@ -216,7 +230,8 @@ void EmbreeScene::update(const scene::FrameState& state) {
   rtcCommitScene(top_);
 }
 
-bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax, Hit& hit) const {
+bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax,
+                            Hit& hit) const {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -254,7 +269,8 @@ bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float
     float len = glm::length(ng);
     ng = len > 0 ? ng / len : glm::vec3(0, 1, 0);
     if (!mesh.normals.empty()) {
-      glm::vec3 n = w * mesh.normals[tri.x] + rh.hit.u * mesh.normals[tri.y] + rh.hit.v * mesh.normals[tri.z];
+      glm::vec3 n =
+          w * mesh.normals[tri.x] + rh.hit.u * mesh.normals[tri.y] + rh.hit.v * mesh.normals[tri.z];
       if (!data.flattened) n = data.normal_to_world * n;
       float nl = glm::length(n);
       hit.shading_normal = nl > 0 ? n / nl : ng;

@@ -1,13 +1,14 @@
-// The CPU half of the World: an Embree 3 scene built from a pb::scene::Scene, one instance per object,
-// so a frame where objects move costs a transform per moving object and a rebuild of the small top-level
-// BVH; a deformable shape (Shape::animated, the pool's water) refits its own BVH from new vertices.
+// The CPU half of the World: an Embree 3 scene built from a pb::scene::Scene, one instance per
+// object, so a frame where objects move costs a transform per moving object and a rebuild of the
+// small top-level BVH; a deformable shape (Shape::animated, the pool's water) refits its own BVH
+// from new vertices.
 //
-// Quad lights are part of the scene too (unless turned off): a one-sided emitter that is seen by camera
-// rays, hit by BSDF-sampled rays (so the reference renderer can weight them by MIS) and that absorbs
-// what hits it, as the physical luminaire it models.
+// Quad lights are part of the scene too (unless turned off): a one-sided emitter that is seen by
+// camera rays, hit by BSDF-sampled rays (so the reference renderer can weight them by MIS) and that
+// absorbs what hits it, as the physical luminaire it models.
 //
-// Queries (intersect, occluded, triangle) are const and safe from any number of threads; update() must
-// not run concurrently with them.
+// Queries (intersect, occluded, triangle) are const and safe from any number of threads; update()
+// must not run concurrently with them.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -34,10 +35,11 @@ struct Hit {
   glm::vec2 barycentric{0.0f};       // Embree's (u, v): weights of vertices 1 and 2
   uint32_t object = kNoObject;       // Scene::objects index, or light_object(l) for quad light l
   uint32_t primitive = 0;
-  uint32_t material = 0;             // Scene::materials index (objects only)
+  uint32_t material = 0;  // Scene::materials index (objects only)
 };
 
-// World-space data of one triangle (for ray differentials: the normal's derivative along the surface).
+// World-space data of one triangle (for ray differentials: the normal's derivative along the
+// surface).
 struct Triangle {
   glm::vec3 p[3];
   glm::vec3 n[3];
@@ -53,15 +55,16 @@ struct Aabb {
 
 struct EmbreeOptions {
   bool quad_lights_as_geometry = true;
-  // Objects that never move (Object::moves() false) go into the top-level scene in world space rather
-  // than behind an instance: one BVH level less on every ray. If such an object's transform changes
-  // anyway, its vertices are re-transformed (correct, just slower than an instance).
+  // Objects that never move (Object::moves() false) go into the top-level scene in world space
+  // rather than behind an instance: one BVH level less on every ray. If such an object's transform
+  // changes anyway, its vertices are re-transformed (correct, just slower than an instance).
   bool flatten_static = true;
 };
 
 class EmbreeScene {
  public:
-  EmbreeScene(const scene::Scene& scene, const scene::FrameState& state, EmbreeOptions options = {});
+  EmbreeScene(const scene::Scene& scene, const scene::FrameState& state,
+              EmbreeOptions options = {});
   ~EmbreeScene();
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;
@@ -78,12 +81,16 @@ class EmbreeScene {
   const scene::FrameState& state() const { return state_; }
   uint32_t object_count() const { return uint32_t(scene_.objects.size()); }
   uint32_t light_object(uint32_t light) const { return object_count() + light; }
-  bool is_light_object(uint32_t object) const { return object >= object_count() && object != kNoObject; }
+  bool is_light_object(uint32_t object) const {
+    return object >= object_count() && object != kNoObject;
+  }
   const glm::mat4& object_to_world(uint32_t object) const { return objects_[object].to_world; }
   // The object's mesh at the current frame (object space; deformed meshes are the current shape).
   const scene::Mesh& mesh(uint32_t object) const { return *objects_[object].mesh; }
   Triangle triangle(uint32_t object, uint32_t primitive) const;
-  Aabb object_bounds(uint32_t object) const { return objects_[object].bounds; }  // world, this frame
+  Aabb object_bounds(uint32_t object) const {
+    return objects_[object].bounds;
+  }                     // world, this frame
   Aabb bounds() const;  // world bounds of all objects this frame
   // Offset for spawning rays from a surface point, scaled to the coordinates (float precision).
   static float ray_epsilon(const glm::vec3& p) {
@@ -93,19 +100,20 @@ class EmbreeScene {
 
  private:
   struct ObjectData {
-    bool flattened = false;          // world-space triangles in the top-level scene
-    RTCScene scene = nullptr;        // instanced: the object's own scene
-    RTCGeometry geometry = nullptr;  // triangles (in `scene`, or in the top-level scene if flattened)
-    RTCGeometry instance = nullptr;  // instanced: in the top-level scene
-    glm::mat4 to_world{1.0f};        // the frame's object-to-world transform
+    bool flattened = false;    // world-space triangles in the top-level scene
+    RTCScene scene = nullptr;  // instanced: the object's own scene
+    RTCGeometry geometry =
+        nullptr;  // triangles (in `scene`, or in the top-level scene if flattened)
+    RTCGeometry instance = nullptr;     // instanced: in the top-level scene
+    glm::mat4 to_world{1.0f};           // the frame's object-to-world transform
     glm::mat4 geometry_to_world{1.0f};  // of the vertices the BVH holds (identity when flattened)
     glm::mat3 normal_to_world{1.0f};    // inverse transpose of geometry_to_world
     const scene::Mesh* mesh = nullptr;  // object space
     const scene::Mesh* geometry_mesh = nullptr;  // what the BVH holds: *mesh, or world_mesh
-    std::unique_ptr<scene::Mesh> deformed;  // owned current mesh of an animated shape
-    scene::Mesh world_mesh;                 // flattened: the mesh in world space
-    Aabb local_bounds;                      // object space
-    Aabb bounds;                            // world
+    std::unique_ptr<scene::Mesh> deformed;       // owned current mesh of an animated shape
+    scene::Mesh world_mesh;                      // flattened: the mesh in world space
+    Aabb local_bounds;                           // object space
+    Aabb bounds;                                 // world
   };
   void set_vertices(ObjectData& data, const scene::Mesh& mesh);
   void place_object(uint32_t i, const glm::mat4& to_world);

@@ -12,7 +12,8 @@ namespace {
 float mean(const glm::vec3& v) { return (v.x + v.y + v.z) / 3.f; }
 
 // Direction of an equal-area sphere / cone point and its derivatives in (u, v).
-void sphere_direction(glm::vec2 uv, float cos_max, glm::vec3& d, glm::vec3& dd_du, glm::vec3& dd_dv) {
+void sphere_direction(glm::vec2 uv, float cos_max, glm::vec3& d, glm::vec3& dd_du,
+                      glm::vec3& dd_dv) {
   float span = 1.f - cos_max;  // 2 for the full sphere
   float z = 1.f - uv.x * span;
   float r = std::sqrt(std::max(0.f, 1.f - z * z));
@@ -77,7 +78,8 @@ LightSet::LightSet(const EmbreeScene& world) : world_(world) {
   }
   for (uint32_t o = 0; o < world.object_count(); ++o) {
     const scene::Material& m = scene.materials[scene.objects[o].material];
-    if (m.type != scene::MaterialType::emissive || std::max({m.emission.x, m.emission.y, m.emission.z}) <= 0)
+    if (m.type != scene::MaterialType::emissive ||
+        std::max({m.emission.x, m.emission.y, m.emission.z}) <= 0)
       continue;
     Emitter e;
     e.type = EmitterType::mesh;
@@ -121,7 +123,8 @@ glm::vec3 LightSet::mesh_point(const Emitter& e, glm::vec2 uv, glm::vec3* normal
                                glm::vec3* dp_dv) const {
   const auto& cdf = e.triangle_cdf;
   size_t n = cdf.size() - 1;
-  size_t t = std::clamp<size_t>(size_t(std::upper_bound(cdf.begin(), cdf.end(), uv.x) - cdf.begin()) - 1, 0, n - 1);
+  size_t t = std::clamp<size_t>(
+      size_t(std::upper_bound(cdf.begin(), cdf.end(), uv.x) - cdf.begin()) - 1, 0, n - 1);
   while (t < n - 1 && cdf[t + 1] <= cdf[t]) ++t;
   float width = cdf[t + 1] - cdf[t];
   float u = width > 0 ? std::clamp((uv.x - cdf[t]) / width, 0.f, 1.f) : 0.5f;
@@ -193,11 +196,14 @@ EmissionRay LightSet::emit(uint32_t i, glm::vec2 uv, glm::vec2 u_dir) const {
   return r;
 }
 
-bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u, IncidentSample& out) const {
+bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
+                               IncidentSample& out) const {
   if (emitters_.empty()) return false;
   size_t n = emitters_.size();
   size_t i = std::clamp<size_t>(
-      size_t(std::upper_bound(selection_cdf_.begin(), selection_cdf_.end(), u_select) - selection_cdf_.begin()) - 1,
+      size_t(std::upper_bound(selection_cdf_.begin(), selection_cdf_.end(), u_select) -
+             selection_cdf_.begin()) -
+          1,
       0, n - 1);
   while (i < n - 1 && selection_pdf_[i] <= 0) ++i;
   float select = selection_pdf_[i];

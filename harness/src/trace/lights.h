@@ -1,9 +1,11 @@
-// Every emitter of one frame, in one list: the scene's lights (point, spot, directional, quad) followed
-// by each object whose material is emissive. It answers the two questions of light transport: where do
-// photons start (emission, photon tracer and SPPM) and how much light arrives at a point from a sampled
-// emitter (next-event estimation in the reference renderer), with the same units as scene.h:
-//   point, spot: radiant intensity I (W/sr), power 4 pi I (spot: the integral of I times the falloff);
-//   directional: irradiance E (W/m^2) normal to the light, emitted through a square perpendicular to
+// Every emitter of one frame, in one list: the scene's lights (point, spot, directional, quad)
+// followed by each object whose material is emissive. It answers the two questions of light
+// transport: where do photons start (emission, photon tracer and SPPM) and how much light arrives
+// at a point from a sampled emitter (next-event estimation in the reference renderer), with the
+// same units as scene.h:
+//   point, spot: radiant intensity I (W/sr), power 4 pi I (spot: the integral of I times the
+//   falloff); directional: irradiance E (W/m^2) normal to the light, emitted through a square
+//   perpendicular to
 //     it that covers the scene's bounding sphere (side 2R), power E (2R)^2;
 //   quad and emissive surfaces: radiance L (W/m^2/sr) from the front side, power pi L area.
 // Spot falloff: 1 inside spot_inner, 0 outside spot_outer, and smoothstep in cos(theta) between.
@@ -22,8 +24,8 @@ struct Emitter {
   EmitterType type = EmitterType::point;
   uint32_t source = 0;  // scene light index, or object index for a mesh
   glm::vec3 power{0.0f};
-  float area = 0;                 // quad, mesh (world, this frame)
-  glm::vec3 radiance{0.0f};       // quad, mesh
+  float area = 0;                   // quad, mesh (world, this frame)
+  glm::vec3 radiance{0.0f};         // quad, mesh
   std::vector<float> triangle_cdf;  // mesh: by world area, size triangles + 1
 };
 
@@ -39,10 +41,10 @@ struct EmissionRay {
 
 // Light arriving at a shading point from one sampled emitter.
 struct IncidentSample {
-  glm::vec3 wi{0.0f};       // towards the light
-  float distance = 0;       // to the sampled point (infinity for a directional light)
-  glm::vec3 weight{0.0f};   // incident radiance / pdf (the selection probability included)
-  float pdf = 0;            // solid angle density including selection; 0 for delta lights
+  glm::vec3 wi{0.0f};      // towards the light
+  float distance = 0;      // to the sampled point (infinity for a directional light)
+  glm::vec3 weight{0.0f};  // incident radiance / pdf (the selection probability included)
+  float pdf = 0;           // solid angle density including selection; 0 for delta lights
   bool delta = false;
   uint32_t emitter = 0;
 };
@@ -58,14 +60,14 @@ class LightSet {
   // Emitter index of a surface the camera can hit (quad light geometry, emissive object), or -1.
   int emitter_of_object(uint32_t object) const;
 
-  // A photon from emitter `i` at emission-domain point `uv` (see EmissionDensity in photons.h), with
-  // `u_dir` choosing the direction of surface emitters (cosine-distributed).
+  // A photon from emitter `i` at emission-domain point `uv` (see EmissionDensity in photons.h),
+  // with `u_dir` choosing the direction of surface emitters (cosine-distributed).
   EmissionRay emit(uint32_t i, glm::vec2 uv, glm::vec2 u_dir) const;
 
   // Next-event estimation: choose an emitter by power, then a point on it.
   bool sample_incident(const glm::vec3& p, float u_select, glm::vec2 u, IncidentSample& out) const;
-  // The solid-angle density with which sample_incident would have produced the point `y` (an emitter
-  // surface hit) seen from p: for multiple importance sampling with BSDF sampling.
+  // The solid-angle density with which sample_incident would have produced the point `y` (an
+  // emitter surface hit) seen from p: for multiple importance sampling with BSDF sampling.
   float pdf_incident(const glm::vec3& p, const Hit& y) const;
   // Radiance leaving emitter surface `y` towards wo (0 at the back and for non-emitters).
   glm::vec3 emitted(const Hit& y, const glm::vec3& wo) const;

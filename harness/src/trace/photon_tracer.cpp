@@ -27,7 +27,8 @@ struct Context {
   const LightSet* lights = nullptr;
   const std::vector<std::shared_ptr<const Distribution2D>>* densities = nullptr;
   uint32_t seed = 0, max_bounces = 0, store = 0, rr_start = 0;
-  const std::vector<uint32_t>* emission_count = nullptr;  // N used for each emitter's power and spacing
+  const std::vector<uint32_t>* emission_count =
+      nullptr;  // N used for each emitter's power and spacing
 };
 
 struct PathTask {
@@ -47,8 +48,9 @@ glm::vec3 spawn_origin(const PathVertex& v) {
   return v.position + v.normal * (glm::dot(v.direction, v.normal) >= 0 ? eps : -eps);
 }
 
-// Derivative of the interpolated shading normal for a displacement dp in the triangle's plane (Igehy
-// 1999 §3.2): solve dp = db1 e1 + db2 e2 in the least-squares sense, then differentiate N/|N|.
+// Derivative of the interpolated shading normal for a displacement dp in the triangle's plane
+// (Igehy 1999 §3.2): solve dp = db1 e1 + db2 e2 in the least-squares sense, then differentiate
+// N/|N|.
 glm::vec3 normal_derivative(const Triangle& tri, glm::vec2 bary, const glm::vec3& dp) {
   glm::vec3 n_raw = (1.f - bary.x - bary.y) * tri.n[0] + bary.x * tri.n[1] + bary.y * tri.n[2];
   float len = glm::length(n_raw);
@@ -102,8 +104,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
   const EmbreeScene& world = *c.world;
   const scene::Scene& scene = world.scene();
   uint32_t seed_l = hash_combine(c.seed, task.light);
-  float restart_spacing =
-      1.f / std::sqrt(float(std::max(1u, (*c.emission_count)[task.light])));
+  float restart_spacing = 1.f / std::sqrt(float(std::max(1u, (*c.emission_count)[task.light])));
   uint64_t rays = 0;
   for (;;) {
     const PathVertex v = verts.back();
@@ -123,7 +124,8 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     PathVertex next;
     next.position = hit.position;
     next.object = hit.object;
-    glm::vec3 ng = glm::dot(hit.geometric_normal, dir) > 0 ? -hit.geometric_normal : hit.geometric_normal;
+    glm::vec3 ng =
+        glm::dot(hit.geometric_normal, dir) > 0 ? -hit.geometric_normal : hit.geometric_normal;
     next.normal = ng;
     next.spacing = v.spacing;
     next.specular_mask = v.specular_mask;
@@ -172,8 +174,10 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       if (alive && k >= c.rr_start) {
         // Paper I §5: survive with R = min(1, Phi'/Phi), then Phi = Phi'/R.
         float r = std::min(1.f, max3(power) / max3(v.power));
-        if (xi.w >= r) alive = false;
-        else power /= r;
+        if (xi.w >= r)
+          alive = false;
+        else
+          power /= r;
       }
       if (alive) {
         next.direction = s.wi;
@@ -185,8 +189,12 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
           glm::vec2 u = glm::clamp(glm::vec2(xi.x, xi.y), glm::vec2(h), glm::vec2(1.f - h));
           Frame f(s.normal);
           next.dp_du = next.dp_dv = glm::vec3(0.f);
-          next.dd_du = f.to_world(cosine_hemisphere(u + glm::vec2(h, 0)) - cosine_hemisphere(u - glm::vec2(h, 0))) / (2 * h);
-          next.dd_dv = f.to_world(cosine_hemisphere(u + glm::vec2(0, h)) - cosine_hemisphere(u - glm::vec2(0, h))) / (2 * h);
+          next.dd_du = f.to_world(cosine_hemisphere(u + glm::vec2(h, 0)) -
+                                  cosine_hemisphere(u - glm::vec2(h, 0))) /
+                       (2 * h);
+          next.dd_dv = f.to_world(cosine_hemisphere(u + glm::vec2(0, h)) -
+                                  cosine_hemisphere(u - glm::vec2(0, h))) /
+                       (2 * h);
           next.spacing = restart_spacing;
         } else {
           Triangle tri = world.triangle(hit.object, hit.primitive);
@@ -238,11 +246,12 @@ void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, bool keep
   }
 }
 
-// Concatenates block outputs in block order (the fixed partition makes this thread-count independent):
-// sizes first, then every block copies itself into place in parallel.
+// Concatenates block outputs in block order (the fixed partition makes this thread-count
+// independent): sizes first, then every block copies itself into place in parallel.
 void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
             PhotonBatch& out, TraceStats& stats) {
-  std::vector<size_t> photon_at(block_count + 1), vertex_at(block_count + 1), path_at(block_count + 1);
+  std::vector<size_t> photon_at(block_count + 1), vertex_at(block_count + 1),
+      path_at(block_count + 1);
   photon_at[0] = out.photons.size();
   vertex_at[0] = out.paths.vertices.size();
   path_at[0] = out.paths.paths.size();
@@ -259,24 +268,26 @@ void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_
     out.paths.vertices.resize(vertex_at[block_count]);
     out.paths.paths.resize(path_at[block_count]);
   }
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, block_count, 4), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t b = r.begin(); b != r.end(); ++b) {
-      BlockOutput& o = blocks[b];
-      PhotonRecord* ph = out.photons.data() + photon_at[b];
-      for (size_t i = 0; i < o.photons.size(); ++i) {
-        ph[i] = o.photons[i];
-        ph[i].path += path_offset;
-      }
-      if (!keep) continue;
-      std::copy(o.vertices.begin(), o.vertices.end(), out.paths.vertices.begin() + vertex_at[b]);
-      LightPath* paths = out.paths.paths.data() + path_at[b];
-      for (size_t i = 0; i < o.paths.size(); ++i) {
-        paths[i] = o.paths[i];
-        paths[i].first_photon += uint32_t(photon_at[b]);
-        paths[i].first_vertex += uint32_t(vertex_at[b]);
-      }
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, block_count, 4),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t b = r.begin(); b != r.end(); ++b) {
+                        BlockOutput& o = blocks[b];
+                        PhotonRecord* ph = out.photons.data() + photon_at[b];
+                        for (size_t i = 0; i < o.photons.size(); ++i) {
+                          ph[i] = o.photons[i];
+                          ph[i].path += path_offset;
+                        }
+                        if (!keep) continue;
+                        std::copy(o.vertices.begin(), o.vertices.end(),
+                                  out.paths.vertices.begin() + vertex_at[b]);
+                        LightPath* paths = out.paths.paths.data() + path_at[b];
+                        for (size_t i = 0; i < o.paths.size(); ++i) {
+                          paths[i] = o.paths[i];
+                          paths[i].first_photon += uint32_t(photon_at[b]);
+                          paths[i].first_vertex += uint32_t(vertex_at[b]);
+                        }
+                      }
+                    });
 }
 
 // Block outputs reused from call to call, so their memory is not faulted in again every frame.
@@ -321,7 +332,8 @@ constexpr size_t kLightStateSize = 6;
 
 void check_settings(const TraceSettings& s) {
   if (s.max_bounces < 1 || s.max_bounces > 31)
-    throw InputError(fmt::format("photon tracer: max_bounces {} is outside [1, 31]", s.max_bounces));
+    throw InputError(
+        fmt::format("photon tracer: max_bounces {} is outside [1, 31]", s.max_bounces));
   if (s.paths < 1) throw InputError("photon tracer: paths must be at least 1");
   if ((s.store & ~uint32_t(kAllPhotons)) != 0 || s.store == 0)
     throw InputError("photon tracer: store must be a non-empty PhotonKind mask");
@@ -333,14 +345,16 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& powers, uint32_t paths) {
+std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& powers,
+                                                      uint32_t paths) {
   std::vector<uint32_t> count(powers.size(), 0);
   double total = 0;
   size_t positive = 0;
   for (float p : powers)
     if (p > 0) total += p, ++positive;
   if (total <= 0 || paths == 0) return count;
-  // Largest remainder (Hamilton): floor of the exact share, then one more to the largest remainders.
+  // Largest remainder (Hamilton): floor of the exact share, then one more to the largest
+  // remainders.
   std::vector<std::pair<double, size_t>> remainders;
   uint32_t used = 0;
   for (size_t i = 0; i < powers.size(); ++i) {
@@ -352,8 +366,10 @@ std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& 
   }
   std::stable_sort(remainders.begin(), remainders.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
-  for (size_t r = 0; used < paths && r < remainders.size(); ++r, ++used) ++count[remainders[r].second];
-  // No emitter with power is left dark while there are paths enough: take one from the largest share.
+  for (size_t r = 0; used < paths && r < remainders.size(); ++r, ++used)
+    ++count[remainders[r].second];
+  // No emitter with power is left dark while there are paths enough: take one from the largest
+  // share.
   if (paths >= positive)
     for (size_t i = 0; i < powers.size(); ++i)
       if (powers[i] > 0 && count[i] == 0) {
@@ -381,11 +397,13 @@ glm::vec3 EmbreePhotonTracer::light_power(uint32_t light) const {
 
 void EmbreePhotonTracer::set_emission_density(uint32_t light, const EmissionDensity* density) {
   uint32_t n = light_count();
-  if (light >= n) throw Error(fmt::format("photon tracer: no light {} (the scene has {})", light, n));
+  if (light >= n)
+    throw Error(fmt::format("photon tracer: no light {} (the scene has {})", light, n));
   densities_.resize(std::max<size_t>(densities_.size(), n));
   density_version_.resize(densities_.size(), 0);
   densities_[light] =
-      density ? std::make_shared<Distribution2D>(density->width, density->height, density->texels) : nullptr;
+      density ? std::make_shared<Distribution2D>(density->width, density->height, density->texels)
+              : nullptr;
   ++density_version_[light];
 }
 
@@ -401,13 +419,14 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   out.photons.clear();
   out.paths = LightPaths{};
   TraceStats stats;
-  uint32_t seed = settings.seed_per_frame ? hash_combine(settings.seed, world_.state().frame) : settings.seed;
+  uint32_t seed =
+      settings.seed_per_frame ? hash_combine(settings.seed, world_.state().frame) : settings.seed;
 
   std::vector<uint32_t> emitted(lights.size(), 0);  // paths emitted so far per light
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
   for (auto& n : emission_count) n = std::max(n, 1u);
-  Context c{&world_, &lights, &densities_, seed, settings.max_bounces, settings.store, settings.rr_start,
-            &emission_count};
+  Context c{&world_,        &lights,           &densities_,    seed, settings.max_bounces,
+            settings.store, settings.rr_start, &emission_count};
   bool keep = settings.keep_paths;
   uint32_t wave = settings.paths, total = 0;
   for (;;) {
@@ -419,23 +438,25 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     uint32_t blocks = uint32_t((tasks.size() + kBlockSize - 1) / kBlockSize);
     std::vector<BlockOutput>& outputs = scratch_->blocks;
     reset_blocks(outputs, blocks);
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
-      std::vector<PathVertex> verts;
-      std::vector<PhotonRecord> photons;
-      for (uint32_t b = r.begin(); b != r.end(); ++b) {
-        BlockOutput& o = outputs[b];
-        uint32_t end = std::min<uint32_t>(uint32_t(tasks.size()), (b + 1) * kBlockSize);
-        for (uint32_t t = b * kBlockSize; t < end; ++t) {
-          verts.clear();
-          photons.clear();
-          glm::vec2 uv;
-          verts.push_back(emit(c, tasks[t], &uv));
-          uint32_t local = t - b * kBlockSize;  // path index within the wave, fixed up in gather
-          o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, photons);
-          append_path(o, tasks[t], uv, keep, verts, photons);
-        }
-      }
-    });
+    tbb::parallel_for(
+        tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+          std::vector<PathVertex> verts;
+          std::vector<PhotonRecord> photons;
+          for (uint32_t b = r.begin(); b != r.end(); ++b) {
+            BlockOutput& o = outputs[b];
+            uint32_t end = std::min<uint32_t>(uint32_t(tasks.size()), (b + 1) * kBlockSize);
+            for (uint32_t t = b * kBlockSize; t < end; ++t) {
+              verts.clear();
+              photons.clear();
+              glm::vec2 uv;
+              verts.push_back(emit(c, tasks[t], &uv));
+              uint32_t local =
+                  t - b * kBlockSize;  // path index within the wave, fixed up in gather
+              o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, photons);
+              append_path(o, tasks[t], uv, keep, verts, photons);
+            }
+          }
+        });
     gather(outputs, blocks, total, keep, out, stats);
     for (uint32_t e = 0; e < lights.size(); ++e) emitted[e] += alloc[e];
     total += uint32_t(tasks.size());
@@ -455,7 +476,8 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     float power_scale = float(emission_count[e]) / emitted[e];
     float spacing_scale = std::sqrt(power_scale);
     for (auto& p : out.photons)
-      if (p.light == e) p.power *= power_scale, p.footprint_u *= spacing_scale, p.footprint_v *= spacing_scale;
+      if (p.light == e)
+        p.power *= power_scale, p.footprint_u *= spacing_scale, p.footprint_v *= spacing_scale;
     for (auto& path : out.paths.paths) {
       if (path.light != e) continue;
       for (uint32_t v = 0; v < path.vertex_count; ++v) {
@@ -468,7 +490,8 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   if (keep) {
     LightPaths& lp = out.paths;
     lp.object_to_world.resize(world_.object_count());
-    for (uint32_t o = 0; o < world_.object_count(); ++o) lp.object_to_world[o] = world_.object_to_world(o);
+    for (uint32_t o = 0; o < world_.object_count(); ++o)
+      lp.object_to_world[o] = world_.object_to_world(o);
     lp.light_state = light_state(world_, lights, density_version_);
     lp.paths_per_light = emitted;
     lp.seed = seed;
@@ -491,14 +514,16 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
   density_version_.resize(densities_.size(), 0);
   std::vector<glm::vec4> now_state = light_state(world_, lights, density_version_);
   uint32_t n_emitters = lights.size();
-  bool compatible = !old.empty() && old.max_bounces == settings.max_bounces && old.store == settings.store &&
-                    old.rr_start == settings.rr_start && old.paths_per_light.size() == n_emitters &&
+  bool compatible = !old.empty() && old.max_bounces == settings.max_bounces &&
+                    old.store == settings.store && old.rr_start == settings.rr_start &&
+                    old.paths_per_light.size() == n_emitters &&
                     old.object_to_world.size() == world_.object_count() &&
                     old.light_state.size() == now_state.size() &&
                     (settings.seed_per_frame || old.seed == settings.seed);
   // The split of paths among emitters depends on their power: a power change means a fresh trace.
   for (uint32_t e = 0; compatible && e < n_emitters; ++e)
-    compatible = glm::vec3(old.light_state[e * kLightStateSize + 4]) == glm::vec3(now_state[e * kLightStateSize + 4]);
+    compatible = glm::vec3(old.light_state[e * kLightStateSize + 4]) ==
+                 glm::vec3(now_state[e * kLightStateSize + 4]);
   if (!compatible) {
     TraceSettings fresh = settings;
     fresh.keep_paths = true;
@@ -520,15 +545,18 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
   std::vector<char> light_changed(n_emitters, 0);
   for (uint32_t e = 0; e < n_emitters; ++e) {
     for (size_t k = 0; k < kLightStateSize; ++k)
-      light_changed[e] |= old.light_state[e * kLightStateSize + k] != now_state[e * kLightStateSize + k];
+      light_changed[e] |=
+          old.light_state[e * kLightStateSize + k] != now_state[e * kLightStateSize + k];
     const Emitter& em = lights.emitter(e);
-    if (light_changed[e] && em.type == EmitterType::quad && world_.is_light_object(world_.light_object(em.source))) {
+    if (light_changed[e] && em.type == EmitterType::quad &&
+        world_.is_light_object(world_.light_object(em.source))) {
       uint32_t obj = world_.light_object(em.source);
       if (obj < moved.size()) {
         moved[obj] = 1;
         const scene::Light& l = lights_now[em.source];
         Aabb box;
-        for (glm::vec3 q : {l.position, l.position + l.edge_u, l.position + l.edge_v, l.position + l.edge_u + l.edge_v})
+        for (glm::vec3 q : {l.position, l.position + l.edge_u, l.position + l.edge_v,
+                            l.position + l.edge_u + l.edge_v})
           box.extend(q);
         moved_boxes.push_back(box);
       }
@@ -536,95 +564,101 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
   }
 
   std::vector<uint32_t> emission_count = old.paths_per_light;
-  Context c{&world_, &lights, &densities_, old.seed, old.max_bounces, old.store, old.rr_start, &emission_count};
+  Context c{&world_,         &lights,   &densities_,  old.seed,
+            old.max_bounces, old.store, old.rr_start, &emission_count};
   uint32_t n_paths = uint32_t(old.paths.size());
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<BlockOutput>& outputs = scratch_->blocks;
   reset_blocks(outputs, blocks);
   const std::vector<PhotonRecord>& old_photons = batch.photons;
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
-    std::vector<PathVertex> verts;
-    std::vector<PhotonRecord> photons;
-    for (uint32_t b = r.begin(); b != r.end(); ++b) {
-      BlockOutput& o = outputs[b];
-      uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
-      for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
-        const LightPath& path = old.paths[pi];
-        PathTask task{path.light, path.sample};
-        const PathVertex* pv = &old.vertices[path.first_vertex];
-        verts.clear();
-        photons.clear();
-        glm::vec2 uv = path.emission_uv;
-        if (light_changed[path.light]) {
-          verts.push_back(emit(c, task, &uv));
-          uint64_t rays = continue_path(c, task, pi, verts, photons);
-          o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
-          append_path(o, task, uv, true, verts, photons);
-          continue;
-        }
-        // Find the first invalid segment: s leaves vertex s (Paper II §3.2, "naive" verification,
-        // with an exact ray where a moved object's box touches the segment).
-        uint32_t invalid = path.vertex_count;
-        for (uint32_t s = 0; s < path.vertex_count; ++s) {
-          const PathVertex& a = pv[s];
-          bool last = s + 1 == path.vertex_count;
-          if (last && !(a.flags & PathVertex::kEscapes)) break;  // no outgoing segment
-          glm::vec3 origin = spawn_origin(a);
-          float length = kInfinity;
-          uint32_t dest_object = kNoObject;
-          if (!last) {
-            const PathVertex& d = pv[s + 1];
-            dest_object = d.object;
-            if (dest_object < moved.size() && moved[dest_object]) {  // the endpoint itself moved
-              invalid = s;
-              break;
+  tbb::parallel_for(
+      tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+        std::vector<PathVertex> verts;
+        std::vector<PhotonRecord> photons;
+        for (uint32_t b = r.begin(); b != r.end(); ++b) {
+          BlockOutput& o = outputs[b];
+          uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
+          for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
+            const LightPath& path = old.paths[pi];
+            PathTask task{path.light, path.sample};
+            const PathVertex* pv = &old.vertices[path.first_vertex];
+            verts.clear();
+            photons.clear();
+            glm::vec2 uv = path.emission_uv;
+            if (light_changed[path.light]) {
+              verts.push_back(emit(c, task, &uv));
+              uint64_t rays = continue_path(c, task, pi, verts, photons);
+              o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
+              append_path(o, task, uv, true, verts, photons);
+              continue;
             }
-            length = glm::dot(d.position - origin, a.direction);
-          }
-          bool touched = false;
-          for (const Aabb& box : moved_boxes)
-            if (box.intersects(origin, a.direction, length)) {
-              touched = true;
-              break;
+            // Find the first invalid segment: s leaves vertex s (Paper II §3.2, "naive"
+            // verification, with an exact ray where a moved object's box touches the segment).
+            uint32_t invalid = path.vertex_count;
+            for (uint32_t s = 0; s < path.vertex_count; ++s) {
+              const PathVertex& a = pv[s];
+              bool last = s + 1 == path.vertex_count;
+              if (last && !(a.flags & PathVertex::kEscapes)) break;  // no outgoing segment
+              glm::vec3 origin = spawn_origin(a);
+              float length = kInfinity;
+              uint32_t dest_object = kNoObject;
+              if (!last) {
+                const PathVertex& d = pv[s + 1];
+                dest_object = d.object;
+                if (dest_object < moved.size() &&
+                    moved[dest_object]) {  // the endpoint itself moved
+                  invalid = s;
+                  break;
+                }
+                length = glm::dot(d.position - origin, a.direction);
+              }
+              bool touched = false;
+              for (const Aabb& box : moved_boxes)
+                if (box.intersects(origin, a.direction, length)) {
+                  touched = true;
+                  break;
+                }
+              if (!touched) continue;
+              Hit hit;
+              ++o.rays;
+              bool any = world_.intersect(origin, a.direction, kInfinity, hit);
+              bool same = last ? !any
+                               : any && hit.object == dest_object &&
+                                     std::abs(hit.t - length) <= 1e-4f * (1.f + length);
+              if (!same) {
+                invalid = s;
+                break;
+              }
             }
-          if (!touched) continue;
-          Hit hit;
-          ++o.rays;
-          bool any = world_.intersect(origin, a.direction, kInfinity, hit);
-          bool same = last ? !any
-                           : any && hit.object == dest_object &&
-                                 std::abs(hit.t - length) <= 1e-4f * (1.f + length);
-          if (!same) {
-            invalid = s;
-            break;
+            if (invalid == path.vertex_count) {  // the whole path is still valid: keep it as it was
+              verts.assign(pv, pv + path.vertex_count);
+              photons.assign(old_photons.begin() + path.first_photon,
+                             old_photons.begin() + path.first_photon + path.photon_count);
+              for (auto& ph : photons) ph.path = pi;
+              append_path(o, task, uv, true, verts, photons);
+              continue;
+            }
+            // Keep vertices 0..invalid and the photons stored on them, re-trace from there.
+            verts.assign(pv, pv + invalid + 1);
+            verts.back().flags &= ~(PathVertex::kEscapes | PathVertex::kTerminated);
+            uint32_t kept = 0;
+            for (uint32_t s = 1; s <= invalid; ++s)
+              kept += (pv[s].flags & PathVertex::kStored) ? 1 : 0;
+            photons.assign(old_photons.begin() + path.first_photon,
+                           old_photons.begin() + path.first_photon + kept);
+            for (auto& ph : photons) ph.path = pi;
+            uint64_t rays = continue_path(c, task, pi, verts, photons);
+            o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
+            append_path(o, task, uv, true, verts, photons);
           }
         }
-        if (invalid == path.vertex_count) {  // the whole path is still valid: keep it as it was
-          verts.assign(pv, pv + path.vertex_count);
-          photons.assign(old_photons.begin() + path.first_photon,
-                         old_photons.begin() + path.first_photon + path.photon_count);
-          for (auto& ph : photons) ph.path = pi;
-          append_path(o, task, uv, true, verts, photons);
-          continue;
-        }
-        // Keep vertices 0..invalid and the photons stored on them, re-trace from there.
-        verts.assign(pv, pv + invalid + 1);
-        verts.back().flags &= ~(PathVertex::kEscapes | PathVertex::kTerminated);
-        uint32_t kept = 0;
-        for (uint32_t s = 1; s <= invalid; ++s) kept += (pv[s].flags & PathVertex::kStored) ? 1 : 0;
-        photons.assign(old_photons.begin() + path.first_photon, old_photons.begin() + path.first_photon + kept);
-        for (auto& ph : photons) ph.path = pi;
-        uint64_t rays = continue_path(c, task, pi, verts, photons);
-        o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
-        append_path(o, task, uv, true, verts, photons);
-      }
-    }
-  });
+      });
   PhotonBatch next;
   TraceStats stats;
   gather(outputs, blocks, 0, true, next, stats);
   next.paths.object_to_world.resize(n_objects);
-  for (uint32_t ob = 0; ob < n_objects; ++ob) next.paths.object_to_world[ob] = world_.object_to_world(ob);
+  for (uint32_t ob = 0; ob < n_objects; ++ob)
+    next.paths.object_to_world[ob] = world_.object_to_world(ob);
   next.paths.light_state = std::move(now_state);
   next.paths.paths_per_light = old.paths_per_light;
   next.paths.seed = old.seed;

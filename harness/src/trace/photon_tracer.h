@@ -8,15 +8,15 @@
 //
 // Scattering: importance-sampled BSDF (bsdf.h, importance transport), flux update
 // Phi' = Phi f cos / p (Paper I eq. 1), then Russian roulette with survival probability
-// R = min(1, max(Phi') / max(Phi)) and Phi <- Phi' / R, which keeps the expected power and keeps the
-// stored photons at roughly equal power (Paper I §5).
+// R = min(1, max(Phi') / max(Phi)) and Phi <- Phi' / R, which keeps the expected power and keeps
+// the stored photons at roughly equal power (Paper I §5).
 //
-// Footprints: photon differentials (Schjoth et al. 2007; Igehy 1999 for the transfer, reflection and
-// refraction formulas) with respect to the two emission-domain coordinates, scaled by the photon spacing
-// 1 / sqrt(N density). Through specular chains they follow the surface curvature (the derivative of the
-// interpolated normal); after a diffuse bounce the derivatives restart from the cosine-sampling map of
-// that bounce with spacing 1 / sqrt(N) -- a coarse estimate, as the position a diffusely scattered
-// photon came from no longer determines where it lands.
+// Footprints: photon differentials (Schjoth et al. 2007; Igehy 1999 for the transfer, reflection
+// and refraction formulas) with respect to the two emission-domain coordinates, scaled by the
+// photon spacing 1 / sqrt(N density). Through specular chains they follow the surface curvature
+// (the derivative of the interpolated normal); after a diffuse bounce the derivatives restart from
+// the cosine-sampling map of that bounce with spacing 1 / sqrt(N) -- a coarse estimate, as the
+// position a diffusely scattered photon came from no longer determines where it lands.
 #pragma once
 
 #include <memory>
@@ -38,8 +38,8 @@ class EmbreePhotonTracer final : public PhotonTracer {
   TraceStats trace(const TraceSettings& settings, PhotonBatch& out) override;
   TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) override;
 
-  // Paths per emitter for `paths` in total: proportional to power by largest remainder, at least one
-  // for every emitter with power when there are enough paths.
+  // Paths per emitter for `paths` in total: proportional to power by largest remainder, at least
+  // one for every emitter with power when there are enough paths.
   static std::vector<uint32_t> split_paths(const std::vector<float>& powers, uint32_t paths);
 
  private:

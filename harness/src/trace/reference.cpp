@@ -39,9 +39,10 @@ constexpr ClassInfo kClassInfo[kPathClassCount] = {
 float luminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 float max3(const glm::vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
 
-// The camera path's light path expression so far, reduced to what decides its class (see reference.h):
-// the first vertex's type, whether a diffuse "anchor" vertex exists (the first vertex if diffuse, else
-// the first diffuse one after the specular prefix), and which types follow the anchor.
+// The camera path's light path expression so far, reduced to what decides its class (see
+// reference.h): the first vertex's type, whether a diffuse "anchor" vertex exists (the first vertex
+// if diffuse, else the first diffuse one after the specular prefix), and which types follow the
+// anchor.
 struct ClassState {
   uint8_t first = 0;  // 0 none, 1 D, 2 S
   bool anchor = false, d_after = false, s_after = false;
@@ -109,7 +110,8 @@ struct Rig {
 
 glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {
   float eps = EmbreeScene::ray_epsilon(hit.position);
-  return hit.position + hit.geometric_normal * (glm::dot(dir, hit.geometric_normal) >= 0 ? eps : -eps);
+  return hit.position +
+         hit.geometric_normal * (glm::dot(dir, hit.geometric_normal) >= 0 ? eps : -eps);
 }
 
 // ---- path tracing ------------------------------------------------------------------------------
@@ -118,10 +120,11 @@ struct PtOutput {
   glm::vec3 value[kClasses];
 };
 
-// One camera path through pixel position (px, py). Contributions in SPPM's part of path space (a diffuse
-// vertex exists and the vertex next to the emitter is specular) are left out.
-void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig, float px, float py,
-                       Pcg32& rng, uint32_t wanted, uint32_t max_depth, PtOutput& out, uint64_t& rays) {
+// One camera path through pixel position (px, py). Contributions in SPPM's part of path space (a
+// diffuse vertex exists and the vertex next to the emitter is specular) are left out.
+void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig, float px,
+                       float py, Pcg32& rng, uint32_t wanted, uint32_t max_depth, PtOutput& out,
+                       uint64_t& rays) {
   const scene::Scene& scene = world.scene();
   for (auto& v : out.value) v = glm::vec3(0.f);
   glm::vec3 origin = rig.position, dir = rig.direction(px, py);
@@ -155,7 +158,9 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
         glm::vec3 f = bsdf.eval(wo, is.wi, Transport::radiance);
         if (max3(f) > 0) {
           glm::vec3 o = offset_origin(hit, is.wi);
-          float tmax = std::isinf(is.distance) ? kInfinity : is.distance * (1.f - 1e-4f) - EmbreeScene::ray_epsilon(hit.position);
+          float tmax = std::isinf(is.distance)
+                           ? kInfinity
+                           : is.distance * (1.f - 1e-4f) - EmbreeScene::ray_epsilon(hit.position);
           ++rays;
           if (!world.occluded(o, is.wi, tmax)) {
             float w = is.delta ? 1.f : power_heuristic(is.pdf, bsdf.pdf(wo, is.wi));
@@ -184,11 +189,12 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
   }
 }
 
-// ---- SPPM ----------------------------------------------------------------------------------------
+// ---- SPPM
+// ----------------------------------------------------------------------------------------
 
 struct VisiblePoint {
   glm::vec3 position{0.0f}, normal{0.0f}, wo{0.0f}, beta{0.0f}, albedo{0.0f};
-  float distance = 0;   // camera path length, for the automatic initial radius
+  float distance = 0;  // camera path length, for the automatic initial radius
   bool valid = false;
   bool specular_prefix = false;  // C S+ D rather than C D
 };
@@ -196,7 +202,8 @@ struct VisiblePoint {
 struct PixelStats {
   float r2 = 0;  // squared radius, 0 until the first visible point
   double n = 0;
-  glm::dvec3 tau[4]{};  // by photon kind and prefix: caustics, indirect, indirect_caustics, specular
+  glm::dvec3
+      tau[4]{};  // by photon kind and prefix: caustics, indirect, indirect_caustics, specular
 };
 
 // Follows the camera path through specular vertices to the first diffuse one (C S* D).
@@ -216,7 +223,8 @@ bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, floa
     if (bsdf.is_diffuse()) {
       vp.position = hit.position;
       vp.wo = -dir;
-      vp.normal = glm::dot(hit.geometric_normal, vp.wo) >= 0 ? hit.geometric_normal : -hit.geometric_normal;
+      vp.normal =
+          glm::dot(hit.geometric_normal, vp.wo) >= 0 ? hit.geometric_normal : -hit.geometric_normal;
       vp.beta = beta;
       vp.albedo = bsdf.albedo();
       vp.distance = distance;
@@ -242,7 +250,8 @@ bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, floa
 // A hash grid over one iteration's photons, built in photon order (deterministic).
 class PhotonGrid {
  public:
-  PhotonGrid(const std::vector<PhotonRecord>& photons, float cell) : photons_(photons), inv_cell_(1.f / cell) {
+  PhotonGrid(const std::vector<PhotonRecord>& photons, float cell)
+      : photons_(photons), inv_cell_(1.f / cell) {
     size_t buckets = 1;
     while (buckets < 2 * photons.size()) buckets <<= 1;
     mask_ = buckets - 1;
@@ -317,10 +326,13 @@ CameraRay camera_ray(const scene::Camera& camera, int width, int height, float p
   return {rig.position, rig.direction(px, py)};
 }
 
-ReferenceResult render_reference_classes(const EmbreeScene& world, int width, int height, uint32_t class_mask,
-                                         const ReferenceOptions& options, const ProgressFn& progress) {
-  if (width <= 0 || height <= 0) throw InputError(fmt::format("reference: bad resolution {}x{}", width, height));
-  if (class_mask == 0 || (class_mask & ~kAllPathClasses)) throw InputError("reference: no path class requested");
+ReferenceResult render_reference_classes(const EmbreeScene& world, int width, int height,
+                                         uint32_t class_mask, const ReferenceOptions& options,
+                                         const ProgressFn& progress) {
+  if (width <= 0 || height <= 0)
+    throw InputError(fmt::format("reference: bad resolution {}x{}", width, height));
+  if (class_mask == 0 || (class_mask & ~kAllPathClasses))
+    throw InputError("reference: no path class requested");
   if (options.samples == 0) throw InputError("reference: samples must be at least 1");
   auto t0 = std::chrono::steady_clock::now();
   const scene::Scene& scene = world.scene();
@@ -358,7 +370,8 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     double acc = 0;
     for (size_t i = 0; i < pixels; ++i) {
       double m = lum_sum[i] / pt_done;
-      double var = std::max(0.0, lum_sum2[i] / pt_done - m * m) * pt_done / std::max(1u, pt_done - 1);
+      double var =
+          std::max(0.0, lum_sum2[i] / pt_done - m * m) * pt_done / std::max(1u, pt_done - 1);
       acc += (var / pt_done) / (m * m + floor2);
     }
     return std::sqrt(acc / double(pixels));
@@ -369,25 +382,27 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     // ---- path tracing: one sample per pixel ----
     if (pt_done < options.samples) {
       arena->execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
-          uint64_t& rays = ray_count.local();
-          PtOutput o;
-          for (int y = rows.begin(); y != rows.end(); ++y)
-            for (int x = 0; x < width; ++x) {
-              size_t i = size_t(y) * width + x;
-              Pcg32 rng(iteration_seed, i);
-              glm::vec2 j = rng.next_2d();
-              trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, options.max_depth, o, rays);
-              glm::vec3 total(0.f);
-              for (int c = 0; c < kClasses; ++c) {
-                sums[i * kClasses + c] += glm::dvec3(o.value[c]);
-                if (wanted & (1u << c)) total += o.value[c];
-              }
-              double l = luminance(total);
-              lum_sum[i] += l;
-              lum_sum2[i] += l * l;
-            }
-        });
+        tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
+                          [&](const tbb::blocked_range<int>& rows) {
+                            uint64_t& rays = ray_count.local();
+                            PtOutput o;
+                            for (int y = rows.begin(); y != rows.end(); ++y)
+                              for (int x = 0; x < width; ++x) {
+                                size_t i = size_t(y) * width + x;
+                                Pcg32 rng(iteration_seed, i);
+                                glm::vec2 j = rng.next_2d();
+                                trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted,
+                                                  options.max_depth, o, rays);
+                                glm::vec3 total(0.f);
+                                for (int c = 0; c < kClasses; ++c) {
+                                  sums[i * kClasses + c] += glm::dvec3(o.value[c]);
+                                  if (wanted & (1u << c)) total += o.value[c];
+                                }
+                                double l = luminance(total);
+                                lum_sum[i] += l;
+                                lum_sum2[i] += l * l;
+                              }
+                          });
       });
       ++pt_done;
     }
@@ -395,21 +410,24 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     if (use_sppm && sppm_done < sppm_iterations) {
       uint32_t vp_seed = hash_combine(iteration_seed, 0x5eedu);
       arena->execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
-          uint64_t& rays = ray_count.local();
-          for (int y = rows.begin(); y != rows.end(); ++y)
-            for (int x = 0; x < width; ++x) {
-              size_t i = size_t(y) * width + x;
-              Pcg32 rng(vp_seed, i);
-              glm::vec2 j = rng.next_2d();
-              VisiblePoint& vp = vps[i];
-              if (find_visible_point(world, rig, x + j.x, y + j.y, rng, options.max_depth, vp, rays) &&
-                  stats[i].r2 == 0) {
-                float r = options.sppm_radius > 0 ? options.sppm_radius : 3.f * pixel_angle * vp.distance;
-                stats[i].r2 = r * r;
-              }
-            }
-        });
+        tbb::parallel_for(
+            tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+              uint64_t& rays = ray_count.local();
+              for (int y = rows.begin(); y != rows.end(); ++y)
+                for (int x = 0; x < width; ++x) {
+                  size_t i = size_t(y) * width + x;
+                  Pcg32 rng(vp_seed, i);
+                  glm::vec2 j = rng.next_2d();
+                  VisiblePoint& vp = vps[i];
+                  if (find_visible_point(world, rig, x + j.x, y + j.y, rng, options.max_depth, vp,
+                                         rays) &&
+                      stats[i].r2 == 0) {
+                    float r = options.sppm_radius > 0 ? options.sppm_radius
+                                                      : 3.f * pixel_angle * vp.distance;
+                    stats[i].r2 = r * r;
+                  }
+                }
+            });
       });
       double r_sum = 0;
       size_t r_count = 0;
@@ -418,7 +436,8 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
       PhotonBatch batch;
       TraceSettings ts;
       ts.paths = options.sppm_photons;
-      // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and specular.
+      // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and
+      // specular.
       ts.store = 0;
       if (wanted & (class_bit(PathClass::caustics) | class_bit(PathClass::indirect_caustics)))
         ts.store |= kCausticPhotons;
@@ -434,47 +453,53 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
       if (r_count > 0 && !batch.photons.empty()) {
         PhotonGrid grid(batch.photons, float(2.0 * r_sum / r_count));
         arena->execute([&] {
-          tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels, 256), [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-              const VisiblePoint& vp = vps[i];
-              if (!vp.valid) continue;
-              PixelStats& ps = stats[i];
-              glm::dvec3 phi[2] = {glm::dvec3(0.0), glm::dvec3(0.0)};  // pure caustic, caustic-indirect
-              uint32_t m = 0;
-              float cos_o = glm::dot(vp.wo, vp.normal);
-              grid.for_each_near(vp.position, std::sqrt(ps.r2), [&](const PhotonRecord& ph) {
-                glm::vec3 wi = -ph.direction;
-                // Same side of the same surface (no leaks through thin walls), and a reflection.
-                if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(wi, vp.normal) <= 0 || cos_o <= 0) return;
-                ++m;
-                glm::vec3 f = vp.albedo * kInvPi;
-                int kind = photon_kind(ph) == kCausticPhotons ? 0 : 1;
-                phi[kind] += glm::dvec3(f * ph.power);
+          tbb::parallel_for(
+              tbb::blocked_range<size_t>(0, pixels, 256), [&](const tbb::blocked_range<size_t>& r) {
+                for (size_t i = r.begin(); i != r.end(); ++i) {
+                  const VisiblePoint& vp = vps[i];
+                  if (!vp.valid) continue;
+                  PixelStats& ps = stats[i];
+                  glm::dvec3 phi[2] = {glm::dvec3(0.0),
+                                       glm::dvec3(0.0)};  // pure caustic, caustic-indirect
+                  uint32_t m = 0;
+                  float cos_o = glm::dot(vp.wo, vp.normal);
+                  grid.for_each_near(vp.position, std::sqrt(ps.r2), [&](const PhotonRecord& ph) {
+                    glm::vec3 wi = -ph.direction;
+                    // Same side of the same surface (no leaks through thin walls), and a
+                    // reflection.
+                    if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(wi, vp.normal) <= 0 ||
+                        cos_o <= 0)
+                      return;
+                    ++m;
+                    glm::vec3 f = vp.albedo * kInvPi;
+                    int kind = photon_kind(ph) == kCausticPhotons ? 0 : 1;
+                    phi[kind] += glm::dvec3(f * ph.power);
+                  });
+                  if (m == 0) continue;
+                  // Hachisuka & Jensen 2009 eqs. 9-12: keep a fraction alpha of the new photons,
+                  // shrink the radius so the density stays, and scale the flux with the area.
+                  double n_new = ps.n + options.sppm_alpha * m;
+                  double ratio = n_new / (ps.n + m);
+                  int base = vp.specular_prefix ? 2 : 0;
+                  glm::dvec3 beta(vp.beta);
+                  for (int c = 0; c < 4; ++c) {
+                    glm::dvec3 add(0.0);
+                    if (c == base) add = beta * phi[0];
+                    if (c == base + 1) add = beta * phi[1];
+                    ps.tau[c] = (ps.tau[c] + add) * ratio;
+                  }
+                  ps.r2 = float(ps.r2 * ratio);
+                  ps.n = n_new;
+                }
               });
-              if (m == 0) continue;
-              // Hachisuka & Jensen 2009 eqs. 9-12: keep a fraction alpha of the new photons, shrink
-              // the radius so the density stays, and scale the flux with the area.
-              double n_new = ps.n + options.sppm_alpha * m;
-              double ratio = n_new / (ps.n + m);
-              int base = vp.specular_prefix ? 2 : 0;
-              glm::dvec3 beta(vp.beta);
-              for (int c = 0; c < 4; ++c) {
-                glm::dvec3 add(0.0);
-                if (c == base) add = beta * phi[0];
-                if (c == base + 1) add = beta * phi[1];
-                ps.tau[c] = (ps.tau[c] + add) * ratio;
-              }
-              ps.r2 = float(ps.r2 * ratio);
-              ps.n = n_new;
-            }
-          });
         });
       }
       ++sppm_done;
     }
     double elapsed = seconds_since(t0);
     bool stop = false;
-    if (options.rel_error > 0 && pt_done >= 16 && (pt_done % 4 == 0 || pt_done == options.samples)) {
+    if (options.rel_error > 0 && pt_done >= 16 &&
+        (pt_done % 4 == 0 || pt_done == options.samples)) {
       rel_error = estimate_error();
       stop = rel_error <= options.rel_error && (!use_sppm || sppm_done >= pt_done);
     }
@@ -525,10 +550,12 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
   return result;
 }
 
-io::Image render_reference(const scene::Scene& scene, const scene::FrameState& state, PathClass path_class,
-                           int width, int height, const ReferenceOptions& options, const ProgressFn& progress) {
+io::Image render_reference(const scene::Scene& scene, const scene::FrameState& state,
+                           PathClass path_class, int width, int height,
+                           const ReferenceOptions& options, const ProgressFn& progress) {
   EmbreeScene world(scene, state);
-  ReferenceResult r = render_reference_classes(world, width, height, class_bit(path_class), options, progress);
+  ReferenceResult r =
+      render_reference_classes(world, width, height, class_bit(path_class), options, progress);
   return std::move(r.images[int(path_class)]);
 }
 

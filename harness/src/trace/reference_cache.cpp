@@ -65,7 +65,9 @@ void write_atomic(const std::filesystem::path& file, const std::string& content)
   }
   std::error_code ec;
   std::filesystem::rename(tmp, file, ec);
-  if (ec) throw Error(fmt::format("cannot rename {} to {}: {}", tmp.string(), file.string(), ec.message()));
+  if (ec)
+    throw Error(
+        fmt::format("cannot rename {} to {}: {}", tmp.string(), file.string(), ec.message()));
 }
 
 std::string now_iso() {
@@ -105,8 +107,9 @@ std::string ReferenceCache::scene_file_digest(const scene::Scene& scene) const {
   return digest;
 }
 
-std::string ReferenceCache::key(const scene::Scene& scene, const scene::FrameState& state, PathClass path_class,
-                                int width, int height, const ReferenceOptions& options) const {
+std::string ReferenceCache::key(const scene::Scene& scene, const scene::FrameState& state,
+                                PathClass path_class, int width, int height,
+                                const ReferenceOptions& options) const {
   Digest d;
   d.text("photonbench-reference");
   d.value(kReferenceRendererVersion);
@@ -125,8 +128,8 @@ std::string ReferenceCache::key(const scene::Scene& scene, const scene::FrameSta
   const auto& c = state.camera;
   d.value(c.position), d.value(c.target), d.value(c.up), d.value(c.fov_y);
   for (const auto& l : state.lights) {
-    d.value(l.type), d.value(l.radiant), d.value(l.position), d.value(l.direction), d.value(l.spot_inner),
-        d.value(l.spot_outer), d.value(l.edge_u), d.value(l.edge_v);
+    d.value(l.type), d.value(l.radiant), d.value(l.position), d.value(l.direction),
+        d.value(l.spot_inner), d.value(l.spot_outer), d.value(l.edge_u), d.value(l.edge_v);
   }
   d.vec(state.object_to_world);
   d.vec(state.deformed_objects);
@@ -134,8 +137,9 @@ std::string ReferenceCache::key(const scene::Scene& scene, const scene::FrameSta
   return d.hex();
 }
 
-bool ReferenceCache::has(const scene::Scene& scene, const scene::FrameState& state, PathClass path_class,
-                         int width, int height, const ReferenceOptions& options) const {
+bool ReferenceCache::has(const scene::Scene& scene, const scene::FrameState& state,
+                         PathClass path_class, int width, int height,
+                         const ReferenceOptions& options) const {
   std::string k = key(scene, state, path_class, width, height, options);
   std::error_code ec;
   if (!std::filesystem::exists(dir_ / (k + ".exr"), ec)) return false;
@@ -147,23 +151,27 @@ bool ReferenceCache::has(const scene::Scene& scene, const scene::FrameState& sta
   return options.rel_error > 0 && err > 0 && err <= options.rel_error;
 }
 
-std::optional<io::Image> ReferenceCache::get(const scene::Scene& scene, const scene::FrameState& state,
-                                             PathClass path_class, int width, int height,
+std::optional<io::Image> ReferenceCache::get(const scene::Scene& scene,
+                                             const scene::FrameState& state, PathClass path_class,
+                                             int width, int height,
                                              const ReferenceOptions& options) const {
   if (!has(scene, state, path_class, width, height, options)) return std::nullopt;
   return io::read_image(dir_ / (key(scene, state, path_class, width, height, options) + ".exr"));
 }
 
-int ReferenceCache::render_missing(const scene::Scene& scene, const scene::FrameState& state, uint32_t class_mask,
-                                   int width, int height, const ReferenceOptions& options,
-                                   const ProgressFn& progress) {
+int ReferenceCache::render_missing(const scene::Scene& scene, const scene::FrameState& state,
+                                   uint32_t class_mask, int width, int height,
+                                   const ReferenceOptions& options, const ProgressFn& progress) {
   uint32_t missing = 0;
   for (PathClass c : all_path_classes())
-    if ((class_mask & class_bit(c)) && !has(scene, state, c, width, height, options)) missing |= class_bit(c);
+    if ((class_mask & class_bit(c)) && !has(scene, state, c, width, height, options))
+      missing |= class_bit(c);
   if (!missing) return 0;
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
-  if (ec) throw Error(fmt::format("cannot create the reference cache {}: {}", dir_.string(), ec.message()));
+  if (ec)
+    throw Error(
+        fmt::format("cannot create the reference cache {}: {}", dir_.string(), ec.message()));
   EmbreeScene world(scene, state);
   ReferenceResult r = render_reference_classes(world, width, height, missing, options, progress);
   int written = 0;
@@ -199,8 +207,9 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
 }
 
 io::Image ReferenceCache::get_or_render(const scene::Scene& scene, const scene::FrameState& state,
-                                       PathClass path_class, int width, int height,
-                                       const ReferenceOptions& options, const ProgressFn& progress) {
+                                        PathClass path_class, int width, int height,
+                                        const ReferenceOptions& options,
+                                        const ProgressFn& progress) {
   if (auto img = get(scene, state, path_class, width, height, options)) return std::move(*img);
   render_missing(scene, state, class_bit(path_class), width, height, options, progress);
   auto img = get(scene, state, path_class, width, height, options);
@@ -208,9 +217,11 @@ io::Image ReferenceCache::get_or_render(const scene::Scene& scene, const scene::
   return std::move(*img);
 }
 
-ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_frame, uint32_t last_frame,
-                                     uint32_t class_mask, int width, int height, const ReferenceOptions& options,
-                                     ReferenceCache& cache, const std::function<void(const std::string&)>& log) {
+ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_frame,
+                                     uint32_t last_frame, uint32_t class_mask, int width,
+                                     int height, const ReferenceOptions& options,
+                                     ReferenceCache& cache,
+                                     const std::function<void(const std::string&)>& log) {
   ReferenceJobReport report;
   auto t0 = std::chrono::steady_clock::now();
   int n_classes = std::popcount(class_mask);
@@ -222,8 +233,8 @@ ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_f
       if (!log) return;
       if (p.seconds - last_report < 5.0 && p.iteration != p.total) return;
       last_report = p.seconds;
-      log(fmt::format("  {} frame {}: iteration {}/{} ({:.0f}%), {:.1f} s, {:.1f} Mrays/s{}", scene.name, f,
-                      p.iteration, p.total, 100.0 * p.iteration / p.total, p.seconds,
+      log(fmt::format("  {} frame {}: iteration {}/{} ({:.0f}%), {:.1f} s, {:.1f} Mrays/s{}",
+                      scene.name, f, p.iteration, p.total, 100.0 * p.iteration / p.total, p.seconds,
                       p.seconds > 0 ? p.rays / p.seconds * 1e-6 : 0.0,
                       p.rel_error > 0 ? fmt::format(", rel. error {:.4f}", p.rel_error) : ""));
     };
@@ -232,7 +243,8 @@ ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_f
     report.cached += n_classes - rendered;
     if (log) {
       double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_t0).count();
-      log(rendered ? fmt::format("{} frame {}: rendered {} class(es) in {:.1f} s", scene.name, f, rendered, s)
+      log(rendered ? fmt::format("{} frame {}: rendered {} class(es) in {:.1f} s", scene.name, f,
+                                 rendered, s)
                    : fmt::format("{} frame {}: cached", scene.name, f));
     }
   }

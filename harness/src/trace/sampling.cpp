@@ -8,10 +8,10 @@
 namespace pb::trace {
 namespace {
 
-// Generator matrices of Sobol dimensions 0..3 as 32 direction numbers each (column j answers bit j of
-// the index). Dimension d >= 1 uses the primitive polynomial of degree s with inner coefficients `a`
-// and initial odd integers m_1..m_s (Joe & Kuo 2008, table entries d = 2, 3, 4); the rest follow the
-// recurrence m_k = 2 a_1 m_{k-1} ^ 4 a_2 m_{k-2} ^ ... ^ 2^s m_{k-s} ^ m_{k-s}.
+// Generator matrices of Sobol dimensions 0..3 as 32 direction numbers each (column j answers bit j
+// of the index). Dimension d >= 1 uses the primitive polynomial of degree s with inner coefficients
+// `a` and initial odd integers m_1..m_s (Joe & Kuo 2008, table entries d = 2, 3, 4); the rest
+// follow the recurrence m_k = 2 a_1 m_{k-1} ^ 4 a_2 m_{k-2} ^ ... ^ 2^s m_{k-s} ^ m_{k-s}.
 constexpr std::array<std::array<uint32_t, 32>, 4> make_sobol_matrices() {
   std::array<std::array<uint32_t, 32>, 4> v{};
   for (int k = 0; k < 32; ++k) v[0][k] = 1u << (31 - k);
@@ -36,8 +36,8 @@ constexpr std::array<std::array<uint32_t, 32>, 4> make_sobol_matrices() {
   return v;
 }
 
-// Byte tables: the matrix-vector product over GF(2) of one index byte, so a point costs four lookups
-// (the photon tracer evaluates several per bounce).
+// Byte tables: the matrix-vector product over GF(2) of one index byte, so a point costs four
+// lookups (the photon tracer evaluates several per bounce).
 struct SobolTables {
   uint32_t t[4][4][256];
 };
@@ -60,7 +60,8 @@ constexpr SobolTables kSobolTables = make_sobol_tables();
 
 uint32_t sobol_u32(uint32_t index, int dimension) {
   const auto& t = kSobolTables.t[dimension];
-  return t[0][index & 0xffu] ^ t[1][(index >> 8) & 0xffu] ^ t[2][(index >> 16) & 0xffu] ^ t[3][index >> 24];
+  return t[0][index & 0xffu] ^ t[1][(index >> 8) & 0xffu] ^ t[2][(index >> 16) & 0xffu] ^
+         t[3][index >> 24];
 }
 
 Distribution2D::Distribution2D(int width, int height, const std::vector<float>& values)
@@ -69,7 +70,8 @@ Distribution2D::Distribution2D(int width, int height, const std::vector<float>& 
     throw Error("emission density: texel count does not match width x height");
   double total = 0;
   for (float x : values) {
-    if (!(x >= 0) || !std::isfinite(x)) throw Error("emission density: texels must be finite and >= 0");
+    if (!(x >= 0) || !std::isfinite(x))
+      throw Error("emission density: texels must be finite and >= 0");
     total += x;
   }
   if (total <= 0) throw Error("emission density: all texels are zero");

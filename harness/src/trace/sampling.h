@@ -3,13 +3,14 @@
 //
 // Photon tracer: Owen-scrambled Sobol points, padded per bounce (Burley 2020, "Practical Hash-based
 // Owen Scrambling", JCGT 9(4)). Why Sobol over Halton: every bounce draws a 4D Sobol point whose 2D
-// projections are (0,m,2)-nets, so each bounce's direction is as well stratified as the first, whereas
-// Halton's higher prime bases give poor 2D projections deep in a path; hash-based Owen scrambling makes
-// any sample index computable on its own (per-photon sample index, so results do not depend on the
-// thread count), and a new seed is just a new scramble, which is the per-frame seed option.
+// projections are (0,m,2)-nets, so each bounce's direction is as well stratified as the first,
+// whereas Halton's higher prime bases give poor 2D projections deep in a path; hash-based Owen
+// scrambling makes any sample index computable on its own (per-photon sample index, so results do
+// not depend on the thread count), and a new seed is just a new scramble, which is the per-frame
+// seed option.
 //
-// Reference renderer: independent PCG32 streams, because its error target estimates variance from the
-// spread of the samples, which is only valid for independent samples.
+// Reference renderer: independent PCG32 streams, because its error target estimates variance from
+// the spread of the samples, which is only valid for independent samples.
 #pragma once
 
 #include <algorithm>
@@ -24,7 +25,8 @@ inline constexpr float kPi = 3.14159265358979323846f;
 inline constexpr float kInvPi = 0.31830988618379067154f;
 inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
 
-// ---- hashing -------------------------------------------------------------------------------------
+// ---- hashing
+// -------------------------------------------------------------------------------------
 
 inline uint32_t hash_u32(uint32_t x) {  // a 32-bit integer finaliser (lowbias32 style)
   x ^= x >> 16;
@@ -41,7 +43,8 @@ inline uint32_t hash_combine(uint32_t a, uint32_t b, uint32_t c) {
   return hash_combine(hash_combine(a, b), c);
 }
 
-// ---- PCG32 (O'Neill 2014), independent streams ----------------------------------------------------
+// ---- PCG32 (O'Neill 2014), independent streams
+// ----------------------------------------------------
 
 class Pcg32 {
  public:
@@ -60,13 +63,17 @@ class Pcg32 {
     return (xorshifted >> rot) | (xorshifted << ((32 - rot) & 31));
   }
   float next_float() { return std::min(float(next_u32()) * 0x1p-32f, kOneMinusEpsilon); }
-  glm::vec2 next_2d() { float a = next_float(); return {a, next_float()}; }
+  glm::vec2 next_2d() {
+    float a = next_float();
+    return {a, next_float()};
+  }
 
  private:
   uint64_t state_ = 0, inc_ = 0;
 };
 
-// ---- Owen-scrambled Sobol -------------------------------------------------------------------------
+// ---- Owen-scrambled Sobol
+// -------------------------------------------------------------------------
 
 // The first four Sobol dimensions at `index` (generator matrices from the primitive polynomials
 // x+1, x^2+x+1, x^3+x+1 with Joe & Kuo's initial direction numbers; dimension 0 is van der Corput).
@@ -80,8 +87,8 @@ inline uint32_t reverse_bits(uint32_t x) {
   return (x >> 16) | (x << 16);
 }
 
-// Nested uniform (Owen) scramble by hashing, Burley 2020 §3 (a Laine-Karras style permutation applied
-// to the bit-reversed value, so each bit is flipped depending only on the bits above it).
+// Nested uniform (Owen) scramble by hashing, Burley 2020 §3 (a Laine-Karras style permutation
+// applied to the bit-reversed value, so each bit is flipped depending only on the bits above it).
 inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
   x = reverse_bits(x);
   x += seed;
@@ -92,25 +99,28 @@ inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
   return reverse_bits(x);
 }
 
-inline float u32_to_unit(uint32_t x) { return std::min(float(x >> 8) * 0x1p-24f, kOneMinusEpsilon); }
+inline float u32_to_unit(uint32_t x) {
+  return std::min(float(x >> 8) * 0x1p-24f, kOneMinusEpsilon);
+}
 
-// A 4D point of dimension group `group` (0: emission, 1 + k: interaction k) for sample `index`, as two
-// independently shuffled and scrambled copies of Sobol dimensions (0, 1) (Burley 2020 §4, padding):
-// Sobol's first two dimensions form a (0,2)-sequence, so each pair (x, y) and (z, w) is a (0,m,2)-net
-// over every 2^m-point block, which no other pair of Sobol dimensions guarantees.
+// A 4D point of dimension group `group` (0: emission, 1 + k: interaction k) for sample `index`, as
+// two independently shuffled and scrambled copies of Sobol dimensions (0, 1) (Burley 2020 §4,
+// padding): Sobol's first two dimensions form a (0,2)-sequence, so each pair (x, y) and (z, w) is a
+// (0,m,2)-net over every 2^m-point block, which no other pair of Sobol dimensions guarantees.
 inline glm::vec4 sobol_group(uint32_t index, uint32_t group, uint32_t seed) {
   glm::vec4 r;
   for (int pair = 0; pair < 2; ++pair) {
     uint32_t pair_seed = hash_combine(seed, group, uint32_t(pair));
     uint32_t shuffled = owen_scramble(index, pair_seed);
     for (int d = 0; d < 2; ++d)
-      r[2 * pair + d] =
-          u32_to_unit(owen_scramble(sobol_u32(shuffled, d), hash_combine(pair_seed, uint32_t(d) + 1)));
+      r[2 * pair + d] = u32_to_unit(
+          owen_scramble(sobol_u32(shuffled, d), hash_combine(pair_seed, uint32_t(d) + 1)));
   }
   return r;
 }
 
-// ---- warps -----------------------------------------------------------------------------------------
+// ---- warps
+// -----------------------------------------------------------------------------------------
 
 // Uniform on the unit sphere: z = 1 - 2u, phi = 2 pi v (equal-area, the point light's domain).
 inline glm::vec3 sphere_from_unit(glm::vec2 u) {
@@ -149,14 +159,15 @@ inline glm::vec3 cosine_hemisphere(glm::vec2 u) {
   return {d.x, d.y, std::sqrt(std::max(0.f, 1.f - d.x * d.x - d.y * d.y))};
 }
 
-// Uniform point in a triangle as barycentrics (b1, b2) (Heitz 2019's low-distortion map would also do;
-// the square-root map is simpler and measure-preserving).
+// Uniform point in a triangle as barycentrics (b1, b2) (Heitz 2019's low-distortion map would also
+// do; the square-root map is simpler and measure-preserving).
 inline glm::vec2 triangle_from_unit(glm::vec2 u) {
   float su = std::sqrt(u.x);
   return {1.f - su, u.y * su};
 }
 
-// An orthonormal basis around unit n (Duff et al. 2017, "Building an orthonormal basis, revisited").
+// An orthonormal basis around unit n (Duff et al. 2017, "Building an orthonormal basis,
+// revisited").
 struct Frame {
   glm::vec3 t, b, n;
   Frame() = default;
@@ -167,14 +178,17 @@ struct Frame {
     t = {1.f + sign * n.x * n.x * a, sign * bb, -sign * n.x};
     b = {bb, sign + n.y * n.y * a, -n.y};
   }
-  glm::vec3 to_local(const glm::vec3& v) const { return {glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)}; }
+  glm::vec3 to_local(const glm::vec3& v) const {
+    return {glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)};
+  }
   glm::vec3 to_world(const glm::vec3& v) const { return v.x * t + v.y * b + v.z * n; }
 };
 
 // ---- piecewise-constant 2D distribution ---------------------------------------------------------
 
-// Samples [0,1)^2 with density proportional to a width x height grid of non-negative values (a marginal
-// over rows v, then a conditional along u). pdf is relative to the uniform measure on the square (mean 1).
+// Samples [0,1)^2 with density proportional to a width x height grid of non-negative values (a
+// marginal over rows v, then a conditional along u). pdf is relative to the uniform measure on the
+// square (mean 1).
 class Distribution2D {
  public:
   Distribution2D() = default;
@@ -188,9 +202,9 @@ class Distribution2D {
 
  private:
   int width_ = 0, height_ = 0;
-  std::vector<float> values_;    // normalised to mean 1
-  std::vector<float> row_cdf_;   // height + 1
-  std::vector<float> col_cdf_;   // height * (width + 1)
+  std::vector<float> values_;   // normalised to mean 1
+  std::vector<float> row_cdf_;  // height + 1
+  std::vector<float> col_cdf_;  // height * (width + 1)
 };
 
 }  // namespace pb::trace
