@@ -72,7 +72,8 @@ FlipResult flip(const io::Image& reference, const io::Image& test, const FlipOpt
 FlipStats pool_flip(const io::Image& error_map);
 
 // SSIM in [-1, 1], the mean over channels of the mean SSIM map, 5-pixel border excluded (as
-// scikit-image crops it).
+// scikit-image crops it). Images smaller than the 11x11 window throw pb::InputError (as
+// scikit-image refuses them), and so does evaluate() on them.
 double ssim(const io::Image& reference, const io::Image& test);
 
 struct Psnr {
