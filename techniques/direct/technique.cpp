@@ -37,4 +37,4 @@ class Direct final : public pb::Technique {
 
 }  // namespace
 
-PB_EXPORT_TECHNIQUE(Direct, "direct", "C D L", "G-buffer + shadow-mapped direct light; no indirect light", kParams)
+PB_EXPORT_TECHNIQUE(Direct, "direct", "C L | C D L", "G-buffer + shadow-mapped direct light; no indirect light", kParams)

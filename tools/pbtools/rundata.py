@@ -35,7 +35,7 @@ PASS_PREFIX = "pass."
 PASS_SUFFIX = ".ms_median"
 PARAM_PREFIX = "param."
 WHOLE_FRAME_PASS = "frame"
-PRIMARY_CLASS = "full"  # the path class of the composed image, preferred when a cell scores several  # frames.csv names the whole frame's time "frame"
+PRIMARY_CLASS = "combined"  # the path class of the composed image, preferred when a cell scores several  # frames.csv names the whole frame's time "frame"
 
 # Metrics: which direction is better. FLIP, RMSE and relMSE are errors; SSIM and PSNR are similarities.
 METRIC_LOWER_IS_BETTER = {"flip": True, "rmse": True, "relmse": True, "ssim": False, "psnr": False}
@@ -228,8 +228,10 @@ class Cell:
     def pass_samples(self, name: str, clock: str = "auto") -> (np.ndarray, np.ndarray):
         """(frames, ms) of one pass over the measured frames, sorted by frame.
 
-        clock "gpu" or "cpu" picks that column; "auto" takes gpu_ms where the row has one and cpu_ms
-        otherwise (CPU-only passes such as Embree photon tracing have no GPU timestamps)."""
+        clock "gpu" or "cpu" picks that column; "auto" is the harness's own rule for a pass's time (the
+        one behind summary.csv's medians): the larger of the two clocks, i.e. where the pass ran. A GPU
+        pass's CPU time is only its recording; a CPU pass (Embree photon tracing) still has a timestamp
+        pair around it, whose difference is only the barriers'."""
         frames, values = [], []
         for r in self.frames_rows:
             if r.get("pass") != name:
@@ -240,7 +242,7 @@ class Cell:
             elif clock == "cpu":
                 v = cpu
             else:
-                v = gpu if not math.isnan(gpu) else cpu
+                v = cpu if math.isnan(gpu) else gpu if math.isnan(cpu) else max(gpu, cpu)
             if math.isnan(v):
                 continue
             frames.append(int(to_float(r["frame"])))
@@ -255,7 +257,7 @@ class Cell:
         return list(seen)
 
     def primary_class(self) -> Optional[str]:
-        """The path class the report shows first: "full" (the composed image) when scored, else the
+        """The path class the report shows first: "combined" (the composed image) when scored, else the
         first class in metrics.csv."""
         classes = self.metric_classes()
         if not classes:

@@ -45,7 +45,7 @@ TECHNIQUES = [
         "passes": {"scene-update": 0.35, "gbuffer": 2.1, "shadow-map": 1.6, "shade": 1.3, "tonemap": 0.45},
         "cpu_only": {"scene-update"},
         "nested": {},
-        "classes": ["full"],
+        "classes": ["combined"],
         "flip": 0.31,
     },
     {
@@ -55,7 +55,7 @@ TECHNIQUES = [
                    "tonemap": 0.45},
         "cpu_only": {"scene-update", "trace"},
         "nested": {"splat": {"sort": 0.45, "accumulate": 0.5}},  # fractions of the outer pass
-        "classes": ["full", "caustics"],
+        "classes": ["combined", "caustics"],
         "flip": 0.12,
     },
     {
@@ -65,7 +65,7 @@ TECHNIQUES = [
                    "shade": 1.3, "tonemap": 0.45},
         "cpu_only": {"scene-update", "trace"},
         "nested": {},
-        "classes": ["full", "indirect"],
+        "classes": ["combined", "indirect"],
         "flip": 0.15,
     },
     {
@@ -74,7 +74,7 @@ TECHNIQUES = [
         "passes": {},
         "cpu_only": set(),
         "nested": {},
-        "classes": ["full"],
+        "classes": ["combined"],
         "flip": math.nan,
     },
 ]
@@ -309,7 +309,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 if images and tech["passes"]:
                     img_rng = np.random.default_rng(index)
                     for f in mframes:
-                        ref_full = reference_image(scene, f, "full", w, h)
+                        ref_full = reference_image(scene, f, "combined", w, h)
                         noisy = ref_full + img_rng.normal(0, flip_level * 0.6, ref_full.shape) * ref_full
                         noisy = np.maximum(noisy, 0)
                         write_exr(os.path.join(cdir, "images", f"frame_{f:04d}.exr"), noisy)

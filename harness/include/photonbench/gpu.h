@@ -10,6 +10,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 #include <vulkan/vulkan_raii.hpp>
@@ -23,8 +24,9 @@ class Device;
 class Buffer {
  public:
   Buffer() = default;
-  Buffer(Buffer&&) = default;
-  Buffer& operator=(Buffer&&) = default;
+  // Moves hand over the memory accounting too: only the owner of the handle releases its bytes.
+  Buffer(Buffer&& other) noexcept { *this = std::move(other); }
+  Buffer& operator=(Buffer&& other) noexcept;
   ~Buffer();
   vk::Buffer handle() const { return *buffer_; }
   vk::DeviceSize size() const { return size_; }
@@ -47,8 +49,8 @@ class Buffer {
 class Image {
  public:
   Image() = default;
-  Image(Image&&) = default;
-  Image& operator=(Image&&) = default;
+  Image(Image&& other) noexcept { *this = std::move(other); }
+  Image& operator=(Image&& other) noexcept;
   ~Image();
   vk::Image handle() const { return *image_; }
   vk::ImageView view() const { return *view_; }

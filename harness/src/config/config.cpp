@@ -52,6 +52,7 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
       if (last) {
         node[part] = value;
       } else {
+        if (!node[part].IsDefined() || node[part].IsNull()) node[part] = YAML::Node(YAML::NodeType::Map);
         YAML::Node child = node[part];
         node.reset(child);
       }

@@ -238,6 +238,18 @@ Buffer::~Buffer() {
   if (device_ && size_) device_->release(size_);
 }
 
+Buffer& Buffer::operator=(Buffer&& other) noexcept {
+  if (this == &other) return *this;
+  if (device_ && size_) device_->release(size_);
+  buffer_ = std::move(other.buffer_);
+  memory_ = std::move(other.memory_);
+  size_ = std::exchange(other.size_, 0);
+  mapped_ = std::exchange(other.mapped_, nullptr);
+  name_ = std::move(other.name_);
+  device_ = std::exchange(other.device_, nullptr);
+  return *this;
+}
+
 Image Device::create_image(std::string name, vk::Extent2D extent, vk::Format format, vk::ImageUsageFlags usage,
                            vk::SampleCountFlagBits samples) {
   Image image;
@@ -284,6 +296,20 @@ Image Device::create_image(std::string name, vk::Extent2D extent, vk::Format for
 
 Image::~Image() {
   if (device_ && bytes_) device_->release(bytes_);
+}
+
+Image& Image::operator=(Image&& other) noexcept {
+  if (this == &other) return *this;
+  if (device_ && bytes_) device_->release(bytes_);
+  view_ = std::move(other.view_);  // the view goes before the image it views
+  image_ = std::move(other.image_);
+  memory_ = std::move(other.memory_);
+  format_ = other.format_;
+  extent_ = other.extent_;
+  bytes_ = std::exchange(other.bytes_, 0);
+  name_ = std::move(other.name_);
+  device_ = std::exchange(other.device_, nullptr);
+  return *this;
 }
 
 void Device::submit_and_wait(const std::function<void(vk::CommandBuffer)>& record) {

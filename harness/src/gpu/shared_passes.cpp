@@ -104,7 +104,7 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
 void ScenePasses::create_shadow_atlas() {
   uint32_t size = options_.shadow_map_size;
   uint32_t rows = std::max<uint32_t>((tile_count_ + tiles_per_row_ - 1) / tiles_per_row_, 1);
-  shadow_atlas_ = Image();  // release the old atlas first: GPU memory is counted per cell
+  shadow_atlas_ = Image();  // release the old atlas before making the new one
   shadow_atlas_ = device_.create_image("shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
                                        vk::ImageUsageFlagBits::eDepthStencilAttachment | vk::ImageUsageFlagBits::eSampled);
 }
@@ -226,7 +226,11 @@ void ScenePasses::shadow_maps() {
   vk::RenderingAttachmentInfo depth{shadow_atlas_.view(), vk::ImageLayout::eGeneral, {}, {}, {},
                                     vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
                                     vk::ClearDepthStencilValue(1.f, 0)};
-  device_.begin_rendering(cmd, vk::RenderingInfo{{}, {{0, 0}, atlas}, 1, 0, {}, &depth});
+  // Built with setters: with no colour attachments, brace initialisation picks the (count, pointer)
+  // constructor and would pass the depth attachment as a colour one.
+  vk::RenderingInfo rendering;
+  rendering.setRenderArea({{0, 0}, atlas}).setLayerCount(1).setPDepthAttachment(&depth);
+  device_.begin_rendering(cmd, rendering);
   uint32_t size = options_.shadow_map_size;
   for (uint32_t tile = 0; tile < tile_count_; ++tile) {
     int32_t x = int32_t((tile % tiles_per_row_) * size), y = int32_t((tile / tiles_per_row_) * size);

@@ -37,6 +37,8 @@ class ScenePasses : public SharedPasses {
   const Buffer& frame_buffer() const override { return frame_; }
   const Buffer& material_buffer() const override { return materials_; }
   const Buffer& light_buffer() const override { return lights_; }
+  const Buffer& tile_buffer() const { return tiles_; }
+  const Image& atlas() const { return shadow_atlas_; }
 
  private:
   struct GpuMesh {

@@ -52,10 +52,12 @@ class FrameContext final : public Context {
 
   void attach(gpu::ScenePasses* passes, Profiler* profiler) { passes_ = passes, profiler_ = profiler; }
 
+  // Command buffers are reused frame after frame (allocation is measurable overhead on lavapipe).
   void begin_recording() {
-    buffers_.emplace_back(std::move(vk::raii::CommandBuffers(
-        device_.device(), {*pool_, vk::CommandBufferLevel::ePrimary, 1})[0]));
-    current_ = *buffers_.back();
+    if (used_ == buffers_.size())
+      buffers_.emplace_back(std::move(vk::raii::CommandBuffers(
+          device_.device(), {*pool_, vk::CommandBufferLevel::ePrimary, 1})[0]));
+    current_ = *buffers_[used_++];
     current_.begin(vk::CommandBufferBeginInfo{vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
   }
 
@@ -68,7 +70,10 @@ class FrameContext final : public Context {
     current_ = nullptr;
   }
 
-  void end_frame_buffers() { buffers_.clear(); }
+  void end_frame_buffers() {
+    pool_.reset();
+    used_ = 0;
+  }
 
   // Context
   gpu::Device& gpu() override { return device_; }
@@ -95,6 +100,7 @@ class FrameContext final : public Context {
   vk::raii::CommandPool pool_{nullptr};
   vk::raii::Fence fence_{nullptr};
   std::vector<vk::raii::CommandBuffer> buffers_;
+  size_t used_ = 0;
   vk::CommandBuffer current_ = nullptr;
 };
 
@@ -136,7 +142,7 @@ int run_cell(const CellRunOptions& options) {
   io::CsvAppender counters_csv(dir / "counters.csv", {"frame", "name", "value"});
   std::vector<double> frame_ms, overhead_ms;
   std::map<std::string, std::vector<double>> pass_ms;
-  std::vector<uint32_t> metric_frames;
+  std::vector<uint32_t> written_frames;
   uint64_t gpu_bytes_technique = 0, gpu_bytes_total = 0;
   const uint32_t total_frames = config.frames.warmup + config.frames.count;
   int64_t current_frame = -1;
@@ -185,11 +191,11 @@ int run_cell(const CellRunOptions& options) {
     }
 
     std::vector<float> rgba;
+    const std::vector<uint32_t> scored = run::metric_frames(config);
     for (uint32_t f = 0; f < total_frames; ++f) {
       current_frame = f;
       bool warmup = f < config.frames.warmup;
-      uint32_t measured_index = f - config.frames.warmup;
-      bool metric_frame = !warmup && config.frames.metrics_every > 0 && measured_index % config.frames.metrics_every == 0;
+      bool metric_frame = std::find(scored.begin(), scored.end(), f) != scored.end();
       ctx.counters_.clear();
       ctx.warnings_.clear();
 
@@ -211,9 +217,12 @@ int run_cell(const CellRunOptions& options) {
       std::vector<PassSample> samples = profiler.end_frame();
       ctx.end_frame_buffers();
 
+      // Harness overhead: the frame's wall time less what the passes themselves took, counting a pass's
+      // CPU time (its recording, or its CPU work) and its GPU time (its execution) as its own. What is
+      // left is the harness's: pass bookkeeping, submission and the fence.
       double passes_ms = 0;
       for (const auto& s : samples)
-        if (s.depth == 0) passes_ms += s.ms();
+        if (s.depth == 0) passes_ms += s.cpu_ms + s.gpu_ms;
       double overhead = std::max(0.0, wall_ms - passes_ms);
       gpu_bytes_total = std::max<uint64_t>(gpu_bytes_total, device.allocated_bytes());
       gpu_bytes_technique = std::max<uint64_t>(gpu_bytes_technique, device.allocated_bytes() - bytes_before);
@@ -244,7 +253,7 @@ int run_cell(const CellRunOptions& options) {
         image.pixels = rgba;
         io::write_image(dir / "images" / fmt::format("frame_{:04d}.exr", f), image);
         io::write_image(dir / "images" / fmt::format("frame_{:04d}.png", f), io::display_encode(image));
-        metric_frames.push_back(f);
+        written_frames.push_back(f);
       }
       std::printf("@frame %u %u\n", f + 1, total_frames);
       std::fflush(stdout);
@@ -252,7 +261,7 @@ int run_cell(const CellRunOptions& options) {
     current_frame = -1;
 
     // Scoring against references: after the frames, never on the timed path.
-    ScoreResult scores = score_cell(config, cell, scene, metric_frames, plugin->descriptor->path_class, dir);
+    ScoreResult scores = score_cell(config, cell, scene, written_frames, plugin->descriptor->path_class, dir);
     for (const auto& w : scores.warnings) warnings.push_back({{"frame", nullptr}, {"message", w}});
     record["metrics"] = scores.means;
   } catch (const CellFailure& failure) {

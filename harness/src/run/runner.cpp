@@ -23,6 +23,9 @@
 #include "run/cell_runner.h"
 #include "run/invocation.h"
 #include "run/plugins.h"
+#include "run/scoring.h"
+#include "scene/scene.h"
+#include "trace/reference.h"
 
 namespace pb::run {
 
@@ -186,6 +189,48 @@ std::string fmt_or_empty(const json& value) {
   return fmt::format("{:.6g}", value.get<double>());
 }
 
+// Renders every reference image the cells will be scored against that the cache lacks, before any cell
+// runs: a reference is rendered once and shared by every technique and setting of its scene.
+void render_needed_references(const config::Config& config, const std::vector<config::Cell>& cells,
+                              PluginRegistry& plugins) {
+  std::vector<uint32_t> frames = metric_frames(config);
+  if (frames.empty()) return;
+  std::map<std::filesystem::path, uint32_t> masks;
+  for (const auto& cell : cells) {
+    const Plugin* plugin = plugins.find(cell.technique);
+    if (plugin && plugin->loaded()) masks[cell.scene_file] |= reference_classes(plugin->descriptor->path_class);
+  }
+  trace::ReferenceCache cache(config.reference.cache_dir);
+  trace::ReferenceOptions options = reference_options(config);
+  for (const auto& [file, mask] : masks) {
+    scene::Scene scene = scene::load_scene(file);
+    for (size_t i = 0; i < frames.size(); ++i) {
+      auto start = Clock::now();
+      auto last = start;
+      bool tty = isatty(STDERR_FILENO);
+      int rendered = cache.render_missing(scene, scene.at(frames[i]), mask, int(config.width), int(config.height),
+                                          options, [&](const trace::ReferenceProgress& p) {
+                                            if (tty) {
+                                              std::fprintf(stderr, "\r[reference] %s frame %u: %u/%u samples",
+                                                           scene.name.c_str(), frames[i], p.iteration, p.total);
+                                            } else if (Clock::now() - last > std::chrono::seconds(10)) {
+                                              std::fprintf(stderr, "[reference] %s frame %u: %u/%u samples\n",
+                                                           scene.name.c_str(), frames[i], p.iteration, p.total);
+                                              last = Clock::now();
+                                            } else {
+                                              return;
+                                            }
+                                            std::fflush(stderr);
+                                          });
+      if (tty) std::fprintf(stderr, "\r\033[K");
+      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", scene.name.c_str(), frames[i], i + 1,
+                   frames.size(),
+                   rendered ? fmt::format("rendered in {:.1f} s", std::chrono::duration<double>(Clock::now() - start).count()).c_str()
+                            : "cached");
+    }
+  }
+}
+
 }  // namespace
 
 void write_summary(const std::filesystem::path& run_dir) {
@@ -287,6 +332,7 @@ int run_benchmark(const RunOptions& options) {
   io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
   std::fprintf(stderr, "photonbench: %zu cells -> %s\n", cells.size(), run_dir.string().c_str());
 
+  render_needed_references(config, cells, plugins);
   Progress progress(cells.size());
   int failed = 0, skipped = 0;
   for (size_t i = 0; i < cells.size(); ++i) {

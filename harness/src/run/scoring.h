@@ -9,6 +9,7 @@
 
 #include "config/config.h"
 #include "scene/scene.h"
+#include "trace/reference.h"
 
 namespace pb::run {
 
@@ -16,6 +17,14 @@ struct ScoreResult {
   nlohmann::json means = nlohmann::json::object();  // {"<class>": {"flip": .., "ssim": .., ...}}
   std::vector<std::string> warnings;
 };
+
+// The measured frames that are scored: every metrics_every-th, counted from the first measured frame.
+std::vector<uint32_t> metric_frames(const config::Config& config);
+// The reference class a technique's declared path class names (by class name or light path expression).
+std::optional<trace::PathClass> reference_class_of(const std::string& path_class);
+// The reference images a technique's cells need: combined, plus its own class.
+uint32_t reference_classes(const std::string& technique_path_class);
+trace::ReferenceOptions reference_options(const config::Config& config);
 
 ScoreResult score_cell(const config::Config& config, const config::Cell& cell, const scene::Scene& scene,
                        const std::vector<uint32_t>& metric_frames, const std::string& path_class,
