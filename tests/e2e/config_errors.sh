@@ -1,0 +1,59 @@
+# Every kind of bad input exits 2 with a message naming file:line:col and the key.
+source "$(dirname "$0")/lib.sh"
+cfg="$WORK/bad.yaml"
+
+write() { printf '%s\n' "$@" > "$cfg"; }
+base=(
+  "name: t"
+  "resolution: [64, 36]"
+  "frames: {warmup: 0, count: 2, metrics_every: 0}"
+  "scenes: [cornell-box]"
+  "techniques:"
+  "  - technique: direct"
+)
+
+write "${base[@]}" "  - technique: [direct"
+expect_exit 2 "bad YAML syntax" -- "$PB" validate "$cfg"
+expect_match "bad YAML syntax names file:line:col" "bad.yaml:[0-9]+:[0-9]+: YAML syntax error" "$OUT"
+
+write "${base[@]}" "frame: {count: 3}"
+expect_exit 2 "unknown top-level key" -- "$PB" validate "$cfg"
+expect_match "unknown key names location, key and suggestion" "bad.yaml:7:1: frame: unknown key; did you mean 'frames'" "$OUT"
+
+write "${base[@]/count: 2/count: many}"
+expect_exit 2 "wrong type" -- "$PB" validate "$cfg"
+expect_match "wrong type names location and key" "bad.yaml:3:[0-9]+: frames.count: expected a number, got 'many'" "$OUT"
+
+write "${base[@]/\[64, 36\]/[64, 100000]}"
+expect_exit 2 "out-of-range value" -- "$PB" validate "$cfg"
+expect_match "out of range names location and range" "bad.yaml:2:[0-9]+: resolution\[1\]: value 100000 is out of range" "$OUT"
+
+write "${base[@]/cornell-box/no-such-scene}"
+expect_exit 2 "missing scene file" -- "$PB" validate "$cfg"
+expect_match "missing scene names location" "bad.yaml:4:[0-9]+: scenes\[0\]: .*no-such-scene" "$OUT"
+
+write "${base[@]/technique: direct/technique: drect}"
+expect_exit 2 "unknown technique" -- "$PB" validate "$cfg"
+expect_match "unknown technique names location and suggestion" "bad.yaml:6:[0-9]+: techniques\[0\].technique: unknown technique 'drect'; did you mean 'direct'" "$OUT"
+
+write "${base[@]}" "    params: {shadow_map_sise: 256}"
+expect_exit 2 "unknown technique parameter" -- "$PB" validate "$cfg"
+expect_match "unknown parameter suggests the schema name" "bad.yaml:7:[0-9]+: techniques\[0\].params.shadow_map_sise: unknown key; did you mean 'shadow_map_size'" "$OUT"
+
+write "${base[@]}" "    params: {shadow_map_size: [256, 8]}"
+expect_exit 2 "swept value out of the schema's range" -- "$PB" validate "$cfg"
+expect_match "sweep element out of range" "bad.yaml:7:[0-9]+: techniques\[0\].params.shadow_map_size\[1\]: value 8 is out of range \[16, 4096\]" "$OUT"
+
+write "${base[@]/technique: direct/technique: wrong_api_version}" "plugin_dirs: [$TEST_PLUGINS]"
+expect_exit 2 "plugin built for another API version" -- "$PB" validate "$cfg"
+expect_match "API version error names location and both versions" "bad.yaml:6:[0-9]+: techniques\[0\].technique: plugin .*wrong_api_version.so was built for plugin API version 42, this photonbench has 1" "$OUT"
+
+write "${base[@]}"
+expect_exit 2 "--set with a bad value" -- "$PB" validate "$cfg" --set frames.count=-3
+expect_match "--set error says it came from the command line" "frames.count: value -3 is out of range" "$OUT"
+expect_exit 2 "run rejects bad input before running" -- "$PB" run "$cfg" --out "$WORK/run" --set frames.count=-3
+[ ! -e "$WORK/run/run.json" ] && pass "nothing written for a rejected config" || fail "a rejected config wrote run.json"
+
+expect_exit 0 "a valid config validates" -- "$PB" validate "$cfg" --set 'techniques.0.params={shadow_map_size: [128, 256]}'
+expect_match "sweep expands into two cells" "valid, 2 cells" "$OUT"
+finish
