@@ -5,10 +5,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <bit>
 #include <cmath>
 #include <cstdint>
-#include <memory>
 #include <string_view>
 #include <vector>
 
@@ -55,15 +53,6 @@ void convert_row(const io::Image& image, int y, int channel, Values values, doub
 
 // SSIM without the input checks (ssim.cpp), for evaluate(), which checks once.
 double ssim_unchecked(const io::Image& reference, const io::Image& test);
-
-// An uninitialised array: the metrics overwrite every element, so zero-filling megabytes first
-// (std::vector's resize) would only cost time.
-template <typename T>
-struct Buffer {
-  std::unique_ptr<T[]> data;
-  explicit Buffer(size_t n) : data(new T[n]) {}
-  T* get() const { return data.get(); }
-};
 
 // Deterministic parallel sum of row_sum(y) over rows [begin, end): the rows run in parallel, their
 // sums are added in row order, so the result does not depend on how the rows were scheduled.
