@@ -1,6 +1,6 @@
 # A technique that segfaults, throws, outputs NaN, hangs past the time limit or cannot be loaded fails
 # only its own cell, with the reason and the frame; the cells after it still run.
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.bash"
 cfg="$WORK/isolation.yaml"
 cat > "$cfg" <<YAML
 name: isolation

@@ -1,5 +1,5 @@
 # Every kind of bad input exits 2 with a message naming file:line:col and the key.
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.bash"
 cfg="$WORK/bad.yaml"
 
 write() { printf '%s\n' "$@" > "$cfg"; }

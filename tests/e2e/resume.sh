@@ -1,5 +1,5 @@
 # Killing a run midway and running again with --resume finishes without redoing complete cells.
-source "$(dirname "$0")/lib.sh"
+source "$(dirname "$0")/lib.bash"
 cfg="$WORK/resume.yaml"
 cat > "$cfg" <<YAML
 name: resume

@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "photonbench/gpu.h"
+#include "photonbench/photons.h"
 
 namespace pb {
 
@@ -95,6 +96,9 @@ class Context {
   virtual void warn(std::string_view message) = 0;
   virtual const FrameInfo& frame() const = 0;
   virtual SharedPasses& shared() = 0;
+  // The photon tracer (Embree, CPU, multi-threaded) over this frame's scene. Built on first use, then
+  // kept in step with the animation as part of the "scene-update" pass.
+  virtual trace::PhotonTracer& photon_tracer() = 0;
   // The image the harness reads back and scores: RGBA32F, linear radiance. shade() writes it.
   virtual const gpu::Image& output() = 0;
 };

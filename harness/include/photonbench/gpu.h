@@ -142,6 +142,10 @@ class Device {
   const vk::raii::PhysicalDevice& physical() const { return physical_; }
   vk::Queue queue() const { return *queue_; }
   uint32_t queue_family() const { return queue_family_; }
+  // lavapipe (llvmpipe) bins rasterisation and runs it after a pass's closing timestamp, so its
+  // timestamps miss raster work (tests/unit/timing_test.cpp measures this); the runner then times
+  // passes with fences instead.
+  bool raster_timestamps_unreliable() const { return driver_.find("llvmpipe") != std::string::npos; }
   double timestamp_period_ns() const { return timestamp_period_ns_; }
   uint32_t timestamp_valid_bits() const { return timestamp_valid_bits_; }
 

@@ -20,6 +20,8 @@
 #include "run/scoring.h"
 #include "run/stats.h"
 #include "scene/scene.h"
+#include "trace/embree_scene.h"
+#include "trace/photon_tracer.h"
 
 namespace pb::run {
 
@@ -50,7 +52,15 @@ class FrameContext final : public Context {
     fence_ = vk::raii::Fence(device.device(), vk::FenceCreateInfo{});
   }
 
-  void attach(gpu::ScenePasses* passes, Profiler* profiler) { passes_ = passes, profiler_ = profiler; }
+  void attach(gpu::ScenePasses* passes, Profiler* profiler, const scene::Scene* scene) {
+    passes_ = passes, profiler_ = profiler, scene_ = scene;
+  }
+
+  // The Embree world exists only for techniques that trace photons; others pay nothing for it.
+  void update_world(const scene::FrameState& state) {
+    state_ = state;
+    if (world_) world_->update(state);
+  }
 
   // Command buffers are reused frame after frame (allocation is measurable overhead on lavapipe).
   void begin_recording() {
@@ -87,6 +97,13 @@ class FrameContext final : public Context {
   void warn(std::string_view message) override { warnings_.emplace_back(std::string(message)); }
   const FrameInfo& frame() const override { return frame_; }
   SharedPasses& shared() override { return *passes_; }
+  trace::PhotonTracer& photon_tracer() override {
+    if (!tracer_) {
+      world_ = std::make_unique<trace::EmbreeScene>(*scene_, state_);
+      tracer_ = trace::make_photon_tracer(*world_);
+    }
+    return *tracer_;
+  }
   const gpu::Image& output() override { return passes_->output(); }
 
   FrameInfo frame_{};
@@ -97,6 +114,10 @@ class FrameContext final : public Context {
   gpu::Device& device_;
   gpu::ScenePasses* passes_ = nullptr;
   Profiler* profiler_ = nullptr;
+  const scene::Scene* scene_ = nullptr;
+  scene::FrameState state_;
+  std::unique_ptr<trace::EmbreeScene> world_;
+  std::unique_ptr<trace::PhotonTracer> tracer_;
   vk::raii::CommandPool pool_{nullptr};
   vk::raii::Fence fence_{nullptr};
   std::vector<vk::raii::CommandBuffer> buffers_;
@@ -161,7 +182,16 @@ int run_cell(const CellRunOptions& options) {
     FrameContext ctx(device);
     Profiler profiler(device, [&] { return ctx.cmd(); });
     gpu::ScenePasses passes(device, scene, config.width, config.height, {}, profiler, [&] { return ctx.cmd(); });
-    ctx.attach(&passes, &profiler);
+    if (device.raster_timestamps_unreliable()) {
+      profiler.use_fenced_timing([&] {
+        auto start = std::chrono::steady_clock::now();
+        ctx.flush();
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      });
+    }
+    record["timing"] = profiler.fenced() ? "fenced" : "timestamps";
+    ctx.attach(&passes, &profiler, &scene);
+    ctx.update_world(scene.at(0));
 
     // Testing hook: one named pass made slower by a factor (see config.h TestingHooks). The pass's GPU
     // work is completed first (flush), so the factor applies to the whole pass as the CPU clock sees it.
@@ -208,6 +238,7 @@ int run_cell(const CellRunOptions& options) {
         auto scope = ctx.pass("scene-update");
         state = scene.at(f);
         passes.update(state);
+        ctx.update_world(state);
       }
       ctx.frame_ = FrameInfo{f, state.time, warmup, config.width, config.height, passes.camera_view()};
       technique->render(ctx);

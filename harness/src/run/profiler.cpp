@@ -18,7 +18,14 @@ void Profiler::begin_frame() {
   stack_.clear();
 }
 
+void Profiler::fence_boundary() {
+  if (!flush_) return;
+  double ms = flush_();
+  for (int open : stack_) passes_[open].fenced_gpu_ms += ms, passes_[open].waited_ms += ms;
+}
+
 int Profiler::begin_pass(std::string_view name) {
+  fence_boundary();  // work recorded before this pass is not this pass's
   if (passes_.size() >= max_passes_)
     throw Error(fmt::format("more than {} passes in one frame", max_passes_));
   std::string full = stack_.empty() ? std::string(name) : passes_[stack_.back()].name + "/" + std::string(name);
@@ -36,11 +43,16 @@ void Profiler::end_pass(int pass) {
   vk::CommandBuffer cmd = cmd_();
   gpu::full_barrier(cmd);
   cmd.writeTimestamp(vk::PipelineStageFlagBits::eBottomOfPipe, *pool_, passes_[pass].query + 1);
+  fence_boundary();
   Open& open = passes_[pass];
-  open.cpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - open.cpu_start).count();
+  auto cpu_now = [&] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - open.cpu_start).count() -
+           open.waited_ms;
+  };
+  open.cpu_ms = cpu_now();
   if (on_pass_end) {
-    on_pass_end(open.name, open.cpu_ms);
-    open.cpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - open.cpu_start).count();
+    on_pass_end(open.name, open.cpu_ms + open.waited_ms);
+    open.cpu_ms = cpu_now() + open.waited_ms;  // the hook's own waits are the injected slowness
   }
   open.closed = true;
   stack_.pop_back();
@@ -57,7 +69,7 @@ std::vector<PassSample> Profiler::end_frame() {
   uint64_t mask = device_.timestamp_valid_bits() >= 64 ? ~0ull : ((1ull << device_.timestamp_valid_bits()) - 1);
   for (const Open& open : passes_) {
     uint64_t begin = stamps[open.query] & mask, end = stamps[open.query + 1] & mask;
-    double gpu_ms = double((end - begin) & mask) * device_.timestamp_period_ns() * 1e-6;
+    double gpu_ms = flush_ ? open.fenced_gpu_ms : double((end - begin) & mask) * device_.timestamp_period_ns() * 1e-6;
     samples.push_back({open.name, open.depth, gpu_ms, open.cpu_ms});
   }
   return samples;

@@ -32,6 +32,13 @@ class Profiler : public PassRecorder {
   // Called at the end of a pass with its CPU time so far; the testing hook uses it to slow one pass.
   std::function<void(const std::string& name, double cpu_ms)> on_pass_end;
 
+  // Fenced timing, for devices whose timestamps miss raster work (lavapipe bins rasterisation and runs
+  // it after the closing timestamp: tests/unit/timing_test.cpp). Every pass boundary then submits what
+  // is recorded and waits; a pass's GPU time is the fenced wall time of the submissions made while it
+  // was open, and its CPU time excludes those waits. `flush` submits, waits, and returns the wall ms.
+  void use_fenced_timing(std::function<double()> flush) { flush_ = std::move(flush); }
+  bool fenced() const { return bool(flush_); }
+
  private:
   gpu::Device& device_;
   std::function<vk::CommandBuffer()> cmd_;
@@ -43,8 +50,12 @@ class Profiler : public PassRecorder {
     uint32_t query;
     std::chrono::steady_clock::time_point cpu_start;
     double cpu_ms = 0;
+    double fenced_gpu_ms = 0;
+    double waited_ms = 0;  // time this pass's CPU clock spent waiting on fences
     bool closed = false;
   };
+  void fence_boundary();
+  std::function<double()> flush_;
   std::vector<Open> passes_;
   std::vector<int> stack_;
 };
