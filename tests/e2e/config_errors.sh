@@ -56,4 +56,8 @@ expect_exit 2 "run rejects bad input before running" -- "$PB" run "$cfg" --out "
 
 expect_exit 0 "a valid config validates" -- "$PB" validate "$cfg" --set 'techniques.0.params={shadow_map_size: [128, 256]}'
 expect_match "sweep expands into two cells" "valid, 2 cells" "$OUT"
+write "${base[@]/technique: direct/technique: sleeps}"
+expect_exit 2 "a test plugin is not found without its folder" -- "$PB" validate "$cfg"
+expect_exit 0 "--plugin-dir adds a plugin folder" -- "$PB" validate "$cfg" --plugin-dir "$TEST_PLUGINS"
+expect_exit 0 "key+=value appends to a list" -- "$PB" validate "$cfg" --set "plugin_dirs+=$TEST_PLUGINS"
 finish

@@ -1,6 +1,8 @@
 // `photonbench validate CONFIG`: everything `run` checks before running, and the cells it would run.
 #include <cstdio>
 
+#include <filesystem>
+
 #include "cli/command.h"
 #include "config/config.h"
 #include "run/plugins.h"
@@ -15,8 +17,13 @@ void add_validate(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("validate", "check a config and list the cells it expands to");
   cmd->add_option("config", args->config, "the YAML config")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--set", args->overrides, "override a config key: key.path=value (repeatable)");
-  cmd->callback([args, &exit_code] {
+  cmd->add_option("--set", args->overrides, "override a config key: key.path=value, or key+=value to append (repeatable)");
+  auto plugin_dirs = std::make_shared<std::vector<std::string>>();
+  cmd->add_option("--plugin-dir", *plugin_dirs, "also load technique plugins from this folder (repeatable)")
+      ->check(CLI::ExistingDirectory);
+  cmd->callback([args, plugin_dirs, &exit_code] {
+    for (const auto& dir : *plugin_dirs)
+      args->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     auto config = pb::config::load_config(args->config, args->overrides);
     pb::run::PluginRegistry plugins(config.plugin_dirs);
     auto cells = pb::config::expand_cells(config, plugins);

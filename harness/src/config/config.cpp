@@ -19,6 +19,9 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
   if (eq == std::string::npos || eq == 0)
     throw InputError(fmt::format("--set {}: expected key.path=value", assignment));
   std::string path = assignment.substr(0, eq);
+  // "key+=value" appends to a list (created if absent): --plugin-dir is plugin_dirs+=DIR.
+  bool append = !path.empty() && path.back() == '+';
+  if (append) path.pop_back();
   YAML::Node value;
   try {
     value = YAML::Load(assignment.substr(eq + 1));
@@ -49,7 +52,13 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
       if (!node.IsMap() && !node.IsNull())
         throw InputError(fmt::format("--set {}: '{}' is not a mapping", assignment,
                                      fmt::join(parts.begin(), parts.begin() + i, ".")));
-      if (last) {
+      if (last && append) {
+        if (!node[part].IsDefined() || node[part].IsNull()) node[part] = YAML::Node(YAML::NodeType::Sequence);
+        if (!node[part].IsSequence())
+          throw InputError(fmt::format("--set {}: '{}' is not a list to append to", assignment, path));
+        YAML::Node list = node[part];
+        list.push_back(value);
+      } else if (last) {
         node[part] = value;
       } else {
         if (!node[part].IsDefined() || node[part].IsNull()) node[part] = YAML::Node(YAML::NodeType::Map);
