@@ -9,6 +9,9 @@
 #include <vector>
 
 #include "cli/command.h"
+#include "config/config.h"
+#include "run/plugins.h"
+#include "run/runner.h"
 #include "photonbench/error.h"
 #include "scene/scene.h"
 #include "trace/reference.h"
@@ -60,7 +63,9 @@ void add_reference(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand(
       "reference",
       "render reference images (path tracing + SPPM) of a scene's frames into the cache");
-  cmd->add_option("scene", args->scene, "scene name (under scenes/) or path to a scene file")
+  cmd->add_option("scene", args->scene,
+                  "scene name (under scenes/), path to a scene file, or a benchmark config: then every "
+                  "reference its cells will be scored against is rendered (what `run` would render)")
       ->required();
   cmd->add_option("--frames", args->frames, "FIRST:LAST or FRAME (default: the scene's animation)");
   std::string class_help = "path class, repeatable: ";
@@ -81,6 +86,13 @@ void add_reference(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::Range(0, 4096));
   cmd->callback([args, &exit_code] {
+    if (pb::run::is_benchmark_config(args->scene)) {
+      auto config = pb::config::load_config(args->scene, {});
+      pb::run::PluginRegistry plugins(config.plugin_dirs);
+      pb::run::render_needed_references(config, pb::config::expand_cells(config, plugins), plugins);
+      exit_code = 0;
+      return;
+    }
     auto file = pb::scene::find_scene(args->scene, {});
     pb::scene::Scene scene = pb::scene::load_scene(file);
     auto [first, last] = parse_frames(args->frames, scene.default_frames);

@@ -26,6 +26,7 @@
 #include "run/scoring.h"
 #include "scene/scene.h"
 #include "trace/reference.h"
+#include <yaml-cpp/yaml.h>
 
 namespace pb::run {
 
@@ -189,8 +190,19 @@ std::string fmt_or_empty(const json& value) {
   return fmt::format("{:.6g}", value.get<double>());
 }
 
-// Renders every reference image the cells will be scored against that the cache lacks, before any cell
-// runs: a reference is rendered once and shared by every technique and setting of its scene.
+}  // namespace
+
+bool is_benchmark_config(const std::filesystem::path& file) {
+  if (file.extension() != ".yaml" && file.extension() != ".yml") return false;
+  if (!std::filesystem::is_regular_file(file)) return false;
+  try {
+    YAML::Node root = YAML::LoadFile(file.string());
+    return root.IsMap() && root["techniques"].IsDefined();
+  } catch (const YAML::Exception&) {
+    return false;
+  }
+}
+
 void render_needed_references(const config::Config& config, const std::vector<config::Cell>& cells,
                               PluginRegistry& plugins) {
   std::vector<uint32_t> frames = metric_frames(config);
@@ -230,6 +242,8 @@ void render_needed_references(const config::Config& config, const std::vector<co
     }
   }
 }
+
+namespace {
 
 }  // namespace
 
