@@ -4,22 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
+#include "io/results.h"
 #include "photonbench/error.h"
 
 namespace pb::config {
 
 namespace {
-
-std::string read_text(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open file", file.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 size_t edit_distance(std::string_view a, std::string_view b) {
   std::vector<size_t> row(b.size() + 1);
@@ -49,7 +40,8 @@ std::string closest_name(std::string_view word, const std::vector<std::string>& 
 }
 
 YamlView YamlView::load_file(const std::filesystem::path& file) {
-  return parse(read_text(file), file.string());
+  if (!std::filesystem::is_regular_file(file)) throw InputError(fmt::format("{}: cannot open file", file.string()));
+  return parse(io::read_text(file), file.string());
 }
 
 YamlView YamlView::parse(const std::string& text, const std::string& source_name) {

@@ -191,6 +191,17 @@ void ScenePasses::update(const scene::FrameState& state) {
   std::memcpy(frame_.mapped(), &frame, sizeof(frame));
 }
 
+// One object's draw: `bind` binds the pass's pipeline with the push constants (object-to-world matrix and
+// the pass's index: material for the G-buffer, atlas tile for shadows).
+template <class Bind>
+void ScenePasses::draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind, uint32_t index) {
+  if (meshes_[i].index_count == 0) return;
+  bind(DrawPush{object_to_world_[i], index});
+  cmd.bindVertexBuffers(0, meshes_[i].vertices.handle(), vk::DeviceSize(0));
+  cmd.bindIndexBuffer(meshes_[i].indices.handle(), 0, vk::IndexType::eUint32);
+  cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
+}
+
 void ScenePasses::gbuffer() {
   auto scope = PassScope(&recorder_, recorder_.begin_pass("gbuffer"));
   vk::CommandBuffer cmd = cmd_();
@@ -208,14 +219,9 @@ void ScenePasses::gbuffer() {
   // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is plain.
   cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
   cmd.setScissor(0, area);
-  for (size_t i = 0; i < meshes_.size(); ++i) {
-    if (meshes_[i].index_count == 0) continue;
-    DrawPush push{object_to_world_[i], scene_.objects[i].material};
-    gbuffer_pipeline_.bind(cmd, {&frame_, &materials_}, push);
-    cmd.bindVertexBuffers(0, meshes_[i].vertices.handle(), vk::DeviceSize(0));
-    cmd.bindIndexBuffer(meshes_[i].indices.handle(), 0, vk::IndexType::eUint32);
-    cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
-  }
+  for (size_t i = 0; i < meshes_.size(); ++i)
+    draw_object(cmd, i, [&](const DrawPush& push) { gbuffer_pipeline_.bind(cmd, {&frame_, &materials_}, push); },
+                scene_.objects[i].material);
   device_.end_rendering(cmd);
 }
 
@@ -236,14 +242,8 @@ void ScenePasses::shadow_maps() {
     int32_t x = int32_t((tile % tiles_per_row_) * size), y = int32_t((tile / tiles_per_row_) * size);
     cmd.setViewport(0, vk::Viewport{float(x), float(y), float(size), float(size), 0, 1});
     cmd.setScissor(0, vk::Rect2D{{x, y}, {size, size}});
-    for (size_t i = 0; i < meshes_.size(); ++i) {
-      if (meshes_[i].index_count == 0) continue;
-      DrawPush push{object_to_world_[i], tile};
-      shadow_pipeline_.bind(cmd, {&tiles_}, push);
-      cmd.bindVertexBuffers(0, meshes_[i].vertices.handle(), vk::DeviceSize(0));
-      cmd.bindIndexBuffer(meshes_[i].indices.handle(), 0, vk::IndexType::eUint32);
-      cmd.drawIndexed(meshes_[i].index_count, 1, 0, 0, 0);
-    }
+    for (size_t i = 0; i < meshes_.size(); ++i)
+      draw_object(cmd, i, [&](const DrawPush& push) { shadow_pipeline_.bind(cmd, {&tiles_}, push); }, tile);
   }
   device_.end_rendering(cmd);
 }

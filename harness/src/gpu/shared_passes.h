@@ -48,6 +48,8 @@ class ScenePasses : public SharedPasses {
   };
   void upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name);
   void shadow_maps();
+  template <class Bind>
+  void draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind, uint32_t index);
   void create_shadow_atlas();
 
   Device& device_;
