@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from dataclasses import asdict, dataclass
 from typing import Dict, List, Optional, Tuple
@@ -266,6 +267,16 @@ def _metric_table(rows: List[MetricRow]) -> List[str]:
     return out
 
 
+def testing_hooks(run: Run) -> List[str]:
+    """The test-only `testing.*` overrides a run was made with (run.json "overrides"), e.g. the delay
+    injection testing.slow_pass: such a run is a check of this tool, never a benchmark to trust."""
+    hooks = [str(o) for o in run.info.get("overrides") or [] if str(o).startswith("testing.")]
+    config = run.info.get("config")
+    if not hooks and isinstance(config, str) and re.search(r"^testing\s*:", config, re.MULTILINE):
+        hooks.append("testing: (set in the config file)")
+    return hooks
+
+
 def markdown(c: Comparison) -> str:
     s = c.settings
     slower = [r for r in c.passes if r.verdict == "slower"]
@@ -280,6 +291,11 @@ def markdown(c: Comparison) -> str:
            f"new `{c.new.name}` (commit {c.new.commit[:12]}, {c.new.device})", ""]
     if c.base.device != c.new.device:
         out += ["> **Different devices**: absolute times are not comparable across machines.", ""]
+    for side, run in (("base", c.base), ("new", c.new)):
+        hooks = testing_hooks(run)
+        if hooks:
+            out += [f"> **Testing hooks** in the {side} run (not a real benchmark): "
+                    + ", ".join(f"`{h}`" for h in hooks), ""]
     verdict = "REGRESSION" if c.regressions else "no significant regression"
     out.append(f"**{verdict}**: {len(slower)} slower pass(es), {len(worse)} worse metric(s), "
                f"{len(broken)} newly failing cell(s); {len(faster)} faster, {len(better)} better; "
@@ -316,7 +332,9 @@ def markdown(c: Comparison) -> str:
 def to_json(c: Comparison) -> dict:
     def clean(d):
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
-    return {"base": c.base.path, "new": c.new.path, "settings": c.settings, "regressions": c.regressions,
+    return {"base": c.base.path, "new": c.new.path, "settings": c.settings,
+            "testing_hooks": {"base": testing_hooks(c.base), "new": testing_hooks(c.new)},
+            "regressions": c.regressions,
             "improvements": c.improvements, "passes": [clean(asdict(r)) for r in c.passes],
             "metrics": [clean(asdict(r)) for r in c.metrics], "statuses": [asdict(r) for r in c.statuses]}
 
