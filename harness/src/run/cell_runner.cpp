@@ -193,20 +193,7 @@ int run_cell(const CellRunOptions& options) {
     ctx.attach(&passes, &profiler, &scene);
     ctx.update_world(scene.at(0));
 
-    // Testing hook: one named pass made slower by a factor (see config.h TestingHooks). The pass's GPU
-    // work is completed first (flush), so the factor applies to the whole pass as the CPU clock sees it.
-    if (!config.testing.slow_pass.empty() && config.testing.slow_factor > 1.0) {
-      profiler.on_pass_end = [&](const std::string& name, double cpu_ms) {
-        if (name != config.testing.slow_pass) return;
-        auto start = std::chrono::steady_clock::now();
-        ctx.flush();
-        double elapsed = cpu_ms + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-        auto until = std::chrono::steady_clock::now() +
-                     std::chrono::duration<double, std::milli>(elapsed * (config.testing.slow_factor - 1.0));
-        while (std::chrono::steady_clock::now() < until) {
-        }
-      };
-    }
+    if (!config.testing.slow_pass.empty()) profiler.slow_down(config.testing.slow_pass, config.testing.slow_factor);
 
     uint64_t bytes_before = device.allocated_bytes();
     std::unique_ptr<Technique, TechniqueDeleter> technique(

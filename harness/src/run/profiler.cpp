@@ -50,9 +50,14 @@ void Profiler::end_pass(int pass) {
            open.waited_ms;
   };
   open.cpu_ms = cpu_now();
-  if (on_pass_end) {
-    on_pass_end(open.name, open.cpu_ms + open.waited_ms);
-    open.cpu_ms = cpu_now() + open.waited_ms;  // the hook's own waits are the injected slowness
+  if (open.name == slow_pass_ && slow_factor_ > 1.0) {
+    bool gpu_dominates = flush_ && open.fenced_gpu_ms > open.cpu_ms;
+    double extra_ms = (slow_factor_ - 1.0) * (gpu_dominates ? open.fenced_gpu_ms : open.cpu_ms);
+    auto until = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(extra_ms);
+    while (std::chrono::steady_clock::now() < until) {
+    }
+    if (gpu_dominates) open.fenced_gpu_ms += extra_ms, open.waited_ms += extra_ms;
+    open.cpu_ms = cpu_now();
   }
   open.closed = true;
   stack_.pop_back();

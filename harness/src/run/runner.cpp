@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/utsname.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -106,6 +107,8 @@ ChildOutcome run_child(const std::filesystem::path& run_dir, const config::Cell&
   pid_t pid = fork();
   if (pid < 0) throw Error(fmt::format("fork failed: {}", std::strerror(errno)));
   if (pid == 0) {
+    // The cell dies with the run: a killed `photonbench run` leaves no orphaned cell behind.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
     dup2(pipe_fds[1], STDOUT_FILENO);
     int log_fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (log_fd >= 0) dup2(log_fd, STDERR_FILENO);

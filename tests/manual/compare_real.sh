@@ -1,3 +1,6 @@
+# MANUAL, not run by CTest: on a shared 2-core machine run-to-run spread (25-35 %) exceeds the
+# 25 % slowdown it must detect, so it is flaky (see the session note on issue 6). Run it by hand:
+#   bash tests/manual/compare_real.sh build/photonbench .
 # `photonbench compare` on real runs (the unit tests use synthetic fixtures): two runs of the same build
 # (A/A) are not a regression; a run with one pass made 25% slower by the test-only delay injection
 # (testing.slow_pass / testing.slow_factor, harness/src/run/cell_runner.cpp) is, and the table names it.
@@ -5,7 +8,7 @@
 # back-to-back runs' pass medians differ by up to 2-3x in wall time, so this test then fails on the A/A or
 # the SLOW verdict; that is the measurement's between-run drift, not this script. PB_COMPARE_FRAMES sets
 # the frame count (more frames do not help: the drift is between runs, not between frames).
-source "$(dirname "$0")/lib.bash"
+source "$(dirname "$0")/../e2e/lib.bash"
 cfg="$WORK/compare.yaml"
 # Small enough for ~2 s a run on lavapipe, with enough measured frames per pass for the Mann-Whitney U
 # test (>= 5 a side; more narrow the noise estimate). No metric frames: no references to render.
