@@ -14,107 +14,12 @@
 
 #include "trace/embree_scene.h"
 #include "trace/sampling.h"
+#include "test_scenes.h"
 
 namespace pb::trace {
 namespace {
 
-// ---- scenes built in code
-// ------------------------------------------------------------------------
-
-class FixedShape final : public scene::Shape {
- public:
-  explicit FixedShape(scene::Mesh mesh) : mesh_(std::move(mesh)) {}
-  scene::Mesh tessellate(float) const override { return mesh_; }
-  std::string kind() const override { return "fixed"; }
-
- private:
-  scene::Mesh mesh_;
-};
-
-scene::Mesh quad_mesh(glm::vec3 corner, glm::vec3 eu, glm::vec3 ev) {
-  scene::Mesh m;
-  glm::vec3 n = glm::normalize(glm::cross(eu, ev));
-  m.positions = {corner, corner + eu, corner + eu + ev, corner + ev};
-  m.normals = {n, n, n, n};
-  m.triangles = {{0, 1, 2}, {0, 2, 3}};
-  return m;
-}
-
-scene::Mesh box_mesh(glm::vec3 lo, glm::vec3 hi, bool inward) {
-  scene::Mesh m;
-  glm::vec3 d = hi - lo;
-  glm::vec3 ex{d.x, 0, 0}, ey{0, d.y, 0}, ez{0, 0, d.z};
-  auto face = [&](glm::vec3 c, glm::vec3 a, glm::vec3 b) {
-    scene::Mesh q = inward ? quad_mesh(c, a, b) : quad_mesh(c, b, a);
-    uint32_t base = uint32_t(m.positions.size());
-    m.positions.insert(m.positions.end(), q.positions.begin(), q.positions.end());
-    m.normals.insert(m.normals.end(), q.normals.begin(), q.normals.end());
-    for (auto t : q.triangles) m.triangles.push_back(t + glm::uvec3(base));
-  };
-  face(lo, ez, ex);
-  face(lo + ey, ex, ez);
-  face(lo, ey, ez);
-  face(lo + ex, ez, ey);
-  face(lo, ex, ey);
-  face(lo + ez, ey, ex);
-  return m;
-}
-
-scene::Mesh sphere_mesh(glm::vec3 c, float r, int seg) {
-  scene::Mesh m;
-  int stacks = seg / 2;
-  for (int i = 0; i <= stacks; ++i)
-    for (int j = 0; j <= seg; ++j) {
-      float th = kPi * i / stacks, ph = 2 * kPi * j / seg;
-      glm::vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
-      m.positions.push_back(c + r * n);
-      m.normals.push_back(n);
-    }
-  for (int i = 0; i < stacks; ++i)
-    for (int j = 0; j < seg; ++j) {
-      uint32_t a = i * (seg + 1) + j, b = a + seg + 1;
-      if (i > 0) m.triangles.push_back({a, a + 1, b});
-      if (i < stacks - 1) m.triangles.push_back({a + 1, b + 1, b});
-    }
-  return m;
-}
-
-struct TestScene {
-  scene::Scene scene;
-  scene::FrameState state;
-  uint32_t material(scene::MaterialType type, glm::vec3 albedo,
-                    glm::vec3 emission = glm::vec3(0.f)) {
-    scene::Material m;
-    m.name = "m" + std::to_string(scene.materials.size());
-    m.type = type;
-    m.albedo = albedo;
-    m.emission = emission;
-    scene.materials.push_back(m);
-    return uint32_t(scene.materials.size() - 1);
-  }
-  void object(scene::Mesh mesh, uint32_t material) {
-    scene::Object o;
-    o.name = "o" + std::to_string(scene.objects.size());
-    o.shape = std::make_shared<FixedShape>(mesh);
-    o.mesh = std::move(mesh);
-    o.material = material;
-    scene.objects.push_back(std::move(o));
-    state.object_to_world.push_back(glm::mat4(1.f));
-  }
-  void camera(glm::vec3 position, glm::vec3 target, glm::vec3 up, float fov_deg) {
-    state.camera.position = position;
-    state.camera.target = target;
-    state.camera.up = up;
-    state.camera.fov_y = glm::radians(fov_deg);
-  }
-  void point_light(glm::vec3 p, float intensity) {
-    scene::Light l;
-    l.type = scene::LightType::point;
-    l.position = p;
-    l.radiant = glm::vec3(intensity);
-    state.lights.push_back(l);
-  }
-};
+using namespace test_scenes;
 
 scene::Scene load(const char* name) {
   return scene::load_scene(std::filesystem::path(PB_SOURCE_DIR) / "scenes" / name);
