@@ -139,6 +139,7 @@ void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const 
 }
 
 void ScenePasses::update(const scene::FrameState& state) {
+  indirect_estimate_ = nullptr;  // a new frame: shade() has not run yet
   object_to_world_ = state.object_to_world;
   // Deformed meshes (the pool's water) are re-tessellated and re-uploaded; rigid motion is a matrix.
   for (uint32_t i : state.deformed_objects)
@@ -266,6 +267,7 @@ void ScenePasses::direct_light() {
 }
 
 void ScenePasses::shade(const Image* indirect_radiance) {
+  indirect_estimate_ = indirect_radiance;
   auto scope = PassScope(&recorder_, recorder_.begin_pass("shade"));
   vk::CommandBuffer cmd = cmd_();
   uint32_t has_indirect = indirect_radiance ? 1u : 0u;

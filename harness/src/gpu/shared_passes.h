@@ -27,6 +27,9 @@ class ScenePasses : public SharedPasses {
   void update(const scene::FrameState& state);
   CameraView camera_view() const { return camera_; }
   const Image& output() const { return final_; }
+  // The indirect radiance the technique handed to shade() this frame (null if none): its estimate of
+  // its own path class alone, which the harness scores against that class's reference.
+  const Image* indirect_estimate() const { return indirect_estimate_; }
 
   void gbuffer() override;
   void direct_light() override;
@@ -64,6 +67,7 @@ class ScenePasses : public SharedPasses {
   uint32_t tiles_per_row_ = 6, tile_count_ = 0;
   Buffer frame_, materials_, lights_, tiles_;
   Image position_, normal_, albedo_, depth_, shadow_atlas_, direct_, final_;
+  const Image* indirect_estimate_ = nullptr;
   Pipeline gbuffer_pipeline_, shadow_pipeline_, direct_pipeline_, shade_pipeline_;
 };
 

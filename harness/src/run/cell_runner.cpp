@@ -140,6 +140,23 @@ uint64_t peak_host_bytes() {
 
 std::string ms_text(double ms) { return fmt::format("{:.4f}", ms); }
 
+// The technique's indirect estimate alone (what it handed to shade()), written next to the frame so that
+// its path class is scored by itself rather than only inside the combined image. Background pixels are
+// zeroed as shade() zeroes them (a technique need not clear its estimate where there is no surface).
+void write_class_estimate(gpu::Device& device, const gpu::ScenePasses& passes, const std::filesystem::path& file) {
+  std::vector<float> estimate, position;
+  device.read_image(*passes.indirect_estimate(), estimate);
+  device.read_image(*passes.gbuffer_images().position, position);
+  for (size_t i = 0; i + 3 < estimate.size(); i += 4) {
+    if (position[i + 3] <= 0.f) estimate[i] = estimate[i + 1] = estimate[i + 2] = 0.f;
+    estimate[i + 3] = 1.f;
+  }
+  const auto extent = passes.indirect_estimate()->extent();
+  io::Image image(int(extent.width), int(extent.height), 4);
+  image.pixels = std::move(estimate);
+  io::write_image(file, image);
+}
+
 }  // namespace
 
 int run_cell(const CellRunOptions& options) {
@@ -159,7 +176,7 @@ int run_cell(const CellRunOptions& options) {
                  {"technique", cell.technique}, {"params", cell.params}, {"status", "ok"}, {"reason", ""},
                  {"failed_frame", nullptr}};
   json warnings = json::array();
-  io::CsvAppender frames_csv(dir / "frames.csv", {"frame", "pass", "gpu_ms", "cpu_ms"});
+  io::CsvAppender frames_csv(dir / "frames.csv", {"frame", "pass", "gpu_ms", "cpu_ms", "process_cpu_ms"});
   io::CsvAppender counters_csv(dir / "counters.csv", {"frame", "name", "value"});
   std::vector<double> frame_ms, overhead_ms;
   std::map<std::string, std::vector<double>> pass_ms;
@@ -175,6 +192,7 @@ int run_cell(const CellRunOptions& options) {
       throw CellFailure{fmt::format("technique plugin '{}' failed to load: {}", cell.technique,
                                     plugin ? plugin->load_error : "not found"), -1};
     record["path_class"] = plugin->descriptor->path_class;
+    const std::optional<trace::PathClass> own_class = reference_class_of(plugin->descriptor->path_class);
 
     scene::Scene scene = scene::load_scene(cell.scene_file);
     gpu::Device device({options.device, options.validation});
@@ -218,6 +236,7 @@ int run_cell(const CellRunOptions& options) {
 
       // ---- timed region: scene-update, the technique's passes, submission and the fence ----
       auto frame_start = std::chrono::steady_clock::now();
+      double frame_process_start = process_cpu_ms();  // CPU time of every thread (profiler.h)
       profiler.begin_frame();
       ctx.begin_recording();
       scene::FrameState state;
@@ -231,6 +250,7 @@ int run_cell(const CellRunOptions& options) {
       technique->render(ctx);
       ctx.submit_and_wait();
       double wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();
+      double frame_process_ms = process_cpu_ms() - frame_process_start;
       // ---- end of timed region ----
       std::vector<PassSample> samples = profiler.end_frame();
       ctx.end_frame_buffers();
@@ -242,15 +262,21 @@ int run_cell(const CellRunOptions& options) {
       for (const auto& s : samples)
         if (s.depth == 0) passes_ms += s.cpu_ms + s.gpu_ms;
       double overhead = std::max(0.0, wall_ms - passes_ms);
+      double passes_process_ms = 0;  // the same split of the frame's process CPU time
+      for (const auto& s : samples)
+        if (s.depth == 0) passes_process_ms += s.process_cpu_ms;
+      double overhead_process = std::max(0.0, frame_process_ms - passes_process_ms);
       gpu_bytes_total = std::max<uint64_t>(gpu_bytes_total, device.allocated_bytes());
       gpu_bytes_technique = std::max<uint64_t>(gpu_bytes_technique, device.allocated_bytes() - bytes_before);
       if (!warmup) {
         for (const auto& s : samples) {
-          frames_csv.row({std::to_string(f), s.name, ms_text(s.gpu_ms), ms_text(s.cpu_ms)});
+          frames_csv.row({std::to_string(f), s.name, ms_text(s.gpu_ms), ms_text(s.cpu_ms),
+                          ms_text(s.process_cpu_ms)});
           pass_ms[s.name].push_back(s.ms());
         }
-        frames_csv.row({std::to_string(f), "harness-overhead", "", ms_text(overhead)});
-        frames_csv.row({std::to_string(f), "frame", "", ms_text(wall_ms)});
+        frames_csv.row({std::to_string(f), "harness-overhead", "", ms_text(overhead),
+                        ms_text(overhead_process)});
+        frames_csv.row({std::to_string(f), "frame", "", ms_text(wall_ms), ms_text(frame_process_ms)});
         frame_ms.push_back(wall_ms);
         overhead_ms.push_back(overhead);
         for (const auto& [name, value] : ctx.counters_)
@@ -271,6 +297,8 @@ int run_cell(const CellRunOptions& options) {
         image.pixels = rgba;
         io::write_image(dir / "images" / fmt::format("frame_{:04d}.exr", f), image);
         io::write_image(dir / "images" / fmt::format("frame_{:04d}.png", f), io::display_encode(image));
+        if (own_class && *own_class != trace::PathClass::direct && passes.indirect_estimate())
+          write_class_estimate(device, passes, dir / "images" / class_image_name(f, *own_class));
         written_frames.push_back(f);
       }
       std::printf("@frame %u %u\n", f + 1, total_frames);

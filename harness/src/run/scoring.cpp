@@ -39,6 +39,10 @@ uint32_t reference_classes(const std::string& technique_path_class) {
   return mask;
 }
 
+std::string class_image_name(uint32_t frame, trace::PathClass path_class) {
+  return fmt::format("frame_{:04d}_{}.exr", frame, trace::path_class_name(path_class));
+}
+
 std::vector<uint32_t> metric_frames(const config::Config& config) {
   std::vector<uint32_t> frames;
   if (config.frames.metrics_every == 0) return frames;
@@ -56,23 +60,30 @@ ScoreResult score_cell(const config::Config& config, const config::Cell&, const 
   if (frames.empty()) return result;
 
   // The technique's output is scored against the combined reference always, and against the reference
-  // of its own class when that class is the whole of what it outputs (the direct class: emitted plus
-  // direct light). A technique estimating only an indirect class adds the shared direct light to its
-  // estimate, so its class is scored by the combined image until the harness reads back the estimate
-  // alone (see DESIGN.md, Path classes).
+  // of its own class: by the output itself when that class is the whole of it (direct: emitted plus
+  // direct light), else by the estimate it handed to shade(), which the cell runner wrote alone
+  // (class_image_name) before the shared direct light was added to it.
   std::vector<trace::PathClass> classes = {trace::PathClass::combined};
   auto own = reference_class_of(path_class);
   if (!own) result.warnings.push_back(fmt::format("path class '{}' has no reference image; scored as combined", path_class));
-  else if (*own == trace::PathClass::direct) classes.push_back(*own);
+  else if (*own != trace::PathClass::combined) classes.push_back(*own);
 
   trace::ReferenceCache cache(config.reference.cache_dir);
   trace::ReferenceOptions options = reference_options(config);
   std::map<trace::PathClass, std::vector<double>> flip, ssim, psnr, rmse, relmse;
   for (uint32_t f : frames) {
-    io::Image test = io::read_image(cell_dir / "images" / fmt::format("frame_{:04d}.exr", f));
+    const io::Image output = io::read_image(cell_dir / "images" / fmt::format("frame_{:04d}.exr", f));
     scene::FrameState state = scene.at(f);
     for (trace::PathClass c : classes) {
       std::string name(trace::path_class_name(c));
+      bool alone = c != trace::PathClass::combined && c != trace::PathClass::direct;
+      std::filesystem::path alone_file = cell_dir / "images" / class_image_name(f, c);
+      if (alone && !std::filesystem::exists(alone_file)) {
+        result.warnings.push_back(fmt::format(
+            "frame {}: the technique handed no indirect estimate to shade(); class '{}' not scored", f, name));
+        continue;
+      }
+      const io::Image test = alone ? io::read_image(alone_file) : output;
       io::Image reference = cache.get_or_render(scene, state, c, test.width, test.height, options);
       io::Image error_map;
       metrics::Scores s = metrics::evaluate(reference, test, {}, &error_map);
@@ -98,7 +109,7 @@ ScoreResult score_cell(const config::Config& config, const config::Cell&, const 
   for (trace::PathClass c : classes)
     result.means[std::string(trace::path_class_name(c))] = {
         {"flip", mean(flip[c])}, {"ssim", mean(ssim[c])}, {"psnr", mean(psnr[c])},
-        {"rmse", mean(rmse[c])}, {"relmse", mean(relmse[c])}, {"frames", frames.size()}};
+        {"rmse", mean(rmse[c])}, {"relmse", mean(relmse[c])}, {"frames", flip[c].size()}};
   return result;
 }
 

@@ -25,6 +25,9 @@ std::optional<trace::PathClass> reference_class_of(const std::string& path_class
 // The reference images a technique's cells need: combined, plus its own class.
 uint32_t reference_classes(const std::string& technique_path_class);
 trace::ReferenceOptions reference_options(const config::Config& config);
+// The file (in a cell's images/) holding a technique's estimate of its own path class alone at `frame`,
+// when that class is not the whole output (an indirect class added to the shared direct light).
+std::string class_image_name(uint32_t frame, trace::PathClass path_class);
 
 ScoreResult score_cell(const config::Config& config, const config::Cell& cell, const scene::Scene& scene,
                        const std::vector<uint32_t>& metric_frames, const std::string& path_class,
