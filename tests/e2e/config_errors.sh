@@ -44,6 +44,22 @@ write "${base[@]}" "    params: {shadow_map_size: [256, 8]}"
 expect_exit 2 "swept value out of the schema's range" -- "$PB" validate "$cfg"
 expect_match "sweep element out of range" "bad.yaml:7:[0-9]+: techniques\[0\].params.shadow_map_size\[1\]: value 8 is out of range \[16, 4096\]" "$OUT"
 
+scenes="[cornell-box, {scene: pillars, params: {shadow_map_sise: 256}}]"
+write "${base[@]/\[cornell-box\]/$scenes}"
+expect_exit 2 "unknown parameter in a scene's overrides" -- "$PB" validate "$cfg"
+expect_match "scene override names location and suggestion" "bad.yaml:4:[0-9]+: scenes\[1\].params.shadow_map_sise: unknown key; did you mean 'shadow_map_size'" "$OUT"
+
+scenes="[cornell-box, {scene: pillars, params: {shadow_map_size: [64, 8]}}]"
+write "${base[@]/\[cornell-box\]/$scenes}"
+expect_exit 2 "scene override out of the schema's range" -- "$PB" validate "$cfg"
+expect_match "scene override element out of range" "bad.yaml:4:[0-9]+: scenes\[1\].params.shadow_map_size\[1\]: value 8 is out of range" "$OUT"
+
+scenes="[cornell-box, {scene: pillars, params: {shadow_map_size: [64, 128]}}]"
+write "${base[@]/\[cornell-box\]/$scenes}"
+expect_exit 0 "a scene's overrides sweep that scene only" -- "$PB" validate "$cfg"
+expect_match "one cornell-box cell and two pillars cells" "valid, 3 cells" "$OUT"
+expect_match "pillars cells take the scene's value" "pillars__direct__[0-9a-f]+ .*shadow_map_size=128" "$OUT"
+
 write "${base[@]/technique: direct/technique: wrong_api_version}" "plugin_dirs: [$TEST_PLUGINS]"
 expect_exit 2 "plugin built for another API version" -- "$PB" validate "$cfg"
 expect_match "API version error names location and both versions" "bad.yaml:6:[0-9]+: techniques\[0\].technique: plugin .*wrong_api_version.so was built for plugin API version 42, this photonbench has 1" "$OUT"

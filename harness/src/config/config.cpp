@@ -111,13 +111,18 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   if (scenes.elements().empty()) scenes.fail("at least one scene is needed");
   std::vector<std::filesystem::path> search = {file.parent_path(), file.parent_path() / "scenes"};
   for (const YamlView& scene : scenes.elements()) {
-    std::string name = scene.as_string();
+    // A scene is a name, or {scene: NAME, params: {...}} whose parameters replace the techniques' own
+    // for this scene's cells (photon radii are in scene units: Paper I's Table 2 sets them per scene).
+    if (scene.is_map()) scene.allow_keys({"scene", "params"});
+    // (Constructed, never assigned: assigning a YAML::Node rebinds the node inside the tree.)
+    const YamlView name_node = scene.is_map() ? scene["scene"] : scene;
+    std::string name = name_node.as_string();
     try {
       scene::find_scene(name, search);
     } catch (const InputError& e) {
-      scene.fail(e.what());
+      name_node.fail(e.what());
     }
-    config.scenes.emplace_back(name, scene);
+    config.scenes.push_back({name, scene});
   }
 
   YamlView techniques = root["techniques"];
@@ -192,6 +197,42 @@ std::string check_param(const pb_param_spec& spec, const YamlView& value) {
   value.fail("unknown parameter type");
 }
 
+// A scene entry's `params` replace (and, given a list, sweep) the parameters of the same name of every
+// technique that has them; a name no technique of the config has is an error at its key.
+std::vector<std::map<std::string, std::string>> with_scene_params(
+    const YamlView& scene_node, const Config& config, size_t technique,
+    const std::vector<std::map<std::string, std::string>>& combos, run::PluginRegistry& plugins) {
+  std::optional<YamlView> overrides = scene_node.is_map() ? scene_node.get("params") : std::nullopt;
+  if (!overrides) return combos;
+  std::vector<std::string> known;
+  for (const auto& entry : config.techniques)
+    if (const run::Plugin* plugin = plugins.find(entry.technique); plugin && plugin->loaded())
+      for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
+        if (std::find(known.begin(), known.end(), plugin->descriptor->params[i].name) == known.end())
+          known.push_back(plugin->descriptor->params[i].name);
+  overrides->allow_keys(known);
+  const run::Plugin* plugin = plugins.find(config.techniques[technique].technique);
+  if (!plugin || !plugin->loaded()) return combos;
+  std::vector<std::map<std::string, std::string>> result = combos;
+  for (const auto& [key, value] : overrides->entries()) {
+    const pb_param_spec* spec = nullptr;
+    for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
+      if (key == plugin->descriptor->params[i].name) spec = &plugin->descriptor->params[i];
+    if (!spec) continue;  // another technique's parameter
+    std::vector<YamlView> values = value.elements();
+    if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
+    std::vector<std::map<std::string, std::string>> expanded;
+    for (const auto& combo : result)
+      for (const YamlView& v : values) {
+        auto next = combo;
+        next[key] = check_param(*spec, v);
+        if (std::find(expanded.begin(), expanded.end(), next) == expanded.end()) expanded.push_back(std::move(next));
+      }
+    result = std::move(expanded);
+  }
+  return result;
+}
+
 }  // namespace
 
 std::vector<Cell> expand_cells(const Config& config, run::PluginRegistry& plugins) {
@@ -245,7 +286,7 @@ std::vector<Cell> expand_cells(const Config& config, run::PluginRegistry& plugin
     std::filesystem::path scene_file = scene::find_scene(scene_name, search);
     std::string scene_id = scene_file.stem().string();
     for (size_t t = 0; t < config.techniques.size(); ++t) {
-      for (const auto& params : combos[t]) {
+      for (const auto& params : with_scene_params(scene_node, config, t, combos[t], plugins)) {
         Cell cell;
         cell.scene = scene_id;
         cell.scene_file = scene_file;
