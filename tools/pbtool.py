@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Entry point of photonbench's Python tools: pbtool.py {report,compare,history,export} ARGS...
+"""Entry point of photonbench's Python tools: pbtool.py {report,compare,history,export,claims} ARGS...
 
 The photonbench executable's sub-commands of the same names run this file with /usr/bin/python3 (Debian's
 interpreter, which has python3-matplotlib, -numpy and -scipy) and forward its exit code.
@@ -16,6 +16,7 @@ COMMANDS = {
     "compare": "pbtools.compare",
     "history": "pbtools.history",
     "export": "pbtools.export",
+    "claims": "pbtools.claims",
 }
 
 

@@ -1,4 +1,4 @@
-// `photonbench report | compare | history | export`: the results tools. They are Python (matplotlib
+// `photonbench report | compare | history | export | claims`: the results tools. They are Python (matplotlib
 // is the field's plotting standard, and scipy has the statistics), so each sub-command only
 // replaces this process with `/usr/bin/python3 <tools>/pbtool.py <command> ARGS...`: Python parses
 // the arguments (including --help), and its exit status is photonbench's (0 ok, 1 regression/failed
@@ -86,9 +86,16 @@ void add_export(CLI::App& app, int&) {
       "RUN_DIR --format github-action-benchmark: medians and metric means as that tool's JSON");
 }
 
+void add_claims(CLI::App& app, int&) {
+  add_tool(app, "claims",
+           "RUN_DIR [--paper paper1]: a paper's headline claims (speed ratios, rejection rates, memory "
+           "per structure, quality table) measured on a run of its config, beside the paper's numbers");
+}
+
 pb::cli::CommandRegistration report_registration{"report", add_report};
 pb::cli::CommandRegistration compare_registration{"compare", add_compare};
 pb::cli::CommandRegistration history_registration{"history", add_history};
 pb::cli::CommandRegistration export_registration{"export", add_export};
+pb::cli::CommandRegistration claims_registration{"claims", add_claims};
 
 }  // namespace

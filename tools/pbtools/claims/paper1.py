@@ -1,0 +1,252 @@
+"""Paper I (Moreau et al., HPG 2016) claims, measured on a run of configs/paper1.yaml.
+
+The comparisons, with the paper's statements (digest seed002-papers-I-II.md §6.4-6.6):
+  * speed: "the cluster-trivial method is on average about two times faster than the tiled method, and up
+    to three at some peaks" (splat + radiance estimate; Fig. 6 also counts the hierarchy build);
+  * efficiency: "less than 3% of the photons read from the lists are rejected" (cluster);
+  * directional: "another 2-3x speedup", "little variance in execution times" (Fig. 6 near-flat);
+  * memory per structure (Table 1) and quality per technique and setting (Table 2: SSIM %, PSNR dB).
+A technique's "kind" is its name plus its `variant` when it has one (cluster-plain, cluster-trivial...);
+a "setting" is its (photons, radius) pair. Ratios are per frame (same frame index, same scene and
+setting), then averaged: the paper's Fig. 6 compares curves over the same fly-through.
+"""
+
+import math
+import re
+from collections import defaultdict
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+
+from ..rundata import Cell, Run, format_param
+
+TITLE = "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)"
+
+# Passes of "splat + estimate" (the issue's and Fig. 6's splatting time) and the structure build that
+# Fig. 6/9 add to it. Photon tracing, the G-buffer, direct light and the final shade are excluded, as the
+# paper excludes them ("the time is similar for all methods").
+SPLAT_ESTIMATE = ("splat", "radiance-estimate", "blur")
+BUILD = ("tile-bounds", "cluster-build")
+
+# Paper I Table 1 (MiB, 1920x1080, Sponza, 10k photons of radius 4): row -> (counter, cluster, directional,
+# tiled). "-" where the technique has no such structure.
+TABLE1 = [
+    ("Tiles z-Bounds", "bytes_tile_bounds", None, None, 0.016),
+    ("Cluster Hierarchy", "bytes_cluster_hierarchy", 97, 97, None),
+    ("Final Bounds", "bytes_final_bounds", 256, 256, None),
+    ("Normal Cone", "bytes_normal_cone", 24, None, None),
+    ("Accum. Flux", "bytes_accum_flux", 73, 582, None),
+    ("Jobs", "bytes_jobs", 2.4, 2.4, None),
+    ("Photons Array", "bytes_photon_lists", 60, None, 28),
+    ("Photon Map", "bytes_photons", 0.16, 0.16, 0.16),
+]
+
+
+class MissingCells(Exception):
+    pass
+
+
+def kind(cell: Cell) -> str:
+    variant = cell.params.get("variant")
+    return f"{cell.technique}-{variant}" if variant is not None else cell.technique
+
+
+def setting(cell: Cell) -> Tuple[float, float]:
+    return (float(cell.params.get("photons", math.nan)), float(cell.params.get("radius", math.nan)))
+
+
+def setting_label(s: Tuple[float, float]) -> str:
+    return f"{format_param(int(s[0]) if s[0] == int(s[0]) else s[0])} paths, r {format_param(s[1])}"
+
+
+def group_series(cell: Cell, passes) -> Dict[int, float]:
+    """frame -> summed time of the named top-level passes that the cell has."""
+    total: Dict[int, float] = defaultdict(float)
+    for name in passes:
+        frames, ms = cell.pass_samples(name)
+        for f, v in zip(frames, ms):
+            total[int(f)] += float(v)
+    return dict(total)
+
+
+def frame_ratios(slow: Dict[int, float], fast: Dict[int, float]) -> np.ndarray:
+    common = sorted(set(slow) & set(fast))
+    return np.asarray([slow[f] / fast[f] for f in common if fast[f] > 0], dtype=float)
+
+
+def counter_sum(cell: Cell, name: str) -> float:
+    return sum(float(r["value"]) for r in cell.counters_rows if r.get("name") == name)
+
+
+def counter_max(cell: Cell, name: str) -> Optional[float]:
+    values = [float(r["value"]) for r in cell.counters_rows if r.get("name") == name]
+    return max(values) if values else None
+
+
+def resolution(run: Run) -> str:
+    """The run's resolution as configured (run.json keeps the config text and the --set overrides)."""
+    text = "?"
+    m = re.search(r"^resolution:\s*(\[[^\]]*\])", str(run.info.get("config", "")), re.M)
+    if m:
+        text = m.group(1)
+    for o in run.info.get("overrides") or []:
+        if str(o).startswith("resolution="):
+            text = str(o).split("=", 1)[1]
+    return text
+
+
+def _f(v: float, digits: int = 2) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+def claims(run: Run) -> str:
+    cells = [c for c in run.cells if c.ok]
+    if not cells:
+        raise MissingCells("no completed cells")
+    # (scene, setting) -> kind -> cell
+    grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]] = defaultdict(dict)
+    for c in cells:
+        if c.technique in ("tiled", "cluster", "directional"):
+            grid[(c.scene, setting(c))][kind(c)] = c
+    if not grid:
+        raise MissingCells("no tiled, cluster or directional cells")
+
+    out: List[str] = [f"# Paper I claims, measured: {run.name}", "",
+                      f"{TITLE}. Device: {run.device}; commit {run.commit}.",
+                      "Times per frame are pass medians' building blocks: the per-frame sum of the passes "
+                      f"{', '.join(SPLAT_ESTIMATE)} (\"splat + estimate\"), and with {' / '.join(BUILD)} "
+                      "added (\"+ build\", as Paper I Fig. 6/9). Ratios are taken frame by frame, then "
+                      "averaged; \"peak\" is the largest per-frame ratio.", ""]
+
+    # -- 1. cluster vs tiled -------------------------------------------------------------------------
+    out += ["## Cluster vs tiled (paper: cluster-trivial ≈2× faster on average, up to 3× at peaks)", "",
+            "| scene | setting | cluster variant | tiled / cluster, splat + estimate: mean (peak) | "
+            "+ build: mean (peak) |", "|---|---|---|---|---|"]
+    for (scene, s), kinds in sorted(grid.items()):
+        tiled = kinds.get("tiled")
+        if not tiled:
+            continue
+        t_se, t_b = group_series(tiled, SPLAT_ESTIMATE), group_series(tiled, SPLAT_ESTIMATE + BUILD)
+        for k in sorted(k for k in kinds if k.startswith("cluster")):
+            r1 = frame_ratios(t_se, group_series(kinds[k], SPLAT_ESTIMATE))
+            r2 = frame_ratios(t_b, group_series(kinds[k], SPLAT_ESTIMATE + BUILD))
+            if len(r1):
+                out.append(f"| {scene} | {setting_label(s)} | {k} | {_f(r1.mean())}× ({_f(r1.max())}×) | "
+                           f"{_f(r2.mean())}× ({_f(r2.max())}×) |")
+    out.append("")
+
+    # -- 2. rejection ----------------------------------------------------------------------------------
+    out += ["## Photons read from lists but rejected in the estimate (paper: < 3% for cluster)", "",
+            "| scene | setting | technique | photons read / frame | rejected | trivial accepts / frame |",
+            "|---|---|---|---|---|---|"]
+    for (scene, s), kinds in sorted(grid.items()):
+        for k, c in sorted(kinds.items()):
+            read = counter_sum(c, "photons_read")
+            if read <= 0:
+                continue
+            frames = max(1, len({r["frame"] for r in c.counters_rows}))
+            rej = counter_sum(c, "photons_rejected") / read * 100.0
+            trivial = counter_sum(c, "trivial_accepts") / frames
+            out.append(f"| {scene} | {setting_label(s)} | {k} | {read / frames:,.0f} | {rej:.2f}% | "
+                       f"{trivial:,.0f} |")
+    out.append("")
+
+    # -- 3. directional -------------------------------------------------------------------------------
+    out += ["## Directional (paper: a further 2–3× over cluster-trivial, near-constant frame time)", "",
+            "| scene | setting | cluster-trivial / directional, splat + estimate: mean (peak) | + build | "
+            "frame-to-frame CV of splat + estimate + build: tiled / cluster-trivial / directional |",
+            "|---|---|---|---|---|"]
+
+    def cv(c: Optional[Cell]) -> str:
+        if c is None:
+            return "–"
+        v = np.asarray(list(group_series(c, SPLAT_ESTIMATE + BUILD).values()), dtype=float)
+        return f"{v.std() / v.mean() * 100:.1f}%" if len(v) > 1 and v.mean() > 0 else "–"
+
+    for (scene, s), kinds in sorted(grid.items()):
+        d, ct = kinds.get("directional"), kinds.get("cluster-trivial")
+        if not d:
+            continue
+        if ct:
+            r1 = frame_ratios(group_series(ct, SPLAT_ESTIMATE), group_series(d, SPLAT_ESTIMATE))
+            r2 = frame_ratios(group_series(ct, SPLAT_ESTIMATE + BUILD), group_series(d, SPLAT_ESTIMATE + BUILD))
+            speed, build = f"{_f(r1.mean())}× ({_f(r1.max())}×)", f"{_f(r2.mean())}×"
+        else:
+            speed = build = "–"
+        out.append(f"| {scene} | {setting_label(s)} | {speed} | {build} | "
+                   f"{cv(kinds.get('tiled'))} / {cv(ct)} / {cv(d)} |")
+    out.append("")
+
+    # Sensitivity to the photon count at a fixed radius (the thesis: directional "less sensitive to the
+    # amount of photons processed").
+    by_radius: Dict[Tuple[str, str, float], List[Tuple[float, float]]] = defaultdict(list)
+    for (scene, s), kinds in grid.items():
+        for k, c in kinds.items():
+            m = c.pass_medians()
+            t = sum(m.get(p, 0.0) for p in SPLAT_ESTIMATE + BUILD)
+            by_radius[(scene, k, s[1])].append((s[0], t))
+    rows = []
+    for (scene, k, r), pts in sorted(by_radius.items()):
+        if len(pts) < 2:
+            continue
+        pts.sort()
+        (n0, t0), (n1, t1) = pts[0], pts[-1]
+        if t0 > 0:
+            rows.append(f"| {scene} | {k} | {format_param(r)} | {int(n0):,} → {int(n1):,} | "
+                        f"{t0:.1f} → {t1:.1f} ms | {t1 / t0:.2f}× |")
+    if rows:
+        out += ["### Time against photon count (median splat + estimate + build)", "",
+                "| scene | technique | radius | paths | time | growth |", "|---|---|---|---|---|---|"] + rows + [""]
+
+    # -- 4. memory -------------------------------------------------------------------------------------
+    out += ["## Memory per structure, MiB (Paper I Table 1: 1920×1080, Sponza, 10k photons, r 4)", "",
+            f"Measured at this run's resolution ({resolution(run)}) and, "
+            "per technique, its largest photon setting in the run (largest memory).", ""]
+    largest: Dict[Tuple[str, str], Cell] = {}
+    for (scene, s), kinds in grid.items():
+        for k, c in kinds.items():
+            if k in ("tiled", "cluster-trivial", "directional"):
+                prev = largest.get((scene, k))
+                if prev is None or setting(c) > setting(prev):
+                    largest[(scene, k)] = c
+    for scene in sorted({sc for sc, _ in largest}):
+        out += [f"**{scene}**", "", "| structure | cluster-trivial (paper) | directional (paper) | tiled (paper) |",
+                "|---|---|---|---|"]
+        totals = [0.0, 0.0, 0.0]
+        for row, counter, p_cluster, p_dir, p_tiled in TABLE1:
+            cols = []
+            for i, (k, paper) in enumerate((("cluster-trivial", p_cluster), ("directional", p_dir),
+                                            ("tiled", p_tiled))):
+                c = largest.get((scene, k))
+                v = counter_max(c, counter) if c else None
+                mib = v / 2**20 if v is not None else None
+                if mib is not None:
+                    totals[i] += mib
+                paper_text = "–" if paper is None else f"{paper:g}"
+                cols.append(f"{_f(mib, 3)} ({paper_text})")
+            out.append(f"| {row} | " + " | ".join(cols) + " |")
+        out.append(f"| **Total** | {totals[0]:.3f} (513) | {totals[1]:.3f} (942) | {totals[2]:.3f} (28) |")
+        out.append("")
+
+    # -- 5. quality -------------------------------------------------------------------------------------
+    kinds_present = sorted({k for ks in grid.values() for k in ks})
+    out += ["## Quality (the analogue of Paper I Table 2)", "",
+            "Combined image (direct + the technique's indirect) against the path-traced `combined` reference: "
+            "SSIM %, PSNR dB, FLIP; then the technique's indirect estimate alone against the `indirect` "
+            "reference: FLIP and relMSE.", "",
+            "| scene | setting | " + " | ".join(kinds_present) + " |",
+            "|---|---|" + "---|" * len(kinds_present)]
+    for (scene, s), kinds in sorted(grid.items()):
+        cols = []
+        for k in kinds_present:
+            c = kinds.get(k)
+            if c is None:
+                cols.append("")
+                continue
+            ssim, psnr, flip = (c.metric_mean(m, "combined") for m in ("ssim", "psnr", "flip"))
+            iflip, irel = c.metric_mean("flip", "indirect"), c.metric_mean("relmse", "indirect")
+            cols.append(f"{_f(ssim * 100, 1)} / {_f(psnr, 1)} / {_f(flip, 3)}; ind. {_f(iflip, 3)} / "
+                        f"{_f(irel, 3)}")
+        out.append(f"| {scene} | {setting_label(s)} | " + " | ".join(cols) + " |")
+    out.append("")
+    return "\n".join(out)
