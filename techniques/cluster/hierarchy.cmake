@@ -10,7 +10,7 @@ function(pb_add_cluster_hierarchy target)
   target_sources(${target} PRIVATE ${dir}/hierarchy.cpp)
   target_include_directories(${target} PRIVATE ${dir})
   pb_embed_shaders(TARGET ${target} HEADER hierarchy_spv.h SHADERS
-    ${dir}/shaders/hierarchy_depth_range.comp ${dir}/shaders/hierarchy_occupancy.comp
+    ${dir}/shaders/hierarchy_depth_range.comp ${dir}/shaders/hierarchy_occupancy.comp ${dir}/shaders/hierarchy_leaf_alloc.comp
     ${dir}/shaders/hierarchy_leaf_bounds.comp ${dir}/shaders/hierarchy_leaf_finalize.comp
     ${dir}/shaders/hierarchy_leaf_cones.comp ${dir}/shaders/hierarchy_propagate.comp)
 endfunction()

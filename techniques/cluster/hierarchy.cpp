@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -99,6 +100,8 @@ void Hierarchy::setup(gpu::Device& gpu, const HierarchyOptions& options) {
                                              khierarchy_depth_range_comp_spv, bindings, kPush);
   occupancy_ = gpu.create_compute_pipeline("cluster-build/occupancy",
                                            khierarchy_occupancy_comp_spv, bindings, kPush);
+  leaf_alloc_ = gpu.create_compute_pipeline("cluster-build/leaf-alloc",
+                                            khierarchy_leaf_alloc_comp_spv, bindings, kPush);
   leaf_bounds_ = gpu.create_compute_pipeline("cluster-build/leaf-bounds",
                                              khierarchy_leaf_bounds_comp_spv, bindings, kPush);
   leaf_finalize_ = gpu.create_compute_pipeline("cluster-build/leaf-finalize",
@@ -140,8 +143,8 @@ void Hierarchy::allocate(gpu::Device& gpu, uint32_t width, uint32_t height) {
         "cluster hierarchy layout \"{}\": {} roots at {}x{} need {} key bits with {} levels "
         "(more than 32); use larger root tiles or fewer levels",
         options_.layout_string(), root_count(), width, height, 5 * (L - 1) + root_bits, L));
-  uint64_t dense_total = 0;
-  for (uint32_t l = 0; l < L; ++l) dense_total += dense_nodes(l);
+  uint64_t dense_total = 0;  // the leaves have no dense arrays (hier_cid)
+  for (uint32_t l = 0; l + 1 < L; ++l) dense_total += dense_nodes(l);
   if (dense_total > kMaxDenseNodes)
     throw InputError(fmt::format(
         "cluster hierarchy layout \"{}\": {} dense nodes at {}x{} exceed 2^28; use fewer levels",
@@ -169,19 +172,28 @@ void Hierarchy::allocate(gpu::Device& gpu, uint32_t width, uint32_t height) {
     h.divisor[l] = div;
     uint64_t dense = dense_nodes(l);
     uint64_t capacity = std::min<uint64_t>(dense, pixels);
-    h.level[l] = {uint32_t(l + 1 < L ? mask_at : 0), uint32_t(slot_at), uint32_t(cid_at),
+    h.level[l] = {uint32_t(mask_at), uint32_t(l + 1 < L ? slot_at : 0), uint32_t(cid_at),
                   uint32_t(capacity)};
     h.footprint[l] = {fx, fy, fz, uint32_t(std::min<uint64_t>(dense, 0xffffffffu))};
     if (l + 1 < L) {
-      mask_at += dense;
+      mask_at += dense;  // child masks
+      slot_at += dense;  // key -> cid map
       fx /= options_.splits[l].x;
       fy /= options_.splits[l].y;
       fz /= options_.splits[l].z;
+    } else {
+      mask_at += h.level[l - 1].w;  // leaf bases, one per node of the level above
     }
-    slot_at += dense;
     cid_at += capacity;
   }
 
+  uint64_t limit = gpu.physical().getProperties().limits.maxStorageBufferRange;
+  uint64_t largest = std::max({mask_at * 4, slot_at * 4, cid_at * 24, pixels * 4});
+  if (largest > limit)
+    throw InputError(fmt::format(
+        "cluster hierarchy layout \"{}\" at {}x{}: a buffer of {} bytes exceeds the device's "
+        "maxStorageBufferRange ({}); use fewer levels or a lower resolution",
+        options_.layout_string(), width, height, largest, limit));
   auto storage = U::eStorageBuffer | U::eTransferDst;
   info_ = gpu.create_buffer("cluster/hierarchy-info", sizeof(layout::HierInfo), storage,
                             Memory::host_visible);
@@ -239,6 +251,9 @@ void Hierarchy::build(Context& ctx) {
     auto cmd = ctx.cmd();
     bind(occupancy_, cmd);
     cmd.dispatch(gx, gy, 1);
+    gpu::full_barrier(cmd);
+    bind(leaf_alloc_, cmd);
+    cmd.dispatch(gpu::groups_for(node_capacity(L - 2), 64), 1, 1);
   }
   gpu::full_barrier(ctx.cmd());
   {

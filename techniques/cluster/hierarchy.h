@@ -15,10 +15,13 @@
 //   (Paper I §4.7/§5.2 "level 4" counting the root as 1); the top splat pass stops there.
 //   Storage (dense per level, Paper I §5.2):
 //     masks[]  uint  [roots' occupancy flags][child masks of level 0][level 1]...[level L-2]
-//     slots[]  uint  key -> compact node id ("cid"), dense over every level incl. the leaves (Paper I
-//                    uses the key as the AABB index above the leaves and a map at the last level; we
-//                    map every level so all per-node data is compact); never cleared: read only where
-//                    a mask (or for roots the level-0 list) says the node is occupied this frame.
+//                    [leaf bases: per level-(L-2) node, the cid of its first leaf]
+//     slots[]  uint  key -> compact node id ("cid"), dense over the levels above the leaves (Paper I
+//                    uses the key as the AABB index there; we map it so all per-node data is
+//                    compact); never cleared: read only where a mask (or for roots the level-0
+//                    list) says the node is occupied this frame. A leaf's cid is its parent's leaf
+//                    base + the rank of its bit in the parent's mask (Paper I §5.2 also avoids a
+//                    dense last level), so no dense leaf array exists.
 //     node_keys[] uint per cid: the key; cids [level[l].z, + count(l)) are level l's occupied nodes.
 //     aabbs[]  6 floats per cid: view-space min xyz, max xyz (full floats, not Paper I's halves).
 //     cones[]  vec4 per cid: view-space axis, half-angle (only with normal_cones; not bit-packed).
@@ -112,9 +115,15 @@ class Hierarchy {
   uint32_t occupied(uint32_t level) const;
 
   // Bytes per Paper I Table 1 row: "Cluster Hierarchy" (AABBs + child masks + node keys),
-  // "Final Bounds" (the key -> cid map and the per-pixel leaf keys), "Normal Cone" (0 without cones).
-  uint64_t bytes_hierarchy() const { return aabbs_.size() + masks_.size() + node_keys_.size(); }
-  uint64_t bytes_final_bounds() const { return slots_.size() + sample_leaves_.size(); }
+  // "Final Bounds" (the key -> cid map, leaf bases and per-pixel leaf keys), "Normal Cone" (0 without
+  // cones).
+  uint64_t bytes_hierarchy() const {
+    return aabbs_.size() + masks_.size() + node_keys_.size() -
+           uint64_t(node_capacity(levels() - 2)) * 4;
+  }
+  uint64_t bytes_final_bounds() const {
+    return slots_.size() + sample_leaves_.size() + uint64_t(node_capacity(levels() - 2)) * 4;
+  }
   uint64_t bytes_normal_cone() const { return options_.normal_cones ? cones_.size() : 0; }
 
  private:
@@ -124,7 +133,8 @@ class Hierarchy {
   uint32_t width_ = 0, height_ = 0, roots_x_ = 0, roots_y_ = 0;
   layout::HierInfo layout_{};
   gpu::Buffer info_, masks_, slots_, node_keys_, aabbs_, cones_, sample_leaves_;
-  gpu::Pipeline depth_range_, occupancy_, leaf_bounds_, leaf_finalize_, leaf_cones_, propagate_;
+  gpu::Pipeline depth_range_, occupancy_, leaf_alloc_, leaf_bounds_, leaf_finalize_, leaf_cones_,
+      propagate_;
 };
 
 }  // namespace pb::cluster

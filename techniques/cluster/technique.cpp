@@ -56,10 +56,10 @@ const pb_param_spec kParams[] = {
     {"top_levels", PB_PARAM_INT, 3, 0, 5, nullptr, "levels",
      "levels the top splat pass traverses below the roots before emitting jobs (Paper I §4.3: 3); "
      "at most levels - 2"},
-    {"max_jobs", PB_PARAM_INT, 1 << 22, 1, 1 << 27, nullptr, "jobs",
+    {"max_jobs", PB_PARAM_INT, 1 << 22, 1, 1 << 24, nullptr, "jobs",
      "capacity of the (photon, node) job list of the top pass; overflowing jobs are dropped and "
      "counted"},
-    {"max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 28, nullptr, "entries",
+    {"max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 25, nullptr, "entries",
      "capacity of all per-node photon lists together; overflowing entries are dropped and counted"},
 };
 
@@ -102,6 +102,13 @@ class Cluster final : public pb::Technique {
     list_capacity_ = uint32_t(params.integer("max_list_entries"));
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
 
+    // One storage-buffer binding each: lavapipe allows 128 MiB per binding (maxStorageBufferRange).
+    uint64_t limit = ctx.gpu().physical().getProperties().limits.maxStorageBufferRange;
+    if (uint64_t(job_capacity_) * 8 > limit || uint64_t(list_capacity_) * 4 > limit)
+      throw pb::InputError(fmt::format(
+          "cluster: max_jobs = {} (8 bytes each) or max_list_entries = {} (4 bytes each) exceeds "
+          "the device's maxStorageBufferRange of {} bytes",
+          job_capacity_, list_capacity_, limit));
     auto options = pb::cluster::HierarchyOptions::parse_layout(kLayouts[layout_index], "layout");
     options.normal_cones = variant_ != kPlain;
     hierarchy_.setup(ctx.gpu(), options);

@@ -5,8 +5,8 @@
 // Use: define HIER_BINDING to the first of HIER_BINDING_COUNT consecutive bindings (set 0), then
 // include this file; bind pb::cluster::Hierarchy::bindings() there in order:
 //   HIER_BINDING + 0  info           HierInfo (hierarchy_layout.h)
-//               + 1  masks[]        uint: roots' occupancy flags, then child masks of levels 0..L-2
-//               + 2  slots[]        uint: key -> cid, dense per level (only read where occupied)
+//               + 1  masks[]        uint: roots' occupancy flags, child masks of levels 0..L-2, leaf bases
+//               + 2  slots[]        uint: key -> cid, dense per level but the leaves' (read where occupied)
 //               + 3  node_keys[]    uint: key of each cid (the per-level lists of occupied nodes)
 //               + 4  aabbs[]        6 floats per cid: view-space min xyz, max xyz
 //               + 5  cones[]        vec4 per cid: view-space cone axis xyz, half-angle w (radians)
@@ -65,8 +65,17 @@ uint hier_cid_capacity() {
 // Child mask of an occupied inner node (level < L-1): bit i set when child i holds view samples.
 uint hier_mask(uint level, uint key) { return hier_masks[hier.level[level].x + key]; }
 // Compact id of an occupied node (valid only where the parent's mask bit, or for a root the level-0
-// list, says the node is occupied this frame: stale map entries are never cleared).
-uint hier_cid(uint level, uint key) { return hier_slots[hier.level[level].y + key]; }
+// list, says the node is occupied this frame: stale map entries are never cleared). Inner nodes:
+// the dense key -> cid map; leaves (Paper I §5.2: "to reduce the memory footprint" at the final
+// level): the parent's leaf base + the rank of the leaf's bit in the parent's child mask.
+uint hier_cid(uint level, uint key) {
+  if (level + 1u < hier_levels()) return hier_slots[hier.level[level].y + key];
+  uint parent = hier_parent_key(key);
+  uint parent_cid = hier_slots[hier.level[level - 1u].y + parent];
+  uint base = hier_masks[hier.level[level].x + parent_cid - hier.level[level - 1u].z];
+  uint below = hier_masks[hier.level[level - 1u].x + parent] & ((1u << (key & 31u)) - 1u);
+  return base + uint(bitCount(below));
+}
 uint hier_level_of_cid(uint cid) {
   uint level = 0u;
   while (level + 1u < hier_levels() && cid >= hier.level[level + 1u].z) ++level;

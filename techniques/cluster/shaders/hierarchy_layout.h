@@ -10,7 +10,8 @@
 // key is (parent key << 5) | child index (child index = cx + sx * (cy + sy * cz)); a root's key is its
 // root index. Storage per level is dense (indexed by key, Paper I §5.2 "statically allocates memory for
 // a dense hierarchy") for child masks and the key -> compact-id map; everything else (AABB, cone, the
-// techniques' per-node data) is indexed by a compact node id ("cid") handed out as nodes become occupied.
+// techniques' per-node data) is indexed by a compact node id ("cid") handed out as nodes become occupied;
+// a leaf's cid is its parent's leaf base + the number of occupied siblings before it (no dense leaf map).
 #ifndef PB_CLUSTER_HIERARCHY_LAYOUT_H
 #define PB_CLUSTER_HIERARCHY_LAYOUT_H
 
@@ -31,8 +32,11 @@ struct HierInfo {
   uvec4 grid;   // x, y: leaf grid size in blocks (roots * product of splits), z depth slices, w flags
   uvec4 split[HIER_MAX_LEVELS];    // xyz: how a level-l node splits into level l+1 (l < L-1)
   uvec4 divisor[HIER_MAX_LEVELS];  // xyz: leaf-grid digit divisors of the child index below level l
-  // x: first word of level l in masks[] (l < L-1; masks[0, roots) are the roots' occupancy flags),
-  // y: first word of level l in slots[] (key -> cid map), z: first cid of level l, w: cid capacity.
+  // x: first word of level l in masks[] (l < L-1; masks[0, roots) are the roots' occupancy flags;
+  //    for l = L-1: the first word of the leaf bases, one per level-(L-2) node: the cid of its first
+  //    leaf, its leaves' cids being consecutive in child-mask bit order),
+  // y: first word of level l in slots[] (key -> cid map; l < L-1, leaves have no map),
+  // z: first cid of level l, w: cid capacity.
   uvec4 level[HIER_MAX_LEVELS];
   // x, y: screen pixels a level-l node spans; z: depth slices it spans; w: dense nodes at level l.
   uvec4 footprint[HIER_MAX_LEVELS];

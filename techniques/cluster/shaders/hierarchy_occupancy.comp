@@ -2,9 +2,9 @@
 // cluster-build/occupancy (Paper I §4.1, Fig. 3 "occupancy"): each view sample finds its leaf cluster
 // (screen block x exponential depth slice), records it in sample_leaves[], and marks it occupied in its
 // parent's child mask, then the parent in the grandparent's, and so on while it is the first to do
-// so. The first sample to occupy a node (atomicOr returned the bit clear) hands the node its compact
-// id (appending it to its level's list of occupied nodes), writes the key -> cid map entry, and for a
-// leaf initialises the leaf's bounds and normal sums. Masks and root flags are cleared before this
+// so. The first sample to occupy an inner node (atomicOr returned the bit clear) hands the node its
+// compact id (appending it to its level's list of occupied nodes) and writes the key -> cid map
+// entry; leaves get theirs next, in hierarchy_leaf_alloc. Masks and root flags are cleared before this
 // pass; the map is never cleared (an entry is read only where a mask says the node exists).
 #include "hierarchy_build.h"
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -41,16 +41,10 @@ void main() {
       old = atomicOr(hier_masks[hier.level[level - 1u].x + hier_parent_key(key)], bit);
     }
     if ((old & bit) != 0u) break;  // another sample created this node (and its ancestors)
-    uint cid = hier.level[level].z + atomicAdd(hier.counts[level], 1u);
-    hier_slots[hier.level[level].y + key] = cid;
-    hier_node_keys[cid] = key;
-    if (level == leaf) {
-      for (uint k = 0u; k < 3u; ++k) {
-        hier_aabb_words[cid * 6u + k] = 0xffffffffu;  // ordered +max: empty min
-        hier_aabb_words[cid * 6u + 3u + k] = 0u;      // ordered -max: empty max
-      }
-      if (hier_has_cones())
-        for (uint k = 0u; k < 4u; ++k) hier_cone_words[cid * 4u + k] = 0u;
+    if (level != leaf) {            // leaves get their cids in hierarchy_leaf_alloc
+      uint cid = hier.level[level].z + atomicAdd(hier.counts[level], 1u);
+      hier_slots[hier.level[level].y + key] = cid;
+      hier_node_keys[cid] = key;
     }
     if (level == 0u) break;
     key = hier_parent_key(key);
