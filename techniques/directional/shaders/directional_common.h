@@ -1,0 +1,44 @@
+// What every directional pass reads besides the hierarchy: one small host-written storage block per
+// frame (the camera matrices do not fit the 128 push-constant bytes together) and the bucket layout.
+//
+// Bucket layout (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact node
+// id, levels 0 .. accumulation level) owns words [24 c, 24 c + 24) of flux[]: octant o's RGB flux at
+// 24 c + 3 o + channel, in watts, stored as float bits in uint words (they are added with a
+// compare-and-swap loop, see atomic_add_flux in splat.comp).
+#ifndef DIRECTIONAL_COMMON_H
+#define DIRECTIONAL_COMMON_H
+
+#define DIR_FLAG_DEPOSIT_PAPER 1u  // intersected accumulation-level nodes get the whole flux
+#define DIR_FLAG_WEIGHT_CLIP 2u    // octant weights: solid-angle share above the tangent plane
+#define DIR_FLAG_DEBUG_NORMAL 4u   // test hook: irradiance = |world normal|
+
+// Stats words (host-visible): [0..1] bucket deposits (lo, hi), [2] photons whose traversal ran past
+// max_visits, [3] photons that met no occupied node, [4] compare-and-swap adds given up.
+#define DIR_STAT_DEPOSITS 0
+#define DIR_STAT_OVERFLOWS 2
+#define DIR_STAT_MISSED 3
+#define DIR_STAT_CAS_FAILED 4
+#define DIR_STAT_WORDS 8
+
+// Fixed-point scale of the sample-position sums of leaf_counts.comp (units of the child's AABB).
+#define DIR_CENTROID_SCALE 4096.0
+
+struct DirParams {
+  mat4 view;             // world -> view (right-handed, the camera looks along -z)
+  mat4 view_projection;  // world -> clip
+  vec4 radius;           // x r (m), y 1 / (pi r^2)
+  uvec4 counts;          // x photons, y accumulation level, z DIR_FLAG_*, w max visits per photon
+  uvec4 size;            // x width, y height (pixels)
+};
+
+// An exact 64-bit counter from two 32-bit words: the low word's carry goes to the high word.
+#define DIR_ADD64(words, at, value)                             \
+  {                                                             \
+    uint v_ = (value);                                          \
+    if (v_ != 0u) {                                             \
+      uint old_ = atomicAdd(words[at], v_);                     \
+      if (old_ + v_ < old_) atomicAdd(words[(at) + 1], 1u);     \
+    }                                                           \
+  }
+
+#endif

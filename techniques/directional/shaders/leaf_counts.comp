@@ -1,0 +1,29 @@
+#version 460
+// splat/leaf-counts: for each child of an accumulation-level node (the leaves, with the default
+// layout), the number of its view samples and the sum of their view-space positions, the weights
+// and centres of splat.comp's coverage estimate. Integer atomics only (the device enables no float
+// atomics): a position is summed as its offset in the child's AABB in units of 1/4096 of the box,
+// so 2^20 samples per child fit the 32-bit words. Four words per compact node id: count, x, y, z.
+#include "directional_common.h"
+#define HIER_BINDING 2
+#include "../../cluster/shaders/hierarchy.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(std430, binding = 0) readonly buffer Params { DirParams params; };
+layout(std430, binding = 1) buffer LeafStats { uint leaf_stats[]; };
+layout(binding = HIER_BINDING + HIER_BINDING_COUNT, rgba32f) readonly uniform image2D gbuffer_position;
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  if (pixel.x >= int(params.size.x) || pixel.y >= int(params.size.y)) return;
+  uint leaf = hier_sample_leaf(pixel);
+  if (leaf == HIER_NO_LEAF) return;
+  uint level = params.counts.y + 1u;
+  uint cid = hier_cid(level, leaf >> (5u * (hier_leaf_level() - level)));
+  vec3 lo, hi;
+  hier_aabb(cid, lo, hi);
+  vec3 p = (params.view * vec4(imageLoad(gbuffer_position, pixel).xyz, 1.0)).xyz;
+  uvec3 q = uvec3(clamp((p - lo) / max(hi - lo, vec3(1e-12)), 0.0, 1.0) * DIR_CENTROID_SCALE);
+  atomicAdd(leaf_stats[4u * cid], 1u);
+  atomicAdd(leaf_stats[4u * cid + 1u], q.x);
+  atomicAdd(leaf_stats[4u * cid + 2u], q.y);
+  atomicAdd(leaf_stats[4u * cid + 3u], q.z);
+}

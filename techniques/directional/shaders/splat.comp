@@ -1,0 +1,196 @@
+#version 460
+// splat (Paper I §4.3 traversal, §4.7 deposit): one invocation per photon walks the view-sample
+// cluster hierarchy from the roots its sphere can reach down to the accumulation level (Paper I's
+// "level 4", one above the leaves), iteratively with a small stack of child masks (§4.3). A node its
+// sphere encloses (any level up to the accumulation level) gets the photon's whole flux; an
+// accumulation-level node it only intersects gets the flux times the node's coverage (deposit =
+// coverage, see below) or the whole flux (deposit = paper, as §4.7 states: "When a photon is found
+// to enclose a node, or intersect a leaf node, it adds its contribution"). The flux goes to the
+// bucket of the octant of the photon's view-space incident direction.
+//
+// Coverage: the share of the node's view samples inside the sphere, estimated from its children
+// (the leaves): each child weighs its sample count (leaf_counts.comp) times a ramp in the distance d
+// from the photon to the centroid of the child's samples, clamp(0.5 + (r' - d) / w, 0, 1) with
+// w = min(child extent, r) and r'^2 = r^2 - w^2 / 12. The ramp is a smoothed "centroid inside the
+// sphere", whose integral over photon positions on a plane is pi r^2, as is that of the exact share
+// of a planar child's samples inside the sphere: over many photons the deposits are unbiased for
+// planar children, and only noisier than the exact share. Without it, at low
+// resolution (nodes much larger than r) every intersected node would receive the whole flux and
+// the estimate would be many times too bright (README: deviations).
+#include "photon_layout.h"
+#include "directional_common.h"
+#define HIER_BINDING 5
+#include "../../cluster/shaders/hierarchy.glsl"
+#include "octants.h"
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Params { DirParams params; };
+layout(std430, binding = 1) readonly buffer Photons { PhotonRecord photons[]; };
+layout(std430, binding = 2) buffer Flux { uint flux[]; };
+layout(std430, binding = 3) readonly buffer LeafStats { uint leaf_stats[]; };
+layout(std430, binding = 4) buffer Stats { uint stats[]; };
+const float PI = 3.14159265358979;
+shared uint group_deposits;
+
+// Loop iterations this invocation has left: llvmpipe ends an invocation's loops after 65535
+// iterations in all, silently, so the traversal keeps its own count and stops (counted) first.
+uint budget = 60000u;
+uint deposits = 0u;
+uint cas_failed = 0u;
+
+// Float add by compare-and-swap on the float's bits: the harness's device does not enable
+// VK_EXT_shader_atomic_float (lavapipe has it, a GPU may not), so no float atomics are used.
+void atomic_add_flux(uint at, float value) {
+  uint seen = flux[at];
+  for (uint attempt = 0u; attempt < 64u && budget > 0u; ++attempt) {
+    --budget;
+    uint prev = atomicCompSwap(flux[at], seen, floatBitsToUint(uintBitsToFloat(seen) + value));
+    if (prev == seen) return;
+    seen = prev;
+  }
+  ++cas_failed;
+}
+
+void deposit(uint cid, uint octant, vec3 phi) {
+  if (all(equal(phi, vec3(0.0)))) return;
+  uint at = cid * 24u + octant * 3u;
+  atomic_add_flux(at, phi.r);
+  atomic_add_flux(at + 1u, phi.g);
+  atomic_add_flux(at + 2u, phi.b);
+  ++deposits;
+}
+
+// Share of an intersected node's samples inside the sphere (c, r): see the header comment.
+float coverage(uint level, uint key, vec3 c, float r) {
+  uint mask = hier_mask(level, key);
+  float total = 0.0, inside = 0.0;
+  while (mask != 0u && budget > 0u) {
+    --budget;
+    uint i = findLSB(mask);
+    mask &= mask - 1u;
+    uint cid = hier_cid(level + 1u, hier_child_key(key, i));
+    uint count = leaf_stats[4u * cid];
+    if (count == 0u) continue;
+    float n = float(count);
+    vec3 lo, hi;
+    hier_aabb(cid, lo, hi);
+    vec3 extent = hi - lo;
+    vec3 sums = vec3(leaf_stats[4u * cid + 1u], leaf_stats[4u * cid + 2u], leaf_stats[4u * cid + 3u]);
+    vec3 sample_mean = lo + extent * sums / (n * DIR_CENTROID_SCALE);
+    float w = max(min(max(extent.x, max(extent.y, extent.z)), r), 1e-6);
+    float reff = sqrt(r * r - w * w / 12.0);
+    float f = clamp(0.5 + (reff - distance(c, sample_mean)) / w, 0.0, 1.0);
+    total += n;
+    inside += n * f;
+  }
+  return total > 0.0 ? inside / total : 0.0;
+}
+
+// Visits node (level, key): deposits where the photon stops, returns true to descend.
+bool visit(uint level, uint key, vec3 c, float r, uint octant, vec3 phi, uint acc) {
+  uint cid = hier_cid(level, key);
+  vec3 lo, hi;
+  hier_aabb(cid, lo, hi);
+  if (!hier_sphere_intersects(lo, hi, c, r)) return false;
+  if (hier_sphere_encloses(lo, hi, c, r)) {
+    deposit(cid, octant, phi);
+    return false;
+  }
+  if (level < acc) return true;
+  bool paper = (params.counts.z & DIR_FLAG_DEPOSIT_PAPER) != 0u;
+  deposit(cid, octant, paper ? phi : phi * coverage(level, key, c, r));
+  return false;
+}
+
+// Root tiles under the screen rectangle of the sphere's bounding cube (the whole screen when a
+// corner lies behind the camera), as tiled's photon_tile_rect.
+bool root_rect(vec3 p, float r, out uvec2 lo, out uvec2 hi) {
+  vec2 nlo = vec2(1e30), nhi = vec2(-1e30);
+  bool behind = false;
+  for (int k = 0; k < 8; ++k) {
+    vec3 corner = p + r * vec3((k & 1) != 0 ? 1.0 : -1.0, (k & 2) != 0 ? 1.0 : -1.0,
+                               (k & 4) != 0 ? 1.0 : -1.0);
+    vec4 clip = params.view_projection * vec4(corner, 1.0);
+    if (clip.w <= 1e-6) {
+      behind = true;
+    } else {
+      nlo = min(nlo, clip.xy / clip.w);
+      nhi = max(nhi, clip.xy / clip.w);
+    }
+  }
+  if (behind) {
+    nlo = vec2(-1.0);
+    nhi = vec2(1.0);
+  }
+  if (any(greaterThan(nlo, vec2(1.0))) || any(lessThan(nhi, vec2(-1.0)))) return false;
+  vec2 size = vec2(params.size.xy);
+  uvec2 plo = uvec2(clamp((nlo * 0.5 + 0.5) * size, vec2(0.0), size - 1.0));
+  uvec2 phi = uvec2(clamp((nhi * 0.5 + 0.5) * size, vec2(0.0), size - 1.0));
+  lo = plo / hier.footprint[0].xy;
+  hi = min(phi / hier.footprint[0].xy, hier.dims.yz - 1u);
+  return true;
+}
+
+void main() {
+  if (gl_LocalInvocationIndex == 0u) group_deposits = 0u;
+  barrier();
+  uint id = gl_GlobalInvocationID.x;
+  if (id < params.counts.x) {
+    PhotonRecord photon = photons[id];
+    float r = params.radius.x;
+    vec3 c = (params.view * vec4(photon.position, 1.0)).xyz;
+    uint octant = octant_of(mat3(params.view) * -photon.direction);
+    uint acc = params.counts.y;
+    uint max_visits = params.counts.w;
+    uint visits = 0u;
+    bool overflow = false;
+    uint deposits_before = 0u;
+    uvec2 rlo, rhi;
+    if (root_rect(photon.position, r, rlo, rhi)) {
+      uint stack[HIER_MAX_LEVELS];
+      for (uint ry = rlo.y; ry <= rhi.y && !overflow; ++ry)
+        for (uint rx = rlo.x; rx <= rhi.x && !overflow; ++rx) {
+          uint root = ry * hier.dims.y + rx;
+          --budget;
+          if (hier_masks[root] == 0u) continue;  // no view samples under this root
+          if (++visits > max_visits || budget == 0u) {
+            overflow = true;
+            break;
+          }
+          if (!visit(0u, root, c, r, octant, photon.power, acc)) continue;
+          uint level = 0u, key = root;
+          stack[0] = hier_mask(0u, root);
+          while (true) {
+            if (budget == 0u) {
+              overflow = true;
+              break;
+            }
+            --budget;
+            if (stack[level] == 0u) {
+              if (level == 0u) break;
+              --level;
+              key = hier_parent_key(key);
+              continue;
+            }
+            uint i = findLSB(stack[level]);
+            stack[level] &= stack[level] - 1u;
+            uint child = hier_child_key(key, i);
+            if (++visits > max_visits) {
+              overflow = true;
+              break;
+            }
+            if (visit(level + 1u, child, c, r, octant, photon.power, acc)) {
+              ++level;
+              key = child;
+              stack[level] = hier_mask(level, child);
+            }
+          }
+        }
+    }
+    if (overflow) atomicAdd(stats[DIR_STAT_OVERFLOWS], 1u);
+    if (deposits == 0u && !overflow) atomicAdd(stats[DIR_STAT_MISSED], 1u);
+    if (cas_failed > 0u) atomicAdd(stats[DIR_STAT_CAS_FAILED], cas_failed);
+    atomicAdd(group_deposits, deposits);
+  }
+  barrier();
+  if (gl_LocalInvocationIndex == 0u) DIR_ADD64(stats, DIR_STAT_DEPOSITS, group_deposits);
+}
