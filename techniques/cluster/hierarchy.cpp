@@ -30,27 +30,31 @@ struct BuildPush {
   uint32_t pad0 = 0;
 };
 static_assert(sizeof(BuildPush) == 80);
-static_assert(sizeof(layout::HierInfo) == 3 * 16 + 4 * HIER_MAX_LEVELS * 16 + 16 + 4 * HIER_MAX_LEVELS);
+static_assert(sizeof(layout::HierInfo) ==
+              3 * 16 + 4 * HIER_MAX_LEVELS * 16 + 16 + 4 * HIER_MAX_LEVELS);
 
 constexpr uint64_t kMaxDenseNodes = uint64_t(1) << 28;  // 1 GiB of key -> cid map
 
 uint32_t parse_uint(const std::string& text, const std::string& what, const std::string& layout) {
   if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || text.size() > 6)
-    throw InputError(fmt::format("{} = \"{}\": \"{}\" is not a positive whole number (expected "
-                                 "ROOT:XxYxZ,XxYxZ,... e.g. \"256:2x2x8,2x2x8,2x2x8,4x4x2\")",
-                                 what, layout, text));
+    throw InputError(
+        fmt::format("{} = \"{}\": \"{}\" is not a positive whole number (expected "
+                    "ROOT:XxYxZ,XxYxZ,... e.g. \"256:2x2x8,2x2x8,2x2x8,4x4x2\")",
+                    what, layout, text));
   return uint32_t(std::stoul(text));
 }
 
 }  // namespace
 
-HierarchyOptions HierarchyOptions::parse_layout(const std::string& layout, const std::string& what) {
+HierarchyOptions HierarchyOptions::parse_layout(const std::string& layout,
+                                                const std::string& what) {
   HierarchyOptions options;
   auto colon = layout.find(':');
   if (colon == std::string::npos)
-    throw InputError(fmt::format("{} = \"{}\": expected ROOT:XxYxZ,XxYxZ,... (e.g. "
-                                 "\"256:2x2x8,2x2x8,2x2x8,4x4x2\")",
-                                 what, layout));
+    throw InputError(
+        fmt::format("{} = \"{}\": expected ROOT:XxYxZ,XxYxZ,... (e.g. "
+                    "\"256:2x2x8,2x2x8,2x2x8,4x4x2\")",
+                    what, layout));
   options.root_tile_px = parse_uint(layout.substr(0, colon), what, layout);
   options.splits.clear();
   std::stringstream levels(layout.substr(colon + 1));
@@ -65,20 +69,22 @@ HierarchyOptions HierarchyOptions::parse_layout(const std::string& layout, const
     split.z = parse_uint(level.substr(y + 1), what, layout);
     if (split.x == 0 || split.y == 0 || split.z == 0 || split.x * split.y * split.z > 32 ||
         split.x * split.y * split.z < 2)
-      throw InputError(fmt::format("{} = \"{}\": level \"{}\" must have 2 to 32 children (5 key "
-                                   "bits per level, Paper I §4.3)",
-                                   what, layout, level));
+      throw InputError(
+          fmt::format("{} = \"{}\": level \"{}\" must have 2 to 32 children (5 key "
+                      "bits per level, Paper I §4.3)",
+                      what, layout, level));
     options.splits.push_back(split);
   }
   if (options.splits.empty() || options.splits.size() > 6)
-    throw InputError(fmt::format("{} = \"{}\": 1 to 6 splits (2 to 7 levels) are supported", what,
-                                 layout));
+    throw InputError(
+        fmt::format("{} = \"{}\": 1 to 6 splits (2 to 7 levels) are supported", what, layout));
   uint32_t px = 1, py = 1;
   for (const auto& s : options.splits) px *= s.x, py *= s.y;
   if (options.root_tile_px == 0 || options.root_tile_px % px != 0 || options.root_tile_px % py != 0)
-    throw InputError(fmt::format("{} = \"{}\": the root tile ({} px) must be divisible by the "
-                                 "product of the x splits ({}) and of the y splits ({})",
-                                 what, layout, options.root_tile_px, px, py));
+    throw InputError(
+        fmt::format("{} = \"{}\": the root tile ({} px) must be divisible by the "
+                    "product of the x splits ({}) and of the y splits ({})",
+                    what, layout, options.root_tile_px, px, py));
   return options;
 }
 
@@ -98,8 +104,8 @@ void Hierarchy::setup(gpu::Device& gpu, const HierarchyOptions& options) {
   constexpr uint32_t kPush = sizeof(BuildPush);
   depth_range_ = gpu.create_compute_pipeline("cluster-build/depth-range",
                                              khierarchy_depth_range_comp_spv, bindings, kPush);
-  occupancy_ = gpu.create_compute_pipeline("cluster-build/occupancy",
-                                           khierarchy_occupancy_comp_spv, bindings, kPush);
+  occupancy_ = gpu.create_compute_pipeline("cluster-build/occupancy", khierarchy_occupancy_comp_spv,
+                                           bindings, kPush);
   leaf_alloc_ = gpu.create_compute_pipeline("cluster-build/leaf-alloc",
                                             khierarchy_leaf_alloc_comp_spv, bindings, kPush);
   leaf_bounds_ = gpu.create_compute_pipeline("cluster-build/leaf-bounds",
@@ -108,8 +114,8 @@ void Hierarchy::setup(gpu::Device& gpu, const HierarchyOptions& options) {
                                                khierarchy_leaf_finalize_comp_spv, bindings, kPush);
   leaf_cones_ = gpu.create_compute_pipeline("cluster-build/cones", khierarchy_leaf_cones_comp_spv,
                                             bindings, kPush);
-  propagate_ = gpu.create_compute_pipeline("cluster-build/propagate",
-                                           khierarchy_propagate_comp_spv, bindings, kPush);
+  propagate_ = gpu.create_compute_pipeline("cluster-build/propagate", khierarchy_propagate_comp_spv,
+                                           bindings, kPush);
 }
 
 uint64_t Hierarchy::dense_nodes(uint32_t level) const {

@@ -1,32 +1,34 @@
 // pb::cluster::Hierarchy: Paper I's view-sample cluster hierarchy (Moreau et al. 2016, §4.1, §4.5,
-// §5.2, after Sintorn et al. 2014), rebuilt on the GPU every frame from the shared G-buffer. Shared by
-// the `cluster` and `directional` techniques (contract: helpers/hierarchy_contract.md).
+// §5.2, after Sintorn et al. 2014), rebuilt on the GPU every frame from the shared G-buffer. Shared
+// by the `cluster` and `directional` techniques (contract: helpers/hierarchy_contract.md).
 //
 // LAYOUT (GPU side in shaders/hierarchy_layout.h, shader helpers in shaders/hierarchy.glsl)
-//   Levels 0..L-1. Level 0: one root per root tile of root_tile_px x root_tile_px screen pixels, the
-//   whole depth range. Level l+1 splits each level-l node into splits[l] = x * y * z children (<= 32;
-//   z splits depth). The last level holds the leaves: a block of pixels x one depth slice. Depth
-//   slices are exponential (Olsson-style), as deep as the leaf block is wide (roughly cubical) from
-//   the frame's nearest sample, stretched when that many slices cannot reach the farthest one.
-//   Keys: root key = root index (row-major over the root tiles); child key = (key << 5) | i with
-//   i = cx + sx * (cy + sy * cz) (Paper I §4.3). Needs 5 (L-1) + bits(roots) <= 32.
-//   Default "256:2x2x8,2x2x8,2x2x8,4x4x2": 5 levels; nodes of 256, 128, 64, 32 and 8 pixels, 1, 8, 64,
-//   512 and 1024 depth slices. Level 3 (32x32 pixels) is the accumulation level, one above the leaves
-//   (Paper I §4.7/§5.2 "level 4" counting the root as 1); the top splat pass stops there.
+//   Levels 0..L-1. Level 0: one root per root tile of root_tile_px x root_tile_px screen pixels,
+//   the whole depth range. Level l+1 splits each level-l node into splits[l] = x * y * z children
+//   (<= 32; z splits depth). The last level holds the leaves: a block of pixels x one depth slice.
+//   Depth slices are exponential (Olsson-style), as deep as the leaf block is wide (roughly
+//   cubical) from the frame's nearest sample, stretched when that many slices cannot reach the
+//   farthest one. Keys: root key = root index (row-major over the root tiles); child key = (key <<
+//   5) | i with i = cx + sx * (cy + sy * cz) (Paper I §4.3). Needs 5 (L-1) + bits(roots) <= 32.
+//   Default "256:2x2x8,2x2x8,2x2x8,4x4x2": 5 levels; nodes of 256, 128, 64, 32 and 8 pixels, 1, 8,
+//   64, 512 and 1024 depth slices. Level 3 (32x32 pixels) is the accumulation level, one above the
+//   leaves (Paper I §4.7/§5.2 "level 4" counting the root as 1); the top splat pass stops there.
 //   Storage (dense per level, Paper I §5.2):
 //     masks[]  uint  [roots' occupancy flags][child masks of level 0][level 1]...[level L-2]
 //                    [leaf bases: per level-(L-2) node, the cid of its first leaf]
-//     slots[]  uint  key -> compact node id ("cid"), dense over the levels above the leaves (Paper I
+//     slots[]  uint  key -> compact node id ("cid"), dense over the levels above the leaves (Paper
+//     I
 //                    uses the key as the AABB index there; we map it so all per-node data is
 //                    compact); never cleared: read only where a mask (or for roots the level-0
 //                    list) says the node is occupied this frame. A leaf's cid is its parent's leaf
 //                    base + the rank of its bit in the parent's mask (Paper I §5.2 also avoids a
 //                    dense last level), so no dense leaf array exists.
-//     node_keys[] uint per cid: the key; cids [level[l].z, + count(l)) are level l's occupied nodes.
-//     aabbs[]  6 floats per cid: view-space min xyz, max xyz (full floats, not Paper I's halves).
-//     cones[]  vec4 per cid: view-space axis, half-angle (only with normal_cones; not bit-packed).
-//     sample_leaves[] uint per pixel: the leaf key of its view sample, or HIER_NO_LEAF.
-//     info     HierInfo: the layout above plus this frame's depth slicing and per-level counts.
+//     node_keys[] uint per cid: the key; cids [level[l].z, + count(l)) are level l's occupied
+//     nodes. aabbs[]  6 floats per cid: view-space min xyz, max xyz (full floats, not Paper I's
+//     halves). cones[]  vec4 per cid: view-space axis, half-angle (only with normal_cones; not
+//     bit-packed). sample_leaves[] uint per pixel: the leaf key of its view sample, or
+//     HIER_NO_LEAF. info     HierInfo: the layout above plus this frame's depth slicing and
+//     per-level counts.
 //   cid capacity of level l = min(dense nodes of l, pixels), so a technique sizes per-node arrays
 //   with node_capacity() (every occupied node has a cid < node_capacity()).
 //
@@ -41,7 +43,8 @@
 // the same name, hierarchy_spv.h): in techniques/<t>/CMakeLists.txt
 //   include(${CMAKE_SOURCE_DIR}/techniques/cluster/hierarchy.cmake)
 //   pb_add_technique(NAME <t> SOURCES technique.cpp SHADERS ...)
-//   pb_add_cluster_hierarchy(technique_<t>)   # adds hierarchy.cpp, this folder to the includes, and
+//   pb_add_cluster_hierarchy(technique_<t>)   # adds hierarchy.cpp, this folder to the includes,
+//   and
 //                                             # embeds shaders/hierarchy_*.comp as hierarchy_spv.h
 // then `#include "hierarchy.h"` in C++.
 #pragma once
@@ -62,7 +65,8 @@ struct LevelSplit {
 };
 
 struct HierarchyOptions {
-  uint32_t root_tile_px = 256;  // side of a root's screen tile; divisible by the splits' x and y products
+  uint32_t root_tile_px =
+      256;  // side of a root's screen tile; divisible by the splits' x and y products
   std::vector<LevelSplit> splits = {{2, 2, 8}, {2, 2, 8}, {2, 2, 8}, {4, 4, 2}};  // L-1 entries
   bool normal_cones = false;  // build per-node normal cones (Paper I §4.5; cluster cone / trivial)
 
@@ -90,10 +94,10 @@ class Hierarchy {
   // where the top splat pass stops and directional accumulates (Paper I §4.7 "level 4").
   uint32_t accumulation_level() const { return levels() - 2; }
   uint32_t root_count() const { return roots_x_ * roots_y_; }
-  uint64_t dense_nodes(uint32_t level) const;   // nodes the dense allocation holds at a level
-  uint32_t first_cid(uint32_t level) const;     // cids of level l: [first_cid(l), + capacity)
-  uint32_t node_capacity(uint32_t level) const; // at most this many occupied nodes at a level
-  uint32_t node_capacity() const;               // all levels: the size of per-cid arrays
+  uint64_t dense_nodes(uint32_t level) const;        // nodes the dense allocation holds at a level
+  uint32_t first_cid(uint32_t level) const;          // cids of level l: [first_cid(l), + capacity)
+  uint32_t node_capacity(uint32_t level) const;      // at most this many occupied nodes at a level
+  uint32_t node_capacity() const;                    // all levels: the size of per-cid arrays
   uint32_t node_footprint_px(uint32_t level) const;  // screen pixels a node spans (x; y the same)
   uint32_t depth_slices(uint32_t level) const;       // leaf depth slices a node spans
   uint32_t total_depth_slices() const { return depth_slices(0); }
@@ -115,8 +119,8 @@ class Hierarchy {
   uint32_t occupied(uint32_t level) const;
 
   // Bytes per Paper I Table 1 row: "Cluster Hierarchy" (AABBs + child masks + node keys),
-  // "Final Bounds" (the key -> cid map, leaf bases and per-pixel leaf keys), "Normal Cone" (0 without
-  // cones).
+  // "Final Bounds" (the key -> cid map, leaf bases and per-pixel leaf keys), "Normal Cone" (0
+  // without cones).
   uint64_t bytes_hierarchy() const {
     return aabbs_.size() + masks_.size() + node_keys_.size() -
            uint64_t(node_capacity(levels() - 2)) * 4;

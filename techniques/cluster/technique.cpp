@@ -1,14 +1,14 @@
-// cluster: Paper I's photon splatting with a view-sample cluster hierarchy (Moreau et al. 2016, §4),
-// in three variants: plain, cone (normal-cone rejection, §4.5) and trivial (per-node flux for
+// cluster: Paper I's photon splatting with a view-sample cluster hierarchy (Moreau et al. 2016,
+// §4), in three variants: plain, cone (normal-cone rejection, §4.5) and trivial (per-node flux for
 // photons that enclose a node and arrive above all its samples, §4.6).
 //
-// Per frame: photons are traced on the CPU exactly as `tiled` does (same settings, same seed, so the
-// two techniques splat the same photons) and uploaded; after the shared G-buffer and direct light the
-// hierarchy is rebuilt from the G-buffer (hierarchy.h, pass "cluster-build"); the splat runs the top
-// pass (photon -> first 3 levels, emitting (photon, node) jobs), regroups the jobs by node, then
-// the leaf passes twice (count, prefix sum, insert into per-node lists; §4.3); the radiance estimate
-// walks each sample's leaf and ancestors (L = f I / (pi r^2), §4.4, the estimator of tiled); the
-// shared shade pass adds that indirect radiance to the direct light.
+// Per frame: photons are traced on the CPU exactly as `tiled` does (same settings, same seed, so
+// the two techniques splat the same photons) and uploaded; after the shared G-buffer and direct
+// light the hierarchy is rebuilt from the G-buffer (hierarchy.h, pass "cluster-build"); the splat
+// runs the top pass (photon -> first 3 levels, emitting (photon, node) jobs), regroups the jobs by
+// node, then the leaf passes twice (count, prefix sum, insert into per-node lists; §4.3); the
+// radiance estimate walks each sample's leaf and ancestors (L = f I / (pi r^2), §4.4, the estimator
+// of tiled); the shared shade pass adds that indirect radiance to the direct light.
 //
 // Capacities (jobs, list entries) are parameters: overflowing entries are dropped on the GPU,
 // counted ("overflows") and warned about, never written out of bounds.
@@ -33,7 +33,8 @@ using pb::gpu::Memory;
 using U = vk::BufferUsageFlagBits;
 
 // Named hierarchy layouts (ROOT:XxYxZ per level split, hierarchy.h). Each keeps the level above the
-// leaves at 32x32 pixels (Paper I's "leaf node at most contains 32x32 view samples" of directional).
+// leaves at 32x32 pixels (Paper I's "leaf node at most contains 32x32 view samples" of
+// directional).
 constexpr const char* kLayouts[] = {
     "256:2x2x8,2x2x8,2x2x8,4x4x2",        // default: 5 levels, 8x8-pixel leaves, 1024 depth slices
     "128:2x2x8,2x2x8,4x4x2",              // shallow: 4 levels, 128 slices
@@ -188,12 +189,13 @@ class Cluster final : public pb::Technique {
     auto gbuf = ctx.shared().gbuffer_images();
     auto h = hierarchy_.bindings();
     auto bind = [&](const pb::gpu::Pipeline& pipeline, vk::CommandBuffer cmd) {
-      pipeline.bind(cmd,
-                    {h[0], h[1], h[2], h[3], h[4], h[5], h[6], &photons_, &jobs_a_, &jobs_b_,
-                     &job_bins_, &job_offsets_, &job_cursors_, &list_counts_, &list_offsets_,
-                     &list_cursors_, &lists_, &node_flux_, &stats_, &scan_blocks_, gbuf.position,
-                     gbuf.normal, gbuf.albedo, &indirect_},
-                    push);
+      pipeline.bind(
+          cmd,
+          {h[0],          h[1],          h[2],           h[3],           h[4],        h[5],
+           h[6],          &photons_,     &jobs_a_,       &jobs_b_,       &job_bins_,  &job_offsets_,
+           &job_cursors_, &list_counts_, &list_offsets_, &list_cursors_, &lists_,     &node_flux_,
+           &stats_,       &scan_blocks_, gbuf.position,  gbuf.normal,    gbuf.albedo, &indirect_},
+          push);
     };
     auto scan = [&](vk::CommandBuffer cmd, uint32_t mode) {
       push.mode = mode;
@@ -216,8 +218,8 @@ class Cluster final : public pb::Technique {
       {
         auto scope = ctx.pass("top");
         auto cmd = ctx.cmd();
-        for (const Buffer* b : {&stats_, &job_bins_, &job_cursors_, &list_counts_,
-                                &list_cursors_, &node_flux_})
+        for (const Buffer* b :
+             {&stats_, &job_bins_, &job_cursors_, &list_counts_, &list_cursors_, &node_flux_})
           cmd.fillBuffer(b->handle(), 0, VK_WHOLE_SIZE, 0u);
         pb::gpu::full_barrier(cmd);
         bind(top_, cmd);
@@ -312,8 +314,8 @@ class Cluster final : public pb::Technique {
     lists_ = make("photon-lists", uint64_t(list_capacity_) * 4);
     node_flux_ = make("node-flux", variant_ == kTrivial ? nodes * 12 : 16);
     scan_blocks_ = make("scan-blocks", uint64_t(pb::gpu::groups_for(nodes, kScanBlock)) * 4);
-    stats_ = gpu.create_buffer("cluster/stats", kStatWords * 4,
-                               storage | U::eIndirectBuffer, Memory::host_visible);
+    stats_ = gpu.create_buffer("cluster/stats", kStatWords * 4, storage | U::eIndirectBuffer,
+                               Memory::host_visible);
     indirect_ = gpu.create_image("cluster/indirect", {frame.width, frame.height},
                                  vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage);
   }
@@ -357,9 +359,10 @@ class Cluster final : public pb::Technique {
           "(indirect light is underestimated in this frame)",
           jobs, job_capacity_, jobs_dropped));
     if (truncated > 0)
-      ctx.warn(fmt::format("cluster: {} hierarchy traversals cut short by the loop budget "
-                           "(lavapipe's loop limit); photons were lost",
-                           truncated));
+      ctx.warn(
+          fmt::format("cluster: {} hierarchy traversals cut short by the loop budget "
+                      "(lavapipe's loop limit); photons were lost",
+                      truncated));
   }
 
   uint32_t paths_ = 0, max_bounces_ = 4, top_levels_ = 3, job_capacity_ = 0, list_capacity_ = 0;
@@ -370,8 +373,8 @@ class Cluster final : public pb::Technique {
   Buffer photons_, jobs_a_, jobs_b_, job_bins_, job_offsets_, job_cursors_, list_counts_,
       list_offsets_, list_cursors_, lists_, node_flux_, scan_blocks_, stats_;
   pb::gpu::Image indirect_;
-  pb::gpu::Pipeline top_, job_args_, regroup_, leaf_, scan_blocks_pipeline_, scan_top_,
-      scan_add_, estimate_;
+  pb::gpu::Pipeline top_, job_args_, regroup_, leaf_, scan_blocks_pipeline_, scan_top_, scan_add_,
+      estimate_;
 };
 
 }  // namespace

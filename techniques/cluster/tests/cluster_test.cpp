@@ -165,14 +165,15 @@ TEST(Cluster, EveryVariantGivesTiledsImageOnCornellBox) {
 }
 
 // A sample's lists (leaf and ancestors) far longer than 65535 entries together (llvmpipe ends an
-// invocation's loops after 65535 iterations in all) must be read whole: the image must not depend on
-// the photon count beyond noise.
+// invocation's loops after 65535 iterations in all) must be read whole: the image must not depend
+// on the photon count beyond noise.
 TEST(Cluster, LongListsAreReadWhole) {
   fs::path dir = work_dir("long");
-  std::string yaml = header(dir) +
-                     "techniques:\n"
-                     "  - technique: cluster\n"
-                     "    params: {photons: [30000, 120000], radius: 1.0, max_list_entries: 30000000}\n";
+  std::string yaml =
+      header(dir) +
+      "techniques:\n"
+      "  - technique: cluster\n"
+      "    params: {photons: [30000, 120000], radius: 1.0, max_list_entries: 30000000}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   fs::path few = find_cell(dir, "cluster", {{"photons", "30000"}});
   fs::path many = find_cell(dir, "cluster", {{"photons", "120000"}});
