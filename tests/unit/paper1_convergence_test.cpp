@@ -5,6 +5,7 @@
 // fall at every step. One run holds every technique's three cells so the references render once.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -22,7 +23,7 @@ struct Step {
   double radius;
 };
 const Step kSteps[] = {{4000, 0.16}, {32000, 0.08}, {256000, 0.04}};
-const std::vector<std::string> kTechniques = {"tiled"};
+const std::vector<std::string> kTechniques = {"tiled", "cluster", "directional"};
 
 fs::path g_dir;
 int g_exit = -1;
@@ -73,6 +74,7 @@ TEST_P(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
                                   << " photons has no indirect score (see " << g_dir << ")";
     errors.push_back(it->second);
   }
+  std::printf("%s indirect relMSE: %.4f -> %.4f -> %.4f\n", GetParam().c_str(), errors[0], errors[1], errors[2]);
   for (size_t i = 1; i < errors.size(); ++i)
     EXPECT_LT(errors[i], errors[i - 1]) << GetParam() << ": relMSE " << errors[0] << " -> " << errors[1]
                                         << " -> " << errors[2];
