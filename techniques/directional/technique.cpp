@@ -42,8 +42,12 @@ const pb_param_spec kParams[] = {
     {"weighting", PB_PARAM_ENUM, 0, 0, 1, "cos2|clip", "",
      "octant weight at a sample: cos2 = Paper I's max(0, 2cos(n, d)); clip = share of the octant "
      "above the tangent plane (the correction Paper I describes and approximates)"},
-    {"blur_radius", PB_PARAM_INT, 16, 0, 64, nullptr, "pixels",
-     "taps on each side of the separable depth/normal-aware blur; 0 turns the blur off"},
+    {"accumulate_at", PB_PARAM_ENUM, 0, 0, 1, "accumulation|leaves", "",
+     "lowest level with buckets: accumulation = one above the leaves (Paper I's level 4, "
+     "default); leaves = the leaf clusters (finer, Paper I §5.2 sizes buckets down to them)"},
+    {"blur_radius", PB_PARAM_INT, -1, -1, 64, nullptr, "pixels",
+     "taps on each side of the separable depth/normal-aware blur; 0 turns the blur off; -1 (default) "
+     "= half the screen side of a stop-level node (16 for the 32-pixel accumulation level)"},
     {"blur_depth_sigma", PB_PARAM_FLOAT, 0.02, 1e-6, 1e6, nullptr, "",
      "blur depth awareness: distance from the tangent plane, relative to the camera distance"},
     {"blur_normal_sigma", PB_PARAM_FLOAT, 0.2, 1e-6, 1e6, nullptr, "rad",
@@ -77,8 +81,7 @@ struct BlurPush {
 
 // Flags and stats words of shaders/directional_common.h.
 constexpr uint32_t kFlagDepositPaper = 1, kFlagWeightClip = 2, kFlagDebugNormal = 4;
-constexpr uint32_t kStatDeposits = 0, kStatOverflows = 2, kStatMissed = 3, kStatCasFailed = 4,
-                   kStatWords = 8;
+constexpr uint32_t kStatDeposits = 0, kStatOverflows = 2, kStatMissed = 3, kStatWords = 8;
 constexpr uint32_t kBucketFloats = 24;  // 8 octants x RGB (Paper I §5.2: "24 floats per node")
 
 class Directional final : public pb::Technique {
@@ -94,6 +97,7 @@ class Directional final : public pb::Technique {
     flags_ = (params.choice("deposit") == "paper" ? kFlagDepositPaper : 0u) |
              (params.choice("weighting") == "clip" ? kFlagWeightClip : 0u) |
              (params.choice("debug_irradiance") == "normal" ? kFlagDebugNormal : 0u);
+    at_leaves_ = params.choice("accumulate_at") == "leaves";
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
     // The hierarchy without normal cones (Paper I Table 1: "Normal Cone -" for directional).
     pb::cluster::HierarchyOptions options;
@@ -153,18 +157,25 @@ class Directional final : public pb::Technique {
       if (photon_count)
         std::memcpy(photons_.mapped(), batch_.photons.data(),
                     photon_count * sizeof(pb::trace::PhotonRecord));
+      // Fixed-point scale of the buckets (shaders/directional_common.h): no bucket can exceed the
+      // largest channel's total flux.
+      glm::dvec3 total(0.0);
+      for (const auto& photon : batch_.photons) total += glm::dvec3(photon.power);
+      double largest = std::max({total.x, total.y, total.z, 1e-30});
+      flux_scale_ = float(4.0e9 / largest);
     }
     ctx.shared().gbuffer();
     ctx.shared().direct_light();
     hierarchy_.build(ctx);  // pass "cluster-build"; (re)allocates on a new resolution
     ensure_resources(ctx);
 
-    uint32_t acc = hierarchy_.accumulation_level();
+    uint32_t stop = stop_level();
     DirParams p{};
     p.view = frame.camera.view;
     p.view_projection = frame.camera.view_projection;
-    p.radius = glm::vec4(radius_, 1.0f / (3.14159265358979f * radius_ * radius_), 0, 0);
-    p.counts = glm::uvec4(photon_count, acc, flags_, max_visits_);
+    p.radius = glm::vec4(radius_, 1.0f / (3.14159265358979f * radius_ * radius_), flux_scale_,
+                         1.0f / flux_scale_);
+    p.counts = glm::uvec4(photon_count, stop, flags_, max_visits_);
     p.size = glm::uvec4(width_, height_, 0, 0);
     std::memcpy(params_.mapped(), &p, sizeof(p));
 
@@ -209,9 +220,12 @@ class Directional final : public pb::Technique {
     {
       auto scope = ctx.pass("blur");
       auto cmd = ctx.cmd();
-      BlurPush push{width_, height_, blur_radius_, 0, blur_depth_sigma_, blur_normal_sigma_, 0, 0};
+      // The blockiness the blur hides has the size of a stop-level node (Paper I §4.7).
+      int32_t radius =
+          blur_radius_ >= 0 ? blur_radius_ : int32_t(hierarchy_.node_footprint_px(stop) / 2);
+      BlurPush push{width_, height_, radius, 0, blur_depth_sigma_, blur_normal_sigma_, 0, 0};
       const pb::gpu::Image* source = &irradiance_;
-      if (blur_radius_ > 0) {
+      if (radius > 0) {
         blur_pipeline_.bind(cmd, {gbuf.position, gbuf.normal, gbuf.albedo, &irradiance_, &blur_tmp_},
                             push);
         cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
@@ -245,10 +259,10 @@ class Directional final : public pb::Technique {
     auto& gpu = ctx.gpu();
     width_ = frame.width;
     height_ = frame.height;
-    // Buckets for every node from the roots down to the accumulation level, indexed by compact id:
-    // the hierarchy hands out ids level by level, so those levels' ids are [0, end of acc level).
-    uint32_t acc = hierarchy_.accumulation_level();
-    bucket_nodes_ = hierarchy_.first_cid(acc) + hierarchy_.node_capacity(acc);
+    // Buckets for every node from the roots down to the stop level, indexed by compact id: the
+    // hierarchy hands out ids level by level, so those levels' ids are [0, end of the stop level).
+    uint32_t stop = stop_level();
+    bucket_nodes_ = hierarchy_.first_cid(stop) + hierarchy_.node_capacity(stop);
     auto storage = U::eStorageBuffer | U::eTransferDst;
     flux_ = gpu.create_buffer("directional/accum-flux",
                               uint64_t(bucket_nodes_) * kBucketFloats * 4, storage,
@@ -263,6 +277,10 @@ class Directional final : public pb::Technique {
     indirect_ = gpu.create_image("directional/indirect", {width_, height_}, format, usage);
   }
 
+  uint32_t stop_level() const {
+    return at_leaves_ ? hierarchy_.leaf_level() : hierarchy_.accumulation_level();
+  }
+
   void report(pb::Context& ctx, uint32_t photon_count) {
     auto s = stats_.view<uint32_t>();
     double deposits = double(uint64_t(s[kStatDeposits]) | (uint64_t(s[kStatDeposits + 1]) << 32));
@@ -270,7 +288,6 @@ class Directional final : public pb::Technique {
     ctx.count("node_deposits", deposits);
     ctx.count("photons_rejected", s[kStatMissed]);
     ctx.count("overflows", overflows);
-    ctx.count("cas_given_up", s[kStatCasFailed]);
     ctx.count("bytes_cluster_hierarchy", double(hierarchy_.bytes_hierarchy()));
     ctx.count("bytes_final_bounds", double(hierarchy_.bytes_final_bounds()));
     ctx.count("bytes_accum_flux", double(flux_.size()));
@@ -281,14 +298,12 @@ class Directional final : public pb::Technique {
           "directional: {} photons needed more than max_visits = {} hierarchy nodes (or llvmpipe's "
           "loop budget) in the splat; the rest of their deposits were dropped",
           overflows, max_visits_));
-    if (s[kStatCasFailed] > 0)
-      ctx.warn(fmt::format("directional: {} bucket adds gave up after 64 compare-and-swap tries",
-                           s[kStatCasFailed]));
   }
 
   uint32_t paths_ = 0, max_bounces_ = 4, max_visits_ = 1024, flags_ = 0;
-  float radius_ = 0, blur_depth_sigma_ = 0.02f, blur_normal_sigma_ = 0.2f;
-  int32_t blur_radius_ = 16;
+  bool at_leaves_ = false;
+  float radius_ = 0, flux_scale_ = 1, blur_depth_sigma_ = 0.02f, blur_normal_sigma_ = 0.2f;
+  int32_t blur_radius_ = -1;
   uint32_t width_ = 0, height_ = 0, bucket_nodes_ = 0;
   pb::cluster::Hierarchy hierarchy_;
   pb::trace::PhotonBatch batch_;

@@ -3,8 +3,12 @@
 //
 // Bucket layout (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact node
 // id, levels 0 .. accumulation level) owns words [24 c, 24 c + 24) of flux[]: octant o's RGB flux at
-// 24 c + 3 o + channel, in watts, stored as float bits in uint words (they are added with a
-// compare-and-swap loop, see atomic_add_flux in splat.comp).
+// 24 c + 3 o + channel, in watts, in fixed point: the harness's device enables no float atomics, so
+// each deposit adds round(Phi * scale) with one integer atomicAdd. scale = 4e9 / (the largest
+// channel's total flux of the frame's photons): no bucket can receive more than every photon's whole
+// flux once, so a word never overflows (4e9 + N/2 rounding units < 2^32 for N < 5e8 photons), and a
+// photon's flux is resolved to ~N / 4e9 of itself. Integer sums are also order-independent, so the
+// buckets are the same bits on every run.
 #ifndef DIRECTIONAL_COMMON_H
 #define DIRECTIONAL_COMMON_H
 
@@ -13,11 +17,10 @@
 #define DIR_FLAG_DEBUG_NORMAL 4u   // test hook: irradiance = |world normal|
 
 // Stats words (host-visible): [0..1] bucket deposits (lo, hi), [2] photons whose traversal ran past
-// max_visits, [3] photons that met no occupied node, [4] compare-and-swap adds given up.
+// max_visits, [3] photons that deposited nothing (no occupied node met, or zero coverage).
 #define DIR_STAT_DEPOSITS 0
 #define DIR_STAT_OVERFLOWS 2
 #define DIR_STAT_MISSED 3
-#define DIR_STAT_CAS_FAILED 4
 #define DIR_STAT_WORDS 8
 
 // Fixed-point scale of the sample-position sums of leaf_counts.comp (units of the child's AABB).
@@ -26,8 +29,8 @@
 struct DirParams {
   mat4 view;             // world -> view (right-handed, the camera looks along -z)
   mat4 view_projection;  // world -> clip
-  vec4 radius;           // x r (m), y 1 / (pi r^2)
-  uvec4 counts;          // x photons, y accumulation level, z DIR_FLAG_*, w max visits per photon
+  vec4 radius;           // x r (m), y 1 / (pi r^2), z flux fixed-point scale, w 1 / scale
+  uvec4 counts;          // x photons, y stop level (deposits at and above it), z DIR_FLAG_*, w max visits per photon
   uvec4 size;            // x width, y height (pixels)
 };
 

@@ -1,6 +1,5 @@
 #version 460
-// splat/leaf-counts: for each child of an accumulation-level node (the leaves, with the default
-// layout), the number of its view samples and the sum of their view-space positions, the weights
+// splat/leaf-counts: for each leaf (the children of the accumulation level), the number of its view samples and the sum of their view-space positions, the weights
 // and centres of splat.comp's coverage estimate. Integer atomics only (the device enables no float
 // atomics): a position is summed as its offset in the child's AABB in units of 1/4096 of the box,
 // so 2^20 samples per child fit the 32-bit words. Four words per compact node id: count, x, y, z.
@@ -16,8 +15,7 @@ void main() {
   if (pixel.x >= int(params.size.x) || pixel.y >= int(params.size.y)) return;
   uint leaf = hier_sample_leaf(pixel);
   if (leaf == HIER_NO_LEAF) return;
-  uint level = params.counts.y + 1u;
-  uint cid = hier_cid(level, leaf >> (5u * (hier_leaf_level() - level)));
+  uint cid = hier_cid(hier_leaf_level(), leaf);
   vec3 lo, hi;
   hier_aabb(cid, lo, hi);
   vec3 p = (params.view * vec4(imageLoad(gbuffer_position, pixel).xyz, 1.0)).xyz;

@@ -1,7 +1,7 @@
 #version 460
 // radiance-estimate (Paper I §4.7): "we no longer have to process a list but simply evaluate the
 // incoming flux from each direction, for all nodes that contain the view sample". One invocation per
-// pixel reads the buckets of its accumulation-level node and that node's ancestors (the nodes a photon
+// pixel reads the buckets of its stop-level node (accumulation level or leaf) and its ancestors (the nodes a photon
 // can have deposited into for this sample) and sums E = sum_o w_o(n) Phi_o / (pi r^2), n the
 // view-space normal and w_o the octant weight (2cos(n, d_o) by default). Only diffuse (and
 // emissive, which the tracer treats as diffuse) samples are lit, as in tiled: the path class is
@@ -13,7 +13,7 @@
 #include "octants.h"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer Params { DirParams params; };
-layout(std430, binding = 1) readonly buffer Flux { float flux[]; };
+layout(std430, binding = 1) readonly buffer Flux { uint flux[]; };
 layout(binding = 2, rgba32f) readonly uniform image2D gbuffer_position;
 layout(binding = 3, rgba32f) readonly uniform image2D gbuffer_normal;
 layout(binding = 4, rgba32f) readonly uniform image2D gbuffer_albedo;
@@ -45,7 +45,7 @@ void main() {
         for (uint o = 0u; o < 8u; ++o)
           e += weights[o] * vec3(flux[at + 3u * o], flux[at + 3u * o + 1u], flux[at + 3u * o + 2u]);
       }
-      e *= params.radius.y;
+      e *= params.radius.y * params.radius.w;  // fixed point -> W, then / (pi r^2)
     }
   }
   imageStore(irradiance_out, pixel, vec4(e, 1.0));

@@ -1,9 +1,10 @@
 #version 460
 // splat (Paper I §4.3 traversal, §4.7 deposit): one invocation per photon walks the view-sample
-// cluster hierarchy from the roots its sphere can reach down to the accumulation level (Paper I's
-// "level 4", one above the leaves), iteratively with a small stack of child masks (§4.3). A node its
-// sphere encloses (any level up to the accumulation level) gets the photon's whole flux; an
-// accumulation-level node it only intersects gets the flux times the node's coverage (deposit =
+// cluster hierarchy from the roots its sphere can reach down to the stop level (the accumulation
+// level, Paper I's "level 4", one above the leaves; or the leaves with accumulate_at = leaves),
+// iteratively with a small stack of child masks (§4.3). A node its
+// sphere encloses (any level up to the stop level) gets the photon's whole flux; a stop-level node
+// it only intersects gets the flux times the node's coverage (deposit =
 // coverage, see below) or the whole flux (deposit = paper, as §4.7 states: "When a photon is found
 // to enclose a node, or intersect a leaf node, it adds its contribution"). The flux goes to the
 // bucket of the octant of the photon's view-space incident direction.
@@ -35,50 +36,45 @@ shared uint group_deposits;
 // iterations in all, silently, so the traversal keeps its own count and stops (counted) first.
 uint budget = 60000u;
 uint deposits = 0u;
-uint cas_failed = 0u;
-
-// Float add by compare-and-swap on the float's bits: the harness's device does not enable
-// VK_EXT_shader_atomic_float (lavapipe has it, a GPU may not), so no float atomics are used.
-void atomic_add_flux(uint at, float value) {
-  uint seen = flux[at];
-  for (uint attempt = 0u; attempt < 64u && budget > 0u; ++attempt) {
-    --budget;
-    uint prev = atomicCompSwap(flux[at], seen, floatBitsToUint(uintBitsToFloat(seen) + value));
-    if (prev == seen) return;
-    seen = prev;
-  }
-  ++cas_failed;
-}
 
 void deposit(uint cid, uint octant, vec3 phi) {
   if (all(equal(phi, vec3(0.0)))) return;
+  // Fixed point (see directional_common.h): one integer atomic per channel, no float atomics.
+  uvec3 q = uvec3(round(phi * params.radius.z));
   uint at = cid * 24u + octant * 3u;
-  atomic_add_flux(at, phi.r);
-  atomic_add_flux(at + 1u, phi.g);
-  atomic_add_flux(at + 2u, phi.b);
+  atomicAdd(flux[at], q.r);
+  atomicAdd(flux[at + 1u], q.g);
+  atomicAdd(flux[at + 2u], q.b);
   ++deposits;
 }
 
-// Share of an intersected node's samples inside the sphere (c, r): see the header comment.
-float coverage(uint level, uint key, vec3 c, float r) {
+// Ramp share of leaf `cid` inside the sphere (c, r), and its sample count: see the header comment.
+float leaf_share(uint cid, vec3 c, float r, out float n) {
+  uint count = leaf_stats[4u * cid];
+  n = float(count);
+  if (count == 0u) return 0.0;
+  vec3 lo, hi;
+  hier_aabb(cid, lo, hi);
+  vec3 extent = hi - lo;
+  vec3 sums = vec3(leaf_stats[4u * cid + 1u], leaf_stats[4u * cid + 2u], leaf_stats[4u * cid + 3u]);
+  vec3 sample_mean = lo + extent * sums / (n * DIR_CENTROID_SCALE);
+  float w = max(min(max(extent.x, max(extent.y, extent.z)), r), 1e-6);
+  float reff = sqrt(r * r - w * w / 12.0);
+  return clamp(0.5 + (reff - distance(c, sample_mean)) / w, 0.0, 1.0);
+}
+
+// Share of an intersected node's samples inside the sphere: its leaves' shares weighted by their
+// sample counts (the node is the leaves' parent, or a leaf itself with accumulate_at = leaves).
+float coverage(uint level, uint key, uint cid, vec3 c, float r) {
+  float n;
+  if (level == hier_leaf_level()) return leaf_share(cid, c, r, n);
   uint mask = hier_mask(level, key);
   float total = 0.0, inside = 0.0;
   while (mask != 0u && budget > 0u) {
     --budget;
     uint i = findLSB(mask);
     mask &= mask - 1u;
-    uint cid = hier_cid(level + 1u, hier_child_key(key, i));
-    uint count = leaf_stats[4u * cid];
-    if (count == 0u) continue;
-    float n = float(count);
-    vec3 lo, hi;
-    hier_aabb(cid, lo, hi);
-    vec3 extent = hi - lo;
-    vec3 sums = vec3(leaf_stats[4u * cid + 1u], leaf_stats[4u * cid + 2u], leaf_stats[4u * cid + 3u]);
-    vec3 sample_mean = lo + extent * sums / (n * DIR_CENTROID_SCALE);
-    float w = max(min(max(extent.x, max(extent.y, extent.z)), r), 1e-6);
-    float reff = sqrt(r * r - w * w / 12.0);
-    float f = clamp(0.5 + (reff - distance(c, sample_mean)) / w, 0.0, 1.0);
+    float f = leaf_share(hier_cid(level + 1u, hier_child_key(key, i)), c, r, n);
     total += n;
     inside += n * f;
   }
@@ -97,7 +93,7 @@ bool visit(uint level, uint key, vec3 c, float r, uint octant, vec3 phi, uint ac
   }
   if (level < acc) return true;
   bool paper = (params.counts.z & DIR_FLAG_DEPOSIT_PAPER) != 0u;
-  deposit(cid, octant, paper ? phi : phi * coverage(level, key, c, r));
+  deposit(cid, octant, paper ? phi : phi * coverage(level, key, cid, c, r));
   return false;
 }
 
@@ -188,7 +184,6 @@ void main() {
     }
     if (overflow) atomicAdd(stats[DIR_STAT_OVERFLOWS], 1u);
     if (deposits == 0u && !overflow) atomicAdd(stats[DIR_STAT_MISSED], 1u);
-    if (cas_failed > 0u) atomicAdd(stats[DIR_STAT_CAS_FAILED], cas_failed);
     atomicAdd(group_deposits, deposits);
   }
   barrier();
