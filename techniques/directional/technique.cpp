@@ -263,12 +263,21 @@ class Directional final : public pb::Technique {
     // hierarchy hands out ids level by level, so those levels' ids are [0, end of the stop level).
     uint32_t stop = stop_level();
     bucket_nodes_ = hierarchy_.first_cid(stop) + hierarchy_.node_capacity(stop);
+    uint32_t leaves = hierarchy_.node_capacity(hierarchy_.leaf_level());
+    uint64_t flux_bytes = uint64_t(bucket_nodes_) * kBucketFloats * 4;
+    uint64_t limit = gpu.physical().getProperties().limits.maxStorageBufferRange;
+    if (flux_bytes > limit)
+      throw pb::InputError(fmt::format(
+          "directional: accumulate_at = {} at {}x{} needs {} bytes of direction buckets, more than "
+          "the device's maxStorageBufferRange ({}); use accumulate_at = accumulation or a lower "
+          "resolution",
+          at_leaves_ ? "leaves" : "accumulation", width_, height_, flux_bytes, limit));
     auto storage = U::eStorageBuffer | U::eTransferDst;
     flux_ = gpu.create_buffer("directional/accum-flux",
-                              uint64_t(bucket_nodes_) * kBucketFloats * 4, storage,
+                              flux_bytes, storage,
                               Memory::device_local);
     leaf_counts_ = gpu.create_buffer("directional/leaf-counts",
-                                     uint64_t(hierarchy_.node_capacity()) * 16, storage,
+                                     uint64_t(leaves) * 16, storage,
                                      Memory::device_local);
     auto usage = vk::ImageUsageFlagBits::eStorage;
     auto format = vk::Format::eR32G32B32A32Sfloat;

@@ -2,7 +2,7 @@
 // splat/leaf-counts: for each leaf (the children of the accumulation level), the number of its view samples and the sum of their view-space positions, the weights
 // and centres of splat.comp's coverage estimate. Integer atomics only (the device enables no float
 // atomics): a position is summed as its offset in the child's AABB in units of 1/4096 of the box,
-// so 2^20 samples per child fit the 32-bit words. Four words per compact node id: count, x, y, z.
+// so 2^20 samples per child fit the 32-bit words. Four words per leaf (by cid - first leaf cid): count, x, y, z.
 #include "directional_common.h"
 #define HIER_BINDING 2
 #include "../../cluster/shaders/hierarchy.glsl"
@@ -20,8 +20,9 @@ void main() {
   hier_aabb(cid, lo, hi);
   vec3 p = (params.view * vec4(imageLoad(gbuffer_position, pixel).xyz, 1.0)).xyz;
   uvec3 q = uvec3(clamp((p - lo) / max(hi - lo, vec3(1e-12)), 0.0, 1.0) * DIR_CENTROID_SCALE);
-  atomicAdd(leaf_stats[4u * cid], 1u);
-  atomicAdd(leaf_stats[4u * cid + 1u], q.x);
-  atomicAdd(leaf_stats[4u * cid + 2u], q.y);
-  atomicAdd(leaf_stats[4u * cid + 3u], q.z);
+  uint at = 4u * (cid - hier.level[hier_leaf_level()].z);
+  atomicAdd(leaf_stats[at], 1u);
+  atomicAdd(leaf_stats[at + 1u], q.x);
+  atomicAdd(leaf_stats[at + 2u], q.y);
+  atomicAdd(leaf_stats[at + 3u], q.z);
 }

@@ -50,13 +50,14 @@ void deposit(uint cid, uint octant, vec3 phi) {
 
 // Ramp share of leaf `cid` inside the sphere (c, r), and its sample count: see the header comment.
 float leaf_share(uint cid, vec3 c, float r, out float n) {
-  uint count = leaf_stats[4u * cid];
+  uint at = 4u * (cid - hier.level[hier_leaf_level()].z);
+  uint count = leaf_stats[at];
   n = float(count);
   if (count == 0u) return 0.0;
   vec3 lo, hi;
   hier_aabb(cid, lo, hi);
   vec3 extent = hi - lo;
-  vec3 sums = vec3(leaf_stats[4u * cid + 1u], leaf_stats[4u * cid + 2u], leaf_stats[4u * cid + 3u]);
+  vec3 sums = vec3(leaf_stats[at + 1u], leaf_stats[at + 2u], leaf_stats[at + 3u]);
   vec3 sample_mean = lo + extent * sums / (n * DIR_CENTROID_SCALE);
   float w = max(min(max(extent.x, max(extent.y, extent.z)), r), 1e-6);
   float reff = sqrt(r * r - w * w / 12.0);
@@ -69,12 +70,13 @@ float coverage(uint level, uint key, uint cid, vec3 c, float r) {
   float n;
   if (level == hier_leaf_level()) return leaf_share(cid, c, r, n);
   uint mask = hier_mask(level, key);
+  if (mask == 0u) return 0.0;
+  // A node's leaves have consecutive cids in child-mask bit order (hierarchy_layout.h).
+  uint leaf_cid = hier_cid(level + 1u, hier_child_key(key, findLSB(mask)));
   float total = 0.0, inside = 0.0;
-  while (mask != 0u && budget > 0u) {
+  for (; mask != 0u && budget > 0u; mask &= mask - 1u, ++leaf_cid) {
     --budget;
-    uint i = findLSB(mask);
-    mask &= mask - 1u;
-    float f = leaf_share(hier_cid(level + 1u, hier_child_key(key, i)), c, r, n);
+    float f = leaf_share(leaf_cid, c, r, n);
     total += n;
     inside += n * f;
   }

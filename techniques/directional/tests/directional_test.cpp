@@ -213,20 +213,28 @@ TEST(Directional, DoublingPhotonsKeepsMeanIrradiance) {
   std::string yaml = header(dir) +
                      "techniques:\n"
                      "  - technique: directional\n"
-                     "    params: {photons: [20000, 40000], radius: 0.05, max_bounces: 12}\n";
+                     "    params: {photons: [20000, 40000], radius: 0.05, max_bounces: 12,\n"
+                     "             accumulate_at: [accumulation, leaves]}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   auto found = cells(dir, "cornell-box__directional__");
-  ASSERT_EQ(found.size(), 2u);
-  std::vector<double> added, stored;
+  ASSERT_EQ(found.size(), 4u);
+  // (accumulate_at, photons) -> mean indirect radiance and photons stored.
+  std::map<std::pair<std::string, std::string>, std::pair<double, double>> runs;
   for (const auto& cell : found) {
     expect_ok(cell);
-    added.push_back(mean_rgb(indirect0(cell)));
-    stored.push_back(counters(cell)["photons_stored"]);
+    auto params = read_json(cell / "cell.json")["params"];
+    runs[{params["accumulate_at"].get<std::string>(), params["photons"].get<std::string>()}] = {
+        mean_rgb(indirect0(cell)), counters(cell)["photons_stored"]};
   }
-  ASSERT_GT(added[0], 0);
-  EXPECT_GT(std::max(stored[0], stored[1]), 1.8 * std::min(stored[0], stored[1]));
-  EXPECT_NEAR(added[1] / added[0], 1.0, 0.05) << added[0] << " vs " << added[1];
-  std::printf("mean indirect at 2x photons / 1x: %.4f\n", added[1] / added[0]);
+  ASSERT_EQ(runs.size(), 4u);
+  for (const char* at : {"accumulation", "leaves"}) {
+    auto once = runs[{at, "20000"}], twice = runs[{at, "40000"}];
+    ASSERT_GT(once.first, 0) << at;
+    EXPECT_GT(twice.second, 1.8 * once.second) << at;
+    EXPECT_NEAR(twice.first / once.first, 1.0, 0.05) << at << ": " << once.first << " vs "
+                                                     << twice.first;
+    std::printf("%s: mean indirect at 2x photons / 1x: %.4f\n", at, twice.first / once.first);
+  }
   fs::remove_all(dir);
 }
 
