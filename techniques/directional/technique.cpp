@@ -28,6 +28,16 @@ using pb::gpu::Buffer;
 using pb::gpu::Memory;
 using U = vk::BufferUsageFlagBits;
 
+// The hierarchy layouts the cluster technique names (techniques/cluster/README.md, "Hierarchy
+// layout"; ROOT:XxYxZ per level, parsed by pb::cluster::HierarchyOptions::parse_layout), so a sweep
+// compares the two techniques on the same hierarchy. Each keeps the level above the leaves at 32x32
+// pixels.
+constexpr const char* kLayouts[] = {
+    "256:2x2x8,2x2x8,2x2x8,4x4x2",        // default: 5 levels, 8x8-pixel leaves
+    "128:2x2x8,2x2x8,4x4x2",              // shallow: 4 levels
+    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2",  // deep: 6 levels
+};
+
 const pb_param_spec kParams[] = {
     {"photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
      "light paths traced per frame (as tiled; Paper I counts stored photons)"},
@@ -42,6 +52,8 @@ const pb_param_spec kParams[] = {
     {"weighting", PB_PARAM_ENUM, 0, 0, 1, "cos2|clip", "",
      "octant weight at a sample: cos2 = Paper I's max(0, 2cos(n, d)); clip = share of the octant "
      "above the tangent plane (the correction Paper I describes and approximates)"},
+    {"layout", PB_PARAM_ENUM, 0, 0, 2, "default|shallow|deep", "",
+     "hierarchy layout, as the cluster technique's (README)"},
     {"accumulate_at", PB_PARAM_ENUM, 0, 0, 1, "accumulation|leaves", "",
      "lowest level with buckets: accumulation = one above the leaves (Paper I's level 4, "
      "default); leaves = the leaf clusters (finer, Paper I §5.2 sizes buckets down to them)"},
@@ -100,7 +112,9 @@ class Directional final : public pb::Technique {
     at_leaves_ = params.choice("accumulate_at") == "leaves";
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
     // The hierarchy without normal cones (Paper I Table 1: "Normal Cone -" for directional).
-    pb::cluster::HierarchyOptions options;
+    const std::string& layout = params.choice("layout");
+    auto options = pb::cluster::HierarchyOptions::parse_layout(
+        kLayouts[layout == "shallow" ? 1 : layout == "deep" ? 2 : 0], "layout");
     options.normal_cones = false;
     hierarchy_.setup(ctx.gpu(), options);
 

@@ -30,14 +30,11 @@ layout(std430, binding = 2) buffer Flux { uint flux[]; };
 layout(std430, binding = 3) readonly buffer LeafStats { uint leaf_stats[]; };
 layout(std430, binding = 4) buffer Stats { uint stats[]; };
 const float PI = 3.14159265358979;
-shared uint group_deposits;
-
-// Loop iterations this invocation has left: llvmpipe ends an invocation's loops after 65535
-// iterations in all, silently, so the traversal keeps its own count and stops (counted) first.
-uint budget = 60000u;
-uint deposits = 0u;
-
-void deposit(uint cid, uint octant, vec3 phi) {
+// Per invocation (locals of main, passed inout: llvmpipe keeps them in registers, and the shader
+// has no barrier): `budget` is the loop iterations it has left (llvmpipe ends an invocation's loops
+// after 65535 iterations in all, silently, so the traversal keeps its own count and stops, counted,
+// first), `deposits` the bucket adds it made.
+void deposit(uint cid, uint octant, vec3 phi, inout uint deposits) {
   if (all(equal(phi, vec3(0.0)))) return;
   // Fixed point (see directional_common.h): one integer atomic per channel, no float atomics.
   uvec3 q = uvec3(round(phi * params.radius.z));
@@ -66,7 +63,7 @@ float leaf_share(uint cid, vec3 c, float r, out float n) {
 
 // Share of an intersected node's samples inside the sphere: its leaves' shares weighted by their
 // sample counts (the node is the leaves' parent, or a leaf itself with accumulate_at = leaves).
-float coverage(uint level, uint key, uint cid, vec3 c, float r) {
+float coverage(uint level, uint key, uint cid, vec3 c, float r, inout uint budget) {
   float n;
   if (level == hier_leaf_level()) return leaf_share(cid, c, r, n);
   uint mask = hier_mask(level, key);
@@ -84,18 +81,19 @@ float coverage(uint level, uint key, uint cid, vec3 c, float r) {
 }
 
 // Visits node (level, key): deposits where the photon stops, returns true to descend.
-bool visit(uint level, uint key, vec3 c, float r, uint octant, vec3 phi, uint acc) {
+bool visit(uint level, uint key, vec3 c, float r, uint octant, vec3 phi, uint acc,
+           inout uint budget, inout uint deposits) {
   uint cid = hier_cid(level, key);
   vec3 lo, hi;
   hier_aabb(cid, lo, hi);
   if (!hier_sphere_intersects(lo, hi, c, r)) return false;
   if (hier_sphere_encloses(lo, hi, c, r)) {
-    deposit(cid, octant, phi);
+    deposit(cid, octant, phi, deposits);
     return false;
   }
   if (level < acc) return true;
   bool paper = (params.counts.z & DIR_FLAG_DEPOSIT_PAPER) != 0u;
-  deposit(cid, octant, paper ? phi : phi * coverage(level, key, cid, c, r));
+  deposit(cid, octant, paper ? phi : phi * coverage(level, key, cid, c, r, budget), deposits);
   return false;
 }
 
@@ -129,10 +127,9 @@ bool root_rect(vec3 p, float r, out uvec2 lo, out uvec2 hi) {
 }
 
 void main() {
-  if (gl_LocalInvocationIndex == 0u) group_deposits = 0u;
-  barrier();
   uint id = gl_GlobalInvocationID.x;
   if (id < params.counts.x) {
+    uint budget = 60000u, deposits = 0u;
     PhotonRecord photon = photons[id];
     float r = params.radius.x;
     vec3 c = (params.view * vec4(photon.position, 1.0)).xyz;
@@ -141,7 +138,6 @@ void main() {
     uint max_visits = params.counts.w;
     uint visits = 0u;
     bool overflow = false;
-    uint deposits_before = 0u;
     uvec2 rlo, rhi;
     if (root_rect(photon.position, r, rlo, rhi)) {
       uint stack[HIER_MAX_LEVELS];
@@ -154,7 +150,7 @@ void main() {
             overflow = true;
             break;
           }
-          if (!visit(0u, root, c, r, octant, photon.power, acc)) continue;
+          if (!visit(0u, root, c, r, octant, photon.power, acc, budget, deposits)) continue;
           uint level = 0u, key = root;
           stack[0] = hier_mask(0u, root);
           while (true) {
@@ -176,7 +172,7 @@ void main() {
               overflow = true;
               break;
             }
-            if (visit(level + 1u, child, c, r, octant, photon.power, acc)) {
+            if (visit(level + 1u, child, c, r, octant, photon.power, acc, budget, deposits)) {
               ++level;
               key = child;
               stack[level] = hier_mask(level, child);
@@ -186,8 +182,6 @@ void main() {
     }
     if (overflow) atomicAdd(stats[DIR_STAT_OVERFLOWS], 1u);
     if (deposits == 0u && !overflow) atomicAdd(stats[DIR_STAT_MISSED], 1u);
-    atomicAdd(group_deposits, deposits);
+    DIR_ADD64(stats, DIR_STAT_DEPOSITS, deposits);
   }
-  barrier();
-  if (gl_LocalInvocationIndex == 0u) DIR_ADD64(stats, DIR_STAT_DEPOSITS, group_deposits);
 }
