@@ -2,9 +2,20 @@
 
 #include <fmt/format.h>
 
+#include <ctime>
+
 #include "photonbench/error.h"
 
 namespace pb::run {
+
+double process_cpu_ms() {
+  // The kernel's per-process CPU clock sums every thread's run time, so lavapipe's work on its worker
+  // threads counts, and time spent runnable but waiting for a core does not (clock_gettime(2)).
+  timespec ts{};
+  if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
+    throw Error("clock_gettime(CLOCK_PROCESS_CPUTIME_ID) failed");
+  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
 
 Profiler::Profiler(gpu::Device& device, std::function<vk::CommandBuffer()> cmd, uint32_t max_passes)
     : device_(device), cmd_(std::move(cmd)), max_passes_(max_passes) {
@@ -31,6 +42,7 @@ int Profiler::begin_pass(std::string_view name) {
   std::string full = stack_.empty() ? std::string(name) : passes_[stack_.back()].name + "/" + std::string(name);
   int index = int(passes_.size());
   passes_.push_back({full, int(stack_.size()), uint32_t(2 * index), std::chrono::steady_clock::now()});
+  passes_.back().process_cpu_start = process_cpu_ms();
   stack_.push_back(index);
   vk::CommandBuffer cmd = cmd_();
   gpu::full_barrier(cmd);
@@ -50,14 +62,28 @@ void Profiler::end_pass(int pass) {
            open.waited_ms;
   };
   open.cpu_ms = cpu_now();
+  open.process_cpu_ms = process_cpu_ms() - open.process_cpu_start;
   if (open.name == slow_pass_ && slow_factor_ > 1.0) {
     bool gpu_dominates = flush_ && open.fenced_gpu_ms > open.cpu_ms;
-    double extra_ms = (slow_factor_ - 1.0) * (gpu_dominates ? open.fenced_gpu_ms : open.cpu_ms);
-    auto until = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(extra_ms);
-    while (std::chrono::steady_clock::now() < until) {
+    // Fenced (lavapipe): the pass's work is its process CPU time, which the spin stretches exactly;
+    // its wall time grows by what the spin takes (more where it waits for a core). A wall-time target
+    // there would add (factor - 1) x the pass's waiting too, so a loaded machine would make the slowed
+    // pass more than `factor` times the work. With timestamps, the CPU clock that dominates is stretched.
+    double extra_process_ms = flush_ ? (slow_factor_ - 1.0) * open.process_cpu_ms : 0.0;
+    double extra_wall_ms = flush_ ? 0.0 : (slow_factor_ - 1.0) * open.cpu_ms;
+    auto start = std::chrono::steady_clock::now();
+    double process_start = process_cpu_ms();
+    auto spun_ms = [&] {
+      return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    };
+    while (spun_ms() < extra_wall_ms || process_cpu_ms() - process_start < extra_process_ms) {
     }
-    if (gpu_dominates) open.fenced_gpu_ms += extra_ms, open.waited_ms += extra_ms;
+    double spun = spun_ms();
+    // Like a fence wait, the spin is GPU time of every pass still open (this one and its parents).
+    if (gpu_dominates)
+      for (int o : stack_) passes_[o].fenced_gpu_ms += spun, passes_[o].waited_ms += spun;
     open.cpu_ms = cpu_now();
+    open.process_cpu_ms = process_cpu_ms() - open.process_cpu_start;
   }
   open.closed = true;
   stack_.pop_back();
@@ -75,7 +101,7 @@ std::vector<PassSample> Profiler::end_frame() {
   for (const Open& open : passes_) {
     uint64_t begin = stamps[open.query] & mask, end = stamps[open.query + 1] & mask;
     double gpu_ms = flush_ ? open.fenced_gpu_ms : double((end - begin) & mask) * device_.timestamp_period_ns() * 1e-6;
-    samples.push_back({open.name, open.depth, gpu_ms, open.cpu_ms});
+    samples.push_back({open.name, open.depth, gpu_ms, open.cpu_ms, open.process_cpu_ms});
   }
   return samples;
 }
