@@ -72,15 +72,14 @@ const pb_param_spec kParams[] = {
      "that the blur keeps surfaces apart)"},
 };
 
-// Mirrors DirParams of shaders/directional_common.h (std430: two mat4, vec4, two uvec4).
+// Mirrors DirParams of shaders/directional_common.h (std430: mat4, vec4, two uvec4).
 struct DirParams {
   glm::mat4 view;
-  glm::mat4 view_projection;
   glm::vec4 radius;
   glm::uvec4 counts;
   glm::uvec4 size;
 };
-static_assert(sizeof(DirParams) == 176);
+static_assert(sizeof(DirParams) == 112);
 
 // Mirrors the push block of shaders/blur.comp.
 struct BlurPush {
@@ -186,7 +185,6 @@ class Directional final : public pb::Technique {
     uint32_t stop = stop_level();
     DirParams p{};
     p.view = frame.camera.view;
-    p.view_projection = frame.camera.view_projection;
     p.radius = glm::vec4(radius_, 1.0f / (3.14159265358979f * radius_ * radius_), flux_scale_,
                          1.0f / flux_scale_);
     p.counts = glm::uvec4(photon_count, stop, flags_, max_visits_);

@@ -1,5 +1,5 @@
 // What every directional pass reads besides the hierarchy: one small host-written storage block per
-// frame (the camera matrices do not fit the 128 push-constant bytes together) and the bucket layout.
+// frame (bound like the hierarchy's buffers, so every pass takes the same data) and the bucket layout.
 //
 // Bucket layout (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact node
 // id, levels 0 .. accumulation level) owns words [24 c, 24 c + 24) of flux[]: octant o's RGB flux at
@@ -28,7 +28,6 @@
 
 struct DirParams {
   mat4 view;             // world -> view (right-handed, the camera looks along -z)
-  mat4 view_projection;  // world -> clip
   vec4 radius;           // x r (m), y 1 / (pi r^2), z flux fixed-point scale, w 1 / scale
   uvec4 counts;          // x photons, y stop level (deposits at and above it), z DIR_FLAG_*, w max visits per photon
   uvec4 size;            // x width, y height (pixels)
