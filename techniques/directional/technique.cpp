@@ -1,10 +1,10 @@
 // directional: Paper I's directional approximation (Moreau et al. 2016, §4.7, §5.1, §5.2): photons
-// are splatted into the view-sample cluster hierarchy, but instead of per-node photon lists each node
-// of the accumulation level (one above the leaves, Paper I's "level 4") and above keeps the flux that
-// reaches it in eight direction buckets (the octants of the incident direction in view space); each
-// view sample then sums its containing nodes' buckets, weighted by the tangent-plane heuristic 2cos(n, d),
-// into an irradiance texture, which a depth- and normal-aware blur smooths before the diffuse BRDF
-// turns it into the indirect radiance the shared shade pass adds.
+// are splatted into the view-sample cluster hierarchy, but instead of per-node photon lists each
+// node of the accumulation level (one above the leaves, Paper I's "level 4") and above keeps the
+// flux that reaches it in eight direction buckets (the octants of the incident direction in view
+// space); each view sample then sums its containing nodes' buckets, weighted by the tangent-plane
+// heuristic 2cos(n, d), into an irradiance texture, which a depth- and normal-aware blur smooths
+// before the diffuse BRDF turns it into the indirect radiance the shared shade pass adds.
 //
 // Per frame: photon-trace / photon-upload (as tiled), gbuffer, direct-light, cluster-build (the
 // hierarchy of techniques/cluster, shared with the cluster technique), splat, radiance-estimate,
@@ -58,7 +58,8 @@ const pb_param_spec kParams[] = {
      "lowest level with buckets: accumulation = one above the leaves (Paper I's level 4, "
      "default); leaves = the leaf clusters (finer, Paper I §5.2 sizes buckets down to them)"},
     {"blur_radius", PB_PARAM_INT, -1, -1, 64, nullptr, "pixels",
-     "taps on each side of the separable depth/normal-aware blur; 0 turns the blur off; -1 (default) "
+     "taps on each side of the separable depth/normal-aware blur; 0 turns the blur off; -1 "
+     "(default) "
      "= half the screen side of a stop-level node (16 for the 32-pixel accumulation level)"},
     {"blur_depth_sigma", PB_PARAM_FLOAT, 0.02, 1e-6, 1e6, nullptr, "",
      "blur depth awareness: distance from the tangent plane, relative to the camera distance"},
@@ -112,8 +113,10 @@ class Directional final : public pb::Technique {
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
     // The hierarchy without normal cones (Paper I Table 1: "Normal Cone -" for directional).
     const std::string& layout = params.choice("layout");
-    auto options = pb::cluster::HierarchyOptions::parse_layout(
-        kLayouts[layout == "shallow" ? 1 : layout == "deep" ? 2 : 0], "layout");
+    auto options = pb::cluster::HierarchyOptions::parse_layout(kLayouts[layout == "shallow" ? 1
+                                                                        : layout == "deep"  ? 2
+                                                                                            : 0],
+                                                               "layout");
     options.normal_cones = false;
     hierarchy_.setup(ctx.gpu(), options);
 
@@ -126,11 +129,13 @@ class Directional final : public pb::Technique {
       return own;
     };
     leaf_counts_pipeline_ = gpu.create_compute_pipeline(
-        "directional/leaf-counts", kleaf_counts_comp_spv, [&] {
+        "directional/leaf-counts", kleaf_counts_comp_spv,
+        [&] {
           auto b = with_hierarchy({B, B});
           b.push_back(I);
           return b;
-        }(), 0);
+        }(),
+        0);
     splat_pipeline_ = gpu.create_compute_pipeline("directional/splat", ksplat_comp_spv,
                                                   with_hierarchy({B, B, B, B, B}), 0);
     estimate_pipeline_ =
@@ -215,8 +220,8 @@ class Directional final : public pb::Technique {
       {
         auto scope = ctx.pass("deposit");
         auto cmd = ctx.cmd();
-        splat_pipeline_.bind(cmd, {&params_, &photons_, &flux_, &leaf_counts_, &stats_, h[0],
-                                   h[1], h[2], h[3], h[4], h[5], h[6]});
+        splat_pipeline_.bind(cmd, {&params_, &photons_, &flux_, &leaf_counts_, &stats_, h[0], h[1],
+                                   h[2], h[3], h[4], h[5], h[6]});
         if (photon_count) cmd.dispatch(pb::gpu::groups_for(photon_count, 64), 1, 1);
       }
     }
@@ -238,8 +243,8 @@ class Directional final : public pb::Technique {
       BlurPush push{width_, height_, radius, 0, blur_depth_sigma_, blur_normal_sigma_, 0, 0};
       const pb::gpu::Image* source = &irradiance_;
       if (radius > 0) {
-        blur_pipeline_.bind(cmd, {gbuf.position, gbuf.normal, gbuf.albedo, &irradiance_, &blur_tmp_},
-                            push);
+        blur_pipeline_.bind(
+            cmd, {gbuf.position, gbuf.normal, gbuf.albedo, &irradiance_, &blur_tmp_}, push);
         cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
         pb::gpu::full_barrier(cmd);
         source = &blur_tmp_;
@@ -285,11 +290,8 @@ class Directional final : public pb::Technique {
           "resolution",
           at_leaves_ ? "leaves" : "accumulation", width_, height_, flux_bytes, limit));
     auto storage = U::eStorageBuffer | U::eTransferDst;
-    flux_ = gpu.create_buffer("directional/accum-flux",
-                              flux_bytes, storage,
-                              Memory::device_local);
-    leaf_counts_ = gpu.create_buffer("directional/leaf-counts",
-                                     uint64_t(leaves) * 16, storage,
+    flux_ = gpu.create_buffer("directional/accum-flux", flux_bytes, storage, Memory::device_local);
+    leaf_counts_ = gpu.create_buffer("directional/leaf-counts", uint64_t(leaves) * 16, storage,
                                      Memory::device_local);
     auto usage = vk::ImageUsageFlagBits::eStorage;
     auto format = vk::Format::eR32G32B32A32Sfloat;

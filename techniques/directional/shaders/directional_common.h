@@ -1,14 +1,15 @@
 // What every directional pass reads besides the hierarchy: one small host-written storage block per
-// frame (bound like the hierarchy's buffers, so every pass takes the same data) and the bucket layout.
+// frame (bound like the hierarchy's buffers, so every pass takes the same data) and the bucket
+// layout.
 //
-// Bucket layout (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact node
-// id, levels 0 .. accumulation level) owns words [24 c, 24 c + 24) of flux[]: octant o's RGB flux at
-// 24 c + 3 o + channel, in watts, in fixed point: the harness's device enables no float atomics, so
-// each deposit adds round(Phi * scale) with one integer atomicAdd. scale = 4e9 / (the largest
-// channel's total flux of the frame's photons): no bucket can receive more than every photon's whole
-// flux once, so a word never overflows (4e9 + N/2 rounding units < 2^32 for N < 5e8 photons), and a
-// photon's flux is resolved to ~N / 4e9 of itself. Integer sums are also order-independent, so the
-// buckets are the same bits on every run.
+// Bucket layout (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact
+// node id, levels 0 .. accumulation level) owns words [24 c, 24 c + 24) of flux[]: octant o's RGB
+// flux at 24 c + 3 o + channel, in watts, in fixed point: the harness's device enables no float
+// atomics, so each deposit adds round(Phi * scale) with one integer atomicAdd. scale = 4e9 / (the
+// largest channel's total flux of the frame's photons): no bucket can receive more than every
+// photon's whole flux once, so a word never overflows (4e9 + N/2 rounding units < 2^32 for N < 5e8
+// photons), and a photon's flux is resolved to ~N / 4e9 of itself. Integer sums are also
+// order-independent, so the buckets are the same bits on every run.
 #ifndef DIRECTIONAL_COMMON_H
 #define DIRECTIONAL_COMMON_H
 
@@ -29,7 +30,8 @@
 struct DirParams {
   mat4 view;             // world -> view (right-handed, the camera looks along -z)
   vec4 radius;           // x r (m), y 1 / (pi r^2), z flux fixed-point scale, w 1 / scale
-  uvec4 counts;          // x photons, y stop level (deposits at and above it), z DIR_FLAG_*, w max visits per photon
+  uvec4 counts;          // x photons, y stop level (deposits at and above it), z DIR_FLAG_*,
+                         // w max visits per photon
   uvec4 size;            // x width, y height (pixels)
 };
 

@@ -1,8 +1,8 @@
 // The eight direction buckets of Paper I §4.7: "we store the flux incoming from each octant of the
-// sphere", in view space. A photon's bucket is the sign pattern of its incident direction
-// w = -(direction of travel), the direction it came from, in view coordinates: bit 0 set when w.x < 0,
-// bit 1 when w.y < 0, bit 2 when w.z < 0. An octant's representative direction is its centre
-// (+-1, +-1, +-1) / sqrt(3) (the paper does not name one; digest §4 [GAP]).
+// sphere", in view space. A photon's bucket is the sign pattern of its incident direction w =
+// -(direction of travel), the direction it came from, in view coordinates: bit 0 set when w.x < 0,
+// bit 1 when w.y < 0, bit 2 when w.z < 0. An octant's representative direction is its centre (+-1,
+// +-1, +-1) / sqrt(3) (the paper does not name one; digest §4 [GAP]).
 #ifndef DIRECTIONAL_OCTANTS_H
 #define DIRECTIONAL_OCTANTS_H
 
@@ -23,10 +23,11 @@ float octant_weight_cos2(vec3 n, uint o) {
 }
 
 // The weight Paper I describes as the exact correction and replaces by the heuristic: the share of
-// the octant's solid angle that lies above the tangent plane of normal n (the paper suggests a small
-// cubemap of these; here 8x8 directions uniform in solid angle per octant, z and azimuth stratified:
-// Archimedes' theorem makes z uniform on the sphere). On an axis-aligned surface it is exactly 1 or 0
-// per octant, so the estimate equals the tangent-plane test of the list-based methods there.
+// the octant's solid angle that lies above the tangent plane of normal n (the paper suggests a
+// small cubemap of these; here 8x8 directions uniform in solid angle per octant, z and azimuth
+// stratified: Archimedes' theorem makes z uniform on the sphere). On an axis-aligned surface it is
+// exactly 1 or 0 per octant, so the estimate equals the tangent-plane test of the list-based
+// methods there.
 void octant_weights_clip(vec3 n, out float weights[8]) {
   for (uint o = 0u; o < 8u; ++o) weights[o] = 0.0;
   const float HALF_PI = 1.57079632679;

@@ -1,11 +1,11 @@
 #version 460
 // radiance-estimate (Paper I §4.7): "we no longer have to process a list but simply evaluate the
-// incoming flux from each direction, for all nodes that contain the view sample". One invocation per
-// pixel reads the buckets of its stop-level node (accumulation level or leaf) and its ancestors (the nodes a photon
-// can have deposited into for this sample) and sums E = sum_o w_o(n) Phi_o / (pi r^2), n the
-// view-space normal and w_o the octant weight (2cos(n, d_o) by default). Only diffuse (and
-// emissive, which the tracer treats as diffuse) samples are lit, as in tiled: the path class is
-// C D (D|S)* D (D|S)* L. The result is irradiance (W/m^2); the blur applies the BRDF.
+// incoming flux from each direction, for all nodes that contain the view sample". One invocation
+// per pixel reads the buckets of its stop-level node (accumulation level or leaf) and its ancestors
+// (the nodes a photon can have deposited into for this sample) and sums E = sum_o w_o(n) Phi_o /
+// (pi r^2), n the view-space normal and w_o the octant weight (2cos(n, d_o) by default). Only
+// diffuse (and emissive, which the tracer treats as diffuse) samples are lit, as in tiled: the path
+// class is C D (D|S)* D (D|S)* L. The result is irradiance (W/m^2); the blur applies the BRDF.
 #include "scene_layout.h"
 #include "directional_common.h"
 #define HIER_BINDING 6

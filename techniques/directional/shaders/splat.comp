@@ -10,14 +10,14 @@
 // bucket of the octant of the photon's view-space incident direction.
 //
 // Coverage: the share of the node's view samples inside the sphere, estimated from its children
-// (the leaves): each child weighs its sample count (leaf_counts.comp) times a ramp in the distance d
-// from the photon to the centroid of the child's samples, clamp(0.5 + (r' - d) / w, 0, 1) with
-// w = min(child extent, r) and r'^2 = r^2 - w^2 / 12. The ramp is a smoothed "centroid inside the
-// sphere", whose integral over photon positions on a plane is pi r^2, as is that of the exact share
-// of a planar child's samples inside the sphere: over many photons the deposits are unbiased for
-// planar children, and only noisier than the exact share. Without it, at low
-// resolution (nodes much larger than r) every intersected node would receive the whole flux and
-// the estimate would be many times too bright (README: deviations).
+// (the leaves): each child weighs its sample count (leaf_counts.comp) times a ramp in the distance
+// d from the photon to the mean position of the child's samples, clamp(0.5 + (r' - d) / w, 0, 1)
+// with w = min(child extent, r) and r'^2 = r^2 - w^2 / 12. The ramp is a smoothed "mean position
+// inside the sphere", whose integral over photon positions on a plane is pi r^2, as is that of the
+// exact share of a planar child's samples inside the sphere: over many photons the deposits are
+// unbiased for planar children, only noisier than the exact share. Without it, at low resolution
+// (nodes much larger than r) every intersected node would receive the whole flux and the estimate
+// would be many times too bright (README: deviations).
 #include "photon_layout.h"
 #include "directional_common.h"
 #define HIER_BINDING 5
@@ -109,8 +109,7 @@ void main() {
     uint max_visits = params.counts.w;
     uint visits = 0u;
     bool overflow = false;
-    // Every occupied root, as cluster's top pass (a screen-rectangle cull of the roots first was
-    // measured 2x slower on lavapipe: the sphere/AABB test rejects the others at once).
+    // Every occupied root, as cluster's top pass: the sphere/AABB test rejects far roots at once.
     uint stack[HIER_MAX_LEVELS];
     uint roots = hier_count(0u);
     for (uint ri = 0u; ri < roots && !overflow; ++ri) {

@@ -1,8 +1,9 @@
 // directional technique, end to end through `photonbench run` (with Vulkan validation): on
 // cornell-box its image is close to tiled's with the same photons (FLIP and the mean of the added
 // indirect light), its blur does not carry irradiance across depth or normal edges, doubling the
-// photons at a fixed radius keeps the mean irradiance (flux is conserved by the node buckets), and a
-// photon that would visit too many nodes is counted and warned about instead of being lost silently.
+// photons at a fixed radius keeps the mean irradiance (flux is conserved by the node buckets), and
+// a photon that would visit too many nodes is counted and warned about instead of being lost
+// silently.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -124,7 +125,8 @@ std::string header(const fs::path& dir) {
 }
 
 // Paper I §4.7 presents directional as an approximation with "minimal" quality loss against the
-// list-based methods, which tiled stands for here (same photons, same radius, same constant kernel).
+// list-based methods, which tiled stands for here (same photons, same radius, same constant
+// kernel).
 TEST(Directional, CloseToTiledOnCornellBox) {
   fs::path dir = work_dir("tiled");
   std::string yaml = header(dir) +
@@ -150,8 +152,8 @@ TEST(Directional, CloseToTiledOnCornellBox) {
   // HDR-FLIP of the full image against tiled's; the bound is justified in README.md ("Tests").
   double flip = pb::metrics::flip(t, a).stats.mean;
   EXPECT_LT(flip, kFlipBound) << "FLIP(tiled, directional) = " << flip;
-  std::printf("directional/tiled indirect mean %.4f, FLIP %.4f\n",
-              added_directional / added_tiled, flip);
+  std::printf("directional/tiled indirect mean %.4f, FLIP %.4f\n", added_directional / added_tiled,
+              flip);
   auto sums = counters(directional[0]);
   EXPECT_GT(sums["photons_stored"], 0);
   EXPECT_GT(sums["node_deposits"], 0);
@@ -231,8 +233,8 @@ TEST(Directional, DoublingPhotonsKeepsMeanIrradiance) {
     auto once = runs[{at, "20000"}], twice = runs[{at, "40000"}];
     ASSERT_GT(once.first, 0) << at;
     EXPECT_GT(twice.second, 1.8 * once.second) << at;
-    EXPECT_NEAR(twice.first / once.first, 1.0, 0.05) << at << ": " << once.first << " vs "
-                                                     << twice.first;
+    EXPECT_NEAR(twice.first / once.first, 1.0, 0.05)
+        << at << ": " << once.first << " vs " << twice.first;
     std::printf("%s: mean indirect at 2x photons / 1x: %.4f\n", at, twice.first / once.first);
   }
   fs::remove_all(dir);
