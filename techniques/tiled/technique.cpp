@@ -78,6 +78,13 @@ class Tiled final : public pb::Technique {
           "tiled: tile_size = " + std::to_string(tile_size_) +
           " must be a multiple of 8 (the 8x8 work groups of tile-bounds must lie in one tile)");
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
+    // The lists are one storage-buffer binding: lavapipe allows 128 MiB (maxStorageBufferRange).
+    uint64_t limit = ctx.gpu().physical().getProperties().limits.maxStorageBufferRange;
+    if (uint64_t(capacity_) * 4 > limit)
+      throw pb::InputError(fmt::format(
+          "tiled: max_list_entries = {} (4 bytes each) exceeds the device's maxStorageBufferRange of {} "
+          "bytes",
+          capacity_, limit));
 
     auto& gpu = ctx.gpu();
     constexpr uint32_t kPush = sizeof(Push);
