@@ -8,7 +8,9 @@
 //
 // Per frame: photon-trace / photon-upload (as tiled), gbuffer, direct-light, cluster-build (the
 // hierarchy of techniques/cluster, shared with the cluster technique), splat, radiance-estimate,
-// blur, shade.
+// blur, shade. An intersected (not enclosed) node receives the photon's flux times the share of its
+// samples inside the sphere, not the whole flux as Paper I's text has it (parameter `deposit`;
+// README: deviations).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -113,10 +115,8 @@ class Directional final : public pb::Technique {
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
     // The hierarchy without normal cones (Paper I Table 1: "Normal Cone -" for directional).
     const std::string& layout = params.choice("layout");
-    auto options = pb::cluster::HierarchyOptions::parse_layout(kLayouts[layout == "shallow" ? 1
-                                                                        : layout == "deep"  ? 2
-                                                                                            : 0],
-                                                               "layout");
+    int layout_index = layout == "shallow" ? 1 : layout == "deep" ? 2 : 0;
+    auto options = pb::cluster::HierarchyOptions::parse_layout(kLayouts[layout_index], "layout");
     options.normal_cones = false;
     hierarchy_.setup(ctx.gpu(), options);
 
@@ -210,11 +210,11 @@ class Directional final : public pb::Technique {
         cmd.fillBuffer(flux_.handle(), 0, VK_WHOLE_SIZE, 0u);
         cmd.fillBuffer(stats_.handle(), 0, VK_WHOLE_SIZE, 0u);
         pb::gpu::full_barrier(cmd);
-        if ((flags_ & kFlagDepositPaper) == 0)
+        if ((flags_ & kFlagDepositPaper) == 0) {  // the coverage estimate's weights
           leaf_counts_pipeline_.bind(cmd, {&params_, &leaf_counts_, h[0], h[1], h[2], h[3], h[4],
                                            h[5], h[6], gbuf.position});
-        if ((flags_ & kFlagDepositPaper) == 0)
           cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
+        }
       }
       pb::gpu::full_barrier(ctx.cmd());
       {
