@@ -75,7 +75,8 @@ const pb_param_spec kParams[] = {
      "that the blur keeps surfaces apart)"},
 };
 
-// Mirrors DirParams of shaders/directional_common.h (std430: mat4, vec4, two uvec4).
+// Mirrors DirParams of shaders/directional_common.h, the push constants of every pass but the blur
+// (std430: mat4, vec4, two uvec4).
 struct DirParams {
   glm::mat4 view;
   glm::vec4 radius;
@@ -131,20 +132,18 @@ class Directional final : public pb::Technique {
     leaf_counts_pipeline_ = gpu.create_compute_pipeline(
         "directional/leaf-counts", kleaf_counts_comp_spv,
         [&] {
-          auto b = with_hierarchy({B, B});
+          auto b = with_hierarchy({B});
           b.push_back(I);
           return b;
         }(),
-        0);
+        sizeof(DirParams));
     splat_pipeline_ = gpu.create_compute_pipeline("directional/splat", ksplat_comp_spv,
-                                                  with_hierarchy({B, B, B, B, B}), 0);
+                                                  with_hierarchy({B, B, B, B}), sizeof(DirParams));
     estimate_pipeline_ =
         gpu.create_compute_pipeline("directional/radiance-estimate", kradiance_estimate_comp_spv,
-                                    with_hierarchy({B, B, I, I, I, I}), 0);
+                                    with_hierarchy({B, I, I, I, I}), sizeof(DirParams));
     blur_pipeline_ = gpu.create_compute_pipeline("directional/blur", kblur_comp_spv,
                                                  {I, I, I, I, I}, sizeof(BlurPush));
-    params_ = gpu.create_buffer("directional/params", sizeof(DirParams), U::eStorageBuffer,
-                                Memory::host_visible);
     stats_ = gpu.create_buffer("directional/stats", kStatWords * 4,
                                U::eStorageBuffer | U::eTransferDst, Memory::host_visible);
   }
@@ -194,7 +193,6 @@ class Directional final : public pb::Technique {
                          1.0f / flux_scale_);
     p.counts = glm::uvec4(photon_count, stop, flags_, max_visits_);
     p.size = glm::uvec4(width_, height_, 0, 0);
-    std::memcpy(params_.mapped(), &p, sizeof(p));
 
     auto h = hierarchy_.bindings();
     auto gbuf = ctx.shared().gbuffer_images();
@@ -211,8 +209,8 @@ class Directional final : public pb::Technique {
         cmd.fillBuffer(stats_.handle(), 0, VK_WHOLE_SIZE, 0u);
         pb::gpu::full_barrier(cmd);
         if ((flags_ & kFlagDepositPaper) == 0) {  // the coverage estimate's weights
-          leaf_counts_pipeline_.bind(cmd, {&params_, &leaf_counts_, h[0], h[1], h[2], h[3], h[4],
-                                           h[5], h[6], gbuf.position});
+          leaf_counts_pipeline_.bind(
+              cmd, {&leaf_counts_, h[0], h[1], h[2], h[3], h[4], h[5], h[6], gbuf.position}, p);
           cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
         }
       }
@@ -220,8 +218,10 @@ class Directional final : public pb::Technique {
       {
         auto scope = ctx.pass("deposit");
         auto cmd = ctx.cmd();
-        splat_pipeline_.bind(cmd, {&params_, &photons_, &flux_, &leaf_counts_, &stats_, h[0], h[1],
-                                   h[2], h[3], h[4], h[5], h[6]});
+        splat_pipeline_.bind(
+            cmd,
+            {&photons_, &flux_, &leaf_counts_, &stats_, h[0], h[1], h[2], h[3], h[4], h[5], h[6]},
+            p);
         if (photon_count) cmd.dispatch(pb::gpu::groups_for(photon_count, 64), 1, 1);
       }
     }
@@ -229,8 +229,10 @@ class Directional final : public pb::Technique {
     {
       auto scope = ctx.pass("radiance-estimate");
       auto cmd = ctx.cmd();
-      estimate_pipeline_.bind(cmd, {&params_, &flux_, gbuf.position, gbuf.normal, gbuf.albedo,
-                                    &irradiance_, h[0], h[1], h[2], h[3], h[4], h[5], h[6]});
+      estimate_pipeline_.bind(cmd,
+                              {&flux_, gbuf.position, gbuf.normal, gbuf.albedo, &irradiance_, h[0],
+                               h[1], h[2], h[3], h[4], h[5], h[6]},
+                              p);
       cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
     }
     pb::gpu::full_barrier(ctx.cmd());
@@ -330,7 +332,7 @@ class Directional final : public pb::Technique {
   uint32_t width_ = 0, height_ = 0, bucket_nodes_ = 0;
   pb::cluster::Hierarchy hierarchy_;
   pb::trace::PhotonBatch batch_;
-  Buffer params_, photons_, flux_, leaf_counts_, stats_;
+  Buffer photons_, flux_, leaf_counts_, stats_;
   pb::gpu::Image irradiance_, blur_tmp_, indirect_;
   pb::gpu::Pipeline leaf_counts_pipeline_, splat_pipeline_, estimate_pipeline_, blur_pipeline_;
 };

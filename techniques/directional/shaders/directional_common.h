@@ -1,6 +1,5 @@
-// What every directional pass reads besides the hierarchy: one small host-written storage block per
-// frame (bound like the hierarchy's buffers, so every pass takes the same data) and the bucket
-// layout.
+// What every directional pass reads besides the hierarchy: the push constants (one block for every
+// pass, 112 of the 128 bytes Vulkan guarantees) and the bucket layout.
 //
 // Bucket layout (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact
 // node id, levels 0 .. accumulation level) owns words [24 c, 24 c + 24) of flux[]: octant o's RGB

@@ -5,11 +5,11 @@
 // summed as its offset in the child's AABB in units of 1/4096 of the box, so 2^20 samples per child
 // fit the 32-bit words. Four words per leaf (by cid - first leaf cid): count, x, y, z.
 #include "directional_common.h"
-#define HIER_BINDING 2
+#define HIER_BINDING 1
 #include "../../cluster/shaders/hierarchy.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 0) readonly buffer Params { DirParams params; };
-layout(std430, binding = 1) buffer LeafStats { uint leaf_stats[]; };
+layout(push_constant) uniform Push { DirParams params; };
+layout(std430, binding = 0) buffer LeafStats { uint leaf_stats[]; };
 layout(binding = HIER_BINDING + HIER_BINDING_COUNT, rgba32f) readonly uniform image2D
     gbuffer_position;
 void main() {

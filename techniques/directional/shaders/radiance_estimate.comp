@@ -8,16 +8,16 @@
 // class is C D (D|S)* D (D|S)* L. The result is irradiance (W/m^2); the blur applies the BRDF.
 #include "scene_layout.h"
 #include "directional_common.h"
-#define HIER_BINDING 6
+#define HIER_BINDING 5
 #include "../../cluster/shaders/hierarchy.glsl"
 #include "octants.h"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 0) readonly buffer Params { DirParams params; };
-layout(std430, binding = 1) readonly buffer Flux { uint flux[]; };
-layout(binding = 2, rgba32f) readonly uniform image2D gbuffer_position;
-layout(binding = 3, rgba32f) readonly uniform image2D gbuffer_normal;
-layout(binding = 4, rgba32f) readonly uniform image2D gbuffer_albedo;
-layout(binding = 5, rgba32f) writeonly uniform image2D irradiance_out;
+layout(push_constant) uniform Push { DirParams params; };
+layout(std430, binding = 0) readonly buffer Flux { uint flux[]; };
+layout(binding = 1, rgba32f) readonly uniform image2D gbuffer_position;
+layout(binding = 2, rgba32f) readonly uniform image2D gbuffer_normal;
+layout(binding = 3, rgba32f) readonly uniform image2D gbuffer_albedo;
+layout(binding = 4, rgba32f) writeonly uniform image2D irradiance_out;
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);

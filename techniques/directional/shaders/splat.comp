@@ -20,15 +20,15 @@
 // would be many times too bright (README: deviations).
 #include "photon_layout.h"
 #include "directional_common.h"
-#define HIER_BINDING 5
+#define HIER_BINDING 4
 #include "../../cluster/shaders/hierarchy.glsl"
 #include "octants.h"
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Params { DirParams params; };
-layout(std430, binding = 1) readonly buffer Photons { PhotonRecord photons[]; };
-layout(std430, binding = 2) buffer Flux { uint flux[]; };
-layout(std430, binding = 3) readonly buffer LeafStats { uint leaf_stats[]; };
-layout(std430, binding = 4) buffer Stats { uint stats[]; };
+layout(push_constant) uniform Push { DirParams params; };
+layout(std430, binding = 0) readonly buffer Photons { PhotonRecord photons[]; };
+layout(std430, binding = 1) buffer Flux { uint flux[]; };
+layout(std430, binding = 2) readonly buffer LeafStats { uint leaf_stats[]; };
+layout(std430, binding = 3) buffer Stats { uint stats[]; };
 const float PI = 3.14159265358979;
 // Per invocation (locals of main, passed inout: llvmpipe keeps them in registers, and the shader
 // has no barrier): `budget` is the loop iterations it has left (llvmpipe ends an invocation's loops
