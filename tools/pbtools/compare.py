@@ -1,20 +1,49 @@
-"""photonbench compare BASE_RUN NEW_RUN: did the change make any pass slower, or any image worse?
+"""photonbench compare BASE NEW: did the change make any pass slower, or any image worse?
 
-Timing, per cell and per pass (frames.csv, every measured frame is one sample):
-  * change      = median(new) / median(base) - 1
-  * test        = two-sided Mann-Whitney U on the two sets of per-frame samples: rank-based, so it needs
-                  no normality and one slow frame (a spike from another process) moves it little;
-  * noise       = each run's own robust per-frame noise, 1.4826 * MAD of successive differences / sqrt(2),
-                  relative to its median. Successive differences remove the animation's slow change
-                  of cost along the camera path, which is signal, not noise; MAD ignores spikes.
-  * verdict     = slower when p < alpha AND change > max(threshold, k * noise) AND the absolute change
-                  exceeds --min-ms; faster symmetrically. The p-value alone is not enough: two runs on a
-                  noisy machine differ systematically by a few percent (clock, load), and with dozens of
-                  frames a U test detects that; the threshold is the smallest change worth a red CI.
-Metrics, per cell and path class (means over the metric frames of metrics.csv): error quantities are
-compared relatively: FLIP and relMSE directly, SSIM through 1-SSIM, PSNR through the MSE it stands for
-(a drop of d dB is an MSE ratio of 10^(d/10)); worse beyond --metric-tol percent is a regression.
-A cell that was ok and now fails is a regression. Exit 1 on any regression, else 0 (2: bad input).
+BASE and NEW are each a run directory, or a folder of run directories: replicate runs of one build and
+config (e.g. results/new/1, results/new/2, results/new/3), ideally interleaved in time with the other
+side's. Replicates are what make the verdict trustworthy on a shared machine (see "Noise" below).
+
+Timing, per cell and per pass (frames.csv; every measured frame of every replicate is one sample):
+  * clock       = on fenced runs (lavapipe: cell.json "timing": "fenced") with a process_cpu_ms column,
+                  the CPU time the cell's process spent in the pass (all threads, lavapipe's workers
+                  included), else the harness's rule (the larger of gpu_ms and cpu_ms). On lavapipe the
+                  "GPU" is the CPU: a pass's wall time there includes waiting for a core while other jobs
+                  run, its CPU time is the work it did. --clock picks one for every cell.
+  * level       = the mean of the FLOOR_SAMPLES (3) fastest frames of all the side's replicates. Other
+                  processes only ever add time to a frame (preemption, cold caches after another job ran,
+                  page faults), so the low end of the samples is the cost of the pass itself and the
+                  median is a mix of that and the machine's load (Chen & Revels, "Robust benchmarking in
+                  noisy environments", 2016, argue the same for the minimum). Three rather than one, so
+                  one oddly fast frame does not decide. The medians are reported beside it.
+  * change      = level(new) / level(base) - 1.
+  * test        = two-sided Mann-Whitney U on the two sides' per-frame samples: a gate that the frames
+                  differ at all (p < alpha). Frames of one run share its conditions, so p is overconfident
+                  about runs; it never decides alone: the limit below carries the run-to-run noise.
+  * noise       = with >= 2 replicates on a side, the run-to-run noise of its level: the floor of its
+                  second-best run (each run's own 3 fastest frames) over its best run's, minus 1. The
+                  best runs are those that caught the machine quiet; when two agree, the level is the
+                  pass's cost, when they do not, the level is uncertain by about their gap. Measured on
+                  the runs being compared, so a side measured while the machine was erratic gets a wider
+                  limit rather than a false alarm. With one run on a side there is no run-to-run information: its
+                  per-frame noise is used instead (1.4826 x MAD of successive differences / sqrt(2),
+                  relative to the median; successive differences remove the animation's slow change of
+                  cost) and the markdown says the verdict does not account for run-to-run drift.
+  * verdict     = slower when p < alpha AND change > limit = max(threshold, noise_k x the larger noise of
+                  the two sides) AND the levels differ by more than --min-ms; faster symmetrically.
+  * threshold   = 15% by default: the smallest change worth a red CI on a shared 2-core machine. With 5
+                  interleaved runs a side, A/A changes of up to 13.4% were measured there (10 pairs x
+                  16 passes, tools/aa_check.sh); 10% flagged one A/A pair in ten.
+  The false-alarm and detection rates of this rule on real runs of a loaded machine are measured by
+  tools/aa_check.sh (A/A pairs and a pass slowed by the testing.slow_pass hook); see tools/README.md.
+  Not a significance test at the run level: with k runs a side, a rank test over runs cannot reach
+  p < 0.01 below k = 5 (and needs every run of one side above every run of the other); the rule's error
+  rates are measured instead.
+Metrics, per cell and path class (means over the metric frames of metrics.csv, first replicate): error
+quantities are compared relatively: FLIP and relMSE directly, SSIM through 1-SSIM, PSNR through the MSE
+it stands for (a drop of d dB is an MSE ratio of 10^(d/10)); worse beyond --metric-tol percent is a
+regression. A cell that was ok and now fails (in any replicate) is a regression. Exit 1 on any
+regression, else 0 (2: bad input).
 """
 
 from __future__ import annotations
@@ -22,6 +51,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import sys
 from dataclasses import asdict, dataclass
@@ -29,11 +59,14 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .rundata import Cell, Run, RunError, format_param
+from .rundata import Cell, Run, RunError, format_param, to_float
 
-DEFAULTS = {"threshold": 10.0, "alpha": 0.01, "noise_k": 2.0, "metric_tol": 2.0, "min_ms": 0.02}
+DEFAULTS = {"threshold": 15.0, "alpha": 0.01, "noise_k": 2.0, "metric_tol": 2.0, "min_ms": 0.02}
 COMPARED_METRICS = ("flip", "ssim", "psnr", "relmse")
 MIN_SAMPLES = 5  # with fewer frames per side a two-sided U test cannot reach p < 0.01
+FLOOR_SAMPLES = 3  # a side's level: the mean of its this many fastest frames
+PROCESS_COLUMN = "process_cpu_ms"  # frames.csv: CPU time of the cell's process in the pass
+CLOCKS = ("auto", "gpu", "cpu", "process")
 
 
 @dataclass
@@ -41,15 +74,21 @@ class PassRow:
     cell: str
     label: str
     pass_name: str
-    n_base: int
+    n_base: int  # frames, all replicates together
     n_new: int
-    base_ms: float
+    base_ms: float  # level: mean of the FLOOR_SAMPLES fastest frames
     new_ms: float
     change_pct: float
     p: float
-    noise_pct: float
+    noise_pct: float  # noise_k x the larger noise of the two sides (the noise part of the limit)
     limit_pct: float
     verdict: str  # "slower", "faster", "same", "n/a"
+    clock: str = ""  # "process", "gpu", "cpu" or "auto" (the harness's rule): what the samples are
+    runs_base: int = 1
+    runs_new: int = 1
+    base_median_ms: float = math.nan
+    new_median_ms: float = math.nan
+    noise_source: str = ""  # "runs" (replicates' spread) or "frames" (one run on a side)
 
 
 @dataclass
@@ -73,10 +112,56 @@ class StatusRow:
     verdict: str  # "regression", "fixed", "still failing", "new", "missing", "same"
 
 
+class RunSet:
+    """One side of a comparison: a run directory, or a folder whose sub-folders are replicate runs of
+    one build and config. Cells, labels, metrics and run.json facts come from the first replicate; pass
+    samples from all of them."""
+
+    def __init__(self, path: str):
+        if os.path.isfile(os.path.join(path, "summary.csv")) or not os.path.isdir(path):
+            self.runs = [Run(path)]  # Run reports a missing or malformed directory
+        else:
+            subs = sorted(d for d in os.listdir(path) if os.path.isfile(os.path.join(path, d, "summary.csv")))
+            if not subs:
+                raise RunError(f"{path}: neither a run directory (no summary.csv) nor a folder of runs")
+            self.runs = [Run(os.path.join(path, d)) for d in subs]
+        configs = {r.info.get("config_hash") for r in self.runs}
+        if len(configs) > 1:
+            raise RunError(f"{path}: its runs were made from different configs ({len(configs)} config "
+                           f"hashes); replicates must share one")
+        first = self.runs[0]
+        self.path = os.path.abspath(path)
+        self.info, self.cells = first.info, first.cells
+        self.commit, self.device = first.commit, first.device
+        commits = {r.commit for r in self.runs}
+        self.mixed_commits = len(commits) > 1
+
+    @property
+    def name(self) -> str:
+        base = os.path.basename(self.path.rstrip(os.sep))
+        return base if len(self.runs) == 1 else f"{base} ({len(self.runs)} runs)"
+
+    def cell(self, cell_id: str) -> Optional[Cell]:
+        return self.runs[0].cell(cell_id)
+
+    def label(self, cell: Cell) -> str:
+        return self.runs[0].label(cell)
+
+    def replicates(self, cell: Cell) -> List[Tuple[Cell, dict]]:
+        """(the cell, its run's run.json) in every replicate that has it (matched by id), first
+        replicate first; `cell` is the first replicate's."""
+        out = [(cell, self.runs[0].info)]
+        for r in self.runs[1:]:
+            c = r.cell(cell.id)
+            if c is not None:
+                out.append((c, r.info))
+        return out
+
+
 @dataclass
 class Comparison:
-    base: Run
-    new: Run
+    base: RunSet
+    new: RunSet
     passes: List[PassRow]
     metrics: List[MetricRow]
     statuses: List[StatusRow]
@@ -103,6 +188,25 @@ def robust_noise(samples: np.ndarray) -> float:
     return 1.4826 * mad / math.sqrt(2.0)
 
 
+def floor_level(samples: np.ndarray) -> float:
+    """The mean of the FLOOR_SAMPLES smallest samples (all of them when there are fewer)."""
+    if len(samples) == 0:
+        return math.nan
+    return float(np.mean(np.sort(samples)[:FLOOR_SAMPLES]))
+
+
+def run_noise(runs: List[np.ndarray]) -> float:
+    """Run-to-run noise of a side's level, relative: the floor of its second-best replicate over its
+    best one's, minus 1 (each run's floor: the mean of its own FLOOR_SAMPLES fastest frames). Interference
+    only slows a run, so the best replicates are the ones that caught the machine quiet; when two of
+    them agree, the side's level is the pass's cost and not one lucky run (the spacing of the lowest
+    order statistics is the scale of the estimate of a minimum). NaN with fewer than two replicates."""
+    floors = sorted(f for f in (floor_level(r) for r in runs if len(r)) if f > 0)
+    if len(floors) < 2:
+        return math.nan
+    return float(floors[1] / floors[0] - 1.0)
+
+
 def mann_whitney_p(a: np.ndarray, b: np.ndarray) -> float:
     from scipy.stats import mannwhitneyu
     if len(a) < MIN_SAMPLES or len(b) < MIN_SAMPLES:
@@ -112,27 +216,53 @@ def mann_whitney_p(a: np.ndarray, b: np.ndarray) -> float:
     return float(mannwhitneyu(b, a, alternative="two-sided").pvalue)
 
 
-def compare_samples(base: np.ndarray, new: np.ndarray, threshold: float, alpha: float, noise_k: float,
+def _as_runs(x) -> List[np.ndarray]:
+    """A side's samples as one array per replicate (a bare array is one run)."""
+    if isinstance(x, np.ndarray):
+        return [x]
+    return [np.asarray(r, dtype=float) for r in x]
+
+
+def compare_samples(base, new, threshold: float, alpha: float, noise_k: float,
                     min_ms: float) -> Tuple[float, float, float, float, float, float, str]:
-    """(base median, new median, change %, p, noise %, limit %, verdict) for one pass."""
-    if len(base) == 0 or len(new) == 0:
-        return (math.nan,) * 6 + ("n/a",)
-    mb, mn = float(np.median(base)), float(np.median(new))
-    change = (mn / mb - 1.0) * 100.0 if mb > 0 else math.nan
-    p = mann_whitney_p(base, new)
-    rel = [robust_noise(s) / m for s, m in ((base, mb), (new, mn)) if m > 0]
-    rel = [r for r in rel if math.isfinite(r)]
-    noise = noise_k * max(rel) * 100.0 if rel else 0.0
+    """(base level, new level, change %, p, noise %, limit %, verdict) for one pass. `base` and `new` are
+    each one array of per-frame samples (one run) or a list of them (replicate runs)."""
+    return compare_detail(base, new, threshold, alpha, noise_k, min_ms)[:7]
+
+
+def compare_detail(base, new, threshold, alpha, noise_k, min_ms):
+    """compare_samples plus (base median, new median, noise source)."""
+    base_runs, new_runs = _as_runs(base), _as_runs(new)
+    b, n = np.concatenate(base_runs), np.concatenate(new_runs)
+    if len(b) == 0 or len(n) == 0:
+        return (math.nan,) * 6 + ("n/a", math.nan, math.nan, "")
+    lb, ln = floor_level(b), floor_level(n)
+    change = (ln / lb - 1.0) * 100.0 if lb > 0 else math.nan
+    p = mann_whitney_p(b, n)
+    side_noise, sources = [], set()
+    for runs, pooled in ((base_runs, b), (new_runs, n)):
+        rn = run_noise(runs)
+        if math.isfinite(rn):
+            side_noise.append(rn)
+            sources.add("runs")
+        else:  # one run: only its per-frame noise is known (see the module docstring)
+            med = float(np.median(pooled))
+            fn = robust_noise(pooled) / med if med > 0 else math.nan
+            if math.isfinite(fn):
+                side_noise.append(fn)
+                sources.add("frames")
+    noise = noise_k * max(side_noise) * 100.0 if side_noise else 0.0
     limit = max(threshold, noise)
     if not math.isfinite(p) or not math.isfinite(change):
         verdict = "n/a"
-    elif p < alpha and abs(mn - mb) > min_ms and change > limit:
+    elif p < alpha and abs(ln - lb) > min_ms and change > limit:
         verdict = "slower"
-    elif p < alpha and abs(mn - mb) > min_ms and change < -limit:
+    elif p < alpha and abs(ln - lb) > min_ms and change < -limit:
         verdict = "faster"
     else:
         verdict = "same"
-    return mb, mn, change, p, noise, limit, verdict
+    source = "frames" if "frames" in sources else ("runs" if sources else "")
+    return lb, ln, change, p, noise, limit, verdict, float(np.median(b)), float(np.median(n)), source
 
 
 def error_change(metric: str, base: float, new: float) -> float:
@@ -150,18 +280,18 @@ def error_change(metric: str, base: float, new: float) -> float:
     return (en / eb - 1.0) * 100.0
 
 
-def _key(run: Run, c: Cell) -> tuple:
+def _key(c: Cell) -> tuple:
     return (c.scene, c.technique, tuple(sorted((k, format_param(v)) for k, v in c.params.items())))
 
 
-def match_cells(base: Run, new: Run) -> List[Tuple[Optional[Cell], Optional[Cell]]]:
+def match_cells(base, new) -> List[Tuple[Optional[Cell], Optional[Cell]]]:
     """Pairs cells by id, then by (scene, technique, params) for ids that changed."""
     pairs, used = [], set()
-    new_by_key = {_key(new, c): c for c in new.cells}
+    new_by_key = {_key(c): c for c in new.cells}
     for b in base.cells:
         n = new.cell(b.id)
         if n is None:
-            n = new_by_key.get(_key(base, b))
+            n = new_by_key.get(_key(b))
         if n is not None and n.id in used:
             n = None
         if n is not None:
@@ -171,9 +301,47 @@ def match_cells(base: Run, new: Run) -> List[Tuple[Optional[Cell], Optional[Cell
     return pairs
 
 
-def compare(base: Run, new: Run, threshold: float = DEFAULTS["threshold"], alpha: float = DEFAULTS["alpha"],
+def is_fenced(cell: Cell, run_info: dict) -> bool:
+    """Whether the cell's passes were timed with fences (cell.json "timing", else run.json's)."""
+    timing = cell.json.get("timing") or run_info.get("timing") or ""
+    return str(timing).startswith("fenced")
+
+
+def has_process_clock(cell: Cell) -> bool:
+    rows = cell.frames_rows
+    return bool(rows) and PROCESS_COLUMN in rows[0]
+
+
+def resolve_clock(requested: str, cells: List[Tuple[Cell, dict]]) -> str:
+    """The clock one cell pair is compared on. "auto": process CPU time when every replicate of both
+    sides was fenced and recorded it, else the harness's own rule ("auto" in Cell.pass_samples)."""
+    if requested != "auto":
+        return requested
+    if cells and all(is_fenced(c, info) and has_process_clock(c) for c, info in cells):
+        return "process"
+    return "auto"
+
+
+def pass_samples(cell: Cell, name: str, clock: str) -> np.ndarray:
+    """One pass's per-frame samples (ms, frame order) on a clock; "process" reads process_cpu_ms."""
+    if clock != "process":
+        return cell.pass_samples(name, clock)[1]
+    pts = []
+    for r in cell.frames_rows:
+        if r.get("pass") == name:
+            v = to_float(r.get(PROCESS_COLUMN))
+            if math.isfinite(v):
+                pts.append((int(to_float(r["frame"])), v))
+    pts.sort(key=lambda t: t[0])
+    return np.asarray([v for _, v in pts], dtype=float)
+
+
+def compare(base, new, threshold: float = DEFAULTS["threshold"], alpha: float = DEFAULTS["alpha"],
             noise_k: float = DEFAULTS["noise_k"], metric_tol: float = DEFAULTS["metric_tol"],
             min_ms: float = DEFAULTS["min_ms"], clock: str = "auto") -> Comparison:
+    """base and new: RunSet (or Run, wrapped as a one-run set)."""
+    base = base if isinstance(base, RunSet) else _single(base)
+    new = new if isinstance(new, RunSet) else _single(new)
     passes, metrics, statuses = [], [], []
     for b, n in match_cells(base, new):
         c = b or n
@@ -182,25 +350,33 @@ def compare(base: Run, new: Run, threshold: float = DEFAULTS["threshold"], alpha
             statuses.append(StatusRow(c.id, label, b.status if b else "-", n.status if n else "-",
                                       "new" if b is None else "missing"))
             continue
-        if b.ok and not n.ok:
+        b_reps, n_reps = base.replicates(b), new.replicates(n)
+        b_bad = [x for x, _ in b_reps if not x.ok]
+        n_bad = [x for x, _ in n_reps if not x.ok]
+        if not b_bad and n_bad:
             verdict = "regression"
-        elif not b.ok and n.ok:
+        elif b_bad and not n_bad:
             verdict = "fixed"
-        elif not n.ok:
+        elif n_bad:
             verdict = "still failing"  # not a new regression, but never silently passed over
         else:
             verdict = "same"
-        statuses.append(StatusRow(n.id, label, b.status, n.status, verdict))
+        # A replicate that failed is shown by its status (the first failing one's).
+        statuses.append(StatusRow(n.id, label, (b_bad or [b])[0].status, (n_bad or [n])[0].status, verdict))
+        used_clock = resolve_clock(clock, b_reps + n_reps)
         # Passes: frame first, then in the new run's order.
         names = list(dict.fromkeys(["frame"] + b.pass_names() + n.pass_names()))
         for name in names:
-            _, sb = b.pass_samples(name, clock)
-            _, sn = n.pass_samples(name, clock)
-            if len(sb) == 0 and len(sn) == 0:
+            sb = [pass_samples(x, name, used_clock) for x, _ in b_reps]
+            sn = [pass_samples(x, name, used_clock) for x, _ in n_reps]
+            if sum(map(len, sb)) == 0 and sum(map(len, sn)) == 0:
                 continue
-            mb, mn, ch, p, noise, limit, v = compare_samples(sb, sn, threshold, alpha, noise_k, min_ms)
-            passes.append(PassRow(n.id, label, name, len(sb), len(sn), mb, mn, ch, p, noise, limit, v))
-        # Metrics per path class; a failed new cell's metrics are covered by its status.
+            mb, mn, ch, p, noise, limit, v, medb, medn, src = compare_detail(sb, sn, threshold, alpha,
+                                                                            noise_k, min_ms)
+            passes.append(PassRow(n.id, label, name, sum(map(len, sb)), sum(map(len, sn)), mb, mn, ch, p,
+                                  noise, limit, v, used_clock, len(sb), len(sn), medb, medn, src))
+        # Metrics per path class (first replicates; rendering is deterministic); a failed new cell's
+        # metrics are covered by its status.
         for cls in dict.fromkeys(b.metric_classes() + n.metric_classes()):
             for m in COMPARED_METRICS:
                 vb, vn = b.metric_mean(m, cls), n.metric_mean(m, cls)
@@ -217,8 +393,17 @@ def compare(base: Run, new: Run, threshold: float = DEFAULTS["threshold"], alpha
                     mv = "same"
                 metrics.append(MetricRow(n.id, label, cls, m, vb, vn, ec, mv))
     settings = {"threshold_pct": threshold, "alpha": alpha, "noise_k": noise_k, "metric_tol_pct": metric_tol,
-                "min_ms": min_ms, "clock": clock}
+                "min_ms": min_ms, "clock": clock, "floor_samples": FLOOR_SAMPLES,
+                "runs_base": len(base.runs), "runs_new": len(new.runs)}
     return Comparison(base, new, passes, metrics, statuses, settings)
+
+
+def _single(run: Run) -> RunSet:
+    s = RunSet.__new__(RunSet)
+    s.runs = [run]
+    s.path, s.info, s.cells, s.commit, s.device = run.path, run.info, run.cells, run.commit, run.device
+    s.mixed_commits = False
+    return s
 
 
 # ---- output ----------------------------------------------------------------------------------------
@@ -238,6 +423,8 @@ def _metric(m: str, v: float) -> str:
     return "" if not math.isfinite(v) else (f"{v:.2f}" if m == "psnr" else f"{v:.4f}")
 
 
+CLOCK_TEXT = {"process": "process CPU time (fenced passes)", "gpu": "gpu_ms", "cpu": "cpu_ms",
+              "auto": "the larger of gpu_ms and cpu_ms"}
 VERDICT_TEXT = {"slower": "**SLOWER**", "faster": "faster", "same": "", "n/a": "n/a",
                 "worse": "**WORSE**", "better": "better", "regression": "**NOW FAILS**", "fixed": "now ok",
                 "still failing": "failed in both runs",
@@ -267,14 +454,17 @@ def _metric_table(rows: List[MetricRow]) -> List[str]:
     return out
 
 
-def testing_hooks(run: Run) -> List[str]:
-    """The test-only `testing.*` overrides a run was made with (run.json "overrides"), e.g. the delay
-    injection testing.slow_pass: such a run is a check of this tool, never a benchmark to trust."""
-    hooks = [str(o) for o in run.info.get("overrides") or [] if str(o).startswith("testing.")]
-    config = run.info.get("config")
-    if not hooks and isinstance(config, str) and re.search(r"^testing\s*:", config, re.MULTILINE):
-        hooks.append("testing: (set in the config file)")
-    return hooks
+def testing_hooks(run) -> List[str]:
+    """The test-only `testing.*` overrides a run (or any replicate of a RunSet) was made with (run.json
+    "overrides"), e.g. the delay injection testing.slow_pass: such a run is a check of this tool, never
+    a benchmark to trust."""
+    hooks = []
+    for r in getattr(run, "runs", [run]):
+        hooks += [str(o) for o in r.info.get("overrides") or [] if str(o).startswith("testing.")]
+        config = r.info.get("config")
+        if isinstance(config, str) and re.search(r"^testing\s*:", config, re.MULTILINE):
+            hooks.append("testing: (set in the config file)")
+    return list(dict.fromkeys(hooks))
 
 
 def markdown(c: Comparison) -> str:
@@ -300,10 +490,22 @@ def markdown(c: Comparison) -> str:
     out.append(f"**{verdict}**: {len(slower)} slower pass(es), {len(worse)} worse metric(s), "
                f"{len(broken)} newly failing cell(s); {len(faster)} faster, {len(better)} better; "
                f"{sum(r.verdict == 'same' for r in c.passes)} passes unchanged.")
-    out += ["", f"Slower/faster: Mann–Whitney U p < {s['alpha']:g} on per-frame samples and |median change| "
-                f"> limit = max({s['threshold_pct']:g}%, {s['noise_k']:g} × the runs' own per-frame noise) "
+    clocks = sorted({r.clock for r in c.passes})
+    clock_text = ", ".join(CLOCK_TEXT.get(k, k) for k in clocks) or "-"
+    out += ["", f"Times: {clock_text}; each side's level is the mean of its {s['floor_samples']} fastest frames "
+                f"over {s['runs_base']} base / {s['runs_new']} new run(s) (medians in the JSON). "
+                f"Slower/faster: Mann–Whitney U p < {s['alpha']:g} on per-frame samples and |level change| "
+                f"> limit = max({s['threshold_pct']:g}%, {s['noise_k']:g} × the sides' run-to-run noise) "
                 f"and > {s['min_ms']:g} ms. Metrics: error (FLIP, 1−SSIM, MSE via PSNR, relMSE) changed by "
                 f"more than {s['metric_tol_pct']:g}%.", ""]
+    if any(r.noise_source == "frames" for r in c.passes):
+        out += ["> **One run on a side**: its noise is only the per-frame noise within that run, which "
+                "misses run-to-run drift; on a shared machine give each side several runs (a folder of "
+                "runs) for a verdict to trust.", ""]
+    for side, rs in (("base", c.base), ("new", c.new)):
+        if rs.mixed_commits:
+            out += [f"> The {side} runs come from more than one commit: they are not replicates of one "
+                    "build.", ""]
     if broken:
         out += ["### Cells that now fail", "", "| cell | base | new |", "|---|---|---|"]
         out += [f"| {_md_escape(r.label)} | {r.base} | {r.new} |" for r in broken] + [""]
@@ -342,29 +544,34 @@ def to_json(c: Comparison) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(
         prog="photonbench compare",
-        description="Compare two runs cell by cell and pass by pass; print a markdown table; exit 1 on a "
-                    "significant regression (slower pass, worse metric, or a cell that now fails).",
+        description="Compare two runs (or two folders of replicate runs) cell by cell and pass by pass; "
+                    "print a markdown table; exit 1 on a significant regression (slower pass, worse "
+                    "metric, or a cell that now fails).",
         epilog="A pass is slower when the Mann-Whitney U test on its per-frame times gives p < ALPHA and its "
-               "median grew by more than max(THRESHOLD, NOISE_K x the runs' own relative per-frame noise).")
-    ap.add_argument("base", metavar="BASE_RUN")
-    ap.add_argument("new", metavar="NEW_RUN")
+               "level (mean of the 3 fastest frames of a side's runs) grew by more than max(THRESHOLD, "
+               "NOISE_K x the sides' run-to-run noise; with one run on a side, its per-frame noise). "
+               "Rationale: tools/pbtools/compare.py's docstring.")
+    ap.add_argument("base", metavar="BASE_RUN", help="a run directory, or a folder of replicate runs")
+    ap.add_argument("new", metavar="NEW_RUN", help="a run directory, or a folder of replicate runs")
     ap.add_argument("--threshold", type=float, default=DEFAULTS["threshold"], metavar="PCT",
                     help="smallest median change that counts, in percent (default %(default)s)")
     ap.add_argument("--alpha", type=float, default=DEFAULTS["alpha"],
                     help="significance level of the U test (default %(default)s)")
     ap.add_argument("--noise-k", type=float, default=DEFAULTS["noise_k"],
-                    help="multiple of the per-frame noise a change must exceed (default %(default)s)")
+                    help="multiple of the run-to-run noise a change must exceed (default %(default)s)")
     ap.add_argument("--metric-tol", type=float, default=DEFAULTS["metric_tol"], metavar="PCT",
                     help="relative change of an error metric that counts, in percent (default %(default)s)")
     ap.add_argument("--min-ms", type=float, default=DEFAULTS["min_ms"],
                     help="smallest absolute median change that counts, ms (default %(default)s)")
-    ap.add_argument("--clock", choices=["auto", "gpu", "cpu"], default="auto",
-                    help="gpu_ms, cpu_ms, or gpu where present else cpu (default)")
+    ap.add_argument("--clock", choices=CLOCKS, default="auto",
+                    help="gpu_ms, cpu_ms, process_cpu_ms, or auto (default): process CPU time where every "
+                         "run of a cell was fenced (lavapipe) and recorded it, else the larger of gpu_ms "
+                         "and cpu_ms")
     ap.add_argument("--out", metavar="FILE", help="also write the markdown to FILE")
     ap.add_argument("--json", metavar="FILE", help="write every row as JSON to FILE")
     a = ap.parse_args(argv)
     try:
-        result = compare(Run(a.base), Run(a.new), a.threshold, a.alpha, a.noise_k, a.metric_tol, a.min_ms,
+        result = compare(RunSet(a.base), RunSet(a.new), a.threshold, a.alpha, a.noise_k, a.metric_tol, a.min_ms,
                          a.clock)
     except RunError as e:
         print(f"error: {e}", file=sys.stderr)

@@ -16,6 +16,10 @@ The data are synthetic but shaped like a real run on a noisy machine:
 `slow` injects a slowdown, {pass name: factor}, into every cell that has that pass, the way the
 runner's test-only delay injection would, so compare can be checked against a known regression.
 
+`load` (a number >= 0) writes the run as lavapipe's fenced timing does (cell.json and run.json "timing":
+"fenced", frames.csv's process_cpu_ms column): process_cpu_ms is the pass's work (the noise above), and
+gpu_ms, the fenced wall time, adds waiting for a core: x (1 + load x U(0, 2)) per frame, the run's load.
+
 Command line:  fixture.py OUT_DIR [--seed N] [--frames N] [--slow PASS=FACTOR] [--no-images]
 """
 
@@ -185,7 +189,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
              slow: Optional[Dict[str, float]] = None, noise: float = 0.05, drift: float = 0.02,
              spike_rate: float = 0.03, images: bool = True, resolution=(96, 54),
              commit: Optional[str] = None, device: str = "llvmpipe (LLVM 15.0.6, 256 bits)",
-             scenes: Optional[List[str]] = None, techniques: Optional[List[str]] = None) -> str:
+             scenes: Optional[List[str]] = None, techniques: Optional[List[str]] = None,
+             load: Optional[float] = None) -> str:
     """Writes a run directory at out_dir and returns its path. Layout is seed-independent; `seed` drives
     only the noise, so two seeds are an A/A pair."""
     slow = slow or {}
@@ -261,15 +266,24 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                         total += t
                         cpu = t * 1.02 + 0.01
                         gpu = None if p in tech["cpu_only"] else t
-                        frame_rows.append([f, p, fmt(gpu), fmt(cpu)])
+                        if load is not None:  # fenced: gpu_ms is wall time, waiting for a core included
+                            wait = 1.0 + load * float(rng.uniform(0.0, 2.0))
+                            gpu = None if p in tech["cpu_only"] else t * wait
+                            cpu = t * 1.02 + 0.01 if p in tech["cpu_only"] else 0.02
+                            total += (gpu or cpu) - t
+                        frame_rows.append([f, p, fmt(gpu), fmt(cpu)] + ([fmt(t)] if load is not None else []))
                         per_pass.setdefault(p, []).append(t)
                         for inner, frac in tech["nested"].get(p, {}).items():
                             name = f"{p}/{inner}"
                             ti = t0 * frac * math.exp(rng.normal(0, noise / 2)) * slow.get(name, 1.0)
-                            frame_rows.append([f, name, fmt(ti), fmt(ti * 1.02 + 0.005)])
+                            frame_rows.append([f, name, fmt(ti), fmt(ti * 1.02 + 0.005)]
+                                              + ([fmt(ti)] if load is not None else []))
                             per_pass.setdefault(name, []).append(ti)
                     total += 0.05 * math.exp(rng.normal(0, noise))  # submission/fence overhead
-                    frame_rows.append([f, "frame", fmt(total), fmt(total * 1.01 + 0.02)])
+                    work = sum(float(r[4]) for r in frame_rows if r[0] == f and "/" not in r[1]) \
+                        if load is not None else 0.0
+                    frame_rows.append([f, "frame", fmt(total), fmt(total * 1.01 + 0.02)]
+                                      + ([fmt(work + 0.05)] if load is not None else []))
                     per_pass.setdefault("frame", []).append(total)
                     if "photons" in params:
                         counter_rows.append([f, "photons_emitted", params["photons"]])
@@ -277,8 +291,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                     if tech["technique"] == "cluster":
                         counter_rows.append([f, "clusters", 1200 + int(40 * math.sin(f / 5))])
                 if tech["passes"] or frame_rows:
-                    write_csv(os.path.join(cdir, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"],
-                              frame_rows)
+                    write_csv(os.path.join(cdir, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"]
+                              + (["process_cpu_ms"] if load is not None else []), frame_rows)
                     write_csv(os.path.join(cdir, "counters.csv"), ["frame", "name", "value"], counter_rows)
                 for p in per_pass:
                     if p != "frame" and p not in pass_columns:
@@ -332,6 +346,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                     "params": params, "frames": n_frames,
                     "peak_host_memory_bytes": int(layout.uniform(2e8, 6e8)),
                     "gpu_memory_bytes": int(layout.uniform(5e7, 3e8)) if tech["passes"] else 0,
+                    **({"timing": "fenced"} if load is not None else {}),
                 })
 
                 ft = np.asarray(per_pass.get("frame", []))
@@ -378,7 +393,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
         "os": "Debian GNU/Linux 12 (bookworm)",
         "start": f"2024-05-01T12:00:{seed % 60:02d}Z",
         "end": f"2024-05-01T12:05:{seed % 60:02d}Z",
-        "fixture": {"seed": seed, "slow": slow},
+        "fixture": {"seed": seed, "slow": slow, "load": load},
+        **({"timing": "fenced: each pass boundary submits and waits"} if load is not None else {}),
     })
     return out_dir
 

@@ -1,5 +1,6 @@
 """compare: A/A runs flag nothing (10 of 10 seeds), a pass made 25% slower is flagged, a newly failing
-cell and a worse image are regressions, and the statistics behave as documented."""
+cell and a worse image are regressions, and the statistics behave as documented: process CPU time on
+fenced runs, the level as the floor of the samples, folders of replicate runs and their run-to-run noise."""
 
 import io
 import json
@@ -14,7 +15,7 @@ import numpy as np
 from common import TempRuns
 
 from pbtools import compare as C
-from pbtools.rundata import Run
+from pbtools.rundata import Run, RunError
 
 
 class CompareFixtureTest(unittest.TestCase):
@@ -113,6 +114,137 @@ class CompareFixtureTest(unittest.TestCase):
             self.assertEqual(C.main([self.base, self.tmp.path("missing")]), 2)
 
 
+class FencedClockTest(unittest.TestCase):
+    """Runs timed with fences (lavapipe): wall time includes waiting for a core, process CPU time is the
+    work. An A/A pair made under different loads differs in wall time, not in work."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = TempRuns()
+        cls.calm = cls.tmp.make("calm", seed=11, images=False, load=0.0)
+        cls.busy = cls.tmp.make("busy", seed=12, images=False, load=1.0)
+        cls.slow = cls.tmp.make("slow", seed=13, images=False, load=1.0, slow={"gbuffer": 1.25})
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_auto_clock_is_process_cpu_on_fenced_runs(self):
+        result = C.compare(Run(self.calm), Run(self.busy))
+        self.assertEqual({r.clock for r in result.passes}, {"process"})
+        self.assertEqual(result.regressions, 0, [(r.label, r.pass_name, r.change_pct) for r in result.passes
+                                                 if r.verdict != "same"])
+        # On wall time the same pair is "slower" everywhere: the load, not the build (why auto picks CPU).
+        wall = C.compare(Run(self.calm), Run(self.busy), clock="gpu")
+        self.assertGreater(wall.regressions, 0)
+
+    def test_slowed_pass_is_flagged_on_process_cpu(self):
+        result = C.compare(Run(self.calm), Run(self.slow))
+        flagged = {r.pass_name for r in result.passes if r.verdict == "slower"}
+        self.assertIn("gbuffer", flagged)
+        self.assertLessEqual(flagged, {"gbuffer", "frame"})
+
+    def test_process_samples_are_the_column(self):
+        cell = Run(self.calm).cells[0]
+        rows = [r for r in cell.frames_rows if r["pass"] == "gbuffer"]
+        np.testing.assert_allclose(C.pass_samples(cell, "gbuffer", "process"),
+                                   [float(r["process_cpu_ms"]) for r in rows])
+
+    def test_unfenced_or_old_runs_keep_the_harness_rule(self):
+        plain = self.tmp.make("plain", seed=14, images=False)  # no timing, no process_cpu_ms column
+        result = C.compare(Run(plain), Run(self.calm))
+        self.assertEqual({r.clock for r in result.passes}, {"auto"})
+
+
+class ReplicateRunsTest(unittest.TestCase):
+    """Folders of replicate runs: samples pooled per side, noise from the spread between replicates."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = TempRuns()
+        for side, seeds in (("base", (21, 22, 23)), ("aa", (24, 25, 26))):
+            for i, seed in enumerate(seeds):
+                cls.tmp.make(f"{side}/{i + 1}", seed=seed, images=False, drift=0.02)
+        for i, seed in enumerate((27, 28, 29)):
+            cls.tmp.make(f"slow/{i + 1}", seed=seed, images=False, drift=0.02, slow={"splat": 1.25})
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_folder_of_runs_is_one_side(self):
+        base = C.RunSet(self.tmp.path("base"))
+        self.assertEqual(len(base.runs), 3)
+        self.assertEqual(base.name, "base (3 runs)")
+        self.assertEqual(len(C.RunSet(self.tmp.path("base", "1")).runs), 1)
+        with self.assertRaises(RunError):
+            C.RunSet(self.tmp.path())  # a folder of folders of runs is neither
+
+    def test_replicates_pool_frames_and_measure_run_noise(self):
+        result = C.compare(C.RunSet(self.tmp.path("base")), C.RunSet(self.tmp.path("aa")))
+        self.assertEqual(result.regressions, 0)
+        self.assertEqual(result.settings["runs_base"], 3)
+        row = next(r for r in result.passes if r.pass_name == "gbuffer")
+        self.assertEqual((row.runs_base, row.runs_new, row.n_base), (3, 3, 72))
+        self.assertEqual(row.noise_source, "runs")
+        out = io.StringIO()
+        with redirect_stdout(out):
+            self.assertEqual(C.main([self.tmp.path("base"), self.tmp.path("aa")]), 0)
+        self.assertNotIn("One run on a side", out.getvalue())
+        self.assertIn("3 base / 3 new run(s)", out.getvalue())
+
+    def test_slowed_replicates_are_flagged(self):
+        result = C.compare(C.RunSet(self.tmp.path("base")), C.RunSet(self.tmp.path("slow")))
+        splat = [r for r in result.passes if r.pass_name == "splat"]
+        self.assertTrue(splat and all(r.verdict == "slower" for r in splat))
+
+    def test_one_run_per_side_is_said(self):
+        out = io.StringIO()
+        with redirect_stdout(out):
+            C.main([self.tmp.path("base", "1"), self.tmp.path("aa", "1")])
+        self.assertIn("One run on a side", out.getvalue())
+
+    def test_replicates_of_different_configs_are_bad_input(self):
+        mixed = self.tmp.path("mixed")
+        shutil.copytree(self.tmp.path("base", "1"), os.path.join(mixed, "1"))
+        self.tmp.make("mixed/2", seed=30, images=False, scenes=["cornell-box"])  # another config
+        import contextlib
+        with contextlib.redirect_stderr(io.StringIO()):
+            self.assertEqual(C.main([self.tmp.path("base"), mixed]), 2)
+
+    def test_a_failing_replicate_is_a_regression(self):
+        new = self.tmp.path("onefails")
+        for i in (1, 2):
+            shutil.copytree(self.tmp.path("aa", str(i)), os.path.join(new, str(i)))
+        cell = "000-cornell-box-direct"
+        path = os.path.join(new, "2", "cells", cell, "cell.json")
+        with open(path) as f:
+            info = json.load(f)
+        info.update(status="failed", reason="device lost", failed_frame=5)
+        with open(path, "w") as f:
+            json.dump(info, f)
+        summary = os.path.join(new, "2", "summary.csv")
+        with open(summary) as f:
+            text = f.read()
+        with open(summary, "w") as f:
+            f.write(text.replace(f"{cell},cornell-box,direct,ok", f"{cell},cornell-box,direct,failed"))
+        result = C.compare(C.RunSet(self.tmp.path("base")), C.RunSet(new))
+        self.assertEqual([(r.cell, r.new) for r in result.statuses if r.verdict == "regression"],
+                         [(cell, "failed")])
+
+    def test_testing_hooks_of_any_replicate_are_shown(self):
+        new = self.tmp.path("hooked")
+        for i in (1, 2):
+            shutil.copytree(self.tmp.path("aa", str(i)), os.path.join(new, str(i)))
+        path = os.path.join(new, "2", "run.json")
+        with open(path) as f:
+            info = json.load(f)
+        info["overrides"] = ["testing.slow_pass=gbuffer"]
+        with open(path, "w") as f:
+            json.dump(info, f)
+        self.assertEqual(C.testing_hooks(C.RunSet(new)), ["testing.slow_pass=gbuffer"])
+
+
 class StatisticsTest(unittest.TestCase):
     def test_robust_noise_ignores_trend_and_spikes(self):
         rng = np.random.default_rng(1)
@@ -138,6 +270,42 @@ class StatisticsTest(unittest.TestCase):
         wild_a = 10 * np.exp(rng.normal(0, 1.0, 8))
         wild_b = 13 * np.exp(rng.normal(0, 1.0, 8))
         self.assertNotEqual(C.compare_samples(wild_a, wild_b, 10, 0.01, 2, 0.02)[-1], "slower")
+
+    def test_level_is_the_floor_not_the_median(self):
+        # Other processes only add time: the same work, with 60% of its frames slowed 1.5-2x by
+        # interference, has the same floor. A median-based level would call it 60% slower.
+        rng = np.random.default_rng(3)
+        clean = 10 * np.exp(rng.normal(0, 0.01, 24))
+        hit = 10 * np.exp(rng.normal(0, 0.01, 24))
+        hit[rng.random(24) < 0.6] *= rng.uniform(1.5, 2.0)
+        self.assertAlmostEqual(C.floor_level(clean), np.mean(np.sort(clean)[:3]))
+        mb, mn, ch, p, noise, limit, verdict = C.compare_samples([clean, clean * 1.005], [hit, hit * 0.995],
+                                                                 10, 0.01, 2, 0.02)
+        self.assertLess(abs(ch), 3)
+        self.assertEqual(verdict, "same")
+        # ... while the work itself made 25% slower is.
+        self.assertEqual(C.compare_samples([clean, clean * 1.005], [hit * 1.25, hit * 1.25], 10, 0.01, 2,
+                                           0.02)[-1], "slower")
+
+    def test_run_noise_is_the_spread_between_replicates(self):
+        rng = np.random.default_rng(4)
+        runs = [f * 10 * np.exp(rng.normal(0, 0.001, 24)) for f in (1.0, 1.1, 1.3)]
+        self.assertAlmostEqual(C.run_noise(runs), 0.1, delta=0.005)  # the second-best run's floor / best
+        # Two agreeing best runs make the level trustworthy, however far the others were slowed.
+        runs4 = [f * 10 * np.exp(rng.normal(0, 0.001, 24)) for f in (1.3, 1.0, 1.4, 1.02)]
+        self.assertAlmostEqual(C.run_noise(runs4), 0.02, delta=0.005)
+        self.assertTrue(math.isnan(C.run_noise(runs[:1])))
+        # A side whose replicates disagree by 30% widens the limit past a 25% change: not flagged.
+        base = [10 * np.exp(rng.normal(0, 0.001, 24)) * f for f in (1.0, 1.3, 1.35)]
+        new = [x * 1.25 for x in base]
+        mb, mn, ch, p, noise, limit, verdict = C.compare_samples(base, new, 10, 0.01, 2, 0.02)
+        self.assertAlmostEqual(ch, 25, delta=1)
+        self.assertGreater(limit, 50)
+        self.assertEqual(verdict, "same")
+        # Agreeing replicates keep the threshold as the limit, and the same change is flagged.
+        base = [10 * np.exp(rng.normal(0, 0.001, 24)) * f for f in (1.0, 1.01, 1.02)]
+        verdict = C.compare_samples(base, [x * 1.25 for x in base], 10, 0.01, 2, 0.02)[-1]
+        self.assertEqual(verdict, "slower")
 
     def test_error_change_of_metrics(self):
         self.assertAlmostEqual(C.error_change("flip", 0.1, 0.11), 10.0)
