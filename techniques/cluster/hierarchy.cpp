@@ -46,6 +46,13 @@ uint32_t parse_uint(const std::string& text, const std::string& what, const std:
 
 }  // namespace
 
+HierarchyOptions HierarchyOptions::named_layout(const std::string& name) {
+  if (name == "shallow") return parse_layout("128:2x2x8,2x2x8,4x4x2", "layout shallow");
+  if (name == "deep") return parse_layout("512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2", "layout deep");
+  if (name == "default") return parse_layout("256:2x2x8,2x2x8,2x2x8,4x4x2", "layout default");
+  throw InputError("cluster hierarchy: unknown layout '" + name + "' (default, shallow or deep)");
+}
+
 HierarchyOptions HierarchyOptions::parse_layout(const std::string& layout,
                                                 const std::string& what) {
   HierarchyOptions options;

@@ -73,6 +73,11 @@ struct HierarchyOptions {
   // "ROOT:XxYxZ,XxYxZ,..." e.g. "256:2x2x8,2x2x8,2x2x8,4x4x2" (the default). Throws pb::InputError
   // (naming `what`, e.g. "cluster: layout") on a malformed string or an impossible layout.
   static HierarchyOptions parse_layout(const std::string& layout, const std::string& what);
+  // The named layouts both techniques offer as their `layout` parameter (default|shallow|deep):
+  //   default "256:2x2x8,2x2x8,2x2x8,4x4x2"      5 levels, 8x8-pixel leaves, 1024 depth slices
+  //   shallow "128:2x2x8,2x2x8,4x4x2"            4 levels, 128 slices
+  //   deep    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2" 6 levels, 512 slices (large dense map)
+  static HierarchyOptions named_layout(const std::string& name);
   std::string layout_string() const;
 };
 

@@ -32,15 +32,9 @@ using pb::gpu::Buffer;
 using pb::gpu::Memory;
 using U = vk::BufferUsageFlagBits;
 
-// Named hierarchy layouts (ROOT:XxYxZ per level split, hierarchy.h). Each keeps the level above the
-// leaves at 32x32 pixels (Paper I's "leaf node at most contains 32x32 view samples" of
-// directional).
-constexpr const char* kLayouts[] = {
-    "256:2x2x8,2x2x8,2x2x8,4x4x2",        // default: 5 levels, 8x8-pixel leaves, 1024 depth slices
-    "128:2x2x8,2x2x8,4x4x2",              // shallow: 4 levels, 128 slices
-    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2",  // deep: 6 levels, 512 slices (large dense map)
-};
-
+// `layout` names one of the hierarchy's layouts (HierarchyOptions::named_layout in hierarchy.h). Each
+// keeps the level above the leaves at 32x32 pixels (Paper I's "leaf node at most contains 32x32 view
+// samples" of directional).
 const pb_param_spec kParams[] = {
     {"photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
      "light paths traced per frame (as tiled; Paper I counts stored photons)"},
@@ -97,7 +91,6 @@ class Cluster final : public pb::Technique {
     const std::string& variant = params.choice("variant");
     variant_ = variant == "trivial" ? kTrivial : variant == "cone" ? kCone : kPlain;
     const std::string& layout = params.choice("layout");
-    int layout_index = layout == "shallow" ? 1 : layout == "deep" ? 2 : 0;
     top_levels_ = uint32_t(params.integer("top_levels"));
     job_capacity_ = uint32_t(params.integer("max_jobs"));
     list_capacity_ = uint32_t(params.integer("max_list_entries"));
@@ -110,7 +103,7 @@ class Cluster final : public pb::Technique {
           "cluster: max_jobs = {} (8 bytes each) or max_list_entries = {} (4 bytes each) exceeds "
           "the device's maxStorageBufferRange of {} bytes",
           job_capacity_, list_capacity_, limit));
-    auto options = pb::cluster::HierarchyOptions::parse_layout(kLayouts[layout_index], "layout");
+    auto options = pb::cluster::HierarchyOptions::named_layout(layout);
     options.normal_cones = variant_ != kPlain;
     hierarchy_.setup(ctx.gpu(), options);
     if (top_levels_ > hierarchy_.accumulation_level())
@@ -139,29 +132,15 @@ class Cluster final : public pb::Technique {
   void render(pb::Context& ctx) override {
     auto& gpu = ctx.gpu();
     const auto& frame = ctx.frame();
-    uint32_t photon_count = 0;
-    {
-      auto scope = ctx.pass("photon-trace");
-      pb::trace::TraceSettings settings;
-      settings.paths = paths_;
-      settings.max_bounces = max_bounces_;
-      // As tiled: every hit but the first, of the `indirect` class (README: deviations).
-      settings.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
-      ctx.photon_tracer().trace(settings, batch_);
-      photon_count = uint32_t(batch_.photons.size());
-      ctx.count("photons_stored", photon_count);
-    }
+    pb::trace::TraceSettings settings;
+    settings.paths = paths_;
+    settings.max_bounces = max_bounces_;
+    // As tiled: every hit but the first, of the `indirect` class (README: deviations).
+    settings.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
+    const uint32_t photon_count =
+        pb::trace_and_upload_photons(ctx, settings, batch_, photons_, "cluster/photons");
     float flux_scale = 1;
     {
-      auto scope = ctx.pass("photon-upload");
-      uint64_t bytes =
-          uint64_t(std::max<uint32_t>(photon_count, 1)) * sizeof(pb::trace::PhotonRecord);
-      if (!photons_ || photons_.size() < bytes)
-        photons_ = gpu.create_buffer("cluster/photons", bytes + bytes / 4, U::eStorageBuffer,
-                                     Memory::host_visible);
-      if (photon_count)
-        std::memcpy(photons_.mapped(), batch_.photons.data(),
-                    photon_count * sizeof(pb::trace::PhotonRecord));
       // Node flux is summed with 32-bit integer atomics (no float atomics on the device): fixed
       // point scaled so that all photons' flux together fits, per channel, in 2^31 units.
       glm::dvec3 total(0.0);
@@ -281,11 +260,7 @@ class Cluster final : public pb::Technique {
     pb::gpu::full_barrier(ctx.cmd());
     ctx.shared().shade(&indirect_);
 
-    // The counters live on the GPU: make them visible to the host and wait for the frame's work.
-    vk::MemoryBarrier to_host{vk::AccessFlagBits::eShaderWrite | vk::AccessFlagBits::eTransferWrite,
-                              vk::AccessFlagBits::eHostRead};
-    ctx.cmd().pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands,
-                              vk::PipelineStageFlagBits::eHost, {}, to_host, {}, {});
+    // The counters live on the GPU: wait for the frame's work (flush makes them host-visible).
     ctx.flush();
     report(ctx, photon_count);
   }

@@ -30,16 +30,9 @@ using pb::gpu::Buffer;
 using pb::gpu::Memory;
 using U = vk::BufferUsageFlagBits;
 
-// The hierarchy layouts the cluster technique names (techniques/cluster/README.md, "Hierarchy
-// layout"; ROOT:XxYxZ per level, parsed by pb::cluster::HierarchyOptions::parse_layout), so a sweep
-// compares the two techniques on the same hierarchy. Each keeps the level above the leaves at 32x32
-// pixels.
-constexpr const char* kLayouts[] = {
-    "256:2x2x8,2x2x8,2x2x8,4x4x2",        // default: 5 levels, 8x8-pixel leaves
-    "128:2x2x8,2x2x8,4x4x2",              // shallow: 4 levels
-    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2",  // deep: 6 levels
-};
-
+// `layout` names one of the cluster hierarchy's layouts (pb::cluster::HierarchyOptions::named_layout,
+// techniques/cluster/README.md "Hierarchy layout"), so a sweep compares the two techniques on the same
+// hierarchy. Each keeps the level above the leaves at 32x32 pixels.
 const pb_param_spec kParams[] = {
     {"photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
      "light paths traced per frame (as tiled; Paper I counts stored photons)"},
@@ -116,8 +109,7 @@ class Directional final : public pb::Technique {
     ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), 0.01f, 0.01f);
     // The hierarchy without normal cones (Paper I Table 1: "Normal Cone -" for directional).
     const std::string& layout = params.choice("layout");
-    int layout_index = layout == "shallow" ? 1 : layout == "deep" ? 2 : 0;
-    auto options = pb::cluster::HierarchyOptions::parse_layout(kLayouts[layout_index], "layout");
+    auto options = pb::cluster::HierarchyOptions::named_layout(layout);
     options.normal_cones = false;
     hierarchy_.setup(ctx.gpu(), options);
 
@@ -151,29 +143,15 @@ class Directional final : public pb::Technique {
   void render(pb::Context& ctx) override {
     auto& gpu = ctx.gpu();
     const auto& frame = ctx.frame();
-    uint32_t photon_count = 0;
+    pb::trace::TraceSettings settings;
+    settings.paths = paths_;
+    settings.max_bounces = max_bounces_;
+    // As tiled: every diffuse hit but the first (Paper I §4.2), without pure caustics L S+ D,
+    // which the `indirect` path class excludes.
+    settings.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
+    const uint32_t photon_count =
+        pb::trace_and_upload_photons(ctx, settings, batch_, photons_, "directional/photons");
     {
-      auto scope = ctx.pass("photon-trace");
-      pb::trace::TraceSettings settings;
-      settings.paths = paths_;
-      settings.max_bounces = max_bounces_;
-      // As tiled: every diffuse hit but the first (Paper I §4.2), without pure caustics L S+ D,
-      // which the `indirect` path class excludes.
-      settings.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
-      ctx.photon_tracer().trace(settings, batch_);
-      photon_count = uint32_t(batch_.photons.size());
-      ctx.count("photons_stored", photon_count);
-    }
-    {
-      auto scope = ctx.pass("photon-upload");
-      uint64_t bytes =
-          uint64_t(std::max<uint32_t>(photon_count, 1)) * sizeof(pb::trace::PhotonRecord);
-      if (!photons_ || photons_.size() < bytes)
-        photons_ = gpu.create_buffer("directional/photons", bytes + bytes / 4, U::eStorageBuffer,
-                                     Memory::host_visible);
-      if (photon_count)
-        std::memcpy(photons_.mapped(), batch_.photons.data(),
-                    photon_count * sizeof(pb::trace::PhotonRecord));
       // Fixed-point scale of the buckets (shaders/directional_common.h): no bucket can exceed the
       // largest channel's total flux.
       glm::dvec3 total(0.0);
@@ -260,11 +238,7 @@ class Directional final : public pb::Technique {
     pb::gpu::full_barrier(ctx.cmd());
     ctx.shared().shade(&indirect_);
 
-    // The counters live on the GPU: make them visible to the host and wait for the frame's work.
-    vk::MemoryBarrier to_host{vk::AccessFlagBits::eShaderWrite | vk::AccessFlagBits::eTransferWrite,
-                              vk::AccessFlagBits::eHostRead};
-    ctx.cmd().pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands,
-                              vk::PipelineStageFlagBits::eHost, {}, to_host, {}, {});
+    // The counters live on the GPU: wait for the frame's work (flush makes them host-visible).
     ctx.flush();
     report(ctx, photon_count);
   }

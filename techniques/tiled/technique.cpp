@@ -106,30 +106,14 @@ class Tiled final : public pb::Technique {
     ensure_resources(ctx);
     auto& gpu = ctx.gpu();
     const auto& frame = ctx.frame();
-    uint32_t photon_count = 0;
-    {
-      auto scope = ctx.pass("photon-trace");
-      pb::trace::TraceSettings settings;
-      settings.paths = paths_;
-      settings.max_bounces = max_bounces_;
-      // Paper I stores every hit but the first; of those we keep the ones the `indirect` path class
-      // (C D (D|S)* D (D|S)* L) covers, i.e. without pure caustics L S+ D (README: deviations).
-      settings.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
-      ctx.photon_tracer().trace(settings, batch_);
-      photon_count = uint32_t(batch_.photons.size());
-      ctx.count("photons_stored", photon_count);
-    }
-    {
-      auto scope = ctx.pass("photon-upload");
-      uint64_t bytes =
-          uint64_t(std::max<uint32_t>(photon_count, 1)) * sizeof(pb::trace::PhotonRecord);
-      if (!photons_ || photons_.size() < bytes)
-        photons_ = gpu.create_buffer("tiled/photons", bytes + bytes / 4, U::eStorageBuffer,
-                                     Memory::host_visible);
-      if (photon_count)
-        std::memcpy(photons_.mapped(), batch_.photons.data(),
-                    photon_count * sizeof(pb::trace::PhotonRecord));
-    }
+    pb::trace::TraceSettings settings;
+    settings.paths = paths_;
+    settings.max_bounces = max_bounces_;
+    // Paper I stores every hit but the first; of those we keep the ones the `indirect` path class
+    // (C D (D|S)* D (D|S)* L) covers, i.e. without pure caustics L S+ D (README: deviations).
+    settings.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
+    const uint32_t photon_count =
+        pb::trace_and_upload_photons(ctx, settings, batch_, photons_, "tiled/photons");
     ctx.shared().gbuffer();
     ctx.shared().direct_light();
 
@@ -211,11 +195,7 @@ class Tiled final : public pb::Technique {
     pb::gpu::full_barrier(ctx.cmd());
     ctx.shared().shade(&indirect_);
 
-    // The counters live on the GPU: make them visible to the host and wait for the frame's work.
-    vk::MemoryBarrier to_host{vk::AccessFlagBits::eShaderWrite | vk::AccessFlagBits::eTransferWrite,
-                              vk::AccessFlagBits::eHostRead};
-    ctx.cmd().pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands,
-                              vk::PipelineStageFlagBits::eHost, {}, to_host, {}, {});
+    // The counters live on the GPU: wait for the frame's work (flush makes them host-visible).
     ctx.flush();
     report(ctx, photon_count);
   }

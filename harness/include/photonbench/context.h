@@ -87,8 +87,9 @@ class Context {
   virtual gpu::Device& gpu() = 0;
   // The frame's command buffer, recording. The harness submits it after render() and waits for it.
   virtual vk::CommandBuffer cmd() = 0;
-  // Submits what is recorded so far and waits, then continues recording in a fresh buffer: for a
-  // technique that must read GPU results on the CPU within a frame.
+  // Submits what is recorded so far, with every GPU write made visible to the host, and waits; then
+  // continues recording in a fresh buffer: for a technique that reads GPU results (counters in a
+  // host-visible buffer) on the CPU within a frame.
   virtual void flush() = 0;
   virtual PassScope pass(std::string_view name) = 0;
   // Counters are per frame: "photons_stored" etc. Warnings are recorded on the cell with the frame.
@@ -102,5 +103,12 @@ class Context {
   // The image the harness reads back and scores: RGBA32F, linear radiance. shade() writes it.
   virtual const gpu::Image& output() = 0;
 };
+
+// The photon techniques' first two passes: traces `settings` with the frame's tracer in pass
+// "photon-trace" (counter "photons_stored"), then copies the records into `photons`, a host-visible
+// storage buffer made or grown as needed (named `buffer_name`), in pass "photon-upload". Returns the
+// number of photons stored; `batch` keeps them for the technique's own CPU-side use.
+uint32_t trace_and_upload_photons(Context& ctx, const trace::TraceSettings& settings, trace::PhotonBatch& batch,
+                                  gpu::Buffer& photons, std::string_view buffer_name);
 
 }  // namespace pb

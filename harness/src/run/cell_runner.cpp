@@ -89,6 +89,10 @@ class FrameContext final : public Context {
   gpu::Device& gpu() override { return device_; }
   vk::CommandBuffer cmd() override { return current_; }
   void flush() override {
+    // What the GPU wrote so far becomes visible to the host (mapped counters, read-backs).
+    vk::MemoryBarrier to_host{vk::AccessFlagBits::eMemoryWrite, vk::AccessFlagBits::eHostRead};
+    current_.pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands, vk::PipelineStageFlagBits::eHost, {},
+                             to_host, {}, {});
     submit_and_wait();
     begin_recording();
   }

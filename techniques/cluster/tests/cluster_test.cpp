@@ -18,77 +18,15 @@
 
 #include "io/image.h"
 #include "metrics/metrics.h"
+#include "run_fixture.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path work_dir(const std::string& name) {
-  fs::path dir =
-      fs::temp_directory_path() / ("pb_cluster_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using namespace pb::testing;
 
-int run_config(const fs::path& dir, const std::string& yaml) {
-  fs::path cfg = dir / "config.yaml";
-  std::ofstream(cfg) << yaml;
-  std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") + cfg.string() + " --out " +
-                    (dir / "run").string() + " --validation > " + (dir / "log.txt").string() +
-                    " 2>&1";
-  return std::system(cmd.c_str());
-}
-
-// The cell of a run whose technique is `technique` and whose (resolved, string) parameters include
-// every pair of `params`; empty if none.
-fs::path find_cell(const fs::path& dir, const std::string& technique,
-                   const std::map<std::string, std::string>& params = {}) {
-  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells")) {
-    std::ifstream in(entry.path() / "cell.json");
-    auto record = nlohmann::json::parse(in);
-    if (record["technique"] != technique) continue;
-    bool match = true;
-    for (const auto& [name, value] : params)
-      match = match && record["params"].contains(name) && record["params"][name] == value;
-    if (match) return entry.path();
-  }
-  return {};
-}
-
-nlohmann::json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return nlohmann::json::parse(in);
-}
-
-// Sum of each counter over the frames of counters.csv (frame,name,value).
-std::map<std::string, double> counters(const fs::path& cell) {
-  std::map<std::string, double> sums;
-  std::ifstream in(cell / "counters.csv");
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string frame, name, value;
-    std::getline(row, frame, ',');
-    std::getline(row, name, ',');
-    std::getline(row, value, ',');
-    sums[name] += std::stod(value);
-  }
-  return sums;
-}
-
-double mean_rgb(const pb::io::Image& image) {
-  double sum = 0;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c) sum += image.at(x, y, c);
-  return sum / (3.0 * image.pixel_count());
-}
-
-pb::io::Image frame_image(const fs::path& cell) {
-  return pb::io::read_image(cell / "images" / "frame_0000.exr");
-}
+fs::path work_dir(const std::string& name) { return pb::testing::work_dir("cluster_test", name); }
 
 double flip_mean(const fs::path& reference_cell, const fs::path& test_cell) {
   return pb::metrics::flip(frame_image(reference_cell), frame_image(test_cell)).stats.mean;

@@ -20,88 +20,21 @@
 
 #include "io/image.h"
 #include "metrics/metrics.h"
+#include "run_fixture.h"
 
 namespace fs = std::filesystem;
 
 namespace {
+
+using namespace pb::testing;
+
+fs::path work_dir(const std::string& name) { return pb::testing::work_dir("directional_test", name); }
 
 // Mean HDR-FLIP of directional's full image against tiled's (same photons) on cornell-box at
 // 160x90, 20k paths, r = 0.05: measured 0.184. Most of it is the approximation itself, not tiled's
 // noise: against tiled with 400k paths directional gives 0.171 (20k) and 0.166 (100k paths), while
 // tiled's own 20k image gives 0.104 (README "Tests"). The bound leaves a margin of ~35%.
 constexpr double kFlipBound = 0.25;
-
-fs::path work_dir(const std::string& name) {
-  fs::path dir = fs::temp_directory_path() /
-                 ("pb_directional_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-int run_config(const fs::path& dir, const std::string& yaml) {
-  fs::path cfg = dir / "config.yaml";
-  std::ofstream(cfg) << yaml;
-  std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") + cfg.string() + " --out " +
-                    (dir / "run").string() + " --validation > " + (dir / "log.txt").string() +
-                    " 2>&1";
-  return std::system(cmd.c_str());
-}
-
-// The cells of a run whose directory name starts with `prefix`, in name order (sweeps expand in
-// the order of the listed values, and cell names carry that index).
-std::vector<fs::path> cells(const fs::path& dir, const std::string& prefix) {
-  std::vector<fs::path> found;
-  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells"))
-    if (entry.path().filename().string().rfind(prefix, 0) == 0) found.push_back(entry.path());
-  std::sort(found.begin(), found.end());
-  return found;
-}
-
-nlohmann::json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return nlohmann::json::parse(in);
-}
-
-// Sum of each counter over the frames of counters.csv (frame,name,value).
-std::map<std::string, double> counters(const fs::path& cell) {
-  std::map<std::string, double> sums;
-  std::ifstream in(cell / "counters.csv");
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string frame, name, value;
-    std::getline(row, frame, ',');
-    std::getline(row, name, ',');
-    std::getline(row, value, ',');
-    sums[name] += std::stod(value);
-  }
-  return sums;
-}
-
-pb::io::Image frame0(const fs::path& cell) {
-  return pb::io::read_image(cell / "images" / "frame_0000.exr");
-}
-
-// The technique's indirect radiance alone (what it handed to the shade pass).
-pb::io::Image indirect0(const fs::path& cell) {
-  return pb::io::read_image(cell / "images" / "frame_0000_indirect.exr");
-}
-
-double mean_rgb(const pb::io::Image& image) {
-  double sum = 0;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c) sum += image.at(x, y, c);
-  return sum / (3.0 * image.pixel_count());
-}
-
-bool all_finite(const pb::io::Image& image) {
-  for (float v : image.pixels)
-    if (!std::isfinite(v)) return false;
-  return true;
-}
 
 void expect_ok(const fs::path& cell) {
   auto record = read_json(cell / "cell.json");
@@ -136,16 +69,16 @@ TEST(Directional, CloseToTiledOnCornellBox) {
                      "  - technique: directional\n"
                      "    params: {photons: 20000, radius: 0.05, max_bounces: 12}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto tiled = cells(dir, "cornell-box__tiled__");
-  auto directional = cells(dir, "cornell-box__directional__");
+  auto tiled = cells_with_prefix(dir, "cornell-box__tiled__");
+  auto directional = cells_with_prefix(dir, "cornell-box__directional__");
   ASSERT_EQ(tiled.size(), 1u);
   ASSERT_EQ(directional.size(), 1u);
   expect_ok(directional[0]);
-  auto t = frame0(tiled[0]), a = frame0(directional[0]);
+  auto t = frame_image(tiled[0]), a = frame_image(directional[0]);
   ASSERT_TRUE(all_finite(a));
   // The indirect light each adds to the same direct light.
-  double added_tiled = mean_rgb(indirect0(tiled[0]));
-  double added_directional = mean_rgb(indirect0(directional[0]));
+  double added_tiled = mean_rgb(frame_image(tiled[0], 0, "indirect"));
+  double added_directional = mean_rgb(frame_image(directional[0], 0, "indirect"));
   ASSERT_GT(added_tiled, 0);
   EXPECT_NEAR(added_directional / added_tiled, 1.0, 0.15)
       << "directional adds " << added_directional << ", tiled " << added_tiled;
@@ -179,7 +112,7 @@ TEST(Directional, BlurKeepsDepthAndNormalEdges) {
                      "    params: {photons: 1000, debug_irradiance: normal, blur_radius: 16,\n"
                      "             blur_depth_sigma: 1e6, blur_normal_sigma: 1e6}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells(dir, "cornell-box__directional__");
+  auto found = cells_with_prefix(dir, "cornell-box__directional__");
   ASSERT_EQ(found.size(), 3u);
   // Cells told apart by their resolved parameters (strings in cell.json).
   std::optional<pb::io::Image> off, aware, leaky;
@@ -190,11 +123,11 @@ TEST(Directional, BlurKeepsDepthAndNormalEdges) {
       return params.contains(name) ? std::stod(params[name].get<std::string>()) : fallback;
     };
     if (number("blur_radius", 16) == 0)
-      off = frame0(cell);
+      off = frame_image(cell);
     else if (number("blur_normal_sigma", 0.2) > 1e3)
-      leaky = frame0(cell);
+      leaky = frame_image(cell);
     else
-      aware = frame0(cell);
+      aware = frame_image(cell);
   }
   ASSERT_TRUE(off && aware && leaky);
   double aware_max = 0, leaky_max = 0;
@@ -218,7 +151,7 @@ TEST(Directional, DoublingPhotonsKeepsMeanIrradiance) {
                      "    params: {photons: [20000, 40000], radius: 0.05, max_bounces: 12,\n"
                      "             accumulate_at: [accumulation, leaves]}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells(dir, "cornell-box__directional__");
+  auto found = cells_with_prefix(dir, "cornell-box__directional__");
   ASSERT_EQ(found.size(), 4u);
   // (accumulate_at, photons) -> mean indirect radiance and photons stored.
   std::map<std::pair<std::string, std::string>, std::pair<double, double>> runs;
@@ -226,7 +159,7 @@ TEST(Directional, DoublingPhotonsKeepsMeanIrradiance) {
     expect_ok(cell);
     auto params = read_json(cell / "cell.json")["params"];
     runs[{params["accumulate_at"].get<std::string>(), params["photons"].get<std::string>()}] = {
-        mean_rgb(indirect0(cell)), counters(cell)["photons_stored"]};
+        mean_rgb(frame_image(cell, 0, "indirect")), counters(cell)["photons_stored"]};
   }
   ASSERT_EQ(runs.size(), 4u);
   for (const char* at : {"accumulation", "leaves"}) {
@@ -249,7 +182,7 @@ TEST(Directional, VisitBudgetOverflowIsCountedAndWarned) {
                      "  - technique: directional\n"
                      "    params: {photons: 2000, radius: 0.3, max_visits: 2}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells(dir, "cornell-box__directional__");
+  auto found = cells_with_prefix(dir, "cornell-box__directional__");
   ASSERT_EQ(found.size(), 1u);
   expect_ok(found[0]);
   auto sums = counters(found[0]);

@@ -15,67 +15,19 @@
 #include <vector>
 
 #include "io/image.h"
+#include "run_fixture.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path work_dir(const std::string& name) {
-  fs::path dir =
-      fs::temp_directory_path() / ("pb_tiled_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using namespace pb::testing;
 
-int run_config(const fs::path& dir, const std::string& yaml) {
-  fs::path cfg = dir / "config.yaml";
-  std::ofstream(cfg) << yaml;
-  std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") + cfg.string() + " --out " +
-                    (dir / "run").string() + " --validation > " + (dir / "log.txt").string() +
-                    " 2>&1";
-  return std::system(cmd.c_str());
-}
-
-fs::path cell_dir(const fs::path& dir, const std::string& prefix) {
-  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells"))
-    if (entry.path().filename().string().rfind(prefix, 0) == 0) return entry.path();
-  return {};
-}
-
-nlohmann::json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return nlohmann::json::parse(in);
-}
-
-// Sum of each counter over the frames of counters.csv (frame,name,value).
-std::map<std::string, double> counters(const fs::path& cell) {
-  std::map<std::string, double> sums;
-  std::ifstream in(cell / "counters.csv");
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string frame, name, value;
-    std::getline(row, frame, ',');
-    std::getline(row, name, ',');
-    std::getline(row, value, ',');
-    sums[name] += std::stod(value);
-  }
-  return sums;
-}
+fs::path work_dir(const std::string& name) { return pb::testing::work_dir("tiled_test", name); }
 
 double mean_rgb(const pb::io::Image& image, bool* finite) {
-  double sum = 0;
-  *finite = true;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c) {
-        float v = image.at(x, y, c);
-        if (!std::isfinite(v)) *finite = false;
-        sum += v;
-      }
-  return sum / (3.0 * image.pixel_count());
+  *finite = all_finite(image);
+  return pb::testing::mean_rgb(image);
 }
 
 const char* kHeader = R"(name: tiled-test

@@ -1,0 +1,114 @@
+// Helpers for tests that run `photonbench run` end to end (technique tests): a scratch folder, a run
+// of a YAML text with Vulkan validation, and readers for the run's cells, counters and images.
+#pragma once
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "io/image.h"
+
+namespace pb::testing {
+
+namespace fs = std::filesystem;
+
+// An empty folder under the temp dir, unique to this test process.
+inline fs::path work_dir(const std::string& suite, const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("pb_" + suite + "_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Writes `yaml` to DIR/config.yaml and runs it into DIR/run with validation; the console output goes to
+// DIR/log.txt. Returns the exit status as std::system does.
+inline int run_config(const fs::path& dir, const std::string& yaml) {
+  std::ofstream(dir / "config.yaml") << yaml;
+  std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") + (dir / "config.yaml").string() + " --out " +
+                    (dir / "run").string() + " --validation > " + (dir / "log.txt").string() + " 2>&1";
+  return std::system(cmd.c_str());
+}
+
+inline nlohmann::json read_json(const fs::path& file) {
+  std::ifstream in(file);
+  return nlohmann::json::parse(in);
+}
+
+// The cells of a run whose folder name starts with `prefix` (e.g. "cornell-box__tiled__"), sorted.
+inline std::vector<fs::path> cells_with_prefix(const fs::path& dir, const std::string& prefix) {
+  std::vector<fs::path> found;
+  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells"))
+    if (entry.path().filename().string().rfind(prefix, 0) == 0) found.push_back(entry.path());
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+inline fs::path cell_dir(const fs::path& dir, const std::string& prefix) {
+  auto found = cells_with_prefix(dir, prefix);
+  return found.empty() ? fs::path() : found.front();
+}
+
+// The cell whose technique is `technique` and whose resolved parameters include every pair of
+// `params` (values as cell.json writes them: strings); empty if none.
+inline fs::path find_cell(const fs::path& dir, const std::string& technique,
+                          const std::map<std::string, std::string>& params = {}) {
+  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells")) {
+    auto record = read_json(entry.path() / "cell.json");
+    if (record["technique"] != technique) continue;
+    bool match = true;
+    for (const auto& [name, value] : params)
+      match = match && record["params"].contains(name) && record["params"][name] == value;
+    if (match) return entry.path();
+  }
+  return {};
+}
+
+// Sum of each counter over the frames of a cell's counters.csv (frame,name,value).
+inline std::map<std::string, double> counters(const fs::path& cell) {
+  std::map<std::string, double> sums;
+  std::ifstream in(cell / "counters.csv");
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::string frame, name, value;
+    std::getline(row, frame, ',');
+    std::getline(row, name, ',');
+    std::getline(row, value, ',');
+    sums[name] += std::stod(value);
+  }
+  return sums;
+}
+
+// images/frame_NNNN.exr, or with `path_class` the technique's estimate of that class alone
+// (frame_NNNN_<class>.exr).
+inline io::Image frame_image(const fs::path& cell, int frame = 0, const std::string& path_class = "") {
+  char name[64];
+  std::snprintf(name, sizeof name, "frame_%04d%s%s.exr", frame, path_class.empty() ? "" : "_",
+                path_class.c_str());
+  return io::read_image(cell / "images" / name);
+}
+
+inline double mean_rgb(const io::Image& image) {
+  double sum = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c) sum += image.at(x, y, c);
+  return sum / (3.0 * image.pixel_count());
+}
+
+inline bool all_finite(const io::Image& image) {
+  for (float v : image.pixels)
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+}  // namespace pb::testing
