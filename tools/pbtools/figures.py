@@ -325,6 +325,11 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
             ax = axes[0][k]
             ax.set_xlabel(p)
             ax.set_ylabel("median frame time [ms]" if panel == "time" else METRIC_LABEL[panel])
+            if panel == "time":  # techniques an order of magnitude apart: log time, or the fast ones vanish
+                times = [c.value("frame_ms_median") for c in cells if c.ok and p in c.params]
+                times = [t for t in times if math.isfinite(t) and t > 0]
+                if times and max(times) / min(times) >= 10:
+                    ax.set_yscale("log")
             if numeric:
                 xs = [float(v) for v in values]
                 if min(xs) > 0 and max(xs) / min(xs) >= 10:
@@ -336,9 +341,11 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
         seen = {}
         for h, l in zip(handles, labels):
             seen.setdefault(l, h)
-        fig.legend(list(seen.values()), list(seen), loc="upper center", ncol=min(4, len(seen)),
-                   bbox_to_anchor=(0.5, 1.1))
         fig.tight_layout()
+        # Below the panels: a sweep can have many lines (technique x other swept parameters), and a legend
+        # above them would cover the axes.
+        fig.legend(list(seen.values()), list(seen), loc="upper center", ncol=min(3, len(seen)),
+                   bbox_to_anchor=(0.5, 0.0), fontsize="small")
         figures.append(Figure(f"sweep_{slug(scene)}_{slug(p)}", f"{scene}: sweep over {p}",
                               f"Median frame time (band: p5-p95) and mean error against {p}. Crosses on "
                               "the axis: settings whose cell failed.", fig, header, rows))
