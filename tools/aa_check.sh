@@ -17,8 +17,8 @@
 #                          [-o DIR] [-x 'COMPARE ARGS'] [-- RUN ARGS (e.g. --set frames.count=24)]
 #   defaults: 10 pairs, 5 runs per side, pass gbuffer, factor 1.25, configs/ci-perf.yaml,
 #             build/photonbench, results/aa-check-<UTC time>; run folders and compare outputs are kept.
-#   The runs inherit the environment; the header of the log records the variables that change how
-#   lavapipe runs (LP_NUM_THREADS, GLIBC_TUNABLES; configs/ci-perf.yaml says what CI sets).
+#   The runs inherit the environment; the log's header records the variables that change how lavapipe
+#   runs (LP_NUM_THREADS, GLIBC_TUNABLES).
 # exit: 0 when every A/A pair is clean and every slowed run is flagged on PASS, 1 otherwise, 2 bad usage.
 set -u
 here="$(cd "$(dirname "$0")/.." && pwd)"
