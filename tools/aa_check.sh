@@ -15,14 +15,14 @@
 #
 # usage: tools/aa_check.sh [-n PAIRS] [-k RUNS] [-p PASS] [-f FACTOR] [-c CONFIG] [-b PHOTONBENCH]
 #                          [-o DIR] [-x 'COMPARE ARGS'] [-- RUN ARGS (e.g. --set frames.count=24)]
-#   defaults: 10 pairs, 5 runs per side, pass gbuffer, factor 1.25, configs/ci-perf.yaml,
+#   defaults: 10 pairs, 8 runs per side, pass gbuffer, factor 1.25, configs/ci-perf.yaml,
 #             build/photonbench, results/aa-check-<UTC time>; run folders and compare outputs are kept.
 #   The runs inherit the environment; the log's header records the variables that change how lavapipe
 #   runs (LP_NUM_THREADS, GLIBC_TUNABLES).
 # exit: 0 when every A/A pair is clean and every slowed run is flagged on PASS, 1 otherwise, 2 bad usage.
 set -u
 here="$(cd "$(dirname "$0")/.." && pwd)"
-pairs=10 reps=5 pass=gbuffer factor=1.25 config="$here/configs/ci-perf.yaml" pb="$here/build/photonbench"
+pairs=10 reps=8 pass=gbuffer factor=1.25 config="$here/configs/ci-perf.yaml" pb="$here/build/photonbench"
 out="" compare_args=""
 usage() { sed -n '/^# usage:/,/^# exit:/p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
 while getopts "n:k:p:f:c:b:o:x:h" opt; do
