@@ -4,7 +4,7 @@
 # `photonbench compare` on real runs (the unit tests use synthetic fixtures): two folders of replicate
 # runs of the same build (A/A) are not a regression; runs with one pass made 25% slower by the
 # test-only delay injection (testing.slow_pass / testing.slow_factor, harness/src/run/profiler.h) are,
-# and the table names it. Replicates (PB_COMPARE_RUNS, default 5 per side) are interleaved in time, as
+# and the table names it. Replicates (PB_COMPARE_RUNS, default 8 per side) are interleaved in time, as
 # compare's docstring asks; on lavapipe compare reads process CPU time (frames.csv process_cpu_ms).
 # PB_COMPARE_FRAMES sets the frame count.
 source "$(dirname "$0")/../e2e/lib.bash"
@@ -24,7 +24,7 @@ YAML
 run() { env -u PB_VALIDATION "$PB" run "$cfg" --out "$@"; }
 slow=(--set testing.slow_pass=gbuffer --set testing.slow_factor=1.25)
 
-for j in $(seq 1 "${PB_COMPARE_RUNS:-5}"); do
+for j in $(seq 1 "${PB_COMPARE_RUNS:-8}"); do
   expect_exit 0 "run A/$j" -- run "$WORK/A/$j"
   expect_exit 0 "run A2/$j (same build, same config)" -- run "$WORK/A2/$j"
   expect_exit 0 "run SLOW/$j (gbuffer x1.25)" -- run "$WORK/SLOW/$j" "${slow[@]}"
