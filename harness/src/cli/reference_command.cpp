@@ -89,7 +89,7 @@ void add_reference(CLI::App& app, int& exit_code) {
     if (pb::run::is_benchmark_config(args->scene)) {
       auto config = pb::config::load_config(args->scene, {});
       pb::run::PluginRegistry plugins(config.plugin_dirs);
-      pb::run::render_needed_references(config, pb::config::expand_cells(config, plugins), plugins);
+      pb::run::render_needed_references(config, pb::run::expand_cells(config, plugins), plugins);
       exit_code = 0;
       return;
     }

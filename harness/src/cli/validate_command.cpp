@@ -4,8 +4,7 @@
 #include <filesystem>
 
 #include "cli/command.h"
-#include "config/config.h"
-#include "run/plugins.h"
+#include "run/plan.h"
 
 namespace {
 
@@ -24,14 +23,13 @@ void add_validate(CLI::App& app, int& exit_code) {
   cmd->callback([args, plugin_dirs, &exit_code] {
     for (const auto& dir : *plugin_dirs)
       args->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
-    auto config = pb::config::load_config(args->config, args->overrides);
-    pb::run::PluginRegistry plugins(config.plugin_dirs);
-    auto cells = pb::config::expand_cells(config, plugins);
+    const pb::run::RunPlan plan = pb::run::plan_run(args->config, args->overrides);
+    const auto& [config, plugins, cells] = plan;
     std::printf("%s: valid, %zu cells (config hash %s)\n", args->config.c_str(), cells.size(), config.hash.c_str());
     for (const auto& cell : cells) {
       std::printf("  %s", cell.id.c_str());
       for (const auto& [k, v] : cell.params) std::printf(" %s=%s", k.c_str(), v.c_str());
-      const pb::run::Plugin* plugin = plugins.find(cell.technique);
+      const pb::run::Plugin* plugin = plugins->find(cell.technique);
       if (plugin && !plugin->loaded()) std::printf("  [will fail: %s]", plugin->load_error.c_str());
       std::printf("\n");
     }

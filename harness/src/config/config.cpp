@@ -5,8 +5,6 @@
 #include <sstream>
 
 #include "photonbench/error.h"
-#include "run/plugins.h"
-#include "scene/scene.h"
 
 namespace pb::config {
 
@@ -69,8 +67,6 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
   }
 }
 
-std::string format_number(double v) { return fmt::format("{}", v); }
-
 }  // namespace
 
 std::string stable_hash(const std::string& text) {
@@ -109,20 +105,14 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
 
   YamlView scenes = root["scenes"];
   if (scenes.elements().empty()) scenes.fail("at least one scene is needed");
-  std::vector<std::filesystem::path> search = {file.parent_path(), file.parent_path() / "scenes"};
+  config.scene_dirs = {file.parent_path(), file.parent_path() / "scenes"};
   for (const YamlView& scene : scenes.elements()) {
     // A scene is a name, or {scene: NAME, params: {...}} whose parameters replace the techniques' own
     // for this scene's cells (photon radii are in scene units: Paper I's Table 2 sets them per scene).
     if (scene.is_map()) scene.allow_keys({"scene", "params"});
     // (Constructed, never assigned: assigning a YAML::Node rebinds the node inside the tree.)
     const YamlView name_node = scene.is_map() ? scene["scene"] : scene;
-    std::string name = name_node.as_string();
-    try {
-      scene::find_scene(name, search);
-    } catch (const InputError& e) {
-      name_node.fail(e.what());
-    }
-    config.scenes.push_back({name, scene});
+    config.scenes.push_back({name_node.as_string(), scene, name_node});
   }
 
   YamlView techniques = root["techniques"];
@@ -169,139 +159,6 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   config.canonical = emitter.c_str();
   config.hash = stable_hash(config.canonical);
   return config;
-}
-
-namespace {
-
-// Checks one value against its spec and returns its canonical text.
-std::string check_param(const pb_param_spec& spec, const YamlView& value) {
-  switch (spec.type) {
-    case PB_PARAM_INT:
-      return fmt::format("{}", value.as_int(int64_t(spec.min_value), int64_t(spec.max_value)));
-    case PB_PARAM_FLOAT:
-      return format_number(value.as_number(spec.min_value, spec.max_value));
-    case PB_PARAM_BOOL:
-      return value.as_bool() ? "true" : "false";
-    case PB_PARAM_ENUM: {
-      std::string text = value.as_string();
-      std::vector<std::string> choices;
-      std::istringstream stream(spec.choices ? spec.choices : "");
-      for (std::string c; std::getline(stream, c, '|');) choices.push_back(c);
-      for (const auto& c : choices)
-        if (c == text) return text;
-      std::string hint = closest_name(text, choices);
-      value.fail(fmt::format("'{}' is not one of: {}{}", text, fmt::join(choices, ", "),
-                             hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint)));
-    }
-  }
-  value.fail("unknown parameter type");
-}
-
-// A scene entry's `params` replace (and, given a list, sweep) the parameters of the same name of every
-// technique that has them; a name no technique of the config has is an error at its key.
-std::vector<std::map<std::string, std::string>> with_scene_params(
-    const YamlView& scene_node, const Config& config, size_t technique,
-    const std::vector<std::map<std::string, std::string>>& combos, run::PluginRegistry& plugins) {
-  std::optional<YamlView> overrides = scene_node.is_map() ? scene_node.get("params") : std::nullopt;
-  if (!overrides) return combos;
-  std::vector<std::string> known;
-  for (const auto& entry : config.techniques)
-    if (const run::Plugin* plugin = plugins.find(entry.technique); plugin && plugin->loaded())
-      for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
-        if (std::find(known.begin(), known.end(), plugin->descriptor->params[i].name) == known.end())
-          known.push_back(plugin->descriptor->params[i].name);
-  overrides->allow_keys(known);
-  const run::Plugin* plugin = plugins.find(config.techniques[technique].technique);
-  if (!plugin || !plugin->loaded()) return combos;
-  std::vector<std::map<std::string, std::string>> result = combos;
-  for (const auto& [key, value] : overrides->entries()) {
-    const pb_param_spec* spec = nullptr;
-    for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
-      if (key == plugin->descriptor->params[i].name) spec = &plugin->descriptor->params[i];
-    if (!spec) continue;  // another technique's parameter
-    std::vector<YamlView> values = value.elements();
-    if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
-    std::vector<std::map<std::string, std::string>> expanded;
-    for (const auto& combo : result)
-      for (const YamlView& v : values) {
-        auto next = combo;
-        next[key] = check_param(*spec, v);
-        if (std::find(expanded.begin(), expanded.end(), next) == expanded.end()) expanded.push_back(std::move(next));
-      }
-    result = std::move(expanded);
-  }
-  return result;
-}
-
-}  // namespace
-
-std::vector<Cell> expand_cells(const Config& config, run::PluginRegistry& plugins) {
-  // Per technique entry: the list of parameter maps its sweeps expand to.
-  std::vector<std::vector<std::map<std::string, std::string>>> combos(config.techniques.size());
-  for (size_t t = 0; t < config.techniques.size(); ++t) {
-    const TechniqueEntry& entry = config.techniques[t];
-    YamlView name_node = entry.node["technique"];
-    const run::Plugin* plugin = plugins.find(entry.technique);
-    if (!plugin) {
-      auto names = plugins.names();
-      std::string hint = closest_name(entry.technique, names);
-      name_node.fail(fmt::format("unknown technique '{}'{} (available: {})", entry.technique,
-                                 hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
-                                 fmt::join(names, ", ")));
-    }
-    if (!plugin->version_error.empty()) name_node.fail(plugin->version_error);
-    if (!plugin->loaded()) {
-      combos[t].push_back({});  // fails when it runs, with the loader's error
-      continue;
-    }
-    const pb_technique_descriptor& d = *plugin->descriptor;
-    std::vector<std::string> names;
-    for (uint32_t i = 0; i < d.param_count; ++i) names.push_back(d.params[i].name);
-    std::map<std::string, std::string> defaults;
-    for (uint32_t i = 0; i < d.param_count; ++i) defaults[d.params[i].name] = run::param_default_text(d.params[i]);
-    combos[t].push_back(defaults);
-    std::optional<YamlView> params = entry.node.get("params");
-    if (!params) continue;
-    params->allow_keys(names);
-    for (const auto& [key, value] : params->entries()) {
-      const pb_param_spec* spec = nullptr;
-      for (uint32_t i = 0; i < d.param_count; ++i)
-        if (key == d.params[i].name) spec = &d.params[i];
-      std::vector<YamlView> values = value.elements();
-      if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
-      std::vector<std::map<std::string, std::string>> expanded;
-      for (const auto& combo : combos[t])
-        for (const YamlView& v : values) {
-          auto next = combo;
-          next[key] = check_param(*spec, v);
-          expanded.push_back(std::move(next));
-        }
-      combos[t] = std::move(expanded);
-    }
-  }
-
-  std::vector<Cell> cells;
-  std::vector<std::filesystem::path> search = {config.file.parent_path(), config.file.parent_path() / "scenes"};
-  for (const auto& [scene_name, scene_node] : config.scenes) {
-    std::filesystem::path scene_file = scene::find_scene(scene_name, search);
-    std::string scene_id = scene_file.stem().string();
-    for (size_t t = 0; t < config.techniques.size(); ++t) {
-      for (const auto& params : with_scene_params(scene_node, config, t, combos[t], plugins)) {
-        Cell cell;
-        cell.scene = scene_id;
-        cell.scene_file = scene_file;
-        cell.technique = config.techniques[t].technique;
-        cell.params = params;
-        std::string key;
-        for (const auto& [k, v] : params) key += k + "=" + v + ";";
-        cell.id = fmt::format("{}__{}__{}", scene_id, cell.technique, stable_hash(key).substr(0, 8));
-        bool duplicate = false;
-        for (const auto& c : cells) duplicate |= c.id == cell.id;
-        if (!duplicate) cells.push_back(std::move(cell));
-      }
-    }
-  }
-  return cells;
 }
 
 }  // namespace pb::config

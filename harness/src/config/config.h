@@ -1,18 +1,13 @@
-// The benchmark config: loading, --set overrides, validation against the schema (every error names
-// file:line:col and key), and the expansion of sweeps into cells (scene x technique x parameters).
+// The benchmark config: loading, --set overrides and validation of the keys the harness owns (every
+// error names file:line:col and key). It only parses and checks: scene names, technique names and
+// parameters are resolved against the scenes and plugins by run/plan.h, which expands the sweeps.
 #pragma once
 
 #include <filesystem>
-#include <map>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "config/yaml_view.h"
-
-namespace pb::run {
-class PluginRegistry;
-}
 
 namespace pb::config {
 
@@ -38,6 +33,12 @@ struct TestingHooks {
   double slow_factor = 1.0;
 };
 
+struct SceneEntry {
+  std::string scene;   // a name under the scene folders, or a path
+  YamlView node;       // the entry itself: a name, or {scene, params}
+  YamlView name_node;  // where the name is written, for errors about it
+};
+
 struct TechniqueEntry {
   std::string technique;
   YamlView node;  // the entry itself, for error locations
@@ -49,7 +50,8 @@ struct Config {
   uint32_t width = 640, height = 360;
   FrameSettings frames;
   uint64_t seed = 1;
-  std::vector<std::pair<std::string, YamlView>> scenes;  // as written, with location
+  std::vector<SceneEntry> scenes;
+  std::vector<std::filesystem::path> scene_dirs;  // where scene names are looked up
   std::vector<TechniqueEntry> techniques;
   std::vector<std::string> metrics;
   ReferenceSettings reference;
@@ -61,24 +63,9 @@ struct Config {
   std::string hash;        // 16 hex digits
 };
 
-// A cell: one scene, one technique, one value of every parameter.
-struct Cell {
-  std::string id;  // "<scene>__<technique>__<8 hex of the parameter values>": stable across runs
-  std::string scene;
-  std::filesystem::path scene_file;
-  std::string technique;
-  std::map<std::string, std::string> params;  // every schema parameter, defaults filled in
-};
-
 // Reads `file`, applies `overrides` ("key.path=value", value parsed as YAML), validates the keys the
-// harness owns. Throws pb::InputError.
+// harness owns. Scene names are checked by run/plan.h, which resolves them. Throws pb::InputError.
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides);
-
-// Expands sweeps and checks each technique and parameter against its plugin's schema. Throws
-// pb::InputError for an unknown technique, a plugin built for another API version, an unknown
-// parameter or a value of the wrong type or range. A plugin that exists but fails to load is not an
-// input error: its cells are returned with an empty parameter map, to fail when they run.
-std::vector<Cell> expand_cells(const Config& config, run::PluginRegistry& plugins);
 
 // 64-bit FNV-1a, as 16 hex digits: stable across platforms and runs (std::hash is neither).
 std::string stable_hash(const std::string& text);

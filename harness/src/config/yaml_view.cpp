@@ -4,8 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
-#include "io/results.h"
 #include "photonbench/error.h"
 
 namespace pb::config {
@@ -40,8 +41,12 @@ std::string closest_name(std::string_view word, const std::vector<std::string>& 
 }
 
 YamlView YamlView::load_file(const std::filesystem::path& file) {
-  if (!std::filesystem::is_regular_file(file)) throw InputError(fmt::format("{}: cannot open file", file.string()));
-  return parse(io::read_text(file), file.string());
+  std::ifstream in(file, std::ios::binary);
+  if (!std::filesystem::is_regular_file(file) || !in)
+    throw InputError(fmt::format("{}: cannot open file", file.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse(text.str(), file.string());
 }
 
 YamlView YamlView::parse(const std::string& text, const std::string& source_name) {

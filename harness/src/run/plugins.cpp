@@ -75,6 +75,11 @@ const Plugin* PluginRegistry::find(const std::string& name) {
   return result;
 }
 
+TechniqueInstance create_technique(const pb_technique_descriptor& descriptor) {
+  return TechniqueInstance(static_cast<Technique*>(descriptor.create()),
+                           TechniqueDeleter{descriptor.destroy});
+}
+
 std::string param_type_name(const pb_param_spec& spec) {
   switch (spec.type) {
     case PB_PARAM_INT: return "int";

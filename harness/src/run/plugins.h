@@ -42,6 +42,16 @@ class PluginRegistry {
   std::map<std::string, std::unique_ptr<Plugin>> loaded_;
 };
 
+// A technique made by its plugin's `create` and destroyed by its `destroy` (the plugin's own heap).
+struct TechniqueDeleter {
+  void (*destroy)(void*);
+  void operator()(Technique* technique) const {
+    if (technique) destroy(technique);
+  }
+};
+using TechniqueInstance = std::unique_ptr<Technique, TechniqueDeleter>;
+TechniqueInstance create_technique(const pb_technique_descriptor& descriptor);
+
 // The type of a parameter spec as a word ("int", "float", "bool", "enum") and its default as text.
 std::string param_type_name(const pb_param_spec& spec);
 std::string param_default_text(const pb_param_spec& spec);

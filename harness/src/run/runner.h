@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "config/config.h"
+#include "run/plan.h"
 
 namespace pb::run {
 
@@ -22,12 +22,10 @@ struct RunOptions {
 // Returns the process exit code: 0 all cells ok, 1 some cell failed. Bad input throws pb::InputError.
 int run_benchmark(const RunOptions& options);
 
-class PluginRegistry;
-
 // Renders every reference image the cells will be scored against that the cache lacks (run does this
 // before its first cell; `photonbench reference CONFIG` does only this): each reference is rendered
 // once and shared by every technique and setting of its scene.
-void render_needed_references(const config::Config& config, const std::vector<config::Cell>& cells,
+void render_needed_references(const config::Config& config, const std::vector<Cell>& cells,
                               PluginRegistry& plugins);
 // A YAML file with a `techniques` key: a benchmark config rather than a scene.
 bool is_benchmark_config(const std::filesystem::path& file);

@@ -51,7 +51,7 @@ std::vector<uint32_t> metric_frames(const config::Config& config) {
   return frames;
 }
 
-ScoreResult score_cell(const config::Config& config, const config::Cell&, const scene::Scene& scene,
+ScoreResult score_cell(const config::Config& config, const Cell&, const scene::Scene& scene,
                        const std::vector<uint32_t>& frames, const std::string& path_class,
                        const std::filesystem::path& cell_dir) {
   ScoreResult result;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "config/config.h"
+#include "run/plan.h"
 #include "scene/scene.h"
 #include "trace/reference.h"
 
@@ -29,7 +30,7 @@ trace::ReferenceOptions reference_options(const config::Config& config);
 // when that class is not the whole output (an indirect class added to the shared direct light).
 std::string class_image_name(uint32_t frame, trace::PathClass path_class);
 
-ScoreResult score_cell(const config::Config& config, const config::Cell& cell, const scene::Scene& scene,
+ScoreResult score_cell(const config::Config& config, const Cell& cell, const scene::Scene& scene,
                        const std::vector<uint32_t>& metric_frames, const std::string& path_class,
                        const std::filesystem::path& cell_dir);
 

@@ -1,0 +1,178 @@
+#include "run/plan.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <optional>
+#include <sstream>
+
+#include "photonbench/error.h"
+#include "scene/scene.h"
+
+namespace pb::run {
+
+namespace {
+
+using ParamMap = std::map<std::string, std::string>;
+
+// Checks one value against its spec and returns its canonical text.
+std::string check_param(const pb_param_spec& spec, const config::YamlView& value) {
+  switch (spec.type) {
+    case PB_PARAM_INT:
+      return fmt::format("{}", value.as_int(int64_t(spec.min_value), int64_t(spec.max_value)));
+    case PB_PARAM_FLOAT:
+      return fmt::format("{}", value.as_number(spec.min_value, spec.max_value));
+    case PB_PARAM_BOOL:
+      return value.as_bool() ? "true" : "false";
+    case PB_PARAM_ENUM: {
+      std::string text = value.as_string();
+      std::vector<std::string> choices;
+      std::istringstream stream(spec.choices ? spec.choices : "");
+      for (std::string c; std::getline(stream, c, '|');) choices.push_back(c);
+      for (const auto& c : choices)
+        if (c == text) return text;
+      std::string hint = config::closest_name(text, choices);
+      value.fail(fmt::format("'{}' is not one of: {}{}", text, fmt::join(choices, ", "),
+                             hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint)));
+    }
+  }
+  value.fail("unknown parameter type");
+}
+
+const pb_param_spec* find_spec(const pb_technique_descriptor& d, const std::string& name) {
+  for (uint32_t i = 0; i < d.param_count; ++i)
+    if (name == d.params[i].name) return &d.params[i];
+  return nullptr;
+}
+
+// Every combination times every value of one swept key (a scalar is a one-value list). `unique`
+// drops a combination already made (a scene's value may equal the technique's own).
+std::vector<ParamMap> sweep(const std::vector<ParamMap>& combos, const std::string& key,
+                            const pb_param_spec& spec, const config::YamlView& value, bool unique) {
+  std::vector<config::YamlView> values = value.elements();
+  if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
+  std::vector<ParamMap> expanded;
+  for (const auto& combo : combos)
+    for (const config::YamlView& v : values) {
+      ParamMap next = combo;
+      next[key] = check_param(spec, v);
+      if (!unique || std::find(expanded.begin(), expanded.end(), next) == expanded.end())
+        expanded.push_back(std::move(next));
+    }
+  return expanded;
+}
+
+// The parameter maps one technique entry's sweeps expand to, every schema parameter filled in.
+std::vector<ParamMap> technique_combos(const config::TechniqueEntry& entry,
+                                       PluginRegistry& plugins) {
+  config::YamlView name_node = entry.node["technique"];
+  const Plugin* plugin = plugins.find(entry.technique);
+  if (!plugin) {
+    auto names = plugins.names();
+    std::string hint = config::closest_name(entry.technique, names);
+    name_node.fail(fmt::format("unknown technique '{}'{} (available: {})", entry.technique,
+                               hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
+                               fmt::join(names, ", ")));
+  }
+  if (!plugin->version_error.empty()) name_node.fail(plugin->version_error);
+  if (!plugin->loaded()) return {{}};  // fails when it runs, with the loader's error
+  const pb_technique_descriptor& d = *plugin->descriptor;
+  std::vector<std::string> names;
+  ParamMap defaults;
+  for (uint32_t i = 0; i < d.param_count; ++i) {
+    names.push_back(d.params[i].name);
+    defaults[d.params[i].name] = param_default_text(d.params[i]);
+  }
+  std::vector<ParamMap> combos = {defaults};
+  std::optional<config::YamlView> params = entry.node.get("params");
+  if (!params) return combos;
+  params->allow_keys(names);
+  for (const auto& [key, value] : params->entries())
+    combos = sweep(combos, key, *find_spec(d, key), value, false);
+  return combos;
+}
+
+// A scene entry's `params` replace (and, given a list, sweep) the parameters of the same name of
+// every technique that has them; a name no technique of the config has is an error at its key.
+std::vector<ParamMap> with_scene_params(const config::SceneEntry& scene,
+                                        const config::Config& config, size_t technique,
+                                        const std::vector<ParamMap>& combos,
+                                        PluginRegistry& plugins) {
+  std::optional<config::YamlView> overrides =
+      scene.node.is_map() ? scene.node.get("params") : std::nullopt;
+  if (!overrides) return combos;
+  std::vector<std::string> known;
+  for (const auto& entry : config.techniques)
+    if (const Plugin* plugin = plugins.find(entry.technique); plugin && plugin->loaded())
+      for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
+        if (std::find(known.begin(), known.end(), plugin->descriptor->params[i].name) ==
+            known.end())
+          known.push_back(plugin->descriptor->params[i].name);
+  overrides->allow_keys(known);
+  const Plugin* plugin = plugins.find(config.techniques[technique].technique);
+  if (!plugin || !plugin->loaded()) return combos;
+  std::vector<ParamMap> result = combos;
+  for (const auto& [key, value] : overrides->entries())
+    if (const pb_param_spec* spec = find_spec(*plugin->descriptor, key))
+      result = sweep(result, key, *spec, value, true);  // else another technique's parameter
+  return result;
+}
+
+Cell make_cell(const std::filesystem::path& scene_file, const std::string& technique,
+               const ParamMap& params) {
+  Cell cell;
+  cell.scene = scene_file.stem().string();
+  cell.scene_file = scene_file;
+  cell.technique = technique;
+  cell.params = params;
+  std::string key;
+  for (const auto& [k, v] : params) key += k + "=" + v + ";";
+  cell.id = fmt::format("{}__{}__{}", cell.scene, technique, config::stable_hash(key).substr(0, 8));
+  return cell;
+}
+
+}  // namespace
+
+const Cell& RunPlan::cell(const std::string& id) const {
+  auto it = std::find_if(cells.begin(), cells.end(), [&](const Cell& c) { return c.id == id; });
+  if (it == cells.end())
+    throw InputError(fmt::format("no cell '{}' in {}", id, config.file.string()));
+  return *it;
+}
+
+RunPlan plan_run(const std::filesystem::path& config_file,
+                 const std::vector<std::string>& overrides) {
+  RunPlan plan;
+  plan.config = config::load_config(config_file, overrides);
+  plan.plugins = std::make_unique<PluginRegistry>(plan.config.plugin_dirs);
+  plan.cells = expand_cells(plan.config, *plan.plugins);
+  return plan;
+}
+
+std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins) {
+  std::vector<std::filesystem::path> scene_files;
+  for (const config::SceneEntry& scene : config.scenes) {
+    try {
+      scene_files.push_back(scene::find_scene(scene.scene, config.scene_dirs));
+    } catch (const InputError& e) {
+      scene.name_node.fail(e.what());
+    }
+  }
+  std::vector<std::vector<ParamMap>> combos;  // per technique entry
+  for (const config::TechniqueEntry& entry : config.techniques)
+    combos.push_back(technique_combos(entry, plugins));
+
+  std::vector<Cell> cells;
+  for (size_t s = 0; s < config.scenes.size(); ++s)
+    for (size_t t = 0; t < config.techniques.size(); ++t)
+      for (const ParamMap& params :
+           with_scene_params(config.scenes[s], config, t, combos[t], plugins)) {
+        Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
+        bool duplicate = false;
+        for (const Cell& c : cells) duplicate |= c.id == cell.id;
+        if (!duplicate) cells.push_back(std::move(cell));
+      }
+  return cells;
+}
+
+}  // namespace pb::run

@@ -1,0 +1,48 @@
+// A run's plan: the config (parsed and checked by config/), the technique plugins it names, and the
+// cells its sweeps expand to (scene x technique x one value of every parameter), each parameter
+// checked against its plugin's schema. `run`, every cell's child process, `validate` and `reference`
+// make it the same way, in this one direction: config, then scenes and plugins, then cells.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "config/config.h"
+#include "run/plugins.h"
+
+namespace pb::run {
+
+// A cell: one scene, one technique, one value of every parameter.
+struct Cell {
+  std::string id;  // "<scene>__<technique>__<8 hex of the parameter values>": stable across runs
+  std::string scene;
+  std::filesystem::path scene_file;
+  std::string technique;
+  std::map<std::string, std::string> params;  // every schema parameter, defaults filled in
+};
+
+struct RunPlan {
+  config::Config config;
+  std::unique_ptr<PluginRegistry> plugins;
+  std::vector<Cell> cells;
+
+  // The cell named `id`; pb::InputError when the config expands to no such cell.
+  const Cell& cell(const std::string& id) const;
+};
+
+// Loads the config with its --set overrides, opens its plugin folders and expands its cells.
+// Throws pb::InputError (file:line:col: key) for anything expand_cells or load_config rejects.
+RunPlan plan_run(const std::filesystem::path& config_file,
+                 const std::vector<std::string>& overrides);
+
+// Resolves each scene name and expands the sweeps, checking each technique and parameter against
+// its plugin's schema. Throws pb::InputError for a scene that is not found, an unknown technique, a
+// plugin built for another API version, an unknown parameter or a value of the wrong type or range.
+// A plugin that exists but fails to load is not an input error: its cells are returned with an
+// empty parameter map, to fail when they run.
+std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins);
+
+}  // namespace pb::run

@@ -1,0 +1,91 @@
+#include "run/run_record.h"
+
+#include <fmt/chrono.h>
+#include <fmt/format.h>
+#include <sys/utsname.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+
+#include "io/results.h"
+#include "photonbench/gpu.h"
+
+namespace pb::run {
+
+using json = nlohmann::json;
+
+namespace {
+
+std::string command_output(const std::string& command) {
+  std::string out;
+  if (FILE* pipe = popen(command.c_str(), "r")) {
+    char buffer[256];
+    while (fgets(buffer, sizeof buffer, pipe)) out += buffer;
+    pclose(pipe);
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out;
+}
+
+std::string cpu_model() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);)
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown";
+}
+
+}  // namespace
+
+std::string now_iso() {
+  auto now = std::chrono::system_clock::now();
+  return fmt::format("{:%Y-%m-%dT%H:%M:%S}Z",
+                     fmt::gmtime(std::chrono::system_clock::to_time_t(now)));
+}
+
+json describe_run(const RunOptions& options, const RunPlan& plan,
+                  const std::filesystem::path& run_dir) {
+  std::string device_name, driver;
+  bool fenced_timing = false;
+  {
+    gpu::Device device({options.device, false});
+    device_name = device.name();
+    driver = device.driver();
+    fenced_timing = device.raster_timestamps_unreliable();
+  }
+  utsname uts{};
+  uname(&uts);
+  const std::string git_commit =
+      command_output(fmt::format("git -C '{}' rev-parse HEAD 2>/dev/null", PB_SOURCE_DIR));
+  json run = {
+      {"schema_version", io::kResultsSchemaVersion},
+      {"tool_version", PB_VERSION},
+      {"git_commit", git_commit},
+      {"config_file", std::filesystem::absolute(options.config_file).string()},
+      {"overrides", options.overrides},
+      {"config_hash", plan.config.hash},
+      {"config", plan.config.canonical},
+      {"device", device_name},
+      {"driver", driver},
+      {"cpu", cpu_model()},
+      {"cpu_count", sysconf(_SC_NPROCESSORS_ONLN)},
+      {"os", fmt::format("{} {} {}", uts.sysname, uts.release, uts.machine)},
+      // tests/unit/timing_test.cpp: on lavapipe, timestamps miss binned raster work, so every
+      // pass is timed with fences there (each pass boundary submits and waits).
+      {"timing", fenced_timing
+                     ? "fenced: each pass boundary submits and waits; gpu_ms is fenced wall time "
+                       "(lavapipe timestamps miss rasterisation)"
+                     : "gpu timestamps per pass, bracketed by full barriers; cpu monotonic clock"},
+      {"cells", plan.cells.size()},
+      {"start", now_iso()},
+      {"end", nullptr}};
+  if (std::filesystem::exists(run_dir / "run.json")) {
+    json previous = json::parse(io::read_text(run_dir / "run.json"));
+    run["start"] = previous.value("start", run["start"]);
+    run["resumed"] = now_iso();
+  }
+  return run;
+}
+
+}  // namespace pb::run

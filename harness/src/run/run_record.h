@@ -1,0 +1,23 @@
+// A run's record, run.json: the tool and commit, the config as run (its canonical text and hash),
+// the device, driver, CPU and OS, how passes are timed, the cell count and the start and end times.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "run/plan.h"
+#include "run/runner.h"
+
+namespace pb::run {
+
+// UTC now, ISO 8601 ("2026-01-31T12:00:00Z").
+std::string now_iso();
+
+// run.json as the run starts ("end" null). The device is opened once here, to record it and to
+// reject a bad --device before any cell runs. A resumed run keeps its first start and notes when it
+// was resumed.
+nlohmann::json describe_run(const RunOptions& options, const RunPlan& plan,
+                            const std::filesystem::path& run_dir);
+
+}  // namespace pb::run
