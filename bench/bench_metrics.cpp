@@ -1,25 +1,48 @@
-// Times each metric on a deterministic synthetic 1920x1080 pair and prints seconds per metric (the
-// median of several repetitions) with the speed-up over the reference tools' figures measured on
-// this 2-core machine (issue 3): the FLIP tool 0.64 s (LDR-FLIP) and 1.5 s (HDR-FLIP) of
-// evaluation, scikit-image's structural_similarity 1.6 s. Targets: FLIP 2x, SSIM 10x.
+// bench_metrics: our metrics next to their anchors, measured in the same run. FLIP (LDR and HDR)
+// runs against NVIDIA's reference FLIP tool (the C++ CPU tool, v1.6 defaults), SSIM and PSNR against
+// scikit-image (Debian python3-skimage) with the settings of the conformance set
+// (tests/unit/metrics_test.cpp). Targets (issue 11): FLIP LDR at least 3x the tool, FLIP HDR at
+// least 2x, SSIM at least 10x scikit-image, each value within 1e-4 of the anchor's.
 //
-//   bench_metrics [repetitions (default 5)] [threads (default: all cores)]
-#include <sys/resource.h>
+//   bench_metrics [--rounds 5] [--threads 2] [--flip-tool PATH] [--python /usr/bin/python3]
+//
+// The pair is a deterministic synthetic 1920x1080 scene and a noisy, shifted copy, written to a
+// temporary folder as PNG (LDR, 8-bit sRGB) and EXR (HDR, 32-bit float) and read back, so both
+// sides score the very same values; scikit-image gets them as float64 .npy files. Both sides get
+// the same threads: this process pins itself to `--threads` CPUs (sched_setaffinity), which the
+// anchors inherit, runs TBB with that many workers, and starts the anchors with OMP_NUM_THREADS
+// (and the BLAS thread variables) set to it. Each round times ours once and the anchor once, in
+// alternation, so a change of load on a shared machine hits both; the ratio printed is the median
+// of the per-round ratios. Timed: our metric call on images in memory; the tool's own "Evaluation
+// time" (its FLIP computation, without reading the files); scikit-image's call, timed inside the
+// Python process (tools' start-up and image reading are not counted on either side).
+//
+// The FLIP tool's path: --flip-tool, else $PB_FLIP_TOOL, else ../shared/oracles/flip/flip-tool
+// beside the source tree. When it is absent the FLIP rows say so and are skipped.
+#include <fmt/format.h>
+#include <sched.h>
 #include <tbb/global_control.h>
-#include <tbb/info.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "io/image.h"
 #include "metrics/metrics.h"
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -59,38 +82,78 @@ Image noisy_copy(const Image& ref, unsigned seed) {
   return out;
 }
 
-// 8-bit sRGB version, as a PNG would give it.
-Image to_ldr(const Image& hdr) {
-  Image out = pb::io::display_encode(hdr);
-  for (float& v : out.pixels) v = std::round(v * 255.f) / 255.f;
+// An image's first three channels as a float64 H x W x 3 .npy file (format version 1.0).
+void write_npy(const fs::path& file, const Image& image) {
+  std::string header = fmt::format("{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}, 3), }}",
+                                   image.height, image.width);
+  // Magic (6) + version (2) + header length (2) + header, padded to a multiple of 64 with '\n' last.
+  header.append(63 - (10 + header.size()) % 64, ' ');
+  header += '\n';
+  std::ofstream out(file, std::ios::binary);
+  const uint16_t length = uint16_t(header.size());
+  out.write("\x93NUMPY\x01\x00", 8);
+  out.write(reinterpret_cast<const char*>(&length), 2);
+  out << header;
+  std::vector<double> values;
+  values.reserve(size_t(image.width) * image.height * 3);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c) values.push_back(image.at(x, y, std::min(c, image.channels - 1)));
+  out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * 8));
+}
+
+std::string run_capture(const std::string& command) {
+  std::string out;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return out;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), int(buf.size()), pipe)) out += buf.data();
+  pclose(pipe);
   return out;
 }
 
-double cpu_seconds() {  // user + system time of every thread of the process
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+// The number after "<key>: " in the FLIP tool's output, or NaN.
+double tool_value(const std::string& text, const std::string& key) {
+  const size_t at = text.find(key + ": ");
+  return at == std::string::npos ? NAN : std::atof(text.c_str() + at + key.size() + 2);
 }
 
-struct Timing {
-  double wall, cpu;  // medians over the repetitions
+double median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// One anchor run: the value it computed and the seconds its computation took.
+struct Measured {
+  double value = NAN, seconds = NAN;
 };
 
-// Wall time is what the targets are about; CPU time (all threads) shows how much of it other
-// processes on a shared machine took: on an idle 2-core machine wall ~ cpu / 2.
-Timing median_seconds(int reps, const std::function<void()>& run) {
-  std::vector<double> wall, cpu;
-  for (int i = 0; i < reps; ++i) {
-    const double c0 = cpu_seconds();
-    const auto t0 = std::chrono::steady_clock::now();
-    run();
-    wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    cpu.push_back(cpu_seconds() - c0);
-  }
-  std::sort(wall.begin(), wall.end());
-  std::sort(cpu.begin(), cpu.end());
-  return {wall[wall.size() / 2], cpu[cpu.size() / 2]};
+struct Row {
+  std::string name;
+  double target;                              // ratio anchor seconds / ours; 0: none
+  std::function<double()> ours;               // our value
+  std::function<Measured()> anchor;           // empty: no anchor available
+  std::string missing;                        // why there is no anchor
+};
+
+// Pins this process to the first `threads` CPUs it may use; the anchors it starts inherit that.
+// Returns the CPUs as a list ("0,1") for the header.
+std::string pin_to_cpus(int threads) {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  sched_getaffinity(0, sizeof allowed, &allowed);
+  cpu_set_t chosen;
+  CPU_ZERO(&chosen);
+  std::string list;
+  for (int cpu = 0, taken = 0; cpu < CPU_SETSIZE && taken < threads; ++cpu)
+    if (CPU_ISSET(cpu, &allowed)) {
+      CPU_SET(cpu, &chosen);
+      list += (taken++ ? "," : "") + std::to_string(cpu);
+    }
+  sched_setaffinity(0, sizeof chosen, &chosen);
+  return list;
 }
 
 volatile double sink = 0;  // keeps results alive
@@ -98,58 +161,135 @@ volatile double sink = 0;  // keeps results alive
 }  // namespace
 
 int main(int argc, char** argv) {
-  const int reps = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
-  const int threads = argc > 2 ? std::max(1, std::atoi(argv[2])) : tbb::info::default_concurrency();
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
-  const Image hdr_ref = synthetic_scene();
-  const Image hdr_test = noisy_copy(hdr_ref, 1);
-  const Image ldr_ref = to_ldr(hdr_ref), ldr_test = to_ldr(hdr_test);
-  std::vector<Image> ref_frames, test_frames;
-  for (unsigned f = 0; f < 4; ++f) {
-    ref_frames.push_back(ldr_ref);
-    test_frames.push_back(to_ldr(noisy_copy(hdr_ref, 10 + f)));
+  const fs::path source_dir = fs::path(__FILE__).parent_path().parent_path();
+  const char* env_tool = std::getenv("PB_FLIP_TOOL");
+  std::map<std::string, std::string> opt = {
+      {"--rounds", "5"},
+      {"--threads", "2"},
+      {"--flip-tool", env_tool && *env_tool
+                          ? std::string(env_tool)
+                          : (source_dir / "../shared/oracles/flip/flip-tool").string()},
+      {"--python", "/usr/bin/python3"}};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!opt.count(argv[i])) {
+      std::fprintf(stderr,
+                   "usage: bench_metrics [--rounds N] [--threads N] [--flip-tool PATH] "
+                   "[--python PATH]\n");
+      return 2;
+    }
+    opt[argv[i]] = argv[i + 1];
   }
-  using namespace pb::metrics;
+  const int rounds = std::max(1, std::atoi(opt["--rounds"].c_str()));
+  const int threads = std::max(1, std::atoi(opt["--threads"].c_str()));
+  const std::string cpus = pin_to_cpus(threads);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
 
-  std::printf("bench_metrics: %dx%d pair, median of %d runs, %d of %d threads\n", kWidth, kHeight,
-              reps, threads, tbb::info::default_concurrency());
-  std::printf("%-26s %9s %9s %9s %9s %7s  %s\n", "metric", "seconds", "cpu s", "reference",
-              "speed-up", "target", "value");
-  struct Row {
-    const char* name;
-    double reference_s, target;
-    std::function<double()> run;
+  // ---- the pair, written for the anchors and read back for ours ----
+  const fs::path dir = fs::temp_directory_path() / fmt::format("pb_bench_metrics_{}", ::getpid());
+  fs::create_directories(dir);
+  {
+    const Image hdr_ref = synthetic_scene(), hdr_test = noisy_copy(hdr_ref, 1);
+    pb::io::write_image(dir / "ref.exr", hdr_ref);
+    pb::io::write_image(dir / "test.exr", hdr_test);
+    pb::io::write_image(dir / "ref.png", pb::io::display_encode(hdr_ref));
+    pb::io::write_image(dir / "test.png", pb::io::display_encode(hdr_test));
+  }
+  const Image hdr_ref = pb::io::read_image(dir / "ref.exr");
+  const Image hdr_test = pb::io::read_image(dir / "test.exr");
+  const Image ldr_ref = pb::io::read_image(dir / "ref.png");
+  const Image ldr_test = pb::io::read_image(dir / "test.png");
+  write_npy(dir / "ref.npy", ldr_ref);
+  write_npy(dir / "test.npy", ldr_test);
+
+  // ---- the anchors ----
+  const std::string env = fmt::format(
+      "OMP_NUM_THREADS={0} OPENBLAS_NUM_THREADS={0} MKL_NUM_THREADS={0}", threads);
+  const std::string& tool = opt["--flip-tool"];
+  const bool have_tool = fs::is_regular_file(tool) && access(tool.c_str(), X_OK) == 0;
+  auto flip_tool = [&](const char* ext, const char* flags) -> std::function<Measured()> {
+    if (!have_tool) return nullptr;
+    return [&, ext, flags]() -> Measured {
+      const std::string out = run_capture(
+          fmt::format("{} '{}' -r '{}' -t '{}' {} -d '{}' 2>&1", env, tool,
+                      (dir / fmt::format("ref.{}", ext)).string(),
+                      (dir / fmt::format("test.{}", ext)).string(), flags, dir.string()));
+      return {tool_value(out, "Mean"), tool_value(out, "Evaluation time")};
+    };
   };
-  const std::vector<Row> rows = {
-      {"FLIP (LDR)", 0.64, 2, [&] { return flip(ldr_ref, ldr_test).stats.mean; }},
-      {"FLIP (HDR, ACES)", 1.5, 2, [&] { return flip(hdr_ref, hdr_test).stats.mean; }},
-      {"SSIM (LDR)", 1.6, 10, [&] { return ssim(ldr_ref, ldr_test); }},
-      {"SSIM (HDR, display)", 0, 0, [&] { return ssim(hdr_ref, hdr_test); }},
-      {"PSNR (LDR)", 0, 0, [&] { return psnr(ldr_ref, ldr_test).db.value_or(0); }},
-      {"RMSE (HDR)", 0, 0, [&] { return rmse(hdr_ref, hdr_test); }},
-      {"MAE (HDR)", 0, 0, [&] { return mae(hdr_ref, hdr_test); }},
-      {"relMSE (HDR)", 0, 0, [&] { return relmse(hdr_ref, hdr_test); }},
-      {"evaluate (LDR, all)", 0, 0, [&] { return evaluate(ldr_ref, ldr_test).flip.mean; }},
-      {"evaluate (HDR, all)", 0, 0, [&] { return evaluate(hdr_ref, hdr_test).flip.mean; }},
-      {"temporal (4 LDR frames)", 0, 0,
-       [&] { return temporal_instability(ref_frames, test_frames); }},
+  const fs::path skimage_script = source_dir / "bench/skimage_anchor.py";
+  const bool skimage_ok =
+      run_capture(fmt::format("'{}' -c 'import skimage' 2>&1 && echo ok", opt["--python"]))
+          .find("ok") != std::string::npos;
+  auto skimage = [&](const char* metric) -> std::function<Measured()> {
+    if (!skimage_ok) return nullptr;
+    return [&, metric]() -> Measured {
+      const std::string out = run_capture(
+          fmt::format("{} '{}' '{}' {} '{}' '{}'", env, opt["--python"], skimage_script.string(),
+                      metric, (dir / "ref.npy").string(), (dir / "test.npy").string()));
+      Measured m;
+      if (std::sscanf(out.c_str(), "%lf %lf", &m.value, &m.seconds) != 2) return {};
+      return m;
+    };
   };
+  const std::string no_tool = fmt::format("no FLIP tool at {} (--flip-tool PATH)", tool);
+  const std::string no_skimage = "scikit-image not importable (Debian python3-skimage)";
+
+  using namespace pb::metrics;
+  std::vector<Row> rows = {
+      {"FLIP (LDR)", 3, [&] { return flip(ldr_ref, ldr_test).stats.mean; },
+       flip_tool("png", "-nerm"), no_tool},
+      {"FLIP (HDR, ACES)", 2, [&] { return flip(hdr_ref, hdr_test).stats.mean; },
+       flip_tool("exr", "-nerm -nexm"), no_tool},
+      {"SSIM (LDR)", 10, [&] { return ssim(ldr_ref, ldr_test); },
+       skimage("ssim"), no_skimage},
+      {"PSNR (LDR)", 0, [&] { return psnr(ldr_ref, ldr_test).db.value_or(INFINITY); },
+       skimage("psnr"), no_skimage},
+      {"SSIM (HDR, display)", 0, [&] { return ssim(hdr_ref, hdr_test); }, nullptr, ""},
+      {"RMSE (HDR)", 0, [&] { return rmse(hdr_ref, hdr_test); }, nullptr, ""},
+      {"relMSE (HDR)", 0, [&] { return relmse(hdr_ref, hdr_test); }, nullptr, ""},
+      {"evaluate (HDR, all)", 0, [&] { return evaluate(hdr_ref, hdr_test).flip.mean; }, nullptr,
+       ""},
+  };
+
+  std::printf("bench_metrics: %dx%d pair, %d alternating rounds, %d threads a side (CPUs %s)\n",
+              kWidth, kHeight, rounds, threads, cpus.c_str());
+  std::printf("%-20s %9s %9s %8s %7s %12s %12s %9s\n", "metric", "ours s", "anchor s", "ratio",
+              "target", "ours", "anchor", "|diff|");
   bool all_met = true;
   for (const Row& row : rows) {
-    double value = 0;
-    const Timing t = median_seconds(reps, [&] { value = row.run(); });
-    sink = sink + value;
-    if (row.reference_s > 0) {
-      const double speedup = row.reference_s / t.wall;
-      const bool met = speedup >= row.target;
-      all_met &= met;
-      std::printf("%-26s %9.4f %9.4f %9.2f %8.1fx %6.0fx  %.6f%s\n", row.name, t.wall, t.cpu,
-                  row.reference_s, speedup, row.target, value, met ? "" : "  (target missed)");
-    } else {
-      std::printf("%-26s %9.4f %9.4f %9s %9s %7s  %.6f\n", row.name, t.wall, t.cpu, "-", "-", "-",
-                  value);
+    std::vector<double> ours_s, anchor_s, ratios;
+    double value = NAN, anchor_value = NAN;
+    for (int r = 0; r < rounds; ++r) {
+      const auto start = std::chrono::steady_clock::now();
+      value = row.ours();
+      ours_s.push_back(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      sink = sink + value;
+      if (!row.anchor) continue;
+      const Measured m = row.anchor();
+      if (!std::isfinite(m.seconds)) continue;
+      anchor_value = m.value;
+      anchor_s.push_back(m.seconds);
+      ratios.push_back(m.seconds / ours_s.back());
     }
+    if (!row.anchor || ratios.empty()) {
+      std::printf("%-20s %9.4f %9s %8s %7s %12.6f %12s %9s%s\n", row.name.c_str(), median(ours_s),
+                  "-", "-", "-", value, "-", "-",
+                  row.missing.empty() ? ""
+                  : row.anchor        ? "  (anchor gave no timing)"
+                                      : fmt::format("  ({}: row skipped)", row.missing).c_str());
+      if (row.target > 0) all_met = false;
+      continue;
+    }
+    const double ratio = median(ratios), diff = std::abs(value - anchor_value);
+    const bool met = (row.target == 0 || ratio >= row.target) && diff <= 1e-4;
+    all_met &= met;
+    std::printf("%-20s %9.4f %9.4f %7.1fx %7s %12.6f %12.6f %9.1e%s\n", row.name.c_str(),
+                median(ours_s), median(anchor_s), ratio,
+                row.target > 0 ? fmt::format(">={:.0f}x", row.target).c_str() : "-", value,
+                anchor_value, diff, met ? "" : "  (missed)");
   }
-  std::printf("targets %s\n", all_met ? "met" : "MISSED");
+  std::printf("targets %s\n", all_met ? "met" : "MISSED (or an anchor absent)");
+  fs::remove_all(dir);
   return 0;
 }
