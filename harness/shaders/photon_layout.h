@@ -1,4 +1,4 @@
-// The photon record, written once for C++ and GLSL (rule 9 of research/anchors-style.md): the photon
+// The photon record, written once for C++ and GLSL: the photon
 // tracer fills an array of these on the CPU and a technique uploads it as-is into a std430 storage
 // buffer. Every vec3 is followed by a 4-byte scalar, so the std430 offsets (vec3 aligned to 16) equal the
 // packed C++ offsets (glm::vec3 is 12 bytes); photons.h static_asserts the size and each offset.

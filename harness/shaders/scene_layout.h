@@ -1,4 +1,4 @@
-// GPU data layouts shared by C++ and GLSL (research/anchors-style.md rule 9): written once, included by
+// GPU data layouts shared by C++ and GLSL: written once, included by
 // both. std430; every member a 16-byte vector so C++ and GLSL agree without padding rules. The C++ side
 // checks sizes with static_asserts in harness/src/gpu/world_buffers.cpp.
 #ifndef PB_SCENE_LAYOUT_H

@@ -1,4 +1,4 @@
-// Pass timing must measure what a pass costs, raster passes included. DESIGN.md's timing rules warn
+// Pass timing must measure what a pass costs, raster passes included. docs/architecture.md warns
 // that lavapipe bins rasterisation and may run it after the timestamp that should close the pass.
 // These tests record many G-buffer (raster) or direct-light (shadow raster + compute) passes and compare
 // the sum of the passes' GPU times with the fenced wall time of the whole submission. Agreement, not

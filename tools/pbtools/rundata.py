@@ -1,4 +1,4 @@
-"""Reading one run directory, exactly as DESIGN.md "Results (schema versioned)" lays it out.
+"""Reading one run directory, exactly as docs/architecture.md "Results" lays it out.
 
     RUN/run.json                     tool version, git_commit, resolved config, device, driver, CPU, OS, start/end
     RUN/summary.csv                  one row per cell (cell, scene, technique, status, frames, frame_ms_*,
@@ -26,7 +26,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-# The summary's fixed leading columns (DESIGN.md); anything else is param.* or pass.*.ms_median.
+# The summary's fixed leading columns (docs/architecture.md); anything else is param.* or pass.*.ms_median.
 SUMMARY_FIXED = [
     "cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
     "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean",

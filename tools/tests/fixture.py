@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Synthetic run directories in exactly DESIGN.md's results schema, for testing the tools before (and
-beside) real runs.
+"""Synthetic run directories in exactly the results schema (docs/architecture.md), for testing the
+tools before (and beside) real runs.
 
 The data are synthetic but shaped like a real run on a noisy machine:
   * a fixed *layout* (scenes, techniques, parameter sweeps, per-pass base times, metric levels) that does

@@ -1,4 +1,4 @@
-"""The fixture follows DESIGN.md's results schema exactly, and the reader tolerates what failed or
+"""The fixture follows the results schema (docs/architecture.md) exactly, and the reader tolerates what failed or
 interrupted cells leave behind."""
 
 import csv

@@ -1,7 +1,7 @@
 // The technique plugin contract. A technique is a shared module in build/plugins/ exporting one C entry
 // point, `photonbench_technique`, that takes the host's API version and returns a static descriptor
 // table of C types only: name, API version, path class, parameter schema and a factory. The loader
-// checks the version before calling anything else (research/anchors-style.md rule 6).
+// checks the version before calling anything else.
 //
 //   static const pb_param_spec kParams[] = {
 //       {"photons", PB_PARAM_INT, 200000, 1000, 5e7, nullptr, "photons", "photons traced per frame"},

@@ -1,4 +1,4 @@
-// Named, nestable pass timing (research/anchors-style.md rule 7): each pass takes a pair of timestamp
+// Named, nestable pass timing (docs/architecture.md, "Timing"): each pass takes a pair of timestamp
 // queries from a per-frame pool, bracketed by full barriers (the spec lets later commands overlap a
 // timestamp write), plus a CPU monotonic clock and the process's CPU time. Results are read as 64-bit
 // values after the frame's fence and converted with timestampPeriod.

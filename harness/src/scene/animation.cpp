@@ -1,6 +1,5 @@
 // Animation tracks. Every evaluation is a pure function of time, so frame N renders the same
-// whether or not frames 0..N-1 were rendered before it (DESIGN.md: "deterministic: time = frame /
-// fps").
+// whether or not frames 0..N-1 were rendered before it (deterministic: time = frame / fps).
 #include "scene/animation.h"
 
 #include <algorithm>

@@ -28,7 +28,7 @@
 //                                                       specular surface (reflections and
 //                                                       refractions of emitters, of direct and of
 //                                                       indirect light)
-// (DESIGN.md's `C S* D S+ L` is caustics + indirect_caustics.)
+// (Caustics in the wide sense, `C S* D S+ L`, are caustics + indirect_caustics.)
 //
 // Camera: the pinhole of scene::Camera (view = lookAtRH(position, target, up), vertical fov_y),
 // pixel (x, y) with y = 0 the top row covers [x, x+1) x [y, y+1) and its value is the box-filtered
