@@ -1,14 +1,12 @@
 // SSIM (Wang, Bovik, Sheikh and Simoncelli, IEEE TIP 13(4), 2004) as scikit-image's
 // structural_similarity computes it with gaussian_weights=True, sigma=1.5,
 // use_sample_covariance=False, data_range=1, channel by channel:
-//   - local statistics from a Gaussian window (sigma 1.5, truncated at 3.5 sigma: radius 5, 11
-//   taps,
-//     weights normalised to sum 1), separable, in float64;
+//   - local statistics from a Gaussian window (sigma 1.5, truncated at 3.5 sigma: radius 5,
+//     11 taps, weights normalised to sum 1), separable, in float64;
 //   - population (not sample) variances and covariance: E[x^2] - E[x]^2;
 //   - the SSIM map (eq. 13 with C1 = (0.01 L)^2, C2 = (0.03 L)^2, L = 1) averaged over the pixels
-//   at
-//     least 5 from the border (scikit-image crops the window radius, so no border rule is ever
-//     used);
+//     at least 5 from the border (scikit-image crops the window radius, so no border rule is
+//     ever used);
 //   - the channels' means averaged.
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
