@@ -1,6 +1,6 @@
 // bench_metrics: our metrics next to their anchors, measured in the same run. FLIP (LDR and HDR)
-// runs against NVIDIA's reference FLIP tool (the C++ CPU tool, v1.6 defaults), SSIM and PSNR against
-// scikit-image (Debian python3-skimage) with the settings of the conformance set
+// runs against NVIDIA's reference FLIP tool (the C++ CPU tool, v1.6 defaults), SSIM and PSNR
+// against scikit-image (Debian python3-skimage) with the settings of the conformance set
 // (tests/unit/metrics_test.cpp). Targets (issue 11): FLIP LDR at least 3x the tool, FLIP HDR at
 // least 2x, SSIM at least 10x scikit-image, each value within 1e-4 of the anchor's.
 //
@@ -84,9 +84,11 @@ Image noisy_copy(const Image& ref, unsigned seed) {
 
 // An image's first three channels as a float64 H x W x 3 .npy file (format version 1.0).
 void write_npy(const fs::path& file, const Image& image) {
-  std::string header = fmt::format("{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}, 3), }}",
-                                   image.height, image.width);
-  // Magic (6) + version (2) + header length (2) + header, padded to a multiple of 64 with '\n' last.
+  std::string header =
+      fmt::format("{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}, 3), }}",
+                  image.height, image.width);
+  // Magic (6) + version (2) + header length (2) + header, padded to a multiple of 64 with '\n'
+  // last.
   header.append(63 - (10 + header.size()) % 64, ' ');
   header += '\n';
   std::ofstream out(file, std::ios::binary);
@@ -132,10 +134,10 @@ struct Measured {
 
 struct Row {
   std::string name;
-  double target;                              // ratio anchor seconds / ours; 0: none
-  std::function<double()> ours;               // our value
-  std::function<Measured()> anchor;           // empty: no anchor available
-  std::string missing;                        // why there is no anchor
+  double target;                     // ratio anchor seconds / ours; 0: none
+  std::function<double()> ours;      // our value
+  std::function<Measured()> anchor;  // empty: no anchor available
+  std::string missing;               // why there is no anchor
 };
 
 // Pins this process to the first `threads` CPUs it may use; the anchors it starts inherit that.
@@ -202,8 +204,8 @@ int main(int argc, char** argv) {
   write_npy(dir / "test.npy", ldr_test);
 
   // ---- the anchors ----
-  const std::string env = fmt::format(
-      "OMP_NUM_THREADS={0} OPENBLAS_NUM_THREADS={0} MKL_NUM_THREADS={0}", threads);
+  const std::string env =
+      fmt::format("OMP_NUM_THREADS={0} OPENBLAS_NUM_THREADS={0} MKL_NUM_THREADS={0}", threads);
   const std::string& tool = opt["--flip-tool"];
   const bool have_tool = fs::is_regular_file(tool) && access(tool.c_str(), X_OK) == 0;
   auto flip_tool = [&](const char* ext, const char* flags) -> std::function<Measured()> {
@@ -240,8 +242,7 @@ int main(int argc, char** argv) {
        flip_tool("png", "-nerm"), no_tool},
       {"FLIP (HDR, ACES)", 2, [&] { return flip(hdr_ref, hdr_test).stats.mean; },
        flip_tool("exr", "-nerm -nexm"), no_tool},
-      {"SSIM (LDR)", 10, [&] { return ssim(ldr_ref, ldr_test); },
-       skimage("ssim"), no_skimage},
+      {"SSIM (LDR)", 10, [&] { return ssim(ldr_ref, ldr_test); }, skimage("ssim"), no_skimage},
       {"PSNR (LDR)", 0, [&] { return psnr(ldr_ref, ldr_test).db.value_or(INFINITY); },
        skimage("psnr"), no_skimage},
       {"SSIM (HDR, display)", 0, [&] { return ssim(hdr_ref, hdr_test); }, nullptr, ""},

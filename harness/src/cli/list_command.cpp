@@ -24,12 +24,14 @@ void list_techniques(const std::vector<std::string>& plugin_dirs) {
     std::printf("%s  [%s]  %s\n", d.name, d.path_class, d.summary);
     for (uint32_t i = 0; i < d.param_count; ++i) {
       const auto& p = d.params[i];
-      std::string range = p.type == PB_PARAM_ENUM   ? std::string(p.choices)
-                          : p.type == PB_PARAM_BOOL ? "true|false"
-                                                    : fmt::format("[{}, {}]", p.min_value, p.max_value);
-      std::printf("  %-22s %-5s default %-10s %-18s %s%s%s\n", p.name, pb::run::param_type_name(p).c_str(),
-                  pb::run::param_default_text(p).c_str(), range.c_str(), p.doc,
-                  p.unit && *p.unit ? " (" : "", p.unit && *p.unit ? (std::string(p.unit) + ")").c_str() : "");
+      std::string range = p.type == PB_PARAM_ENUM ? std::string(p.choices)
+                          : p.type == PB_PARAM_BOOL
+                              ? "true|false"
+                              : fmt::format("[{}, {}]", p.min_value, p.max_value);
+      std::printf("  %-22s %-5s default %-10s %-18s %s%s%s\n", p.name,
+                  pb::run::param_type_name(p).c_str(), pb::run::param_default_text(p).c_str(),
+                  range.c_str(), p.doc, p.unit && *p.unit ? " (" : "",
+                  p.unit && *p.unit ? (std::string(p.unit) + ")").c_str() : "");
     }
     std::printf("\n");
   }
@@ -54,7 +56,8 @@ void list_scenes() {
 void add_list(CLI::App& app, int& exit_code) {
   auto what = std::make_shared<std::string>();
   auto plugin_dirs = std::make_shared<std::vector<std::string>>();
-  auto* cmd = app.add_subcommand("list", "list techniques (with their parameters), scenes or devices");
+  auto* cmd =
+      app.add_subcommand("list", "list techniques (with their parameters), scenes or devices");
   cmd->add_option("what", *what, "techniques, scenes or devices")
       ->required()
       ->check(CLI::IsMember({"techniques", "scenes", "devices"}));

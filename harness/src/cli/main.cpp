@@ -1,5 +1,6 @@
-// photonbench: the command-line entry. Sub-commands register themselves (see command.h); this file only
-// parses, dispatches and maps errors to exit codes: 0 success, 1 some work failed, 2 bad input.
+// photonbench: the command-line entry. Sub-commands register themselves (see command.h); this file
+// only parses, dispatches and maps errors to exit codes: 0 success, 1 some work failed, 2 bad
+// input.
 #include <fmt/format.h>
 
 #include <algorithm>

@@ -1,8 +1,8 @@
-// `photonbench report | compare | history | export | claims`: the results tools. They are Python (matplotlib
-// is the field's plotting standard, and scipy has the statistics), so each sub-command only
-// replaces this process with `/usr/bin/python3 <tools>/pbtool.py <command> ARGS...`: Python parses
-// the arguments (including --help), and its exit status is photonbench's (0 ok, 1 regression/failed
-// work, 2 bad input).
+// `photonbench report | compare | history | export | claims`: the results tools. They are Python
+// (matplotlib is the field's plotting standard, and scipy has the statistics), so each sub-command
+// only replaces this process with `/usr/bin/python3 <tools>/pbtool.py <command> ARGS...`: Python
+// parses the arguments (including --help), and its exit status is photonbench's (0 ok, 1
+// regression/failed work, 2 bad input).
 //
 // Debian's interpreter is named explicitly, not the first python3 on PATH, because the tools need
 // Debian's python3-matplotlib/-numpy/-scipy (scripts/setup.sh), which another interpreter may lack.
@@ -87,9 +87,10 @@ void add_export(CLI::App& app, int&) {
 }
 
 void add_claims(CLI::App& app, int&) {
-  add_tool(app, "claims",
-           "RUN_DIR [--paper paper1]: a paper's headline claims (speed ratios, rejection rates, memory "
-           "per structure, quality table) measured on a run of its config, beside the paper's numbers");
+  add_tool(
+      app, "claims",
+      "RUN_DIR [--paper paper1]: a paper's headline claims (speed ratios, rejection rates, memory "
+      "per structure, quality table) measured on a run of its config, beside the paper's numbers");
 }
 
 pb::cli::CommandRegistration report_registration{"report", add_report};

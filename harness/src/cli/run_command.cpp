@@ -1,5 +1,5 @@
-// `photonbench run CONFIG`: the benchmark. `photonbench __cell RUN_DIR CELL` is its hidden child: one
-// cell in its own process.
+// `photonbench run CONFIG`: the benchmark. `photonbench __cell RUN_DIR CELL` is its hidden child:
+// one cell in its own process.
 #include <filesystem>
 
 #include "cli/command.h"
@@ -11,15 +11,21 @@ namespace {
 void add_run(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<pb::run::RunOptions>();
   auto* cmd = app.add_subcommand("run", "run a benchmark config: every cell, timed and scored");
-  cmd->add_option("config", options->config_file, "the YAML config")->required()->check(CLI::ExistingFile);
+  cmd->add_option("config", options->config_file, "the YAML config")
+      ->required()
+      ->check(CLI::ExistingFile);
   cmd->add_option("--out", options->out_dir, "run folder (default results/<name>-<time>)");
-  cmd->add_option("--device", options->device, "Vulkan device whose name contains this (default: lavapipe)");
-  cmd->add_option("--set", options->overrides, "override a config key: key.path=value, or key+=value to append (repeatable)");
+  cmd->add_option("--device", options->device,
+                  "Vulkan device whose name contains this (default: lavapipe)");
+  cmd->add_option("--set", options->overrides,
+                  "override a config key: key.path=value, or key+=value to append (repeatable)");
   auto plugin_dirs = std::make_shared<std::vector<std::string>>();
-  cmd->add_option("--plugin-dir", *plugin_dirs, "also load technique plugins from this folder (repeatable)")
+  cmd->add_option("--plugin-dir", *plugin_dirs,
+                  "also load technique plugins from this folder (repeatable)")
       ->check(CLI::ExistingDirectory);
   cmd->add_flag("--resume", options->resume, "continue the run in --out, skipping complete cells");
-  cmd->add_flag("--validation", options->validation, "Vulkan validation layers on; an error fails the cell");
+  cmd->add_flag("--validation", options->validation,
+                "Vulkan validation layers on; an error fails the cell");
   cmd->callback([options, plugin_dirs, &exit_code] {
     for (const auto& dir : *plugin_dirs)
       options->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());

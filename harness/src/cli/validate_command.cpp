@@ -1,6 +1,6 @@
-// `photonbench validate CONFIG`: everything `run` checks before running, and the cells it would run.
+// `photonbench validate CONFIG`: everything `run` checks before running, and the cells it would
+// run.
 #include <cstdio>
-
 #include <filesystem>
 
 #include "cli/command.h"
@@ -16,16 +16,19 @@ void add_validate(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("validate", "check a config and list the cells it expands to");
   cmd->add_option("config", args->config, "the YAML config")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--set", args->overrides, "override a config key: key.path=value, or key+=value to append (repeatable)");
+  cmd->add_option("--set", args->overrides,
+                  "override a config key: key.path=value, or key+=value to append (repeatable)");
   auto plugin_dirs = std::make_shared<std::vector<std::string>>();
-  cmd->add_option("--plugin-dir", *plugin_dirs, "also load technique plugins from this folder (repeatable)")
+  cmd->add_option("--plugin-dir", *plugin_dirs,
+                  "also load technique plugins from this folder (repeatable)")
       ->check(CLI::ExistingDirectory);
   cmd->callback([args, plugin_dirs, &exit_code] {
     for (const auto& dir : *plugin_dirs)
       args->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     const pb::run::RunPlan plan = pb::run::plan_run(args->config, args->overrides);
     const auto& [config, plugins, cells] = plan;
-    std::printf("%s: valid, %zu cells (config hash %s)\n", args->config.c_str(), cells.size(), config.hash.c_str());
+    std::printf("%s: valid, %zu cells (config hash %s)\n", args->config.c_str(), cells.size(),
+                config.hash.c_str());
     for (const auto& cell : cells) {
       std::printf("  %s", cell.id.c_str());
       for (const auto& [k, v] : cell.params) std::printf(" %s=%s", k.c_str(), v.c_str());

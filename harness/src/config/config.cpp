@@ -10,8 +10,9 @@ namespace pb::config {
 
 namespace {
 
-// Applies one "key.path=value" override. Numeric path parts index lists; missing mapping keys are created
-// so any key can be set, and validation afterwards treats the result as if it had been written in the file.
+// Applies one "key.path=value" override. Numeric path parts index lists; missing mapping keys are
+// created so any key can be set, and validation afterwards treats the result as if it had been
+// written in the file.
 void apply_override(YAML::Node& root, const std::string& assignment) {
   auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
@@ -39,7 +40,8 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
       size_t index = std::stoul(part);
       if (index >= node.size())
         throw InputError(fmt::format("--set {}: '{}' has {} elements, no element {}", assignment,
-                                     fmt::join(parts.begin(), parts.begin() + i, "."), node.size(), index));
+                                     fmt::join(parts.begin(), parts.begin() + i, "."), node.size(),
+                                     index));
       if (last) {
         node[index] = value;
       } else {
@@ -51,15 +53,18 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
         throw InputError(fmt::format("--set {}: '{}' is not a mapping", assignment,
                                      fmt::join(parts.begin(), parts.begin() + i, ".")));
       if (last && append) {
-        if (!node[part].IsDefined() || node[part].IsNull()) node[part] = YAML::Node(YAML::NodeType::Sequence);
+        if (!node[part].IsDefined() || node[part].IsNull())
+          node[part] = YAML::Node(YAML::NodeType::Sequence);
         if (!node[part].IsSequence())
-          throw InputError(fmt::format("--set {}: '{}' is not a list to append to", assignment, path));
+          throw InputError(
+              fmt::format("--set {}: '{}' is not a list to append to", assignment, path));
         YAML::Node list = node[part];
         list.push_back(value);
       } else if (last) {
         node[part] = value;
       } else {
-        if (!node[part].IsDefined() || node[part].IsNull()) node[part] = YAML::Node(YAML::NodeType::Map);
+        if (!node[part].IsDefined() || node[part].IsNull())
+          node[part] = YAML::Node(YAML::NodeType::Map);
         YAML::Node child = node[part];
         node.reset(child);
       }
@@ -83,15 +88,17 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   config.file = file;
   YamlView root = YamlView::load_file(file);
   YAML::Node tree = root.node();
-  if (!tree.IsMap()) root.fail("a config is a mapping of keys (name, resolution, frames, scenes, techniques, ...)");
+  if (!tree.IsMap())
+    root.fail("a config is a mapping of keys (name, resolution, frames, scenes, techniques, ...)");
   for (const auto& assignment : overrides) apply_override(tree, assignment);
   root = YamlView(tree, std::make_shared<const std::string>(file.string()), "");
 
-  root.allow_keys({"name", "resolution", "frames", "seed", "scenes", "techniques", "metrics", "reference",
-                   "limits", "plugin_dirs", "testing"});
+  root.allow_keys({"name", "resolution", "frames", "seed", "scenes", "techniques", "metrics",
+                   "reference", "limits", "plugin_dirs", "testing"});
   config.name = root.string_or("name", file.stem().string());
   if (auto resolution = root.get("resolution")) {
-    if (!resolution->is_sequence() || resolution->size() != 2) resolution->fail("expected [width, height]");
+    if (!resolution->is_sequence() || resolution->size() != 2)
+      resolution->fail("expected [width, height]");
     config.width = uint32_t((*resolution)[size_t(0)].as_int(16, 8192));
     config.height = uint32_t((*resolution)[size_t(1)].as_int(16, 8192));
   }
@@ -99,7 +106,8 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
     frames->allow_keys({"warmup", "count", "metrics_every"});
     config.frames.warmup = uint32_t(frames->int_or("warmup", config.frames.warmup, 0, 100000));
     config.frames.count = uint32_t(frames->int_or("count", config.frames.count, 1, 1000000));
-    config.frames.metrics_every = uint32_t(frames->int_or("metrics_every", config.frames.metrics_every, 0, 1000000));
+    config.frames.metrics_every =
+        uint32_t(frames->int_or("metrics_every", config.frames.metrics_every, 0, 1000000));
   }
   config.seed = uint64_t(root.int_or("seed", 1, 0, int64_t(1) << 53));
 
@@ -107,8 +115,9 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   if (scenes.elements().empty()) scenes.fail("at least one scene is needed");
   config.scene_dirs = {file.parent_path(), file.parent_path() / "scenes"};
   for (const YamlView& scene : scenes.elements()) {
-    // A scene is a name, or {scene: NAME, params: {...}} whose parameters replace the techniques' own
-    // for this scene's cells (photon radii are in scene units: Paper I's Table 2 sets them per scene).
+    // A scene is a name, or {scene: NAME, params: {...}} whose parameters replace the techniques'
+    // own for this scene's cells (photon radii are in scene units: Paper I's Table 2 sets them per
+    // scene).
     if (scene.is_map()) scene.allow_keys({"scene", "params"});
     // (Constructed, never assigned: assigning a YAML::Node rebinds the node inside the tree.)
     const YamlView name_node = scene.is_map() ? scene["scene"] : scene;
@@ -132,18 +141,22 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   config.reference.cache_dir = "results/reference-cache";
   if (auto reference = root.get("reference")) {
     reference->allow_keys({"samples", "cache_dir"});
-    config.reference.samples = uint32_t(reference->int_or("samples", config.reference.samples, 1, 1 << 24));
-    config.reference.cache_dir = reference->string_or("cache_dir", config.reference.cache_dir.string());
+    config.reference.samples =
+        uint32_t(reference->int_or("samples", config.reference.samples, 1, 1 << 24));
+    config.reference.cache_dir =
+        reference->string_or("cache_dir", config.reference.cache_dir.string());
   }
   if (auto limits = root.get("limits")) {
     limits->allow_keys({"cell_seconds"});
-    config.limits.cell_seconds = limits->number_or("cell_seconds", config.limits.cell_seconds, 0.1, 1e7);
+    config.limits.cell_seconds =
+        limits->number_or("cell_seconds", config.limits.cell_seconds, 0.1, 1e7);
   }
   if (auto dirs = root.get("plugin_dirs")) {
     for (const YamlView& d : dirs->elements()) {
       std::filesystem::path dir = d.as_string();
       if (dir.is_relative()) dir = file.parent_path() / dir;
-      if (!std::filesystem::is_directory(dir)) d.fail(fmt::format("plugin directory {} does not exist", dir.string()));
+      if (!std::filesystem::is_directory(dir))
+        d.fail(fmt::format("plugin directory {} does not exist", dir.string()));
       config.plugin_dirs.push_back(dir);
     }
   }

@@ -18,7 +18,7 @@ struct FrameSettings {
 };
 
 struct ReferenceSettings {
-  uint32_t samples = 256;  // samples per pixel (path tracing) / iterations (SPPM)
+  uint32_t samples = 256;           // samples per pixel (path tracing) / iterations (SPPM)
   std::filesystem::path cache_dir;  // default: results/reference-cache
 };
 
@@ -26,8 +26,8 @@ struct Limits {
   double cell_seconds = 1800;  // a cell running longer is killed and recorded failed
 };
 
-// Testing hooks: never set in real benchmarks. slow_pass makes one named pass slower by a factor, so a
-// regression detector can be shown to flag it.
+// Testing hooks: never set in real benchmarks. slow_pass makes one named pass slower by a factor,
+// so a regression detector can be shown to flag it.
 struct TestingHooks {
   std::string slow_pass;
   double slow_factor = 1.0;
@@ -58,13 +58,14 @@ struct Config {
   Limits limits;
   std::vector<std::filesystem::path> plugin_dirs;
   TestingHooks testing;
-  YAML::Node resolved;     // the whole config after --set overrides
-  std::string canonical;   // `resolved` emitted as text: what the config hash is over
-  std::string hash;        // 16 hex digits
+  YAML::Node resolved;    // the whole config after --set overrides
+  std::string canonical;  // `resolved` emitted as text: what the config hash is over
+  std::string hash;       // 16 hex digits
 };
 
-// Reads `file`, applies `overrides` ("key.path=value", value parsed as YAML), validates the keys the
-// harness owns. Scene names are checked by run/plan.h, which resolves them. Throws pb::InputError.
+// Reads `file`, applies `overrides` ("key.path=value", value parsed as YAML), validates the keys
+// the harness owns. Scene names are checked by run/plan.h, which resolves them. Throws
+// pb::InputError.
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 
 // 64-bit FNV-1a, as 16 hex digits: stable across platforms and runs (std::hash is neither).

@@ -122,8 +122,9 @@ void YamlView::allow_keys(const std::vector<std::string>& keys) const {
     std::string hint = closest_name(key, keys);
     std::string allowed;
     for (const auto& k : keys) allowed += (allowed.empty() ? "" : ", ") + k;
-    at.fail(hint.empty() ? fmt::format("unknown key (allowed: {})", allowed)
-                         : fmt::format("unknown key; did you mean '{}'? (allowed: {})", hint, allowed));
+    at.fail(hint.empty()
+                ? fmt::format("unknown key (allowed: {})", allowed)
+                : fmt::format("unknown key; did you mean '{}'? (allowed: {})", hint, allowed));
   }
 }
 
@@ -133,7 +134,8 @@ size_t YamlView::size() const {
 }
 
 YamlView YamlView::operator[](size_t index) const {
-  if (!node_.IsSequence() || index >= node_.size()) fail(fmt::format("expected a list with an element {}", index));
+  if (!node_.IsSequence() || index >= node_.size())
+    fail(fmt::format("expected a list with an element {}", index));
   return YamlView(node_[index], source_, fmt::format("{}[{}]", key_path_, index));
 }
 
@@ -176,7 +178,8 @@ double YamlView::as_number(double min, double max) const {
 
 int64_t YamlView::as_int(int64_t min, int64_t max) const {
   double value = as_number();
-  if (value != std::floor(value)) fail(fmt::format("expected an integer, got '{}'", node_.Scalar()));
+  if (value != std::floor(value))
+    fail(fmt::format("expected an integer, got '{}'", node_.Scalar()));
   if (value < double(min) || value > double(max))
     fail(fmt::format("value {} is out of range [{}, {}]", node_.Scalar(), min, max));
   return int64_t(value);
@@ -198,8 +201,9 @@ std::string YamlView::as_enum(std::initializer_list<std::string_view> choices) c
   std::string allowed;
   for (const auto& n : names) allowed += (allowed.empty() ? "" : ", ") + n;
   std::string hint = closest_name(value, names);
-  fail(hint.empty() ? fmt::format("'{}' is not one of: {}", value, allowed)
-                    : fmt::format("'{}' is not one of: {}; did you mean '{}'?", value, allowed, hint));
+  fail(hint.empty()
+           ? fmt::format("'{}' is not one of: {}", value, allowed)
+           : fmt::format("'{}' is not one of: {}; did you mean '{}'?", value, allowed, hint));
 }
 
 glm::vec2 YamlView::as_vec2() const {

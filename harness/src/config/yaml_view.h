@@ -1,7 +1,7 @@
 // A YAML node with the file it came from and its key path, so that every error reads
 // "file:line:col: key.path: what is wrong". Config files and scene files are both read through it.
-// Reading is explicit: a mapping declares its allowed keys with `allow_keys`, and any other key is an
-// error that suggests the closest allowed name.
+// Reading is explicit: a mapping declares its allowed keys with `allow_keys`, and any other key is
+// an error that suggests the closest allowed name.
 #pragma once
 
 #include <yaml-cpp/yaml.h>

@@ -1,9 +1,9 @@
 #include "io/image.h"
 
+#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <OpenImageIO/imageio.h>
 #include <algorithm>
 #include <cmath>
 
@@ -13,7 +13,8 @@ namespace pb::io {
 
 Image read_image(const std::filesystem::path& file) {
   auto in = OIIO::ImageInput::open(file.string());
-  if (!in) throw InputError(fmt::format("{}: cannot read image: {}", file.string(), OIIO::geterror()));
+  if (!in)
+    throw InputError(fmt::format("{}: cannot read image: {}", file.string(), OIIO::geterror()));
   const OIIO::ImageSpec& spec = in->spec();
   Image image(spec.width, spec.height, spec.nchannels);
   image.linear = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
@@ -28,8 +29,8 @@ Image read_image(const std::filesystem::path& file) {
 
 void write_image(const std::filesystem::path& file, const Image& image) {
   // OIIO picks the format from the extension, so the temporary name keeps it.
-  std::filesystem::path tmp_named = file.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" +
-                                                          file.filename().string());
+  std::filesystem::path tmp_named =
+      file.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + file.filename().string());
   bool is_png = file.extension() == ".png";
   OIIO::ImageSpec spec(image.width, image.height, image.channels,
                        is_png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT);

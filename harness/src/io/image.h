@@ -1,6 +1,6 @@
 // Images on disk through OpenImageIO: EXR holds linear (scene-referred) values, PNG display-encoded
-// 8-bit values. Writes are atomic (write to a temporary name, then rename), so a crash never leaves a
-// half-written image that a resumed run would trust.
+// 8-bit values. Writes are atomic (write to a temporary name, then rename), so a crash never leaves
+// a half-written image that a resumed run would trust.
 #pragma once
 
 #include <filesystem>
@@ -8,9 +8,9 @@
 
 namespace pb::io {
 
-// Interleaved float pixels, row-major from the top-left row.
-// `linear` says how to read the values: true for radiance (EXR, HDR), false for display-encoded values
-// in [0, 1] (an 8-bit sRGB PNG divided by 255, LDR).
+// Interleaved float pixels, row-major from the top-left row. `linear` says how to read the values:
+// true for radiance (EXR, HDR), false for display-encoded values in [0, 1] (an 8-bit sRGB PNG
+// divided by 255, LDR).
 struct Image {
   int width = 0, height = 0, channels = 0;
   std::vector<float> pixels;
@@ -28,8 +28,9 @@ struct Image {
 // float files with linear = true. Throws pb::InputError naming the file.
 Image read_image(const std::filesystem::path& file);
 
-// Writes by extension: .exr stores the float values as they are (32-bit float); .png quantises values
-// in [0, 1] to 8 bits (the caller encodes for display first: see display_encode). Throws pb::Error.
+// Writes by extension: .exr stores the float values as they are (32-bit float); .png quantises
+// values in [0, 1] to 8 bits (the caller encodes for display first: see display_encode). Throws
+// pb::Error.
 void write_image(const std::filesystem::path& file, const Image& image);
 
 // sRGB transfer function of each colour channel after clamping to [0, 1] (alpha is left alone).

@@ -11,7 +11,8 @@
 namespace pb::io {
 
 void write_text_atomic(const std::filesystem::path& file, const std::string& text) {
-  std::filesystem::path tmp = file.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + file.filename().string());
+  std::filesystem::path tmp =
+      file.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + file.filename().string());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw Error(fmt::format("{}: cannot write", file.string()));
@@ -42,11 +43,15 @@ std::string csv_escape(const std::string& field) {
 
 std::string csv_row(const std::vector<std::string>& fields) {
   std::string line;
-  for (size_t i = 0; i < fields.size(); ++i) line += (i ? "," : "") + csv_escape(fields[i]);
+  for (size_t i = 0; i < fields.size(); ++i) {
+    if (i) line += ',';
+    line += csv_escape(fields[i]);
+  }
   return line + "\n";
 }
 
-CsvAppender::CsvAppender(const std::filesystem::path& file, const std::vector<std::string>& header) {
+CsvAppender::CsvAppender(const std::filesystem::path& file,
+                         const std::vector<std::string>& header) {
   file_ = std::fopen(file.c_str(), "w");
   if (!file_) throw Error(fmt::format("{}: cannot write", file.string()));
   row(header);
@@ -71,9 +76,12 @@ std::vector<std::vector<std::string>> read_csv(const std::filesystem::path& file
   for (size_t i = 0; i < text.size(); ++i) {
     char c = text[i];
     if (quoted) {
-      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"') field += '"', ++i;
-      else if (c == '"') quoted = false;
-      else field += c;
+      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"')
+        field += '"', ++i;
+      else if (c == '"')
+        quoted = false;
+      else
+        field += c;
     } else if (c == '"') {
       quoted = true;
     } else if (c == ',') {

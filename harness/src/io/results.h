@@ -1,5 +1,5 @@
-// Writing results: text files written atomically (temporary name, then rename) and CSV rows with the
-// quoting spreadsheets and pandas expect. Schema: docs/architecture.md, "Results".
+// Writing results: text files written atomically (temporary name, then rename) and CSV rows with
+// the quoting spreadsheets and pandas expect. Schema: docs/architecture.md, "Results".
 #pragma once
 
 #include <cstdio>

@@ -84,8 +84,7 @@ pid_t spawn_cell(const std::filesystem::path& run_dir, const Cell& cell,
 }  // namespace
 
 ChildOutcome run_cell_process(const std::filesystem::path& run_dir, const Cell& cell,
-                              const CellProcessOptions& options, Progress& progress,
-                              size_t index) {
+                              const CellProcessOptions& options, Progress& progress, size_t index) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error(fmt::format("pipe failed: {}", std::strerror(errno)));
   const pid_t pid = spawn_cell(run_dir, cell, options, pipe_fds);

@@ -1,8 +1,8 @@
 // A cell's record, cell.json: who the cell is, how it ended and what it measured. Both ends of a
 // cell write it through write_cell_record (the child when it finishes, ok or failed; the parent for
-// a child that crashed, hung or exited without one), so every cell.json has the same fields. A field
-// the cell never reached (no device opened, nothing scored) is left out; tools/pbtools/rundata.py
-// reads it.
+// a child that crashed, hung or exited without one), so every cell.json has the same fields. A
+// field the cell never reached (no device opened, nothing scored) is left out;
+// tools/pbtools/rundata.py reads it.
 #pragma once
 
 #include <cstdint>

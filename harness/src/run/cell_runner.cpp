@@ -15,7 +15,8 @@ std::filesystem::path cell_dir(const std::filesystem::path& run_dir, const std::
   return run_dir / "cells" / id;
 }
 
-std::filesystem::path partial_cell_dir(const std::filesystem::path& run_dir, const std::string& id) {
+std::filesystem::path partial_cell_dir(const std::filesystem::path& run_dir,
+                                       const std::string& id) {
   return run_dir / "cells" / (".partial-" + id);
 }
 
@@ -52,8 +53,8 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
   const std::string path_class = plugin.descriptor->path_class;
   record.path_class = path_class;
 
-  Renderer r({options.device, options.validation}, scene::load_scene(cell.scene_file),
-             config.width, config.height);
+  Renderer r({options.device, options.validation}, scene::load_scene(cell.scene_file), config.width,
+             config.height);
   record.device = r.device.name();
   record.timing = r.profiler.fenced() ? "fenced" : "timestamps";
   if (!config.testing.slow_pass.empty())

@@ -1,6 +1,6 @@
-// One cell, run in its own child process (`photonbench __cell`): scene -> world -> technique plugin ->
-// warm-up and measured frames -> results in a partial folder that is renamed into place when complete.
-// Isolation means a technique that crashes, hangs or leaks takes down only its own cell.
+// One cell, run in its own child process (`photonbench __cell`): scene -> world -> technique plugin
+// -> warm-up and measured frames -> results in a partial folder that is renamed into place when
+// complete. Isolation means a technique that crashes, hangs or leaks takes down only its own cell.
 #pragma once
 
 #include <filesystem>

@@ -6,8 +6,7 @@ namespace pb::run {
 
 FrameCommands::FrameCommands(gpu::Device& device) : device_(device) {
   pool_ = vk::raii::CommandPool(
-      device.device(),
-      {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
+      device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
   fence_ = vk::raii::Fence(device.device(), vk::FenceCreateInfo{});
 }
 

@@ -1,7 +1,7 @@
 // What a technique renders through. FrameCommands owns the cell's command buffers: one frame is
-// recorded, submitted and waited for at a time, and a technique may flush mid-frame. FrameContext is
-// pb::Context, the technique's whole view of the harness: the commands, pass scopes (the profiler),
-// counters and warnings of the frame, and the scene side (the World).
+// recorded, submitted and waited for at a time, and a technique may flush mid-frame. FrameContext
+// is pb::Context, the technique's whole view of the harness: the commands, pass scopes (the
+// profiler), counters and warnings of the frame, and the scene side (the World).
 #pragma once
 
 #include <cstddef>

@@ -39,7 +39,8 @@ void FrameLog::add(const FrameTiming& timing,
 
   const std::string frame = std::to_string(timing.frame);
   for (const PassSample& s : timing.passes) {
-    frames_csv_.row({frame, s.name, ms_text(s.gpu_ms), ms_text(s.cpu_ms), ms_text(s.process_cpu_ms)});
+    frames_csv_.row(
+        {frame, s.name, ms_text(s.gpu_ms), ms_text(s.cpu_ms), ms_text(s.process_cpu_ms)});
     pass_ms_[s.name].push_back(s.ms());
   }
   frames_csv_.row({frame, "harness-overhead", "", ms_text(overhead), ms_text(overhead_process)});
@@ -60,8 +61,7 @@ void FrameLog::describe(CellRecord& record) const {
   for (const auto& [name, values] : pass_ms_) pass_medians[name] = percentile(values, 50);
   double overhead_pct = 0;
   if (!frame_ms_.empty())
-    overhead_pct =
-        100.0 * percentile(overhead_ms_, 50) / std::max(percentile(frame_ms_, 50), 1e-9);
+    overhead_pct = 100.0 * percentile(overhead_ms_, 50) / std::max(percentile(frame_ms_, 50), 1e-9);
   record.frames_measured = frame_ms_.size();
   record.summary = {{"frame_ms", run::describe(frame_ms_)},
                     {"harness_overhead_ms", run::describe(overhead_ms_)},

@@ -1,7 +1,7 @@
 // The measured frames' records: frames.csv (each pass's GPU, CPU and process CPU ms, then the
 // harness's overhead and the whole frame) and counters.csv, rows appended as each frame finishes so
-// that a cell that crashes keeps what it measured; and the order statistics of cell.json's `summary`
-// and `memory`.
+// that a cell that crashes keeps what it measured; and the order statistics of cell.json's
+// `summary` and `memory`.
 #pragma once
 
 #include <cstdint>

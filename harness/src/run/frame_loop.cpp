@@ -45,7 +45,8 @@ Renderer::Renderer(const gpu::Device::Options& options, scene::Scene scene, uint
     : device(options),
       commands(device),
       profiler(device, [this] { return commands.current(); }),
-      world(device, std::move(scene), width, height, profiler, [this] { return commands.current(); }),
+      world(device, std::move(scene), width, height, profiler,
+            [this] { return commands.current(); }),
       ctx(device, commands, profiler, world) {
   if (device.raster_timestamps_unreliable()) {
     profiler.use_fenced_timing([this] {
@@ -127,7 +128,8 @@ void FrameLoop::check_output(uint32_t f) {
   r_.device.read_image(r_.world.passes().output(), rgba_);
   const size_t bad =
       std::count_if(rgba_.begin(), rgba_.end(), [](float v) { return !std::isfinite(v); });
-  if (bad > 0) throw CellFailure{fmt::format("the output image holds {} NaN or Inf values", bad), f};
+  if (bad > 0)
+    throw CellFailure{fmt::format("the output image holds {} NaN or Inf values", bad), f};
 }
 
 void FrameLoop::write_images(uint32_t f) {

@@ -19,7 +19,8 @@ void write_invocation(const std::filesystem::path& run_dir, const Invocation& in
 Invocation read_invocation(const std::filesystem::path& run_dir) {
   std::filesystem::path file = run_dir / "invocation.json";
   if (!std::filesystem::exists(file))
-    throw InputError(fmt::format("{}: not a photonbench run folder (no invocation.json)", run_dir.string()));
+    throw InputError(
+        fmt::format("{}: not a photonbench run folder (no invocation.json)", run_dir.string()));
   auto j = nlohmann::json::parse(io::read_text(file));
   return {j.at("config_file").get<std::string>(), j.at("overrides").get<std::vector<std::string>>(),
           j.at("config_hash").get<std::string>()};

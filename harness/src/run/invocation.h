@@ -1,5 +1,5 @@
-// How a run was started (config file and --set overrides), kept in the run folder so that each cell's
-// child process and a later --resume rebuild exactly the same config.
+// How a run was started (config file and --set overrides), kept in the run folder so that each
+// cell's child process and a later --resume rebuild exactly the same config.
 #pragma once
 
 #include <filesystem>

@@ -1,7 +1,8 @@
 // A run's plan: the config (parsed and checked by config/), the technique plugins it names, and the
 // cells its sweeps expand to (scene x technique x one value of every parameter), each parameter
-// checked against its plugin's schema. `run`, every cell's child process, `validate` and `reference`
-// make it the same way, in this one direction: config, then scenes and plugins, then cells.
+// checked against its plugin's schema. `run`, every cell's child process, `validate` and
+// `reference` make it the same way, in this one direction: config, then scenes and plugins, then
+// cells.
 #pragma once
 
 #include <filesystem>

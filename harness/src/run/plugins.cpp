@@ -14,7 +14,8 @@ std::filesystem::path PluginRegistry::build_plugin_dir() {
   // configured build directory.
   std::error_code ec;
   auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec && std::filesystem::is_directory(exe.parent_path() / "plugins")) return exe.parent_path() / "plugins";
+  if (!ec && std::filesystem::is_directory(exe.parent_path() / "plugins"))
+    return exe.parent_path() / "plugins";
   return PB_PLUGIN_DIR;
 }
 
@@ -47,24 +48,27 @@ const Plugin* PluginRegistry::find(const std::string& name) {
   auto plugin = std::make_unique<Plugin>();
   plugin->name = name;
   plugin->file = file->second;
-  // RTLD_LOCAL keeps each technique's symbols to itself; RTLD_NOW reports missing symbols here, with
-  // the loader's own message, instead of crashing mid-frame.
+  // RTLD_LOCAL keeps each technique's symbols to itself; RTLD_NOW reports missing symbols here,
+  // with the loader's own message, instead of crashing mid-frame.
   plugin->handle = dlopen(plugin->file.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!plugin->handle) {
     const char* error = dlerror();
     plugin->load_error = fmt::format("dlopen failed: {}", error ? error : "unknown error");
   } else {
     dlerror();
-    auto entry = reinterpret_cast<pb_technique_entry>(dlsym(plugin->handle, PB_TECHNIQUE_ENTRY_SYMBOL));
+    auto entry =
+        reinterpret_cast<pb_technique_entry>(dlsym(plugin->handle, PB_TECHNIQUE_ENTRY_SYMBOL));
     if (const char* error = dlerror(); error || !entry) {
-      plugin->load_error = fmt::format("dlsym({}) failed: {}", PB_TECHNIQUE_ENTRY_SYMBOL, error ? error : "null");
+      plugin->load_error =
+          fmt::format("dlsym({}) failed: {}", PB_TECHNIQUE_ENTRY_SYMBOL, error ? error : "null");
     } else {
       const pb_technique_descriptor* descriptor = entry(PB_PLUGIN_API_VERSION);
       if (!descriptor) {
         plugin->load_error = "the entry point returned no descriptor";
       } else if (descriptor->api_version != PB_PLUGIN_API_VERSION) {
-        plugin->version_error = fmt::format("plugin {} was built for plugin API version {}, this photonbench has {}; rebuild it",
-                                            plugin->file.string(), descriptor->api_version, PB_PLUGIN_API_VERSION);
+        plugin->version_error = fmt::format(
+            "plugin {} was built for plugin API version {}, this photonbench has {}; rebuild it",
+            plugin->file.string(), descriptor->api_version, PB_PLUGIN_API_VERSION);
       } else {
         plugin->descriptor = descriptor;
       }
@@ -82,19 +86,26 @@ TechniqueInstance create_technique(const pb_technique_descriptor& descriptor) {
 
 std::string param_type_name(const pb_param_spec& spec) {
   switch (spec.type) {
-    case PB_PARAM_INT: return "int";
-    case PB_PARAM_FLOAT: return "float";
-    case PB_PARAM_BOOL: return "bool";
-    case PB_PARAM_ENUM: return "enum";
+    case PB_PARAM_INT:
+      return "int";
+    case PB_PARAM_FLOAT:
+      return "float";
+    case PB_PARAM_BOOL:
+      return "bool";
+    case PB_PARAM_ENUM:
+      return "enum";
   }
   return "?";
 }
 
 std::string param_default_text(const pb_param_spec& spec) {
   switch (spec.type) {
-    case PB_PARAM_INT: return fmt::format("{}", int64_t(spec.default_value));
-    case PB_PARAM_FLOAT: return fmt::format("{}", spec.default_value);
-    case PB_PARAM_BOOL: return spec.default_value != 0 ? "true" : "false";
+    case PB_PARAM_INT:
+      return fmt::format("{}", int64_t(spec.default_value));
+    case PB_PARAM_FLOAT:
+      return fmt::format("{}", spec.default_value);
+    case PB_PARAM_BOOL:
+      return spec.default_value != 0 ? "true" : "false";
     case PB_PARAM_ENUM: {
       std::istringstream choices(spec.choices ? spec.choices : "");
       std::string choice;

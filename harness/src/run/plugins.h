@@ -1,5 +1,6 @@
-// Finding and loading technique plugins. Plugins load only from the build's plugin directory and from
-// directories named by --plugin-dir or the config's `plugin_dirs`: never from the working directory.
+// Finding and loading technique plugins. Plugins load only from the build's plugin directory and
+// from directories named by --plugin-dir or the config's `plugin_dirs`: never from the working
+// directory.
 #pragma once
 
 #include <filesystem>
@@ -12,21 +13,22 @@
 
 namespace pb::run {
 
-// A plugin file that was found, and what loading it gave: the descriptor, or the loader's own error.
+// A plugin file that was found, and what loading it gave: the descriptor, or the loader's own
+// error.
 struct Plugin {
   std::string name;
   std::filesystem::path file;
   const pb_technique_descriptor* descriptor = nullptr;
-  std::string load_error;      // dlopen / dlsym error text: fails only this plugin's cells
-  std::string version_error;   // API version mismatch: bad input
+  std::string load_error;     // dlopen / dlsym error text: fails only this plugin's cells
+  std::string version_error;  // API version mismatch: bad input
   void* handle = nullptr;
   bool loaded() const { return descriptor != nullptr; }
 };
 
 class PluginRegistry {
  public:
-  // The build's plugin directory comes first, then `extra_dirs` in order; a later directory's plugin
-  // of the same name replaces an earlier one (so a config can test a modified technique).
+  // The build's plugin directory comes first, then `extra_dirs` in order; a later directory's
+  // plugin of the same name replaces an earlier one (so a config can test a modified technique).
   explicit PluginRegistry(const std::vector<std::filesystem::path>& extra_dirs);
   ~PluginRegistry();
   PluginRegistry(const PluginRegistry&) = delete;

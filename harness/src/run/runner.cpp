@@ -52,7 +52,8 @@ void render_needed_references(const config::Config& config, const std::vector<Ce
   std::map<std::filesystem::path, uint32_t> masks;
   for (const auto& cell : cells) {
     const Plugin* plugin = plugins.find(cell.technique);
-    if (plugin && plugin->loaded()) masks[cell.scene_file] |= reference_classes(plugin->descriptor->path_class);
+    if (plugin && plugin->loaded())
+      masks[cell.scene_file] |= reference_classes(plugin->descriptor->path_class);
   }
   trace::ReferenceCache cache(config.reference.cache_dir);
   trace::ReferenceOptions options = reference_options(config);
@@ -62,25 +63,29 @@ void render_needed_references(const config::Config& config, const std::vector<Ce
       auto start = Clock::now();
       auto last = start;
       bool tty = isatty(STDERR_FILENO);
-      int rendered = cache.render_missing(scene, scene.at(frames[i]), mask, int(config.width), int(config.height),
-                                          options, [&](const trace::ReferenceProgress& p) {
-                                            if (tty) {
-                                              std::fprintf(stderr, "\r[reference] %s frame %u: %u/%u samples",
-                                                           scene.name.c_str(), frames[i], p.iteration, p.total);
-                                            } else if (Clock::now() - last > std::chrono::seconds(10)) {
-                                              std::fprintf(stderr, "[reference] %s frame %u: %u/%u samples\n",
-                                                           scene.name.c_str(), frames[i], p.iteration, p.total);
-                                              last = Clock::now();
-                                            } else {
-                                              return;
-                                            }
-                                            std::fflush(stderr);
-                                          });
+      int rendered = cache.render_missing(
+          scene, scene.at(frames[i]), mask, int(config.width), int(config.height), options,
+          [&](const trace::ReferenceProgress& p) {
+            if (tty) {
+              std::fprintf(stderr, "\r[reference] %s frame %u: %u/%u samples", scene.name.c_str(),
+                           frames[i], p.iteration, p.total);
+            } else if (Clock::now() - last > std::chrono::seconds(10)) {
+              std::fprintf(stderr, "[reference] %s frame %u: %u/%u samples\n", scene.name.c_str(),
+                           frames[i], p.iteration, p.total);
+              last = Clock::now();
+            } else {
+              return;
+            }
+            std::fflush(stderr);
+          });
       if (tty) std::fprintf(stderr, "\r\033[K");
-      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", scene.name.c_str(), frames[i], i + 1,
-                   frames.size(),
-                   rendered ? fmt::format("rendered in {:.1f} s", std::chrono::duration<double>(Clock::now() - start).count()).c_str()
-                            : "cached");
+      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", scene.name.c_str(), frames[i],
+                   i + 1, frames.size(),
+                   rendered
+                       ? fmt::format("rendered in {:.1f} s",
+                                     std::chrono::duration<double>(Clock::now() - start).count())
+                             .c_str()
+                       : "cached");
     }
   }
 }
@@ -91,16 +96,20 @@ void write_summary(const std::filesystem::path& run_dir) {
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(run_dir / "cells", ec)) {
     auto file = entry.path() / "cell.json";
-    if (entry.path().filename().string().rfind(".partial-", 0) == 0 || !std::filesystem::exists(file)) continue;
+    if (entry.path().filename().string().rfind(".partial-", 0) == 0 ||
+        !std::filesystem::exists(file))
+      continue;
     records.push_back(json::parse(io::read_text(file)));
     for (const auto& [k, v] : records.back()["params"].items()) params.insert(k);
     if (records.back().contains("summary"))
-      for (const auto& [k, v] : records.back()["summary"]["pass_ms_median"].items()) passes.insert(k);
+      for (const auto& [k, v] : records.back()["summary"]["pass_ms_median"].items())
+        passes.insert(k);
   }
-  std::sort(records.begin(), records.end(), [](const json& a, const json& b) { return a["cell"] < b["cell"]; });
-  std::vector<std::string> header = {"cell", "scene", "technique", "status", "frames", "frame_ms_median",
-                                     "frame_ms_p5", "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean",
-                                     "harness_overhead_pct"};
+  std::sort(records.begin(), records.end(),
+            [](const json& a, const json& b) { return a["cell"] < b["cell"]; });
+  std::vector<std::string> header = {
+      "cell",        "scene",        "technique", "status",    "frames",    "frame_ms_median",
+      "frame_ms_p5", "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "harness_overhead_pct"};
   for (const auto& p : params) header.push_back("param." + p);
   for (const auto& p : passes) header.push_back("pass." + p + ".ms_median");
   header.push_back("reason");
@@ -109,14 +118,21 @@ void write_summary(const std::filesystem::path& run_dir) {
     json summary = r.value("summary", json::object());
     json frame = summary.value("frame_ms", json::object());
     json combined = r.value("metrics", json::object()).value("combined", json::object());
-    std::vector<std::string> row = {r["cell"], r["scene"], r["technique"], r["status"],
+    std::vector<std::string> row = {r["cell"],
+                                    r["scene"],
+                                    r["technique"],
+                                    r["status"],
                                     std::to_string(r.value("frames_measured", 0)),
-                                    fmt_or_empty(frame.value("median", json())), fmt_or_empty(frame.value("p5", json())),
-                                    fmt_or_empty(frame.value("p95", json())), fmt_or_empty(combined.value("flip", json())),
-                                    fmt_or_empty(combined.value("ssim", json())), fmt_or_empty(combined.value("psnr", json())),
+                                    fmt_or_empty(frame.value("median", json())),
+                                    fmt_or_empty(frame.value("p5", json())),
+                                    fmt_or_empty(frame.value("p95", json())),
+                                    fmt_or_empty(combined.value("flip", json())),
+                                    fmt_or_empty(combined.value("ssim", json())),
+                                    fmt_or_empty(combined.value("psnr", json())),
                                     fmt_or_empty(summary.value("harness_overhead_pct", json()))};
     for (const auto& p : params) row.push_back(r["params"].value(p, ""));
-    for (const auto& p : passes) row.push_back(fmt_or_empty(summary.value("pass_ms_median", json::object()).value(p, json())));
+    for (const auto& p : passes)
+      row.push_back(fmt_or_empty(summary.value("pass_ms_median", json::object()).value(p, json())));
     row.push_back(r.value("reason", ""));
     text += io::csv_row(row);
   }
@@ -134,10 +150,10 @@ std::filesystem::path open_run_dir(const RunOptions& options, const config::Conf
     if (run_dir.empty()) throw InputError("--resume needs --out DIR, the run folder to continue");
     Invocation previous = read_invocation(run_dir);
     if (previous.config_hash != config.hash)
-      throw InputError(fmt::format(
-          "--resume: {} was run with a different config (hash {}, now {}); "
-          "resume with the same config and --set values",
-          run_dir.string(), previous.config_hash, config.hash));
+      throw InputError(
+          fmt::format("--resume: {} was run with a different config (hash {}, now {}); "
+                      "resume with the same config and --set values",
+                      run_dir.string(), previous.config_hash, config.hash));
   } else {
     if (run_dir.empty()) {
       auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
@@ -145,13 +161,14 @@ std::filesystem::path open_run_dir(const RunOptions& options, const config::Conf
                 fmt::format("{}-{:%Y%m%d-%H%M%S}", config.name, fmt::localtime(now));
     }
     if (std::filesystem::exists(run_dir / "run.json"))
-      throw InputError(fmt::format(
-          "{} already holds a run; use --resume to continue it, or another --out", run_dir.string()));
+      throw InputError(
+          fmt::format("{} already holds a run; use --resume to continue it, or another --out",
+                      run_dir.string()));
   }
   std::filesystem::create_directories(run_dir / "cells");
   run_dir = std::filesystem::canonical(run_dir);
-  write_invocation(run_dir,
-                   {std::filesystem::absolute(options.config_file), options.overrides, config.hash});
+  write_invocation(
+      run_dir, {std::filesystem::absolute(options.config_file), options.overrides, config.hash});
   return run_dir;
 }
 
@@ -198,7 +215,8 @@ int run_benchmark(const RunOptions& options) {
   const std::filesystem::path run_dir = open_run_dir(options, plan.config);
   json run = describe_run(options, plan, run_dir);
   io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
-  std::fprintf(stderr, "photonbench: %zu cells -> %s\n", plan.cells.size(), run_dir.string().c_str());
+  std::fprintf(stderr, "photonbench: %zu cells -> %s\n", plan.cells.size(),
+               run_dir.string().c_str());
 
   render_needed_references(plan.config, plan.cells, *plan.plugins);
   const CellTally tally = run_cells(plan, options, run_dir);

@@ -19,18 +19,20 @@ struct RunOptions {
   bool validation = false;
 };
 
-// Returns the process exit code: 0 all cells ok, 1 some cell failed. Bad input throws pb::InputError.
+// Returns the process exit code: 0 all cells ok, 1 some cell failed. Bad input throws
+// pb::InputError.
 int run_benchmark(const RunOptions& options);
 
-// Renders every reference image the cells will be scored against that the cache lacks (run does this
-// before its first cell; `photonbench reference CONFIG` does only this): each reference is rendered
-// once and shared by every technique and setting of its scene.
+// Renders every reference image the cells will be scored against that the cache lacks (run does
+// this before its first cell; `photonbench reference CONFIG` does only this): each reference is
+// rendered once and shared by every technique and setting of its scene.
 void render_needed_references(const config::Config& config, const std::vector<Cell>& cells,
                               PluginRegistry& plugins);
 // A YAML file with a `techniques` key: a benchmark config rather than a scene.
 bool is_benchmark_config(const std::filesystem::path& file);
 
-// Rebuilds summary.csv from the cells/ folder (also used after each cell, so an interrupted run has one).
+// Rebuilds summary.csv from the cells/ folder (also used after each cell, so an interrupted run has
+// one).
 void write_summary(const std::filesystem::path& run_dir);
 
 }  // namespace pb::run

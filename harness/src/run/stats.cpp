@@ -16,10 +16,14 @@ double percentile(std::vector<double> values, double p) {
 }
 
 nlohmann::json describe(const std::vector<double>& values) {
-  if (values.empty()) return {{"median", nullptr}, {"p5", nullptr}, {"p95", nullptr}, {"mean", nullptr}, {"n", 0}};
+  if (values.empty())
+    return {{"median", nullptr}, {"p5", nullptr}, {"p95", nullptr}, {"mean", nullptr}, {"n", 0}};
   double mean = std::accumulate(values.begin(), values.end(), 0.0) / double(values.size());
-  return {{"median", percentile(values, 50)}, {"p5", percentile(values, 5)}, {"p95", percentile(values, 95)},
-          {"mean", mean}, {"n", values.size()}};
+  return {{"median", percentile(values, 50)},
+          {"p5", percentile(values, 5)},
+          {"p95", percentile(values, 95)},
+          {"mean", mean},
+          {"n", values.size()}};
 }
 
 }  // namespace pb::run

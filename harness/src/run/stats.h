@@ -1,4 +1,5 @@
-// Order statistics for timings: the report gives median, p5 and p95 with the sample count, never a lone mean.
+// Order statistics for timings: the report gives median, p5 and p95 with the sample count, never a
+// lone mean.
 #pragma once
 
 #include <nlohmann/json.hpp>

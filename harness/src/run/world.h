@@ -1,7 +1,7 @@
-// The scene side of a cell: the scene, its state at the current frame, the scene on the GPU (camera,
-// lights, geometry and the shared passes that draw it) and, for techniques that trace photons, the
-// Embree scene. advance_to() moves all of them to a frame at once, once per frame, inside the
-// "scene-update" pass; nothing else changes the scene during a frame.
+// The scene side of a cell: the scene, its state at the current frame, the scene on the GPU
+// (camera, lights, geometry and the shared passes that draw it) and, for techniques that trace
+// photons, the Embree scene. advance_to() moves all of them to a frame at once, once per frame,
+// inside the "scene-update" pass; nothing else changes the scene during a frame.
 #pragma once
 
 #include <cstdint>
