@@ -44,12 +44,13 @@ std::string now_iso() {
                      fmt::gmtime(std::chrono::system_clock::to_time_t(now)));
 }
 
-json describe_run(const RunOptions& options, const RunPlan& plan,
-                  const std::filesystem::path& run_dir) {
+json describe_run(const std::filesystem::path& config_file,
+                  const std::vector<std::string>& overrides, const std::string& device_filter,
+                  const RunPlan& plan, const std::filesystem::path& run_dir) {
   std::string device_name, driver;
   bool fenced_timing = false;
   {
-    gpu::Device device({options.device, false});
+    gpu::Device device({device_filter, false});
     device_name = device.name();
     driver = device.driver();
     fenced_timing = device.raster_timestamps_unreliable();
@@ -62,8 +63,8 @@ json describe_run(const RunOptions& options, const RunPlan& plan,
       {"schema_version", io::kResultsSchemaVersion},
       {"tool_version", PB_VERSION},
       {"git_commit", git_commit},
-      {"config_file", std::filesystem::absolute(options.config_file).string()},
-      {"overrides", options.overrides},
+      {"config_file", std::filesystem::absolute(config_file).string()},
+      {"overrides", overrides},
       {"config_hash", plan.config.hash},
       {"config", plan.config.canonical},
       {"device", device_name},

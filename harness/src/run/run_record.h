@@ -5,19 +5,21 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "run/plan.h"
-#include "run/runner.h"
 
 namespace pb::run {
 
 // UTC now, ISO 8601 ("2026-01-31T12:00:00Z").
 std::string now_iso();
 
-// run.json as the run starts ("end" null). The device is opened once here, to record it and to
-// reject a bad --device before any cell runs. A resumed run keeps its first start and notes when it
-// was resumed.
-nlohmann::json describe_run(const RunOptions& options, const RunPlan& plan,
+// run.json as the run starts ("end" null), for `plan` made from `config_file` and `overrides`.
+// The device (`device_filter`, as --device) is opened once here, to record it and to reject a bad
+// --device before any cell runs. A resumed run keeps its first start and notes when it was resumed.
+nlohmann::json describe_run(const std::filesystem::path& config_file,
+                            const std::vector<std::string>& overrides,
+                            const std::string& device_filter, const RunPlan& plan,
                             const std::filesystem::path& run_dir);
 
 }  // namespace pb::run

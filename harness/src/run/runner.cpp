@@ -213,7 +213,7 @@ CellTally run_cells(const RunPlan& plan, const RunOptions& options,
 int run_benchmark(const RunOptions& options) {
   const RunPlan plan = plan_run(options.config_file, options.overrides);
   const std::filesystem::path run_dir = open_run_dir(options, plan.config);
-  json run = describe_run(options, plan, run_dir);
+  json run = describe_run(options.config_file, options.overrides, options.device, plan, run_dir);
   io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
   std::fprintf(stderr, "photonbench: %zu cells -> %s\n", plan.cells.size(),
                run_dir.string().c_str());
