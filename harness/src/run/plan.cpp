@@ -45,10 +45,10 @@ const pb_param_spec* find_spec(const pb_technique_descriptor& d, const std::stri
   return nullptr;
 }
 
-// Every combination times every value of one swept key (a scalar is a one-value list). `unique`
-// drops a combination already made (a scene's value may equal the technique's own).
+// Every combination times every value of one swept key (a scalar is a one-value list). A scene's
+// value may make combinations equal; expand_cells keeps one cell of each.
 std::vector<ParamMap> sweep(const std::vector<ParamMap>& combos, const std::string& key,
-                            const pb_param_spec& spec, const config::YamlView& value, bool unique) {
+                            const pb_param_spec& spec, const config::YamlView& value) {
   std::vector<config::YamlView> values = value.elements();
   if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
   std::vector<ParamMap> expanded;
@@ -56,8 +56,7 @@ std::vector<ParamMap> sweep(const std::vector<ParamMap>& combos, const std::stri
     for (const config::YamlView& v : values) {
       ParamMap next = combo;
       next[key] = check_param(spec, v);
-      if (!unique || std::find(expanded.begin(), expanded.end(), next) == expanded.end())
-        expanded.push_back(std::move(next));
+      expanded.push_back(std::move(next));
     }
   return expanded;
 }
@@ -88,7 +87,7 @@ std::vector<ParamMap> technique_combos(const config::TechniqueEntry& entry,
   if (!params) return combos;
   params->allow_keys(names);
   for (const auto& [key, value] : params->entries())
-    combos = sweep(combos, key, *find_spec(d, key), value, false);
+    combos = sweep(combos, key, *find_spec(d, key), value);
   return combos;
 }
 
@@ -114,7 +113,7 @@ std::vector<ParamMap> with_scene_params(const config::SceneEntry& scene,
   std::vector<ParamMap> result = combos;
   for (const auto& [key, value] : overrides->entries())
     if (const pb_param_spec* spec = find_spec(*plugin->descriptor, key))
-      result = sweep(result, key, *spec, value, true);  // else another technique's parameter
+      result = sweep(result, key, *spec, value);  // else another technique's parameter
   return result;
 }
 
@@ -168,6 +167,7 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
       for (const ParamMap& params :
            with_scene_params(config.scenes[s], config, t, combos[t], plugins)) {
         Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
+        // Equal values (a scene's override of a swept parameter) make one cell.
         bool duplicate = false;
         for (const Cell& c : cells) duplicate |= c.id == cell.id;
         if (!duplicate) cells.push_back(std::move(cell));
