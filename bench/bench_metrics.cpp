@@ -39,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_support.h"
 #include "io/image.h"
 #include "metrics/metrics.h"
 
@@ -104,27 +105,10 @@ void write_npy(const fs::path& file, const Image& image) {
   out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * 8));
 }
 
-std::string run_capture(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return out;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), int(buf.size()), pipe)) out += buf.data();
-  pclose(pipe);
-  return out;
-}
-
 // The number after "<key>: " in the FLIP tool's output, or NaN.
 double tool_value(const std::string& text, const std::string& key) {
   const size_t at = text.find(key + ": ");
   return at == std::string::npos ? NAN : std::atof(text.c_str() + at + key.size() + 2);
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // One anchor run: the value it computed and the seconds its computation took.
@@ -163,24 +147,19 @@ volatile double sink = 0;  // keeps results alive
 }  // namespace
 
 int main(int argc, char** argv) {
-  const fs::path source_dir = fs::path(__FILE__).parent_path().parent_path();
+  const fs::path source_dir = pb::bench::source_dir();
   const char* env_tool = std::getenv("PB_FLIP_TOOL");
-  std::map<std::string, std::string> opt = {
-      {"--rounds", "5"},
-      {"--threads", "2"},
-      {"--flip-tool", env_tool && *env_tool
-                          ? std::string(env_tool)
-                          : (source_dir / "../shared/oracles/flip/flip-tool").string()},
-      {"--python", "/usr/bin/python3"}};
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!opt.count(argv[i])) {
-      std::fprintf(stderr,
-                   "usage: bench_metrics [--rounds N] [--threads N] [--flip-tool PATH] "
-                   "[--python PATH]\n");
-      return 2;
-    }
-    opt[argv[i]] = argv[i + 1];
-  }
+  auto options = pb::bench::parse_options(
+      argc, argv,
+      {{"--rounds", "5"},
+       {"--threads", "2"},
+       {"--flip-tool", env_tool && *env_tool
+                           ? std::string(env_tool)
+                           : (source_dir / "../shared/oracles/flip/flip-tool").string()},
+       {"--python", "/usr/bin/python3"}},
+      "bench_metrics [--rounds N] [--threads N] [--flip-tool PATH] [--python PATH]");
+  if (!options) return 2;
+  auto& opt = *options;
   const int rounds = std::max(1, std::atoi(opt["--rounds"].c_str()));
   const int threads = std::max(1, std::atoi(opt["--threads"].c_str()));
   const std::string cpus = pin_to_cpus(threads);
@@ -211,7 +190,7 @@ int main(int argc, char** argv) {
   auto flip_tool = [&](const char* ext, const char* flags) -> std::function<Measured()> {
     if (!have_tool) return nullptr;
     return [&, ext, flags]() -> Measured {
-      const std::string out = run_capture(
+      const std::string out = pb::bench::run_capture(
           fmt::format("{} '{}' -r '{}' -t '{}' {} -d '{}' 2>&1", env, tool,
                       (dir / fmt::format("ref.{}", ext)).string(),
                       (dir / fmt::format("test.{}", ext)).string(), flags, dir.string()));
@@ -220,12 +199,13 @@ int main(int argc, char** argv) {
   };
   const fs::path skimage_script = source_dir / "bench/skimage_anchor.py";
   const bool skimage_ok =
-      run_capture(fmt::format("'{}' -c 'import skimage' 2>&1 && echo ok", opt["--python"]))
+      pb::bench::run_capture(
+          fmt::format("'{}' -c 'import skimage' 2>&1 && echo ok", opt["--python"]))
           .find("ok") != std::string::npos;
   auto skimage = [&](const char* metric) -> std::function<Measured()> {
     if (!skimage_ok) return nullptr;
     return [&, metric]() -> Measured {
-      const std::string out = run_capture(
+      const std::string out = pb::bench::run_capture(
           fmt::format("{} '{}' '{}' {} '{}' '{}'", env, opt["--python"], skimage_script.string(),
                       metric, (dir / "ref.npy").string(), (dir / "test.npy").string()));
       Measured m;
@@ -274,19 +254,19 @@ int main(int argc, char** argv) {
       ratios.push_back(m.seconds / ours_s.back());
     }
     if (!row.anchor || ratios.empty()) {
-      std::printf("%-20s %9.4f %9s %8s %7s %12.6f %12s %9s%s\n", row.name.c_str(), median(ours_s),
-                  "-", "-", "-", value, "-", "-",
+      std::printf("%-20s %9.4f %9s %8s %7s %12.6f %12s %9s%s\n", row.name.c_str(),
+                  pb::bench::median(ours_s), "-", "-", "-", value, "-", "-",
                   row.missing.empty() ? ""
                   : row.anchor        ? "  (anchor gave no timing)"
                                       : fmt::format("  ({}: row skipped)", row.missing).c_str());
       if (row.target > 0) all_met = false;
       continue;
     }
-    const double ratio = median(ratios), diff = std::abs(value - anchor_value);
+    const double ratio = pb::bench::median(ratios), diff = std::abs(value - anchor_value);
     const bool met = (row.target == 0 || ratio >= row.target) && diff <= 1e-4;
     all_met &= met;
     std::printf("%-20s %9.4f %9.4f %7.1fx %7s %12.6f %12.6f %9.1e%s\n", row.name.c_str(),
-                median(ours_s), median(anchor_s), ratio,
+                pb::bench::median(ours_s), pb::bench::median(anchor_s), ratio,
                 row.target > 0 ? fmt::format(">={:.0f}x", row.target).c_str() : "-", value,
                 anchor_value, diff, met ? "" : "  (missed)");
   }

@@ -2,8 +2,8 @@
 // own `pathtracer` tutorial (Debian package embree-tools) on the same triangles and camera, as a
 // ratio (issue 4 target: at least 0.8x), plus the photon tracer's throughput on the same scene.
 //
-//   bench_trace [--scene scenes/cornell-box.yaml] [--spp 8] [--depth 8] [--frames 5] [--pathtracer
-//   PATH]
+//   bench_trace [--scene scenes/cornell-box.yaml] [--spp 8] [--depth 8] [--frames 7]
+//               [--pathtracer PATH]
 //
 // The scene's triangles are written in world space to an OBJ (+ MTL with Kd) in a temporary
 // directory; the tutorial renders it at 640x360 with the same camera (--vp/--vi/--vu/--fov,
@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_support.h"
 #include "photonbench/photons.h"
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
@@ -69,16 +70,6 @@ void write_obj(const pb::scene::Scene& scene, const pb::scene::FrameState& state
   }
 }
 
-std::string run_capture(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return out;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), int(buf.size()), pipe)) out += buf.data();
-  pclose(pipe);
-  return out;
-}
-
 double parse_value(const std::string& text, const std::string& key) {
   size_t at = text.find(key + " ");
   if (at == std::string::npos) return -1;
@@ -89,7 +80,7 @@ std::string find_pathtracer() {
   for (const char* p : {"/usr/bin/pathtracer", "/usr/local/bin/pathtracer"})
     if (fs::exists(p)) return p;
   std::string listed =
-      run_capture("dpkg -L embree-tools 2>/dev/null | grep '/pathtracer$' | head -n1");
+      pb::bench::run_capture("dpkg -L embree-tools 2>/dev/null | grep '/pathtracer$' | head -n1");
   while (!listed.empty() && (listed.back() == '\n' || listed.back() == '\r')) listed.pop_back();
   return listed;
 }
@@ -97,23 +88,17 @@ std::string find_pathtracer() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // The source tree is two levels above this file (bench/CMakeLists.txt defines no PB_SOURCE_DIR).
-  const fs::path source_dir = fs::path(__FILE__).parent_path().parent_path();
-  std::map<std::string, std::string> opt = {
-      {"--scene", (source_dir / "scenes/cornell-box.yaml").string()},
-      {"--spp", "8"},
-      {"--depth", "8"},
-      {"--frames", "7"},
-      {"--pathtracer", ""}};
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!opt.count(argv[i])) {
-      std::fprintf(stderr,
-                   "usage: bench_trace [--scene FILE] [--spp N] [--depth N] [--frames N] "
-                   "[--pathtracer PATH]\n");
-      return 2;
-    }
-    opt[argv[i]] = argv[i + 1];
-  }
+  const fs::path source_dir = pb::bench::source_dir();
+  auto options = pb::bench::parse_options(
+      argc, argv,
+      {{"--scene", (source_dir / "scenes/cornell-box.yaml").string()},
+       {"--spp", "8"},
+       {"--depth", "8"},
+       {"--frames", "7"},
+       {"--pathtracer", ""}},
+      "bench_trace [--scene FILE] [--spp N] [--depth N] [--frames N] [--pathtracer PATH]");
+  if (!options) return 2;
+  auto& opt = *options;
   const int width = 640, height = 360;
   const uint32_t spp = uint32_t(std::stoul(opt["--spp"])),
                  depth = uint32_t(std::stoul(opt["--depth"]));
@@ -171,7 +156,7 @@ int main(int argc, char** argv) {
         pb::trace::render_reference_classes(world, width, height, mask, o).mrays_per_second();
     ours.push_back(mine);
     if (pathtracer.empty()) continue;
-    std::string out = run_capture(cmd);
+    std::string out = pb::bench::run_capture(cmd);
     double theirs = parse_value(out, "BENCHMARK_RENDER_MRAYPS_AVG");
     if (theirs <= 0) {
       std::printf("could not read the tutorial's Mrays/s; its output:\n%s\n", out.c_str());
@@ -182,10 +167,7 @@ int main(int argc, char** argv) {
     ratios.push_back(mine / theirs);
   }
   fs::remove_all(dir);
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? -1.0 : v[v.size() / 2];
-  };
+  using pb::bench::median;
   double ours_median = median(ours), theirs = median(theirs_rates);
 
   std::printf("%-34s %10s\n", "", "Mrays/s");

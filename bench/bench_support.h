@@ -1,0 +1,55 @@
+// What the bench programs share: their source tree, "--name value" options, running an anchor
+// program for its output, and the median of per-round figures.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pb::bench {
+
+// The repository root: bench/ is one level below it (bench/CMakeLists.txt defines no
+// PB_SOURCE_DIR).
+inline std::filesystem::path source_dir() {
+  return std::filesystem::path(__FILE__).parent_path().parent_path();
+}
+
+// "--name value" pairs over `defaults`; an unknown name prints `usage` and gives nothing.
+inline std::optional<std::map<std::string, std::string>> parse_options(
+    int argc, char** argv, std::map<std::string, std::string> defaults, const char* usage) {
+  for (int i = 1; i < argc; i += 2) {
+    if (!defaults.count(argv[i]) || i + 1 >= argc) {
+      std::fprintf(stderr, "usage: %s\n", usage);
+      return std::nullopt;
+    }
+    defaults[argv[i]] = argv[i + 1];
+  }
+  return defaults;
+}
+
+// Runs a shell command and returns what it printed on stdout.
+inline std::string run_capture(const std::string& command) {
+  std::string out;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return out;
+  std::array<char, 4096> buffer;
+  while (fgets(buffer.data(), int(buffer.size()), pipe)) out += buffer.data();
+  pclose(pipe);
+  return out;
+}
+
+// The median (the mean of the middle two for an even count); NaN for none.
+inline double median(std::vector<double> values) {
+  if (values.empty()) return NAN;
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+}  // namespace pb::bench
