@@ -221,27 +221,31 @@ void render_needed_references(const config::Config& config, const std::vector<co
     scene::Scene scene = scene::load_scene(file);
     for (size_t i = 0; i < frames.size(); ++i) {
       auto start = Clock::now();
-      auto last = start;
+      auto last_print = start;
       bool tty = isatty(STDERR_FILENO);
-      int rendered = cache.render_missing(scene, scene.at(frames[i]), mask, int(config.width), int(config.height),
-                                          options, [&](const trace::ReferenceProgress& p) {
-                                            if (tty) {
-                                              std::fprintf(stderr, "\r[reference] %s frame %u: %u/%u samples",
-                                                           scene.name.c_str(), frames[i], p.iteration, p.total);
-                                            } else if (Clock::now() - last > std::chrono::seconds(10)) {
-                                              std::fprintf(stderr, "[reference] %s frame %u: %u/%u samples\n",
-                                                           scene.name.c_str(), frames[i], p.iteration, p.total);
-                                              last = Clock::now();
-                                            } else {
-                                              return;
-                                            }
-                                            std::fflush(stderr);
-                                          });
+      trace::ReferenceProgress last;
+      auto report = [&](const trace::ReferenceProgress& p) {
+        last = p;
+        if (!tty && Clock::now() - last_print < std::chrono::seconds(10)) return;
+        last_print = Clock::now();
+        std::string line = trace::describe_progress(p);
+        if (tty)
+          std::fprintf(stderr, "\r\033[K[reference] %s frame %u: %s", scene.name.c_str(), frames[i],
+                       line.c_str());
+        else
+          std::fprintf(stderr, "[reference] %s frame %u: %s\n", scene.name.c_str(), frames[i],
+                       line.c_str());
+        std::fflush(stderr);
+      };
+      int rendered = cache.render_missing(scene, scene.at(frames[i]), mask, int(config.width),
+                                          int(config.height), options, report);
       if (tty) std::fprintf(stderr, "\r\033[K");
-      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", scene.name.c_str(), frames[i], i + 1,
-                   frames.size(),
-                   rendered ? fmt::format("rendered in {:.1f} s", std::chrono::duration<double>(Clock::now() - start).count()).c_str()
-                            : "cached");
+      double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+      std::string what = rendered ? fmt::format("rendered in {:.1f} s ({})", seconds,
+                                                trace::describe_progress(last))
+                                  : std::string("cached");
+      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", scene.name.c_str(), frames[i],
+                   i + 1, frames.size(), what.c_str());
     }
   }
 }

@@ -28,7 +28,10 @@ std::optional<trace::PathClass> reference_class_of(const std::string& path_class
 
 trace::ReferenceOptions reference_options(const config::Config& config) {
   trace::ReferenceOptions options;
+  options.rel_error = float(config.reference.rel_error);
+  options.max_seconds = config.reference.max_seconds;
   options.samples = config.reference.samples;
+  options.max_bounces = config.reference.max_bounces;
   options.seed = uint32_t(config.seed);
   return options;
 }
