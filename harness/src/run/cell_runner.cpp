@@ -313,7 +313,7 @@ int run_cell(const CellRunOptions& options) {
     // Scoring against references: after the frames, never on the timed path.
     ScoreResult scores = score_cell(config, cell, scene, written_frames, plugin->descriptor->path_class, dir);
     for (const auto& w : scores.warnings) warnings.push_back({{"frame", nullptr}, {"message", w}});
-    record["metrics"] = scores.means;
+    scores.record_into(record);
   } catch (const CellFailure& failure) {
     record["status"] = "failed";
     record["reason"] = failure.reason;
