@@ -46,8 +46,10 @@ constexpr std::string_view kStopRuleNames[] = {"rel_error", "max_seconds", "samp
 // Contributions in photon mapping's part of path space (photon_mapping_owns) are left out, and so
 // are paths with more than `budget` scattering vertices.
 void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig, float px,
-                       float py, Pcg32& rng, uint32_t wanted, uint32_t budget, glm::vec3* out,
-                       uint64_t& rays) {
+                       float py, Pcg32& rng, uint32_t wanted, uint32_t budget,
+                       LightStrategies strategies, glm::vec3* out, uint64_t& rays) {
+  const bool use_nee = strategies != LightStrategies::bsdf_only;
+  const bool use_hits = strategies != LightStrategies::nee_only;
   const scene::Scene& scene = world.scene();
   for (int c = 0; c < kClasses; ++c) out[c] = glm::vec3(0.f);
   glm::vec3 origin = rig.position, dir = rig.direction(px, py);
@@ -65,8 +67,15 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
     glm::vec3 le = lights.emitted(hit, wo);
     if (max3(le) > 0 && !photon_mapping_owns(state.anchor, prev_specular) &&
         (wanted & (1u << state.classify()))) {
+      // A BSDF-sampled hit: weighted against NEE, which could have sampled it unless the last
+      // scattering was a delta lobe (or the camera).
       float w = 1.f;
-      if (!prev_delta) w = power_heuristic(prev_pdf, lights.pdf_incident(prev_position, hit));
+      if (!prev_delta) {
+        if (!use_hits)
+          w = 0.f;
+        else if (use_nee)
+          w = power_heuristic(prev_pdf, lights.pdf_incident(prev_position, hit));
+      }
       out[state.classify()] += beta * le * w;
     }
     if (world.is_light_object(hit.object) || depth + 1 > budget) break;
@@ -76,7 +85,7 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
     if ((next.reachable() & wanted) == 0) break;
     // Next-event estimation (skipped where photon mapping owns the path: a specular vertex next to
     // the light after the anchor).
-    if (bsdf.can_eval() && !photon_mapping_owns(next.anchor, !diffuse) &&
+    if (use_nee && bsdf.can_eval() && !photon_mapping_owns(next.anchor, !diffuse) &&
         (wanted & (1u << next.classify()))) {
       IncidentSample is;
       float u_select = rng.next_float();
@@ -84,13 +93,10 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
       if (lights.sample_incident(hit.position, u_select, u, is)) {
         glm::vec3 f = bsdf.eval(wo, is.wi, Transport::radiance);
         if (max3(f) > 0) {
-          glm::vec3 o = offset_origin(hit, is.wi);
-          float tmax = std::isinf(is.distance)
-                           ? kInfinity
-                           : is.distance * (1.f - 1e-4f) - EmbreeScene::ray_epsilon(hit.position);
           ++rays;
-          if (!world.occluded(o, is.wi, tmax)) {
-            float w = is.delta ? 1.f : power_heuristic(is.pdf, bsdf.pdf(wo, is.wi));
+          if (std::isinf(is.distance) ? direction_clear(world, hit, is.wi)
+                                      : segment_clear(world, hit, is.point)) {
+            float w = is.delta || !use_hits ? 1.f : power_heuristic(is.pdf, bsdf.pdf(wo, is.wi));
             out[next.classify()] += beta * f * is.weight * w;
           }
         }
@@ -508,18 +514,18 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     uint32_t iteration_seed = hash_combine(options.seed, it);
     // ---- path tracing: one sample per pixel ----
     arena->execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
-                        [&](const tbb::blocked_range<int>& rows) {
-                          uint64_t& rays = ray_count.local();
-                          for (int y = rows.begin(); y != rows.end(); ++y)
-                            for (int x = 0; x < width; ++x) {
-                              size_t i = size_t(y) * width + x;
-                              Pcg32 rng(iteration_seed, i);
-                              glm::vec2 j = rng.next_2d();
-                              trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted,
-                                                budget, &frame[i * kClasses], rays);
-                            }
-                        });
+      tbb::parallel_for(
+          tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+            uint64_t& rays = ray_count.local();
+            for (int y = rows.begin(); y != rows.end(); ++y)
+              for (int x = 0; x < width; ++x) {
+                size_t i = size_t(y) * width + x;
+                Pcg32 rng(iteration_seed, i);
+                glm::vec2 j = rng.next_2d();
+                trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, budget,
+                                  options.light_strategies, &frame[i * kClasses], rays);
+              }
+          });
     });
     // ---- photon mapping: visible points, photons, gather ----
     if (photons) {

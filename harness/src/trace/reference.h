@@ -83,7 +83,8 @@ std::vector<PathClass> all_path_classes();
 // Bumped whenever a change alters what the renderer converges to or how it samples (part of the
 // cache key, so old references are not reused by mistake). 2: mean, variance and halves; photon
 // mapping as independent per-iteration estimates; max_bounces counts full-path scattering vertices.
-inline constexpr int kReferenceRendererVersion = 2;
+// 3: shadow rays aimed from their offset origin (area lights near surfaces were biased low).
+inline constexpr int kReferenceRendererVersion = 3;
 
 // `max_bounces` 0 means untruncated: Russian roulette ends paths, this many scattering vertices
 // at most keeps them finite (the photon tracer stops at 31 on its side).
@@ -93,6 +94,11 @@ inline constexpr uint32_t kUntruncatedBounces = 64;
 enum class StopRule : uint8_t { rel_error, max_seconds, samples };
 std::string_view stop_rule_name(StopRule rule);  // "rel_error", "max_seconds", "samples"
 std::optional<StopRule> parse_stop_rule(std::string_view name);
+
+// How the unbiased estimator reaches emitters: both strategies weighted by MIS (the default), or
+// one alone at full weight (for tests that compare strategies on the same pixel; each alone is
+// unbiased too, only noisier, except that BSDF sampling alone cannot reach delta lights).
+enum class LightStrategies : uint8_t { mis, nee_only, bsdf_only };
 
 // One iteration renders one camera sample per pixel with the unbiased estimator and, where photon
 // mapping has work (a scene with specular surfaces and a wanted class it feeds), one photon pass;
@@ -111,6 +117,7 @@ struct ReferenceOptions {
   uint32_t sppm_photons = 200000;  // photon paths per photon pass
   float sppm_alpha = 2.f / 3.f;    // radius reduction (Knaus & Zwicker 2011, eq. 20)
   float sppm_radius = 0;           // initial radius, m; 0: 3 pixel footprints at the visible point
+  LightStrategies light_strategies = LightStrategies::mis;
   uint32_t seed = 1;
   int threads = 0;  // 0: all cores
 };
