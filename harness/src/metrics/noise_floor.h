@@ -37,7 +37,7 @@
 //                  alone made R's window variance, the estimate max(0, vx - vd) is clamped, so this
 //                  floor leans to similarity: 1 - SSIM comes out 13-15% low for white noise and 35%
 //                  low for noise correlated over 8 pixels (noise_floor_test.cpp). FLIP, PSNR, RMSE
-//                  and relMSE floors are within 2% of the truth there (0.2 dB for PSNR).
+//                  and relMSE floors are within 3% of the truth there (0.2 dB for PSNR).
 //   Not used: the metric between the two halves, m(H1, H2). Their difference has variance
 //   4 Var(R), twice the amplitude of the full reference's error, so it overstates the floor of a
 //   score against the full mean (for MSE exactly 4x; tests/unit/noise_floor_test.cpp measures the
