@@ -21,10 +21,18 @@ are applied to them as to the norms.
                          inflates the score by at most 1/RESOLVE_FACTOR (25%), and by about
                          1 - sqrt(1 - 1/16) = 3% when the two errors are independent (they add in
                          quadrature). Below, the cell is "unresolved": its score may be the reference's.
-    resolved comparison  |d(a) - d(b)| > d(floor a) + d(floor b): by the triangle inequality each
-                         score is within its floor of the score against the true image, so a
-                         difference larger than both floors together has the same sign against the
-                         true image. Otherwise the comparison is "unresolved": the order may be noise.
+    resolved comparison  the order of two scores holds against the true image, by either of:
+                         * worst case: |d(a) - d(b)| > d(floor a) + d(floor b). By the triangle
+                           inequality each score is within its floor of the score against the true
+                           image, so a difference beyond both floors has the same sign against it,
+                           whatever the noise;
+                         * both scores resolved and different. A technique's error is independent of
+                           the reference's noise, so the two add in quadrature, d^2 = t^2 + f^2 (t the
+                           distance from the true image), and t = sqrt(d^2 - f^2) keeps the order of d
+                           when the floors are equal (one reference), or is checked when they are not.
+                           Near the floor this model fails (FLIP saturates, the cross term of error and
+                           noise is no longer small), hence the RESOLVE_FACTOR condition.
+                         Otherwise the comparison is "unresolved": the order may be the noise's.
 
 A score without a floor (a run from before floors existed, or an empty field) is neither resolved nor
 unresolved: None.
@@ -86,14 +94,25 @@ def resolved(metric: str, value: float, floor: float, factor: float = RESOLVE_FA
     return None if math.isnan(r) else r >= factor
 
 
+def order_holds_in_worst_case(metric: str, a: float, floor_a: float, b: float, floor_b: float) -> bool:
+    """|d(a) - d(b)| > d(floor_a) + d(floor_b): the triangle-inequality rule (module docstring)."""
+    return abs(distance(metric, a) - distance(metric, b)) > distance(metric, floor_a) + distance(metric, floor_b)
+
+
 def comparison_resolved(metric: str, a: float, floor_a: float, b: float, floor_b: float) -> Optional[bool]:
-    """True when |d(a) - d(b)| exceeds d(floor_a) + d(floor_b) (the order of a and b holds against the
-    true image), False when it does not, None without floors."""
+    """True when the order of a and b holds against the true image (module docstring: the worst-case
+    rule, or both scores resolved with their quadrature-corrected distances in the same order), False
+    when it may be the reference's noise (equal scores included), None without floors."""
     da, db = distance(metric, a), distance(metric, b)
     fa, fb = distance(metric, floor_a), distance(metric, floor_b)
     if any(math.isnan(v) for v in (da, db, fa, fb)):
         return None
-    return abs(da - db) > fa + fb
+    if order_holds_in_worst_case(metric, a, floor_a, b, floor_b):
+        return True
+    if da == db or not (resolved(metric, a, floor_a) and resolved(metric, b, floor_b)):
+        return False
+    ta, tb = math.sqrt(da * da - fa * fa), math.sqrt(db * db - fb * fb)
+    return (ta < tb) == (da < db) and ta != tb
 
 
 def unresolved_line(metric: str, floor: float, factor: float = RESOLVE_FACTOR) -> float:

@@ -262,9 +262,9 @@ def _quality_text(values: List[Tuple[float, float, bool]]) -> str:
 
 
 def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
-    """The kinds ordered by FLIP (best first), "<" between neighbours whose difference is larger than
-    their floors together (the order holds against the true image, floors.comparison_resolved), "≈"
-    where it is not, "," where a floor is missing."""
+    """The kinds ordered by FLIP (best first): "=" between neighbours equal to the digits shown, "<"
+    where their order holds against the true image (floors.comparison_resolved), "≈" where it may be
+    the reference's noise, "," where a floor is missing."""
     scored = []
     for k, c in kinds.items():
         v, f = _score(c, "flip", cls, reference)
@@ -275,8 +275,11 @@ def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
         return "–"
     text = f"{scored[0][2]} {scored[0][0]:.3f}"
     for (va, fa, _), (vb, fb, kb) in zip(scored, scored[1:]):
-        verdict = floors.comparison_resolved("flip", va, fa, vb, fb)
-        text += {True: " < ", False: " ≈ ", None: ", "}[verdict] + f"{kb} {vb:.3f}"
+        if f"{va:.3f}" == f"{vb:.3f}":
+            sep = " = "
+        else:
+            sep = {True: " < ", False: " ≈ ", None: ", "}[floors.comparison_resolved("flip", va, fa, vb, fb)]
+        text += sep + f"{kb} {vb:.3f}"
     return text
 
 
@@ -317,8 +320,9 @@ def quality_table(grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]], 
         out += [f"Combined FLIP within {k:g}× its floor: {loose_flip} of {counted} cells.", ""]
     out += [f"### FLIP order per setting, against {'the full' if reference == FULL_REFERENCE else 'the bounce-matched'}"
             " reference", "",
-            "Best first; `<`: the difference exceeds both floors together, so the order holds against the true "
-            "image; `≈`: it does not (unresolved: the order may be the reference's noise).", "",
+            "Best first; `=`: equal to the digits shown; `<`: the order holds against the true image (both "
+            f"scores at least {k:g}× their floors, or a difference beyond both floors together); `≈`: it may "
+            "be the reference's noise (unresolved).", "",
             "| scene | setting | combined | indirect |", "|---|---|---|---|"]
     for (scene, s), kinds in sorted(grid.items()):
         ks = {kind: c for kind, c in kinds.items() if reference in c.metric_references()}
