@@ -216,8 +216,9 @@ void render_needed_references(const config::Config& config, const std::vector<co
   for (const auto& cell : cells) {
     const Plugin* plugin = plugins.find(cell.technique);
     if (!plugin || !plugin->loaded()) continue;
+    const uint32_t classes = reference_classes(plugin->descriptor->path_class);
     for (const ScoredReference& ref : scored_references(config, cell.params))
-      masks[{cell.scene_file, ref.options.max_bounces}] |= reference_classes(plugin->descriptor->path_class);
+      masks[{cell.scene_file, ref.options.max_bounces}] |= classes;
   }
   trace::ReferenceCache cache(config.reference.cache_dir);
   for (const auto& [key, mask] : masks) {
@@ -225,9 +226,9 @@ void render_needed_references(const config::Config& config, const std::vector<co
     trace::ReferenceOptions options = reference_options(config);
     options.max_bounces = bounces;
     scene::Scene scene = scene::load_scene(file);
-    const std::string label =
-        bounces == config.reference.max_bounces ? scene.name
-                                                : fmt::format("{} (max_bounces {})", scene.name, bounces);
+    const std::string label = bounces == config.reference.max_bounces
+                                  ? scene.name
+                                  : fmt::format("{} (max_bounces {})", scene.name, bounces);
     for (size_t i = 0; i < frames.size(); ++i) {
       auto start = Clock::now();
       auto last_print = start;
@@ -278,7 +279,8 @@ void write_summary(const std::filesystem::path& run_dir) {
   std::sort(records.begin(), records.end(), [](const json& a, const json& b) { return a["cell"] < b["cell"]; });
   std::vector<std::string> header = {"cell", "scene", "technique", "status", "frames", "frame_ms_median",
                                      "frame_ms_p5", "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean",
-                                     "flip_floor", "ssim_floor", "psnr_floor", "harness_overhead_pct"};
+                                     "flip_floor", "ssim_floor", "psnr_floor",
+                                     "harness_overhead_pct"};
   for (const auto& p : params) header.push_back("param." + p);
   for (const auto& p : passes) header.push_back("pass." + p + ".ms_median");
   header.push_back("reason");

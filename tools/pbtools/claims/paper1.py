@@ -284,7 +284,8 @@ def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
 
 
 def quality_table(grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]], reference: str) -> List[str]:
-    kinds_present = sorted({k for ks in grid.values() for k, c in ks.items() if reference in c.metric_references()})
+    kinds_present = sorted({k for ks in grid.values() for k, c in ks.items()
+                            if reference in c.metric_references()})
     against = ("the full reference" if reference == FULL_REFERENCE else
                "the bounce-matched reference (truncated at each technique's max_bounces, so truncation is "
                "not counted as error: what is left is the estimator's)")
@@ -318,8 +319,8 @@ def quality_table(grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]], 
     out.append("")
     if counted:
         out += [f"Combined FLIP within {k:g}× its floor: {loose_flip} of {counted} cells.", ""]
-    out += [f"### FLIP order per setting, against {'the full' if reference == FULL_REFERENCE else 'the bounce-matched'}"
-            " reference", "",
+    which = "the full" if reference == FULL_REFERENCE else "the bounce-matched"
+    out += [f"### FLIP order per setting, against {which} reference", "",
             "Best first; `=`: equal to the digits shown; `<`: the order holds against the true image (both "
             f"scores at least {k:g}× their floors, or a difference beyond both floors together); `≈`: it may "
             "be the reference's noise (unresolved).", "",
