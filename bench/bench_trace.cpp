@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
 
   pb::trace::ReferenceOptions o;
   o.samples = spp;
-  o.max_depth = depth;
+  o.max_bounces = depth;  // scattering vertices, as the tutorial's path length
   auto mask = pb::trace::class_bit(pb::trace::PathClass::combined);
   pb::trace::render_reference_classes(world, width, height, mask, o);  // warm-up
   std::vector<double> ours, theirs_rates, ratios;

@@ -12,9 +12,10 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
+#include "photonbench/error.h"
+#include "test_scenes.h"
 #include "trace/embree_scene.h"
 #include "trace/sampling.h"
-#include "test_scenes.h"
 
 namespace pb::trace {
 namespace {
@@ -85,6 +86,10 @@ ReferenceOptions quick(uint32_t samples) {
   return o;
 }
 
+io::Image render_mean(const TestScene& t, PathClass c, int w, int h, const ReferenceOptions& o) {
+  return render_reference(t.scene, t.state, c, w, h, o).mean;
+}
+
 // A white (albedo 1) diffuse ball inside a closed enclosure whose walls emit L = 1 and reflect
 // nothing: the ball reflects exactly what it receives, so every pixel shows radiance 1 (the "white
 // furnace").
@@ -96,7 +101,7 @@ TEST(Reference, WhiteFurnaceBallInUniformEmitterIsInvisible) {
            t.material(scene::MaterialType::diffuse, glm::vec3(1.f)));
   t.camera({0, 0.2f, 1.8f}, {0, 0, 0}, {0, 1, 0}, 50.f);
   // Few pixels, many samples: the per-sample spread of NEE + MIS here is about 0.3.
-  io::Image img = render_reference(t.scene, t.state, PathClass::combined, 8, 8, quick(32768), {});
+  io::Image img = render_mean(t, PathClass::combined, 8, 8, quick(32768));
   double worst = 0;
   for (float v : img.pixels) worst = std::max(worst, std::abs(v - 1.0));
   EXPECT_LT(worst, 0.01);
@@ -110,11 +115,29 @@ TEST(Reference, WhiteFurnaceEmittingEnclosureReachesTheNeumannSum) {
   t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
            t.material(scene::MaterialType::emissive, glm::vec3(0.5f), glm::vec3(1.f)));
   t.camera({0.2f, 0.1f, 0.5f}, {0, 0, -1}, {0, 1, 0}, 70.f);
-  io::Image img = render_reference(t.scene, t.state, PathClass::combined, 8, 8, quick(32768), {});
+  io::Image img = render_mean(t, PathClass::combined, 8, 8, quick(32768));
   double worst = 0;
   for (float v : img.pixels) worst = std::max(worst, std::abs(v / 2.0 - 1.0));
   EXPECT_LT(worst, 0.01);
   EXPECT_NEAR(mean_channel(img, 0), 2.0, 0.004);
+}
+
+// max_bounces counts scattering vertices on a full path: in the emitting enclosure above, paths
+// with k vertices carry a^k L_e, so a render truncated at B reads sum_{k <= B} a^k (1, 1.5, 1.75,
+// ...).
+TEST(Reference, MaxBouncesTruncatesAtThatManyScatteringVertices) {
+  TestScene t;
+  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
+           t.material(scene::MaterialType::emissive, glm::vec3(0.5f), glm::vec3(1.f)));
+  t.camera({0.2f, 0.1f, 0.5f}, {0, 0, -1}, {0, 1, 0}, 70.f);
+  for (uint32_t bounces : {1u, 2u, 3u}) {
+    ReferenceOptions o = quick(4096);
+    o.max_bounces = bounces;
+    io::Image img = render_mean(t, PathClass::combined, 4, 4, o);
+    double expected = 2.0 - std::pow(0.5, double(bounces));
+    EXPECT_NEAR(mean_channel(img, 0) / expected, 1.0, 0.004) << bounces << " bounces";
+  }
+  EXPECT_EQ(bounces_matching_photon_technique(4), 4u);
 }
 
 // A point light of intensity I at height h over a Lambertian plane of albedo a: L = a / pi * I cos
@@ -129,8 +152,8 @@ TEST(Reference, PointLightOverPlaneMatchesInverseSquareCosineLaw) {
   t.point_light(light, intensity);
   t.camera({0, 2, 0.01f}, {0, 0, 0}, {0, 0, -1}, 60.f);
   const int w = 48, h = 32;
-  io::Image img = render_reference(t.scene, t.state, PathClass::direct, w, h, quick(64), {});
-  io::Image combined = render_reference(t.scene, t.state, PathClass::combined, w, h, quick(64), {});
+  io::Image img = render_mean(t, PathClass::direct, w, h, quick(64));
+  io::Image combined = render_mean(t, PathClass::combined, w, h, quick(64));
   int y = 13;
   for (int x = 0; x < w; ++x) {
     double expected = 0;
@@ -167,8 +190,8 @@ TEST(Reference, MirrorCausticMatchesTheImageSource) {
   EmbreeScene world(t.scene, t.state);
   ReferenceResult r = render_reference_classes(
       world, w, h, class_bit(PathClass::caustics) | class_bit(PathClass::direct), o);
-  const io::Image& caustic = r.images[int(PathClass::caustics)];
-  const io::Image& direct = r.images[int(PathClass::direct)];
+  const io::Image& caustic = r.image(PathClass::caustics);
+  const io::Image& direct = r.image(PathClass::direct);
   const glm::vec3 image_source{0, -0.4f, 0}, source{0, 0.4f, 0};
   double worst = 0;
   for (int y = 4; y < h - 4; y += 3)
@@ -184,7 +207,8 @@ TEST(Reference, MirrorCausticMatchesTheImageSource) {
       EXPECT_NEAR(direct.at(x, y, 0) / law(source), 1.0, 0.01);
     }
   EXPECT_LT(worst, 0.04);  // density estimation noise (about 2% here) and the blur of the radius
-  EXPECT_EQ(r.sppm_iterations, 64u);
+  EXPECT_EQ(r.samples, 64u);
+  EXPECT_GT(r.photon_paths, 0u);
   RecordProperty("worst", std::to_string(worst));
 }
 
@@ -201,14 +225,14 @@ TEST(Reference, PathTracerRmseFallsAsInverseSquareRootOfSamples) {
   ReferenceOptions o;
   o.seed = 99;
   o.samples = 2048;
-  io::Image ref =
-      render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
+  io::Image ref = render_reference_classes(world, w, h, class_bit(PathClass::combined), o)
+                      .image(PathClass::combined);
   std::vector<double> xs, ys;
   for (uint32_t spp : {8u, 32u, 128u}) {
     o.seed = 1;
     o.samples = spp;
-    io::Image img =
-        render_reference_classes(world, w, h, class_bit(PathClass::combined), o).images[5];
+    io::Image img = render_reference_classes(world, w, h, class_bit(PathClass::combined), o)
+                        .image(PathClass::combined);
     xs.push_back(std::log(double(spp)));
     ys.push_back(std::log(rmse(img, ref)));
   }
@@ -229,18 +253,119 @@ TEST(Reference, SppmCausticRelMseDecreasesOverIterations) {
   const int w = 32, h = 24;
   ReferenceOptions o = quick(400);
   o.seed = 7;
-  io::Image ref =
-      render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
+  io::Image ref = render_reference_classes(world, w, h, class_bit(PathClass::caustics), o)
+                      .image(PathClass::caustics);
   ASSERT_GT(mean_channel(ref, 0), 0.0);
   double previous = 1e30;
   for (uint32_t iterations : {4u, 16u, 64u}) {
     o.seed = 1;
     o.samples = iterations;
-    io::Image img =
-        render_reference_classes(world, w, h, class_bit(PathClass::caustics), o).images[2];
+    io::Image img = render_reference_classes(world, w, h, class_bit(PathClass::caustics), o)
+                        .image(PathClass::caustics);
     double e = rel_mse(img, ref);
     EXPECT_LT(e, previous) << iterations << " iterations";
     previous = e;
+  }
+}
+
+// ---- mean, variance and halves ---------------------------------------------------------------
+
+// Mean over pixel-channels of (a - b)^2 / (var_a + var_b): about 1 when the stored variances are
+// the variances of the means (independent renders of the same expectation).
+double mean_squared_z(const io::Image& a, const io::Image& va, const io::Image& b,
+                      const io::Image& vb, size_t* counted = nullptr) {
+  double acc = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) {
+    double v = double(va.pixels[i]) + vb.pixels[i];
+    if (!(v > 0)) continue;
+    double d = double(a.pixels[i]) - b.pixels[i];
+    acc += d * d / v;
+    ++n;
+  }
+  if (counted) *counted = n;
+  return n ? acc / double(n) : 0.0;
+}
+
+// The stored variance is the variance of the mean, for the path-traced and the photon-mapped part
+// alike: two renders with other seeds differ by as much as their variances say, and so do the two
+// halves of one render (each of n/2 iterations: var(half0 - half1) = 4 var(mean)).
+TEST(Reference, VarianceOfTheMeanMatchesTheSpreadOfIndependentRenders) {
+  scene::Scene scene = load("cornell-glass.yaml");
+  EmbreeScene world(scene, scene.at(0));
+  ReferenceOptions o = quick(64);
+  uint32_t mask = class_bit(PathClass::combined) | class_bit(PathClass::caustics) |
+                  class_bit(PathClass::direct);
+  o.seed = 11;
+  ReferenceResult a = render_reference_classes(world, 24, 18, mask, o);
+  o.seed = 12;
+  ReferenceResult b = render_reference_classes(world, 24, 18, mask, o);
+  for (PathClass c : {PathClass::combined, PathClass::caustics, PathClass::direct}) {
+    const ReferenceImage& x = a.classes[int(c)];
+    const ReferenceImage& y = b.classes[int(c)];
+    size_t n = 0;
+    double z2 = mean_squared_z(x.mean, x.variance, y.mean, y.variance, &n);
+    EXPECT_GT(n, 300u) << path_class_name(c);
+    EXPECT_GT(z2, 0.75) << path_class_name(c);
+    EXPECT_LT(z2, 1.33) << path_class_name(c);
+    io::Image four_var = x.variance;
+    for (float& v : four_var.pixels) v *= 2;  // halves: var(h0 - h1) = 4 var = 2 var + 2 var
+    double halves = mean_squared_z(x.half[0], four_var, x.half[1], four_var);
+    EXPECT_GT(halves, 0.75) << path_class_name(c);
+    EXPECT_LT(halves, 1.33) << path_class_name(c);
+    for (size_t i = 0; i < x.mean.pixels.size(); ++i)
+      ASSERT_NEAR(x.mean.pixels[i], 0.5 * (x.half[0].pixels[i] + x.half[1].pixels[i]),
+                  1e-5 * (1 + x.mean.pixels[i]));
+    RecordProperty(std::string(path_class_name(c)) + "_z2", std::to_string(z2));
+  }
+}
+
+// Stop rules: the first reached ends the render and says so; the error and time rules stop on even
+// counts.
+TEST(Reference, StopsAtTheFirstRuleReachedAndSaysWhich) {
+  scene::Scene scene = load("cornell-box.yaml");
+  EmbreeScene world(scene, scene.at(0));
+  uint32_t mask = class_bit(PathClass::combined);
+  ReferenceOptions o;
+  o.samples = 512;
+  o.rel_error = 0.3f;
+  o.min_samples = 4;
+  ReferenceResult by_error = render_reference_classes(world, 16, 12, mask, o);
+  EXPECT_EQ(by_error.stopped_by, StopRule::rel_error);
+  EXPECT_LE(by_error.rel_error, 0.3);
+  EXPECT_GT(by_error.rel_error, 0.0);
+  EXPECT_EQ(by_error.samples % 2, 0u);
+  EXPECT_LT(by_error.samples, 512u);
+  o.rel_error = 1e-4f;
+  o.samples = 6;
+  ReferenceResult by_samples = render_reference_classes(world, 16, 12, mask, o);
+  EXPECT_EQ(by_samples.stopped_by, StopRule::samples);
+  EXPECT_EQ(by_samples.samples, 6u);
+  EXPECT_GT(by_samples.rel_error, 1e-4);
+  o.samples = 0;
+  o.max_seconds = 1e-9;
+  ReferenceResult by_time = render_reference_classes(world, 16, 12, mask, o);
+  EXPECT_EQ(by_time.stopped_by, StopRule::max_seconds);
+  EXPECT_EQ(by_time.samples, 2u);
+  EXPECT_EQ(by_time.classes[int(PathClass::combined)].stopped_by, StopRule::max_seconds);
+  o.max_seconds = 0;
+  o.rel_error = 0;
+  EXPECT_THROW(render_reference_classes(world, 16, 12, mask, o), InputError);
+}
+
+// The same seed gives the same reference, bit for bit, whatever the number of threads.
+TEST(Reference, DeterministicForAGivenSeedWhateverTheThreadCount) {
+  scene::Scene scene = load("cornell-glass.yaml");
+  EmbreeScene world(scene, scene.at(3));
+  ReferenceOptions o = quick(6);
+  o.threads = 1;
+  ReferenceResult one = render_reference_classes(world, 20, 14, kAllPathClasses, o);
+  o.threads = 3;
+  ReferenceResult three = render_reference_classes(world, 20, 14, kAllPathClasses, o);
+  for (int c = 0; c < kPathClassCount; ++c) {
+    EXPECT_EQ(one.classes[c].mean.pixels, three.classes[c].mean.pixels) << c;
+    EXPECT_EQ(one.classes[c].variance.pixels, three.classes[c].variance.pixels) << c;
+    EXPECT_EQ(one.classes[c].half[1].pixels, three.classes[c].half[1].pixels) << c;
   }
 }
 
@@ -254,12 +379,12 @@ TEST(Reference, PathClassesPartitionTheImage) {
   scene::Scene scene = load("cornell-glass.yaml");
   EmbreeScene world(scene, scene.at(0));
   ReferenceResult r = render_reference_classes(world, 24, 18, kAllPathClasses, quick(16));
-  const io::Image& combined = r.images[int(PathClass::combined)];
+  const io::Image& combined = r.image(PathClass::combined);
   double class_energy[5] = {};
   for (size_t i = 0; i < combined.pixels.size(); ++i) {
     double sum = 0;
     for (int c = 0; c < 5; ++c) {
-      float v = r.images[c].pixels[i];
+      float v = r.classes[c].mean.pixels[i];
       ASSERT_GE(v, 0.f);
       sum += v;
       class_energy[c] += v;
@@ -272,8 +397,8 @@ TEST(Reference, PathClassesPartitionTheImage) {
   EmbreeScene box_world(box, box.at(0));
   ReferenceResult b = render_reference_classes(box_world, 16, 12, kAllPathClasses, quick(4));
   for (PathClass c : {PathClass::caustics, PathClass::indirect_caustics, PathClass::specular})
-    EXPECT_EQ(mean_channel(b.images[int(c)], 0), 0.0) << path_class_name(c);
-  EXPECT_EQ(b.sppm_iterations, 0u);
+    EXPECT_EQ(mean_channel(b.image(c), 0), 0.0) << path_class_name(c);
+  EXPECT_EQ(b.photon_paths, 0u);
 }
 
 // ---- cache
@@ -303,6 +428,30 @@ TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
   EXPECT_EQ(j["scene"], "cornell-box");
   io::Image b = cache.get_or_render(scene, f0, PathClass::direct, 16, 12, o);
   EXPECT_EQ(a.pixels, b.pixels);
+  // The whole entry comes back: mean, variance, halves and the sidecar's fields.
+  std::optional<ReferenceImage> entry = cache.get_entry(scene, f0, PathClass::direct, 16, 12, o);
+  ASSERT_TRUE(entry.has_value());
+  EXPECT_EQ(entry->mean.pixels, a.pixels);
+  EXPECT_EQ(entry->samples, 4u);
+  EXPECT_EQ(entry->stopped_by, StopRule::samples);
+  EXPECT_EQ(j["stopped_by"], "samples");
+  EXPECT_EQ(entry->variance.pixels.size(), a.pixels.size());
+  EXPECT_GT(mean_channel(entry->variance, 0), 0.0);
+  for (size_t i = 0; i < a.pixels.size(); ++i)
+    ASSERT_NEAR(a.pixels[i], 0.5 * (entry->half[0].pixels[i] + entry->half[1].pixels[i]),
+                1e-5 * (1 + a.pixels[i]));
+  // An entry serves a request that any of its stop rules meets: an error target it reached, a
+  // time it rendered at least.
+  ReferenceOptions by_error = o;
+  by_error.samples = 1000;
+  by_error.rel_error = float(j["rel_error"].get<double>() * 1.01);
+  EXPECT_TRUE(cache.has(scene, f0, PathClass::direct, 16, 12, by_error));
+  by_error.rel_error = float(j["rel_error"].get<double>() * 0.5);
+  EXPECT_FALSE(cache.has(scene, f0, PathClass::direct, 16, 12, by_error));
+  // A truncated reference is another entry.
+  ReferenceOptions truncated = o;
+  truncated.max_bounces = 4;
+  EXPECT_NE(k, cache.key(scene, f0, PathClass::direct, 16, 12, truncated));
   // More samples than stored: not a hit.
   ReferenceOptions more = o;
   more.samples = 8;
@@ -325,7 +474,7 @@ TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
     EXPECT_TRUE(ext == ".exr" || ext == ".json") << e.path();  // no temporary leftovers
     ++files;
   }
-  EXPECT_EQ(files, 8);
+  EXPECT_EQ(files, 20);  // 4 entries: mean, variance, two halves, sidecar
   EXPECT_GT(lines, 0);
   std::filesystem::remove_all(dir);
 }

@@ -15,7 +15,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import style
+from . import floors, style
 from .rundata import (METRIC_LABEL, METRIC_LOWER_IS_BETTER, WHOLE_FRAME_PASS, Cell, Run, format_param)
 
 QUALITY_METRICS = ("flip", "ssim", "psnr")
@@ -81,12 +81,15 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
     fig, axes = style.new_figure(min(style.TEXT_WIDTH_IN, 2.35 * n), 2.1, 1, n)
     header = ["cell", "technique", "label", "status", "frame_ms_median", "frame_ms_p5", "frame_ms_p95"]
     header += [f"{m}_mean" for m in metrics] + [f"pareto_{m}" for m in metrics]
+    header += [f"{m}_floor" for m in metrics] + [f"resolved_{m}" for m in metrics]
     ok = [c for c in cells if c.ok and math.isfinite(c.value("frame_ms_median"))]
     on_front: Dict[str, set] = {}
+    any_floor = False
     for k, m in enumerate(metrics):
         ax = axes[0][k]
         xs = [c.value("frame_ms_median") for c in ok]
         ys = [c.value(f"{m}_mean") for c in ok]
+        any_floor |= _draw_floor(ax, m, [c.value(f"{m}_floor") for c in ok], label=k == 0)
         front = pareto_front(xs, ys, METRIC_LOWER_IS_BETTER[m])
         on_front[m] = {ok[i].id for i in front}
         if len(front) >= 1:
@@ -112,6 +115,12 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
                 ax.plot(tx[order], ty[order], color=color, lw=0.6, alpha=0.5, zorder=2)
             ax.plot(tx, ty, ls="none", marker=marker, color=color, markeredgecolor="white",
                     markeredgewidth=0.4, zorder=3, gid=f"points:{tech}:{m}", label=tech if k == 0 else None)
+            # Scores the floor does not resolve: hollow, over the filled marker.
+            loose = [(x, y) for c, x, y in zip(tc, tx, ty) if _resolved(c, m) is False]
+            if loose:
+                ax.plot([p[0] for p in loose], [p[1] for p in loose], ls="none", marker=marker,
+                        markerfacecolor="white", markeredgecolor=color, markeredgewidth=0.8, zorder=4,
+                        gid=f"unresolved:{tech}:{m}")
             if 1 < len(tc) <= 8:
                 for c, x, y in zip(tc, tx, ty):
                     ax.annotate(run.label(c, with_technique=False), (x, y), xytext=(3, 2),
@@ -129,11 +138,40 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
         rows.append([c.id, c.technique, run.label(c), c.status, c.value("frame_ms_median"),
                      c.value("frame_ms_p5"), c.value("frame_ms_p95")]
                     + [c.value(f"{m}_mean") for m in metrics]
-                    + [int(c.id in on_front[m]) for m in metrics])
-    return Figure(f"quality_vs_time_{slug(scene)}", f"{scene}: quality against time",
-                  "Mean error over the metric frames against median frame time (bars: p5-p95 of frame "
-                  "time); dashed: the Pareto front of the successful cells. Failed cells cannot be placed "
-                  "and are listed below the plot.", fig, header, rows)
+                    + [int(c.id in on_front[m]) for m in metrics]
+                    + [c.value(f"{m}_floor") for m in metrics]
+                    + ["" if _resolved(c, m) is None else int(_resolved(c, m)) for m in metrics])
+    caption = ("Mean error over the metric frames against median frame time (bars: p5-p95 of frame "
+               "time); dashed: the Pareto front of the successful cells. Failed cells cannot be placed "
+               "and are listed below the plot.")
+    if any_floor:
+        caption += (" Grey line: the noise floor (what the true image scores against this reference); "
+                    f"shaded up to {floors.RESOLVE_FACTOR:g}x the floor: scores there (hollow markers) "
+                    "are not resolved by the reference and may measure its noise.")
+    return Figure(f"quality_vs_time_{slug(scene)}", f"{scene}: quality against time", caption, fig, header,
+                  rows)
+
+
+def _resolved(cell: Cell, metric: str) -> Optional[bool]:
+    return floors.resolved(metric, cell.value(f"{metric}_mean"), cell.value(f"{metric}_floor"))
+
+
+def _draw_floor(ax, metric: str, cell_floors: List[float], label: bool) -> bool:
+    """The noise floor of one panel (the median of its cells' floors: one reference per scene, so they
+    agree unless cells scored different frames) and the band up to RESOLVE_FACTOR x the floor where
+    scores are unresolved. Returns whether there was a floor to draw."""
+    known = [f for f in cell_floors if math.isfinite(f)]
+    if not known:
+        return False
+    floor = float(np.median(known))
+    edge = floors.unresolved_line(metric, floor)
+    ax.axhline(floor, color=style.FLOOR_COLOR, lw=0.9, zorder=1, gid=f"floor:{metric}",
+               label="noise floor" if label else None)
+    if math.isfinite(edge):
+        ax.axhspan(min(floor, edge), max(floor, edge), color=style.FLOOR_COLOR, alpha=0.15, lw=0, zorder=0,
+                   gid=f"unresolved-band:{metric}",
+                   label=f"< {floors.RESOLVE_FACTOR:g}x floor: unresolved" if label else None)
+    return True
 
 
 def pass_breakdown(run: Run, scene: str, styles: style.TechniqueStyle) -> Optional[Figure]:

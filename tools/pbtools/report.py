@@ -31,6 +31,7 @@ table{border-collapse:collapse;font-size:12.5px;margin:.5em 0}
 th,td{padding:2px 8px;border-bottom:1px solid #e3e3e3;text-align:left;vertical-align:top}
 th{border-bottom:1.5px solid #555}td.num{text-align:right;font-variant-numeric:tabular-nums}
 tr.failed td{background:#fff1f0}td.failed{color:#b00000;font-weight:bold}td.ok{color:#1b6e20}
+td.unresolved{background:#eeeeee;color:#666}
 figure{margin:1em 0 1.6em 0}figure img{max-width:100%;height:auto;border:0}
 figcaption{font-size:12.5px;color:#444;max-width:60em}figcaption a{margin-right:.6em}
 .muted{color:#666}.bad{color:#b00000}.warn{color:#8a5a00}
@@ -151,6 +152,8 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
     styles = style.TechniqueStyle(run.techniques())
 
     tables.write_summary_csv(run, os.path.join(tab_dir, "summary.csv"))
+    floor_rows = tables.floor_rows(run)
+    tables.write_floors_csv(floor_rows, os.path.join(tab_dir, "floors.csv"))
     with open(os.path.join(tab_dir, "summary.tex"), "w", encoding="utf-8") as f:
         f.write(tables.summary_latex(run))
 
@@ -188,15 +191,19 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
 <style>{CSS}</style></head>
 <body>
 <h1>photonbench report: {html.escape(run.name)}</h1>
-<nav>{nav} <a href="#summary">summary</a> <a href="#cells">cells</a></nav>
+<nav>{nav} <a href="#summary">summary</a> <a href="#floors">noise floors</a> <a href="#cells">cells</a></nav>
 <h2>Run</h2>
 {_run_info_html(run)}
 {_status_html(run)}
 <h2 id="summary">Summary</h2>
 <p>Median, p5 and p95 over the measured frames (warm-up excluded); metric means over the metric frames.
-Bold: best successful value in the scene. Tables: <a href="tables/summary.csv">CSV</a>,
+Bold: best successful value in the scene. Floors: what the true image scores against the reference
+(its noise alone); * and grey: within {tables.floors.RESOLVE_FACTOR:g}x the floor, unresolved (see
+<a href="#floors">noise floors</a>). Tables: <a href="tables/summary.csv">CSV</a>,
 <a href="tables/summary.tex">LaTeX (booktabs)</a>. Source: <code>summary.csv</code>.</p>
 {tables.summary_html(run)}
+<h2 id="floors">Noise floors</h2>
+{tables.floors_html(run, floor_rows)}
 {"".join(sections)}
 <h2 id="cells">Cells</h2>
 {_cells_html(run)}

@@ -6,7 +6,8 @@
     RUN/cells/<cell>/cell.json       status ok|failed, reason, failed_frame, warnings, params, memory
     RUN/cells/<cell>/frames.csv      frame, pass, gpu_ms, cpu_ms  (pass "frame" is the whole frame)
     RUN/cells/<cell>/counters.csv    frame, name, value
-    RUN/cells/<cell>/metrics.csv     frame, path_class, flip, ssim, psnr, rmse, relmse
+    RUN/cells/<cell>/metrics.csv     frame, path_class, reference, flip, ssim, psnr, rmse, relmse,
+                                     <metric>_floor..., mse_unbiased, relmse_unbiased
     RUN/cells/<cell>/images/         frame_NNNN.{exr,png}, flip_NNNN_<class>.png, reference_NNNN_<class>.png
 
 Everything here is read-only and tolerant of what a failed or interrupted cell leaves behind (a missing
@@ -29,13 +30,18 @@ import numpy as np
 # The summary's fixed leading columns (docs/architecture.md); anything else is param.* or pass.*.ms_median.
 SUMMARY_FIXED = [
     "cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
-    "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean",
+    "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor",
 ]
 PASS_PREFIX = "pass."
 PASS_SUFFIX = ".ms_median"
 PARAM_PREFIX = "param."
 WHOLE_FRAME_PASS = "frame"
-PRIMARY_CLASS = "combined"  # the path class of the composed image, preferred when a cell scores several  # frames.csv names the whole frame's time "frame"
+PRIMARY_CLASS = "combined"  # the path class of the composed image, preferred when a cell scores several
+# metrics.csv's `reference` column: scores against the full reference, or (when the config asks for
+# reference.bounce_matched) against one truncated at the technique's path depth. Runs from before the
+# column existed scored against the full reference only.
+FULL_REFERENCE = "full"
+BOUNCE_MATCHED_REFERENCE = "bounce_matched"
 
 # Metrics: which direction is better. FLIP, RMSE and relMSE are errors; SSIM and PSNR are similarities.
 METRIC_LOWER_IS_BETTER = {"flip": True, "rmse": True, "relmse": True, "ssim": False, "psnr": False}
@@ -256,6 +262,13 @@ class Cell:
             seen.setdefault(r.get("path_class", ""), None)
         return list(seen)
 
+    def metric_references(self) -> List[str]:
+        """The references this cell was scored against (metrics.csv's `reference` column), in order."""
+        seen = {}
+        for r in self.metrics_rows:
+            seen.setdefault(r.get("reference") or FULL_REFERENCE, None)
+        return list(seen)
+
     def primary_class(self) -> Optional[str]:
         """The path class the report shows first: "combined" (the composed image) when scored, else the
         first class in metrics.csv."""
@@ -264,19 +277,23 @@ class Cell:
             return None
         return PRIMARY_CLASS if PRIMARY_CLASS in classes else classes[0]
 
-    def metric_series(self, metric: str, path_class: Optional[str] = None) -> (np.ndarray, np.ndarray):
-        """(frames, values) of one metric for one path class (default: primary_class())."""
+    def metric_series(self, metric: str, path_class: Optional[str] = None,
+                      reference: str = FULL_REFERENCE) -> (np.ndarray, np.ndarray):
+        """(frames, values) of one metrics.csv column (a metric, its <metric>_floor, ...) for one path
+        class (default: primary_class()) against one reference (default: the full one)."""
         cls = path_class if path_class is not None else self.primary_class()
         if cls is None:
             return np.zeros(0, dtype=int), np.zeros(0)
         pts = [(int(to_float(r["frame"])), to_float(r.get(metric)))
-               for r in self.metrics_rows if r.get("path_class", "") == cls]
+               for r in self.metrics_rows
+               if r.get("path_class", "") == cls and (r.get("reference") or FULL_REFERENCE) == reference]
         pts = [(f, v) for f, v in pts if not math.isnan(v)]
         pts.sort()
         return (np.asarray([p[0] for p in pts], dtype=int), np.asarray([p[1] for p in pts], dtype=float))
 
-    def metric_mean(self, metric: str, path_class: Optional[str] = None) -> float:
-        _, v = self.metric_series(metric, path_class)
+    def metric_mean(self, metric: str, path_class: Optional[str] = None,
+                    reference: str = FULL_REFERENCE) -> float:
+        _, v = self.metric_series(metric, path_class, reference)
         return float(np.mean(v)) if len(v) else math.nan
 
     def images(self) -> Dict[tuple, str]:

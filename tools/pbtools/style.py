@@ -35,6 +35,7 @@ LINESTYLES = ["-", "--", ":", "-."]
 FAILED_COLOR = "#B00000"
 WARNING_COLOR = "#E69F00"
 PARETO_COLOR = "#555555"
+FLOOR_COLOR = "#8C8C8C"  # noise floors and the band of scores they do not resolve
 
 RC = {
     "font.family": "DejaVu Sans",

@@ -1,6 +1,8 @@
 """The summary as tables: CSV (for scripts and spreadsheets), LaTeX with booktabs (for papers) and HTML
 (for the report). The best successful value per scene and column is set in bold; failed cells stay in
-the table with their status."""
+the table with their status. A score within RESOLVE_FACTOR times its noise floor (floors.py) is marked
+unresolved: a dagger in LaTeX, an asterisk and the class "unresolved" in HTML, resolved_<metric> = 0 in
+the CSV. The floor table lists every score of every cell, class and reference beside its floor."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import html
 import math
 from typing import Dict, List, Optional
 
+from . import floors
 from .rundata import Run
 
 # (key, heading, LaTeX heading, decimals, lower is better or None when not ranked)
@@ -20,7 +23,12 @@ SUMMARY_COLUMNS = [
     ("flip_mean", "FLIP", r"\textsc{Flip}~$\downarrow$", 4, True),
     ("ssim_mean", "SSIM", r"SSIM~$\uparrow$", 4, False),
     ("psnr_mean", "PSNR dB", r"PSNR [dB]~$\uparrow$", 2, False),
+    ("flip_floor", "FLIP floor", r"\textsc{Flip} floor", 4, None),
+    ("ssim_floor", "SSIM floor", r"SSIM floor", 4, None),
+    ("psnr_floor", "PSNR floor", r"PSNR floor", 2, None),
 ]
+# The score columns read against a floor column: summary key -> metric (its floor is <metric>_floor).
+FLOORED = {"flip_mean": "flip", "ssim_mean": "ssim", "psnr_mean": "psnr"}
 
 _LATEX_ESCAPES = {"&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_", "{": r"\{", "}": r"\}",
                   "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "\\": r"\textbackslash{}"}
@@ -44,8 +52,14 @@ def summary_rows(run: Run) -> List[Dict[str, object]]:
                "status": c.status, "reason": c.reason}
         for key, *_ in SUMMARY_COLUMNS:
             row[key] = c.value(key)
+        for key, metric in FLOORED.items():
+            row[f"resolved_{metric}"] = floors.resolved(metric, row[key], c.value(f"{metric}_floor"))
         rows.append(row)
     return rows
+
+
+def _unresolved(row: Dict[str, object], key: str) -> bool:
+    return key in FLOORED and row["status"] == "ok" and row[f"resolved_{FLOORED[key]}"] is False
 
 
 def best_per_scene(rows: List[Dict[str, object]]) -> Dict[tuple, float]:
@@ -66,13 +80,23 @@ def best_per_scene(rows: List[Dict[str, object]]) -> Dict[tuple, float]:
 
 def write_summary_csv(run: Run, path: str) -> None:
     rows = summary_rows(run)
-    header = ["scene", "technique", "setting", "cell", "status"] + [k for k, *_ in SUMMARY_COLUMNS] + ["reason"]
+    header = (["scene", "technique", "setting", "cell", "status"] + [k for k, *_ in SUMMARY_COLUMNS]
+              + [f"resolved_{m}" for m in FLOORED.values()] + ["reason"])
+
+    def text(v):
+        if v is None:
+            return ""
+        if isinstance(v, bool):
+            return int(v)
+        if isinstance(v, float):
+            return "" if not math.isfinite(v) else f"{v:.6g}"
+        return v
+
     with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(header)
         for r in rows:
-            w.writerow([r[h] if not isinstance(r[h], float) else ("" if not math.isfinite(r[h]) else f"{r[h]:.6g}")
-                        for h in header])
+            w.writerow([text(r[h]) for h in header])
 
 
 def summary_latex(run: Run) -> str:
@@ -104,9 +128,14 @@ def summary_latex(run: Run) -> str:
                 if lower is not None and (r["scene"], key) in best and math.isfinite(r[key]) and \
                         _fmt(r[key], dec) == _fmt(best[(r["scene"], key)], dec):
                     text = r"\textbf{" + text + "}"
+                if _unresolved(r, key):
+                    text += r"$^\dagger$"
                 cells.append(text)
         out.append(" & ".join(cells) + r" \\")
-    out += [r"\bottomrule", r"\end{tabular}", ""]
+    out += [r"\bottomrule", r"\end{tabular}"]
+    if any(_unresolved(r, k) for r in rows for k in FLOORED):
+        out.append(rf"% $^\dagger$: within {floors.RESOLVE_FACTOR:g}x the reference's noise floor (unresolved).")
+    out.append("")
     return "\n".join(out)
 
 
@@ -146,8 +175,108 @@ def summary_html(run: Run, link_cells: Optional[Dict[str, str]] = None) -> str:
             text = _fmt(r[key], dec)
             strong = (r["status"] == "ok" and lower is not None and (r["scene"], key) in best
                       and math.isfinite(r[key]) and text == _fmt(best[(r["scene"], key)], dec))
-            tds.append(f'<td class="num">{"<b>" + text + "</b>" if strong else text}</td>')
+            text = "<b>" + text + "</b>" if strong else text
+            if _unresolved(r, key):
+                tds.append(f'<td class="num unresolved" title="within {floors.RESOLVE_FACTOR:g}x its noise '
+                           f'floor: unresolved">{text}*</td>')
+            else:
+                tds.append(f'<td class="num">{text}</td>')
         body.append(f'<tr class="{cls}">' + "".join(tds) + "</tr>")
     return f'<table class="summary"><thead><tr>{head}</tr></thead><tbody>' + "\n".join(body) + \
         "</tbody></table>"
 
+
+
+# -- noise floors ------------------------------------------------------------------------------------
+
+FLOOR_HEADER = ["scene", "technique", "setting", "cell", "reference", "path_class", "metric", "mean",
+                "floor", "floor_ratio", "resolved"]
+
+
+def floor_rows(run: Run) -> List[Dict[str, object]]:
+    """Every successful cell's mean score of each metric, path class and reference beside its mean floor
+    (metrics.csv), with floor_ratio (floors.floor_ratio) and resolved (True, False, None: no floor)."""
+    rows = []
+    for c in run.cells:
+        if not c.ok:
+            continue
+        setting = run.label(c, with_technique=False)
+        for reference in c.metric_references():
+            for cls in c.metric_classes():
+                for m in floors.FLOOR_METRICS:
+                    mean = c.metric_mean(m, cls, reference)
+                    if not math.isfinite(mean):
+                        continue
+                    floor = c.metric_mean(m + floors.FLOOR_SUFFIX, cls, reference)
+                    rows.append({"scene": c.scene, "technique": c.technique,
+                                 "setting": "" if setting == c.technique else setting, "cell": c.id,
+                                 "reference": reference, "path_class": cls, "metric": m, "mean": mean,
+                                 "floor": floor, "floor_ratio": floors.floor_ratio(m, mean, floor),
+                                 "resolved": floors.resolved(m, mean, floor)})
+    return rows
+
+
+def write_floors_csv(rows: List[Dict[str, object]], path: str) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(FLOOR_HEADER)
+        for r in rows:
+            out = []
+            for h in FLOOR_HEADER:
+                v = r[h]
+                out.append("" if v is None or (isinstance(v, float) and not math.isfinite(v)) else
+                           int(v) if isinstance(v, bool) else f"{v:.6g}" if isinstance(v, float) else v)
+            w.writerow(out)
+
+
+def floors_html(run: Run, rows: List[Dict[str, object]]) -> str:
+    """The unresolved scores named up front (FLIP first: the issue's criterion), then every score against
+    its floor, one row per cell, reference and class."""
+    if not any(r["resolved"] is not None for r in rows):
+        return ('<p class="muted">This run has no noise floors (its metrics.csv files predate them, or '
+                "no cell was scored).</p>")
+    k = floors.RESOLVE_FACTOR
+    loose = [r for r in rows if r["resolved"] is False]
+    flip_loose = [r for r in loose if r["metric"] == "flip"]
+    floored = [r for r in rows if r["resolved"] is not None]
+    out = [f"<p>A score is <b>unresolved</b> when it lies within {k:g}x its noise floor, the score the "
+           "true image itself gets against this reference (as a distance from the reference: FLIP, "
+           "1&minus;SSIM, the display RMS error behind PSNR, RMSE, &radic;relMSE): such a score may "
+           "measure the reference's noise rather than the technique. "
+           f"{len(loose)} of {len(floored)} scores are unresolved; FLIP: {len(flip_loose)} of "
+           f"{sum(r['metric'] == 'flip' for r in floored)}. Table: "
+           '<a href="tables/floors.csv">CSV</a>.</p>']
+    if flip_loose:
+        out.append('<table class="unresolved-flip"><tr><th>scene</th><th>cell</th><th>reference</th>'
+                   "<th>class</th><th>FLIP</th><th>floor</th><th>ratio</th></tr>")
+        for r in flip_loose:
+            cell = run.cell(r["cell"])
+            out.append(f'<tr><td>{html.escape(r["scene"])}</td><td>{html.escape(run.label(cell))}</td>'
+                       f'<td>{html.escape(r["reference"])}</td><td>{html.escape(r["path_class"])}</td>'
+                       f'<td class="num bad">{r["mean"]:.4f}</td><td class="num">{r["floor"]:.4f}</td>'
+                       f'<td class="num">{r["floor_ratio"]:.2f}x</td></tr>')
+        out.append("</table>")
+    groups: Dict[tuple, Dict[str, Dict[str, object]]] = {}
+    for r in rows:
+        groups.setdefault((r["cell"], r["reference"], r["path_class"]), {})[r["metric"]] = r
+    metrics = [m for m in floors.FLOOR_METRICS if any(r["metric"] == m for r in rows)]
+    head = "".join(f"<th>{html.escape(m)}: score / floor</th>" for m in metrics)
+    body = []
+    for (cell_id, reference, cls), by_metric in groups.items():
+        cell = run.cell(cell_id)
+        tds = [f"<td>{html.escape(cell.scene)}</td><td>{html.escape(run.label(cell))}</td>"
+               f"<td>{html.escape(reference)}</td><td>{html.escape(cls)}</td>"]
+        for m in metrics:
+            r = by_metric.get(m)
+            if r is None:
+                tds.append("<td></td>")
+                continue
+            floor = "" if not math.isfinite(r["floor"]) else f" / {r['floor']:.4g}"
+            ratio = "" if not math.isfinite(r["floor_ratio"]) else f" ({r['floor_ratio']:.1f}x)"
+            cls_attr = "num unresolved" if r["resolved"] is False else "num"
+            tds.append(f'<td class="{cls_attr}">{r["mean"]:.4g}{floor}{ratio}</td>')
+        body.append("<tr>" + "".join(tds) + "</tr>")
+    out.append("<details><summary>every score against its floor</summary><table class=\"floors\"><tr>"
+               "<th>scene</th><th>cell</th><th>reference</th><th>class</th>" + head + "</tr>"
+               + "\n".join(body) + "</table></details>")
+    return "\n".join(out)

@@ -10,8 +10,12 @@ The data are synthetic but shaped like a real run on a noisy machine:
     a run-level drift (the machine's state differs from one run to the next);
   * a cell that fails mid-animation (reason + failed_frame), a technique whose plugin fails to load
     (failed at setup, no frames), and a cell with warnings on given frames;
-  * metrics every `metrics_every` measured frames per path class, and images: frame_NNNN.exr (linear,
-    uncompressed OpenEXR), frame_NNNN.png (tonemapped), reference_NNNN_<class>.png, flip_NNNN_<class>.png.
+  * metrics every `metrics_every` measured frames per path class, each with its noise floors (the same
+    for every cell of a scene: one reference; pillars' FLIP floor 0.033 leaves its best tiled setting,
+    FLIP ~0.11, unresolved, within 4x), and images: frame_NNNN.exr (linear, uncompressed OpenEXR),
+    frame_NNNN.png (tonemapped), reference_NNNN_<class>.png, flip_NNNN_<class>.png;
+  * with `bounce_matched`, every metric row again against a bounce-matched reference (reference column
+    "bounce_matched"): scores 20% lower, the same floors.
 
 `slow` injects a slowdown, {pass name: factor}, into every cell that has that pass, the way the
 runner's test-only delay injection would, so compare can be checked against a known regression.
@@ -90,6 +94,17 @@ SETUP_FAIL_REASON = ("cannot load plugin techniques/broken: broken.so: undefined
                      "pb_technique_entry")
 WARN = ("pillars", "tiled", {"photons": 200000, "radius": 0.05}, [5, 17],
         "photon buffer full: 3% of photons dropped")
+# FLIP floor of the combined class per scene; every metric's floor follows from it as the scores do
+# from FLIP (below), so each metric's floor ratio is FLIP's.
+FLIP_FLOOR = {"cornell-box": 0.01, "pillars": 0.033}
+METRICS_HEADER = ["frame", "path_class", "reference", "flip", "ssim", "psnr", "rmse", "relmse", "flip_floor",
+                  "ssim_floor", "psnr_floor", "rmse_floor", "relmse_floor", "mse_unbiased", "relmse_unbiased"]
+
+
+def metric_values(fl: float) -> List[float]:
+    """flip, ssim, psnr, rmse, relmse of a score (or floor) with FLIP fl: all the same distance."""
+    mse = (fl * 0.35) ** 2
+    return [fl, max(0.0, 1 - 1.6 * fl), -10 * math.log10(mse), math.sqrt(mse), mse / 0.25]
 
 
 def cell_id(index: int, scene: str, technique: str, params: dict) -> str:
@@ -190,7 +205,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
              spike_rate: float = 0.03, images: bool = True, resolution=(96, 54),
              commit: Optional[str] = None, device: str = "llvmpipe (LLVM 15.0.6, 256 bits)",
              scenes: Optional[List[str]] = None, techniques: Optional[List[str]] = None,
-             load: Optional[float] = None) -> str:
+             load: Optional[float] = None, bounce_matched: bool = False) -> str:
     """Writes a run directory at out_dir and returns its path. Layout is seed-independent; `seed` drives
     only the noise, so two seeds are an A/A pair."""
     slow = slow or {}
@@ -309,17 +324,20 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 flip_level *= 1.0 + 0.1 * scene_i
                 metric_rows = []
                 mframes = [f for f in metric_frames if f < n_frames]
-                for f in mframes:
-                    for ci, cls in enumerate(tech["classes"]):
-                        fl = flip_level * (1 + 0.3 * ci) * (1 + 0.1 * math.sin(f / 7.0))
-                        fl = float(np.clip(fl * float(layout.uniform(0.97, 1.03)), 0.001, 0.99))
-                        mse = (fl * 0.35) ** 2
-                        metric_rows.append([f, cls, fmt(fl), fmt(max(0.0, 1 - 1.6 * fl)),
-                                            fmt(-10 * math.log10(mse)), fmt(math.sqrt(mse)),
-                                            fmt(mse / 0.25)])
+                references = ["full", "bounce_matched"] if bounce_matched else ["full"]
+                for reference in references:
+                    for f in mframes:
+                        for ci, cls in enumerate(tech["classes"]):
+                            fl = flip_level * (1 + 0.3 * ci) * (1 + 0.1 * math.sin(f / 7.0))
+                            fl = float(np.clip(fl * float(layout.uniform(0.97, 1.03)), 0.001, 0.99))
+                            if reference == "bounce_matched":
+                                fl *= 0.8
+                            floor = FLIP_FLOOR[scene] * (1 + 0.3 * ci) * (1 + 0.05 * math.cos(f / 5.0))
+                            score, floors = metric_values(fl), metric_values(floor)
+                            unbiased = [score[3] ** 2 - floors[3] ** 2, score[4] - floors[4]]
+                            metric_rows.append([f, cls, reference] + [fmt(v) for v in score + floors + unbiased])
                 if tech["passes"]:
-                    write_csv(os.path.join(cdir, "metrics.csv"),
-                              ["frame", "path_class", "flip", "ssim", "psnr", "rmse", "relmse"], metric_rows)
+                    write_csv(os.path.join(cdir, "metrics.csv"), METRICS_HEADER, metric_rows)
                 if images and tech["passes"]:
                     img_rng = np.random.default_rng(index)
                     for f in mframes:
@@ -350,7 +368,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 })
 
                 ft = np.asarray(per_pass.get("frame", []))
-                full = [r for r in metric_rows if r[1] == tech["classes"][0]]
+                full = [r for r in metric_rows if r[1] == tech["classes"][0] and r[2] == "full"]
 
                 def mean_of(col: int) -> float:
                     return float(np.mean([float(r[col]) for r in full])) if full else math.nan
@@ -361,14 +379,15 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                     "frame_ms_median": float(np.median(ft)) if len(ft) else math.nan,
                     "frame_ms_p5": float(np.percentile(ft, 5)) if len(ft) else math.nan,
                     "frame_ms_p95": float(np.percentile(ft, 95)) if len(ft) else math.nan,
-                    "flip_mean": mean_of(2), "ssim_mean": mean_of(3), "psnr_mean": mean_of(4),
+                    "flip_mean": mean_of(3), "ssim_mean": mean_of(4), "psnr_mean": mean_of(5),
+                    "flip_floor": mean_of(8), "ssim_floor": mean_of(9), "psnr_floor": mean_of(10),
                     "params": params,
                     "passes": {p: float(np.median(v)) for p, v in per_pass.items() if p != "frame"},
                 }
                 summary_rows.append(row)
 
     fixed = ["cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
-             "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean"]
+             "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
     header = fixed + [f"param.{p}" for p in PARAM_NAMES] + [f"pass.{p}.ms_median" for p in pass_columns]
     rows = []
     for r in summary_rows:

@@ -2,6 +2,7 @@
 cell and a worse image are regressions, and the statistics behave as documented: process CPU time on
 fenced runs, the level as the floor of the samples, folders of replicate runs and their run-to-run noise."""
 
+import csv
 import io
 import json
 import math
@@ -92,14 +93,14 @@ class CompareFixtureTest(unittest.TestCase):
         with open(summary, "w") as f:
             f.write(text)
         mpath = os.path.join(new, "cells", "000-cornell-box-direct", "metrics.csv")
-        with open(mpath) as f:
-            lines = f.read().splitlines()
-        out = [lines[0]]
-        for line in lines[1:]:
-            fr, cls, flip, *rest = line.split(",")
-            out.append(",".join([fr, cls, f"{float(flip) * 1.1:.6g}"] + rest))
-        with open(mpath, "w") as f:
-            f.write("\n".join(out) + "\n")
+        with open(mpath, newline="") as f:
+            rows = list(csv.DictReader(f))
+        for r in rows:
+            r["flip"] = f"{float(r['flip']) * 1.1:.6g}"
+        with open(mpath, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
         result = C.compare(Run(self.base), Run(new))
         self.assertEqual([r.cell for r in result.statuses if r.verdict == "regression"], [cell])
         worse = [(r.cell, r.metric) for r in result.metrics if r.verdict == "worse"]

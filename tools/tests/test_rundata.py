@@ -14,7 +14,7 @@ from common import TempRuns
 from pbtools.rundata import Run, RunError
 
 SUMMARY_FIXED = ["cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
-                 "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean"]
+                 "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
 
 
 def header(path):
@@ -56,7 +56,9 @@ class SchemaTest(unittest.TestCase):
             self.assertEqual(header(os.path.join(d, "frames.csv")), ["frame", "pass", "gpu_ms", "cpu_ms"])
             self.assertEqual(header(os.path.join(d, "counters.csv")), ["frame", "name", "value"])
             self.assertEqual(header(os.path.join(d, "metrics.csv")),
-                             ["frame", "path_class", "flip", "ssim", "psnr", "rmse", "relmse"])
+                             ["frame", "path_class", "reference", "flip", "ssim", "psnr", "rmse", "relmse",
+                              "flip_floor", "ssim_floor", "psnr_floor", "rmse_floor", "relmse_floor",
+                              "mse_unbiased", "relmse_unbiased"])
             with open(os.path.join(d, "frames.csv"), newline="") as f:
                 self.assertIn("frame", {r["pass"] for r in csv.DictReader(f)})
             for name in os.listdir(os.path.join(d, "images")):

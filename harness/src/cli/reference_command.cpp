@@ -10,24 +10,28 @@
 
 #include "cli/command.h"
 #include "config/config.h"
+#include "photonbench/error.h"
 #include "run/plugins.h"
 #include "run/runner.h"
-#include "photonbench/error.h"
 #include "scene/scene.h"
 #include "trace/reference.h"
 
 namespace {
 
+// Stop-rule defaults are the config's (config::ReferenceSettings), so `reference SCENE` renders
+// what a run would.
 struct Args {
   std::string scene;
   std::string frames;
   std::vector<std::string> classes;
-  uint32_t samples = 256;
+  double rel_error = pb::config::ReferenceSettings{}.rel_error;
+  double max_seconds = pb::config::ReferenceSettings{}.max_seconds;
+  uint32_t samples = pb::config::ReferenceSettings{}.samples;
+  uint32_t max_bounces = 0;
   uint32_t photons = 200000;
   std::string resolution = "640x360";
   std::string cache = "results/reference-cache";
   uint32_t seed = 1;
-  float rel_error = 0;
   int threads = 0;
 };
 
@@ -62,10 +66,11 @@ void add_reference(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand(
       "reference",
-      "render reference images (path tracing + SPPM) of a scene's frames into the cache");
-  cmd->add_option("scene", args->scene,
-                  "scene name (under scenes/), path to a scene file, or a benchmark config: then every "
-                  "reference its cells will be scored against is rendered (what `run` would render)")
+      "render reference images (mean, variance, halves) of a scene's frames into the cache");
+  cmd->add_option(
+         "scene", args->scene,
+         "scene name (under scenes/), path to a scene file, or a benchmark config: then every "
+         "reference its cells will be scored against is rendered (what `run` would render)")
       ->required();
   cmd->add_option("--frames", args->frames, "FIRST:LAST or FRAME (default: the scene's animation)");
   std::string class_help = "path class, repeatable: ";
@@ -73,16 +78,21 @@ void add_reference(CLI::App& app, int& exit_code) {
     class_help += fmt::format("{} ({}); ", pb::trace::path_class_name(c),
                               pb::trace::path_class_expression(c));
   cmd->add_option("--class", args->classes, class_help + "default combined");
-  cmd->add_option("--samples", args->samples, "samples per pixel (= SPPM iterations)")
-      ->check(CLI::Range(1u, 1u << 24));
-  cmd->add_option("--photons", args->photons, "photon paths per SPPM iteration")
+  cmd->add_option("--rel-error", args->rel_error,
+                  "stop rule: estimated relative RMS error of the mean (0: off)")
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--max-seconds", args->max_seconds, "stop rule: seconds per frame (0: off)")
+      ->check(CLI::Range(0.0, 1e7));
+  cmd->add_option("--samples", args->samples, "stop rule: iterations, 0 (off) or at least 2")
+      ->check(CLI::Range(0u, 1u << 24));
+  cmd->add_option("--max-bounces", args->max_bounces,
+                  "scattering vertices on a full path between camera and light (0: untruncated)")
+      ->check(CLI::Range(0u, pb::trace::kUntruncatedBounces));
+  cmd->add_option("--photons", args->photons, "photon paths per photon-mapping iteration")
       ->check(CLI::Range(1u, 1u << 26));
   cmd->add_option("--resolution", args->resolution, "WIDTHxHEIGHT");
   cmd->add_option("--cache", args->cache, "cache directory");
   cmd->add_option("--seed", args->seed, "random seed");
-  cmd->add_option("--rel-error", args->rel_error,
-                  "stop a frame early at this estimated relative RMS error")
-      ->check(CLI::Range(0.f, 1.f));
   cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::Range(0, 4096));
   cmd->callback([args, &exit_code] {
@@ -104,16 +114,24 @@ void add_reference(CLI::App& app, int& exit_code) {
       if (!c) throw pb::InputError(fmt::format("--class: unknown path class '{}'", name));
       mask |= pb::trace::class_bit(*c);
     }
+    if (args->samples == 1) throw pb::InputError("--samples: 0 (off) or at least 2 iterations");
+    if (!(args->rel_error > 0) && !(args->max_seconds > 0) && args->samples == 0)
+      throw pb::InputError(
+          "--rel-error, --max-seconds and --samples are all 0: nothing would stop");
     pb::trace::ReferenceOptions options;
+    options.rel_error = float(args->rel_error);
+    options.max_seconds = args->max_seconds;
     options.samples = args->samples;
+    options.max_bounces = args->max_bounces;
     options.sppm_photons = args->photons;
     options.seed = args->seed;
-    options.rel_error = args->rel_error;
     options.threads = args->threads;
     pb::trace::ReferenceCache cache(args->cache);
-    std::printf("reference: %s frames %u..%u, %dx%d, %d class(es), %u samples, cache %s\n",
-                scene.name.c_str(), first, last, width, height, std::popcount(mask), args->samples,
-                args->cache.c_str());
+    std::printf(
+        "reference: %s frames %u..%u, %dx%d, %d class(es), stop at rel. error %g / %g s / %u "
+        "samples (0: off), cache %s\n",
+        scene.name.c_str(), first, last, width, height, std::popcount(mask), args->rel_error,
+        args->max_seconds, args->samples, args->cache.c_str());
     std::fflush(stdout);
     auto report = pb::trace::render_references(scene, first, last, mask, width, height, options,
                                                cache, [](const std::string& line) {

@@ -140,11 +140,23 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   }
   config.reference.cache_dir = "results/reference-cache";
   if (auto reference = root.get("reference")) {
-    reference->allow_keys({"samples", "cache_dir"});
-    config.reference.samples =
-        uint32_t(reference->int_or("samples", config.reference.samples, 1, 1 << 24));
-    config.reference.cache_dir =
-        reference->string_or("cache_dir", config.reference.cache_dir.string());
+    reference->allow_keys(
+        {"rel_error", "max_seconds", "samples", "max_bounces", "bounce_matched", "cache_dir"});
+    ReferenceSettings& r = config.reference;
+    // Naming any stop rule replaces the default rules: {samples: 1024} means exactly 1024.
+    if (reference->has("rel_error") || reference->has("max_seconds") || reference->has("samples"))
+      r.rel_error = 0, r.max_seconds = 0, r.samples = 0;
+    r.rel_error = reference->number_or("rel_error", r.rel_error, 0, 1);
+    r.max_seconds = reference->number_or("max_seconds", r.max_seconds, 0, 1e7);
+    r.samples = uint32_t(reference->int_or("samples", r.samples, 0, 1 << 24));
+    if (r.samples == 1)  // one iteration has no variance and an empty odd half
+      (*reference)["samples"].fail("0 (off) or at least 2 iterations");
+    r.max_bounces = uint32_t(reference->int_or("max_bounces", r.max_bounces, 0, 64));
+    if (!(r.rel_error > 0) && !(r.max_seconds > 0) && r.samples == 0)
+      reference->fail(
+          "rel_error, max_seconds and samples are all 0: no rule would stop a reference");
+    r.bounce_matched = reference->bool_or("bounce_matched", r.bounce_matched);
+    r.cache_dir = reference->string_or("cache_dir", r.cache_dir.string());
   }
   if (auto limits = root.get("limits")) {
     limits->allow_keys({"cell_seconds"});

@@ -17,8 +17,18 @@ struct FrameSettings {
   uint32_t metrics_every = 8;  // score every Nth measured frame (0: never)
 };
 
+// How references are rendered (trace/reference.h): a frame's render stops at the first stop rule
+// reached; 0 turns a rule off, and at least one stays on. A reference block that names any of
+// rel_error, max_seconds and samples uses those alone; one that names none keeps the defaults.
 struct ReferenceSettings {
-  uint32_t samples = 256;           // samples per pixel (path tracing) / iterations (SPPM)
+  double rel_error = 0.05;   // estimated relative RMS error of the mean (the default rule)
+  double max_seconds = 600;  // per frame, a safety net for a target a scene cannot reach
+  uint32_t samples = 0;      // iterations (camera samples per pixel); 0 or at least 2
+  uint32_t max_bounces = 0;  // scattering vertices on a full path; 0: untruncated
+  // Also score every cell of a technique with a max_bounces parameter against a reference truncated
+  // like it (trace::bounces_matching_photon_technique): metrics.csv rows with reference
+  // "bounce_matched" beside the "full" ones, so a study separates estimator error from truncation.
+  bool bounce_matched = false;
   std::filesystem::path cache_dir;  // default: results/reference-cache
 };
 

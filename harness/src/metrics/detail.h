@@ -54,6 +54,10 @@ void convert_row(const io::Image& image, int y, int channel, Values values, doub
 // SSIM without the input checks (ssim.cpp), for evaluate(), which checks once.
 double ssim_unchecked(const io::Image& reference, const io::Image& test);
 
+// The SSIM floor of a reference (ssim.cpp; noise_floor.h): the expected SSIM of the true image
+// against `mean`, from the mean and its two half-estimates. Checked by the caller.
+double ssim_of_truth(const io::Image& mean, const io::Image& half_a, const io::Image& half_b);
+
 // Deterministic parallel sum of row_sum(y) over rows [begin, end): the rows run in parallel, their
 // sums are added in row order, so the result does not depend on how the rows were scheduled.
 template <typename RowSum>

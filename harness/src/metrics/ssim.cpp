@@ -191,3 +191,78 @@ double ssim(const io::Image& reference, const io::Image& test) {
 }
 
 }  // namespace pb::metrics
+
+namespace pb::metrics::detail {
+
+// The expected SSIM of the true image T against a noisy reference R (noise_floor.h), from R's own
+// windowed statistics and those of its noise, on display values like SSIM itself. With x = D(R),
+// y = D(T) and x = y + n, the window moments SSIM uses (eq. 13) are, in expectation over n:
+//   uy = ux - m              (m: the window mean of n, E m^2 = Var of the windowed noise mean)
+//   vy = vx - noise          (noise: what n adds to the windowed variance, correlation included)
+//   vxy = vy                 (n is independent of T)
+// Both noise terms come from the half-difference field d = (D(H1) - D(H2)) / 2, whose covariance is
+// n's: E[ud^2] = E m^2 and E[vd] = E[noise] (ud, vd: d's window mean and variance), so
+//   SSIM floor per window = (1 - ud^2 / (2 ux^2 + C1)) (2 vy + C2) / (vx + vy + C2),
+//   vy = max(0, vx - vd),
+// averaged as ssim() averages its map. (SSIM of R against R +- d would count the noise present in
+// both arguments as shared structure: in a flat noisy region it gives about 2/3 where the truth
+// scores C2 / (noise + C2).)
+double ssim_of_truth(const io::Image& mean, const io::Image& half_a, const io::Image& half_b) {
+  const int w = mean.width, h = mean.height;
+  if (w < kTaps || h < kTaps)
+    throw InputError(fmt::format(
+        "SSIM: the images are {}x{}; the 11x11 Gaussian window needs at least 11x11", w, h));
+  static const std::array<double, kTaps> window = gaussian_window();
+  const size_t n = size_t(w) * size_t(h);
+  // Planes x, x^2, d, d^2, then their vertical and horizontal window sums.
+  std::vector<double> planes(4 * n), vertical(4 * n);
+  double total = 0;
+  for (int c = 0; c < 3; ++c) {
+    tbb::parallel_for(0, h, [&](int y) {
+      std::vector<double> a(size_t(w) * 2);
+      double* x = planes.data() + size_t(y) * size_t(w);
+      convert_row(mean, y, c, Values::display, x);
+      convert_row(half_a, y, c, Values::display, a.data());
+      convert_row(half_b, y, c, Values::display, a.data() + w);
+      for (int i = 0; i < w; ++i) {
+        const size_t p = size_t(y) * size_t(w) + size_t(i);
+        const double d = 0.5 * (a[size_t(i)] - a[size_t(w + i)]);
+        planes[n + p] = x[i] * x[i];
+        planes[2 * n + p] = d;
+        planes[3 * n + p] = d * d;
+      }
+    });
+    tbb::parallel_for(kRadius, h - kRadius, [&](int y) {
+      for (size_t q = 0; q < 4; ++q)
+        for (int i = 0; i < w; ++i) {
+          double s = 0;
+          for (int t = 0; t < kTaps; ++t)
+            s +=
+                window[size_t(t)] * planes[q * n + size_t(y + t - kRadius) * size_t(w) + size_t(i)];
+          vertical[q * n + size_t(y) * size_t(w) + size_t(i)] = s;
+        }
+    });
+    std::vector<double> row_sums(static_cast<size_t>(h));
+    tbb::parallel_for(kRadius, h - kRadius, [&](int y) {
+      double sum = 0;
+      for (int i = kRadius; i < w - kRadius; ++i) {
+        double u[4] = {0, 0, 0, 0};
+        for (size_t q = 0; q < 4; ++q)
+          for (int t = 0; t < kTaps; ++t)
+            u[q] += window[size_t(t)] *
+                    vertical[q * n + size_t(y) * size_t(w) + size_t(i + t - kRadius)];
+        const double ux = u[0], vx = u[1] - ux * ux, ud = u[2], vd = u[3] - ud * ud;
+        const double vy = std::max(0.0, vx - vd);
+        const double luminance = 1.0 - ud * ud / (2 * ux * ux + kC1);
+        sum += luminance * (2 * vy + kC2) / (vx + vy + kC2);
+      }
+      row_sums[size_t(y)] = sum;
+    });
+    double sum = 0;
+    for (double v : row_sums) sum += v;  // in row order: reproducible
+    total += sum / (double(w - 2 * kRadius) * double(h - 2 * kRadius));
+  }
+  return total / 3.0;
+}
+
+}  // namespace pb::metrics::detail

@@ -35,6 +35,8 @@ json to_json(const CellRecord& r) {
   put("device", r.device);
   put("timing", r.timing);
   put("metrics", r.metrics);
+  put("metrics_bounce_matched", r.metrics_bounce_matched);
+  put("references", r.references);
   put("frames_measured", r.frames_measured);
   put("summary", r.summary);
   put("memory", r.memory);

@@ -40,6 +40,8 @@ struct CellRecord {
   std::optional<std::string> device;      // once the device opened
   std::optional<std::string> timing;      // "fenced" or "timestamps"
   std::optional<nlohmann::json> metrics;  // per path class means (run/scoring.h), once scored
+  std::optional<nlohmann::json> metrics_bounce_matched;  // the same against bounce-matched refs
+  std::optional<nlohmann::json> references;  // the references scored against (samples, error, ...)
   // Frame timings, counted over the measured frames so far (run/frame_log.h).
   std::optional<uint64_t> frames_measured;
   std::optional<nlohmann::json> summary;  // frame_ms, harness_overhead_ms/_pct, pass_ms_median

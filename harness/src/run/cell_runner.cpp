@@ -69,6 +69,9 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
   ScoreResult scores = score_cell(config, cell, r.world.scene(), written, path_class, dir);
   for (const std::string& warning : scores.warnings) record.warn(std::nullopt, warning);
   record.metrics = scores.means;
+  if (!scores.bounce_matched_means.is_null())
+    record.metrics_bounce_matched = scores.bounce_matched_means;
+  record.references = scores.references;
 }
 
 }  // namespace

@@ -49,43 +49,52 @@ void render_needed_references(const config::Config& config, const std::vector<Ce
                               PluginRegistry& plugins) {
   std::vector<uint32_t> frames = metric_frames(config);
   if (frames.empty()) return;
-  std::map<std::filesystem::path, uint32_t> masks;
+  // Classes per scene file and reference depth: the full reference and, when the config asks for
+  // them, the bounce-matched ones of the cells' techniques (scored_references).
+  std::map<std::pair<std::filesystem::path, uint32_t>, uint32_t> masks;
   for (const auto& cell : cells) {
     const Plugin* plugin = plugins.find(cell.technique);
-    if (plugin && plugin->loaded())
-      masks[cell.scene_file] |= reference_classes(plugin->descriptor->path_class);
+    if (!plugin || !plugin->loaded()) continue;
+    const uint32_t classes = reference_classes(plugin->descriptor->path_class);
+    for (const ScoredReference& ref : scored_references(config, cell.params))
+      masks[{cell.scene_file, ref.options.max_bounces}] |= classes;
   }
   trace::ReferenceCache cache(config.reference.cache_dir);
-  trace::ReferenceOptions options = reference_options(config);
-  for (const auto& [file, mask] : masks) {
+  for (const auto& [key, mask] : masks) {
+    const auto& [file, bounces] = key;
+    trace::ReferenceOptions options = reference_options(config);
+    options.max_bounces = bounces;
     scene::Scene scene = scene::load_scene(file);
+    const std::string label = bounces == config.reference.max_bounces
+                                  ? scene.name
+                                  : fmt::format("{} (max_bounces {})", scene.name, bounces);
     for (size_t i = 0; i < frames.size(); ++i) {
       auto start = Clock::now();
-      auto last = start;
+      auto last_print = start;
       bool tty = isatty(STDERR_FILENO);
-      int rendered = cache.render_missing(
-          scene, scene.at(frames[i]), mask, int(config.width), int(config.height), options,
-          [&](const trace::ReferenceProgress& p) {
-            if (tty) {
-              std::fprintf(stderr, "\r[reference] %s frame %u: %u/%u samples", scene.name.c_str(),
-                           frames[i], p.iteration, p.total);
-            } else if (Clock::now() - last > std::chrono::seconds(10)) {
-              std::fprintf(stderr, "[reference] %s frame %u: %u/%u samples\n", scene.name.c_str(),
-                           frames[i], p.iteration, p.total);
-              last = Clock::now();
-            } else {
-              return;
-            }
-            std::fflush(stderr);
-          });
+      trace::ReferenceProgress last;
+      auto report = [&](const trace::ReferenceProgress& p) {
+        last = p;
+        if (!tty && Clock::now() - last_print < std::chrono::seconds(10)) return;
+        last_print = Clock::now();
+        std::string line = trace::describe_progress(p);
+        if (tty)
+          std::fprintf(stderr, "\r\033[K[reference] %s frame %u: %s", label.c_str(), frames[i],
+                       line.c_str());
+        else
+          std::fprintf(stderr, "[reference] %s frame %u: %s\n", label.c_str(), frames[i],
+                       line.c_str());
+        std::fflush(stderr);
+      };
+      int rendered = cache.render_missing(scene, scene.at(frames[i]), mask, int(config.width),
+                                          int(config.height), options, report);
       if (tty) std::fprintf(stderr, "\r\033[K");
-      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", scene.name.c_str(), frames[i],
-                   i + 1, frames.size(),
-                   rendered
-                       ? fmt::format("rendered in {:.1f} s",
-                                     std::chrono::duration<double>(Clock::now() - start).count())
-                             .c_str()
-                       : "cached");
+      double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+      std::string what = rendered ? fmt::format("rendered in {:.1f} s ({})", seconds,
+                                                trace::describe_progress(last))
+                                  : std::string("cached");
+      std::fprintf(stderr, "[reference] %s frame %u (%zu/%zu): %s\n", label.c_str(), frames[i],
+                   i + 1, frames.size(), what.c_str());
     }
   }
 }
@@ -107,9 +116,11 @@ void write_summary(const std::filesystem::path& run_dir) {
   }
   std::sort(records.begin(), records.end(),
             [](const json& a, const json& b) { return a["cell"] < b["cell"]; });
-  std::vector<std::string> header = {
-      "cell",        "scene",        "technique", "status",    "frames",    "frame_ms_median",
-      "frame_ms_p5", "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "harness_overhead_pct"};
+  std::vector<std::string> header = {"cell",        "scene",        "technique",
+                                     "status",      "frames",       "frame_ms_median",
+                                     "frame_ms_p5", "frame_ms_p95", "flip_mean",
+                                     "ssim_mean",   "psnr_mean",    "flip_floor",
+                                     "ssim_floor",  "psnr_floor",   "harness_overhead_pct"};
   for (const auto& p : params) header.push_back("param." + p);
   for (const auto& p : passes) header.push_back("pass." + p + ".ms_median");
   header.push_back("reason");
@@ -129,6 +140,9 @@ void write_summary(const std::filesystem::path& run_dir) {
                                     fmt_or_empty(combined.value("flip", json())),
                                     fmt_or_empty(combined.value("ssim", json())),
                                     fmt_or_empty(combined.value("psnr", json())),
+                                    fmt_or_empty(combined.value("flip_floor", json())),
+                                    fmt_or_empty(combined.value("ssim_floor", json())),
+                                    fmt_or_empty(combined.value("psnr_floor", json())),
                                     fmt_or_empty(summary.value("harness_overhead_pct", json()))};
     for (const auto& p : params) row.push_back(r["params"].value(p, ""));
     for (const auto& p : passes)

@@ -8,6 +8,7 @@
 #include "io/image.h"
 #include "io/results.h"
 #include "metrics/metrics.h"
+#include "metrics/noise_floor.h"
 #include "trace/reference.h"
 
 namespace pb::run {
@@ -28,7 +29,10 @@ std::optional<trace::PathClass> reference_class_of(const std::string& path_class
 
 trace::ReferenceOptions reference_options(const config::Config& config) {
   trace::ReferenceOptions options;
+  options.rel_error = float(config.reference.rel_error);
+  options.max_seconds = config.reference.max_seconds;
   options.samples = config.reference.samples;
+  options.max_bounces = config.reference.max_bounces;
   options.seed = uint32_t(config.seed);
   return options;
 }
@@ -51,28 +55,110 @@ std::vector<uint32_t> metric_frames(const config::Config& config) {
   return frames;
 }
 
-ScoreResult score_cell(const config::Config& config, const Cell&, const scene::Scene& scene,
-                       const std::vector<uint32_t>& frames, const std::string& path_class,
-                       const std::filesystem::path& cell_dir) {
+std::vector<ScoredReference> scored_references(
+    const config::Config& config, const std::map<std::string, std::string>& cell_params) {
+  std::vector<ScoredReference> out = {{"full", reference_options(config)}};
+  auto bounces = cell_params.find("max_bounces");
+  if (config.reference.bounce_matched && bounces != cell_params.end()) {
+    ScoredReference matched{"bounce_matched", reference_options(config)};
+    matched.options.max_bounces =
+        trace::bounces_matching_photon_technique(uint32_t(std::stoul(bounces->second)));
+    out.push_back(matched);
+  }
+  return out;
+}
+
+namespace {
+
+// metrics.csv's columns after frame, path_class and reference: each score, then its noise floor
+// (metrics/noise_floor.h: what the true image scores against this reference), then the squared
+// errors with the reference's noise taken off.
+const std::vector<std::string> kScoreColumns = {"flip", "ssim", "psnr", "rmse", "relmse"};
+const std::vector<std::string> kExtraColumns = {"mse_unbiased", "relmse_unbiased"};
+
+// One row's values by column name; PSNR is absent when the images are identical.
+using Row = std::map<std::string, std::optional<double>>;
+
+Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io::Image* error_map) {
+  const metrics::NoisyReference noisy{reference.mean, reference.variance, reference.half[0],
+                                      reference.half[1]};
+  const metrics::Scores s = metrics::evaluate(reference.mean, test, {}, error_map);
+  const metrics::NoiseFloor f = metrics::noise_floor(noisy);
+  const metrics::UnbiasedErrors u = metrics::unbiased_errors(noisy, test);
+  return {{"flip", s.flip.mean},
+          {"ssim", s.ssim},
+          {"psnr", s.psnr},
+          {"rmse", s.rmse},
+          {"relmse", s.relmse},
+          {"flip_floor", f.scores.flip.mean},
+          {"ssim_floor", f.scores.ssim},
+          {"psnr_floor", f.scores.psnr},
+          {"rmse_floor", f.scores.rmse},
+          {"relmse_floor", f.scores.relmse},
+          {"mse_unbiased", u.mse},
+          {"relmse_unbiased", u.relmse},
+          {"mse_floor", f.mse},
+          {"mse_floor_halves", f.mse_from_halves}};
+}
+
+std::vector<std::string> csv_header() {
+  std::vector<std::string> header = {"frame", "path_class", "reference"};
+  for (const auto& c : kScoreColumns) header.push_back(c);
+  for (const auto& c : kScoreColumns) header.push_back(c + "_floor");
+  for (const auto& c : kExtraColumns) header.push_back(c);
+  return header;
+}
+
+std::string csv_value(const std::string& column, const std::optional<double>& v) {
+  if (!v) return "";
+  return column == "psnr" || column == "psnr_floor" ? fmt::format("{:.4f}", *v)
+                                                    : fmt::format("{:.6g}", *v);
+}
+
+// Per-class means over the frames of every column of the rows (a column missing from a row, as an
+// identical pair's PSNR, is left out of its mean).
+json class_means(const std::vector<Row>& rows) {
+  std::map<std::string, std::pair<double, int>> sums;
+  for (const Row& r : rows)
+    for (const auto& [k, v] : r)
+      if (v) sums[k].first += *v, sums[k].second += 1;
+  json out = json::object();
+  for (const auto& c : csv_header()) out[c] = nullptr;
+  out.erase("frame"), out.erase("path_class"), out.erase("reference");
+  for (const auto& [k, s] : sums) out[k] = s.first / s.second;
+  out["frames"] = rows.size();
+  return out;
+}
+
+}  // namespace
+
+ScoreResult score_cell(const config::Config& config, const Cell& cell,
+                       const scene::Scene& scene, const std::vector<uint32_t>& frames,
+                       const std::string& path_class, const std::filesystem::path& cell_dir) {
   ScoreResult result;
-  io::CsvAppender metrics_csv(cell_dir / "metrics.csv",
-                              {"frame", "path_class", "flip", "ssim", "psnr", "rmse", "relmse"});
+  std::vector<std::string> header = csv_header();
+  io::CsvAppender metrics_csv(cell_dir / "metrics.csv", header);
   if (frames.empty()) return result;
 
-  // The technique's output is scored against the combined reference always, and against the reference
-  // of its own class: by the output itself when that class is the whole of it (direct: emitted plus
-  // direct light), else by the estimate it handed to shade(), which the cell runner wrote alone
-  // (class_image_name) before the shared direct light was added to it.
+  // The technique's output is scored against the combined reference always, and against the
+  // reference of its own class: by the output itself when that class is the whole of it (direct:
+  // emitted plus direct light), else by the estimate it handed to shade(), which the cell runner
+  // wrote alone (class_image_name) before the shared direct light was added to it.
   std::vector<trace::PathClass> classes = {trace::PathClass::combined};
   auto own = reference_class_of(path_class);
-  if (!own) result.warnings.push_back(fmt::format("path class '{}' has no reference image; scored as combined", path_class));
-  else if (*own != trace::PathClass::combined) classes.push_back(*own);
+  if (!own)
+    result.warnings.push_back(
+        fmt::format("path class '{}' has no reference image; scored as combined", path_class));
+  else if (*own != trace::PathClass::combined)
+    classes.push_back(*own);
 
   trace::ReferenceCache cache(config.reference.cache_dir);
-  trace::ReferenceOptions options = reference_options(config);
-  std::map<trace::PathClass, std::vector<double>> flip, ssim, psnr, rmse, relmse;
+  const std::vector<ScoredReference> references = scored_references(config, cell.params);
+  // reference name -> class -> rows
+  std::map<std::string, std::map<trace::PathClass, std::vector<Row>>> rows;
   for (uint32_t f : frames) {
-    const io::Image output = io::read_image(cell_dir / "images" / fmt::format("frame_{:04d}.exr", f));
+    const io::Image output =
+        io::read_image(cell_dir / "images" / fmt::format("frame_{:04d}.exr", f));
     scene::FrameState state = scene.at(f);
     for (trace::PathClass c : classes) {
       std::string name(trace::path_class_name(c));
@@ -80,36 +166,51 @@ ScoreResult score_cell(const config::Config& config, const Cell&, const scene::S
       std::filesystem::path alone_file = cell_dir / "images" / class_image_name(f, c);
       if (alone && !std::filesystem::exists(alone_file)) {
         result.warnings.push_back(fmt::format(
-            "frame {}: the technique handed no indirect estimate to shade(); class '{}' not scored", f, name));
+            "frame {}: the technique handed no indirect estimate to shade(); class '{}' not scored",
+            f, name));
         continue;
       }
       const io::Image test = alone ? io::read_image(alone_file) : output;
-      io::Image reference = cache.get_or_render(scene, state, c, test.width, test.height, options);
-      io::Image error_map;
-      metrics::Scores s = metrics::evaluate(reference, test, {}, &error_map);
-      metrics_csv.row({std::to_string(f), name, fmt::format("{:.6f}", s.flip.mean), fmt::format("{:.6f}", s.ssim),
-                       s.psnr ? fmt::format("{:.4f}", *s.psnr) : "", fmt::format("{:.6g}", s.rmse),
-                       fmt::format("{:.6g}", s.relmse)});
-      io::write_image(cell_dir / "images" / fmt::format("flip_{:04d}_{}.png", f, name), metrics::magma(error_map));
-      io::write_image(cell_dir / "images" / fmt::format("reference_{:04d}_{}.png", f, name),
-                      io::display_encode(reference));
-      flip[c].push_back(s.flip.mean);
-      ssim[c].push_back(s.ssim);
-      if (s.psnr) psnr[c].push_back(*s.psnr);
-      rmse[c].push_back(s.rmse);
-      relmse[c].push_back(s.relmse);
+      for (const ScoredReference& ref : references) {
+        const trace::ReferenceImage reference =
+            cache.get_or_render_entry(scene, state, c, test.width, test.height, ref.options);
+        io::Image error_map;
+        const bool full = ref.name == "full";
+        Row row = score_row(reference, test, full ? &error_map : nullptr);
+        std::vector<std::string> fields = {std::to_string(f), name, ref.name};
+        for (size_t k = 3; k < header.size(); ++k)
+          fields.push_back(csv_value(header[k], row[header[k]]));
+        metrics_csv.row(fields);
+        // The report's images show the full reference only.
+        if (full) {
+          io::write_image(cell_dir / "images" / fmt::format("flip_{:04d}_{}.png", f, name),
+                          metrics::magma(error_map));
+          io::write_image(cell_dir / "images" / fmt::format("reference_{:04d}_{}.png", f, name),
+                          io::display_encode(reference.mean));
+        }
+        rows[ref.name][c].push_back(std::move(row));
+        result.references.push_back({{"frame", f},
+                                     {"path_class", name},
+                                     {"reference", ref.name},
+                                     {"samples", reference.samples},
+                                     {"seconds", reference.seconds},
+                                     {"rel_error", reference.rel_error},
+                                     {"stopped_by", trace::stop_rule_name(reference.stopped_by)},
+                                     {"max_bounces", reference.max_bounces}});
+      }
     }
   }
-  auto mean = [](const std::vector<double>& v) -> json {
-    if (v.empty()) return nullptr;
-    double sum = 0;
-    for (double x : v) sum += x;
-    return sum / double(v.size());
-  };
-  for (trace::PathClass c : classes)
-    result.means[std::string(trace::path_class_name(c))] = {
-        {"flip", mean(flip[c])}, {"ssim", mean(ssim[c])}, {"psnr", mean(psnr[c])},
-        {"rmse", mean(rmse[c])}, {"relmse", mean(relmse[c])}, {"frames", flip[c].size()}};
+  for (const ScoredReference& ref : references) {
+    json means = json::object();
+    for (trace::PathClass c : classes)
+      means[std::string(trace::path_class_name(c))] = class_means(rows[ref.name][c]);
+    if (ref.name == "full") {
+      result.means = means;
+    } else {
+      means["max_bounces"] = ref.options.max_bounces;
+      result.bounce_matched_means = means;
+    }
+  }
   return result;
 }
 

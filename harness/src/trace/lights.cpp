@@ -224,6 +224,7 @@ bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
     if (dist2 <= 0) return false;
     float dist = std::sqrt(dist2);
     out.wi = d / dist;
+    out.point = y;
     float cos_l = -glm::dot(out.wi, ny);
     if (cos_l <= 0) return false;  // the back of a one-sided emitter
     out.distance = dist;
@@ -244,6 +245,7 @@ bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
   glm::vec3 d = light.position - p;
   float dist2 = glm::dot(d, d);
   if (dist2 <= 0) return false;
+  out.point = light.position;
   out.distance = std::sqrt(dist2);
   out.wi = d / out.distance;
   float falloff = 1.f;

@@ -42,6 +42,7 @@ struct EmissionRay {
 // Light arriving at a shading point from one sampled emitter.
 struct IncidentSample {
   glm::vec3 wi{0.0f};      // towards the light
+  glm::vec3 point{0.0f};   // the sampled point on the emitter, or the point light's position
   float distance = 0;      // to the sampled point (infinity for a directional light)
   glm::vec3 weight{0.0f};  // incident radiance / pdf (the selection probability included)
   float pdf = 0;           // solid angle density including selection; 0 for delta lights

@@ -14,14 +14,16 @@
 #include "photonbench/error.h"
 #include "trace/bsdf.h"
 #include "trace/lights.h"
+#include "trace/path_space.h"
 #include "trace/photon_tracer.h"
 #include "trace/sampling.h"
 
 namespace pb::trace {
 namespace {
 
+using namespace detail;
+
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
-constexpr int kClasses = 5;  // the partition; `combined` is their sum
 
 struct ClassInfo {
   PathClass id;
@@ -36,135 +38,66 @@ constexpr ClassInfo kClassInfo[kPathClassCount] = {
     {PathClass::combined, "combined", "C (D|S)* L"},
 };
 
-float luminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-float max3(const glm::vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
-
-// The camera path's light path expression so far, reduced to what decides its class (see
-// reference.h): the first vertex's type, whether a diffuse "anchor" vertex exists (the first vertex
-// if diffuse, else the first diffuse one after the specular prefix), and which types follow the
-// anchor.
-struct ClassState {
-  uint8_t first = 0;  // 0 none, 1 D, 2 S
-  bool anchor = false, d_after = false, s_after = false;
-  ClassState push(bool diffuse) const {
-    ClassState s = *this;
-    if (s.first == 0) {
-      s.first = diffuse ? 1 : 2;
-      s.anchor = diffuse;
-    } else if (!s.anchor) {
-      s.anchor = diffuse;
-    } else if (diffuse) {
-      s.d_after = true;
-    } else {
-      s.s_after = true;
-    }
-    return s;
-  }
-  // Class of the path ending at an emitter now.
-  int classify() const {
-    if (first == 0) return int(PathClass::direct);
-    if (first == 1) {
-      if (d_after) return int(PathClass::indirect);
-      return s_after ? int(PathClass::caustics) : int(PathClass::direct);
-    }
-    if (anchor && s_after && !d_after) return int(PathClass::indirect_caustics);
-    return int(PathClass::specular);
-  }
-  // Classes some continuation of this path can still end in.
-  uint32_t reachable() const {
-    auto bit = [](PathClass c) { return class_bit(c); };
-    if (first == 0) return kAllPathClasses;
-    if (first == 1) {
-      if (d_after) return bit(PathClass::indirect);
-      if (s_after) return bit(PathClass::caustics) | bit(PathClass::indirect);
-      return bit(PathClass::direct) | bit(PathClass::caustics) | bit(PathClass::indirect);
-    }
-    if (anchor && d_after) return bit(PathClass::specular);
-    return bit(PathClass::specular) | bit(PathClass::indirect_caustics);
-  }
-};
-
-float power_heuristic(float a, float b) {
-  float a2 = a * a, b2 = b * b;
-  return a2 + b2 > 0 ? a2 / (a2 + b2) : 0.f;
-}
-
-struct Rig {
-  glm::vec3 position, right, up, forward;
-  float tan_half, aspect;
-  int width, height;
-  Rig(const scene::Camera& c, int w, int h) : width(w), height(h) {
-    position = c.position;
-    forward = glm::normalize(c.target - c.position);
-    right = glm::normalize(glm::cross(forward, c.up));  // glm::lookAtRH's basis
-    up = glm::cross(right, forward);
-    tan_half = std::tan(0.5f * c.fov_y);
-    aspect = float(w) / float(h);
-  }
-  glm::vec3 direction(float px, float py) const {
-    float x = (2.f * px / width - 1.f) * tan_half * aspect;
-    float y = (1.f - 2.f * py / height) * tan_half;  // Vulkan clip y points down: row 0 is the top
-    return glm::normalize(forward + x * right + y * up);
-  }
-};
-
-glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {
-  float eps = EmbreeScene::ray_epsilon(hit.position);
-  return hit.position +
-         hit.geometric_normal * (glm::dot(dir, hit.geometric_normal) >= 0 ? eps : -eps);
-}
+constexpr std::string_view kStopRuleNames[] = {"rel_error", "max_seconds", "samples"};
 
 // ---- path tracing ------------------------------------------------------------------------------
 
-struct PtOutput {
-  glm::vec3 value[kClasses];
-};
-
-// One camera path through pixel position (px, py). Contributions in SPPM's part of path space (a
-// diffuse vertex exists and the vertex next to the emitter is specular) are left out.
+// One camera path through pixel position (px, py), its contributions by class into out[0..4].
+// Contributions in photon mapping's part of path space (photon_mapping_owns) are left out, and so
+// are paths with more than `budget` scattering vertices.
 void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig, float px,
-                       float py, Pcg32& rng, uint32_t wanted, uint32_t max_depth, PtOutput& out,
-                       uint64_t& rays) {
+                       float py, Pcg32& rng, uint32_t wanted, uint32_t budget,
+                       LightStrategies strategies, glm::vec3* out, uint64_t& rays) {
+  const bool use_nee = strategies != LightStrategies::bsdf_only;
+  const bool use_hits = strategies != LightStrategies::nee_only;
   const scene::Scene& scene = world.scene();
-  for (auto& v : out.value) v = glm::vec3(0.f);
+  for (int c = 0; c < kClasses; ++c) out[c] = glm::vec3(0.f);
   glm::vec3 origin = rig.position, dir = rig.direction(px, py);
   glm::vec3 beta(1.f);
   ClassState state;
   bool prev_delta = true, prev_specular = false;
   float prev_pdf = 0;
   glm::vec3 prev_position = origin;
-  for (uint32_t depth = 0; depth < max_depth; ++depth) {
+  // `depth` scattering vertices lie before the vertex this segment reaches.
+  for (uint32_t depth = 0;; ++depth) {
     Hit hit;
     ++rays;
     if (!world.intersect(origin, dir, kInfinity, hit)) break;
     glm::vec3 wo = -dir;
     glm::vec3 le = lights.emitted(hit, wo);
-    if (max3(le) > 0 && !(state.anchor && prev_specular) && (wanted & (1u << state.classify()))) {
+    if (max3(le) > 0 && !photon_mapping_owns(state.anchor, prev_specular) &&
+        (wanted & (1u << state.classify()))) {
+      // A BSDF-sampled hit: weighted against NEE, which could have sampled it unless the last
+      // scattering was a delta lobe (or the camera).
       float w = 1.f;
-      if (!prev_delta) w = power_heuristic(prev_pdf, lights.pdf_incident(prev_position, hit));
-      out.value[state.classify()] += beta * le * w;
+      if (!prev_delta) {
+        if (!use_hits)
+          w = 0.f;
+        else if (use_nee)
+          w = power_heuristic(prev_pdf, lights.pdf_incident(prev_position, hit));
+      }
+      out[state.classify()] += beta * le * w;
     }
-    if (world.is_light_object(hit.object)) break;
+    if (world.is_light_object(hit.object) || depth + 1 > budget) break;
     Bsdf bsdf(scene.materials[hit.material], hit);
     bool diffuse = bsdf.is_diffuse();
     ClassState next = state.push(diffuse);
     if ((next.reachable() & wanted) == 0) break;
-    // Next-event estimation (skipped where SPPM owns the path: a specular vertex after the anchor).
-    if (bsdf.can_eval() && !(next.anchor && !diffuse) && (wanted & (1u << next.classify()))) {
+    // Next-event estimation (skipped where photon mapping owns the path: a specular vertex next to
+    // the light after the anchor).
+    if (use_nee && bsdf.can_eval() && !photon_mapping_owns(next.anchor, !diffuse) &&
+        (wanted & (1u << next.classify()))) {
       IncidentSample is;
       float u_select = rng.next_float();
       glm::vec2 u = rng.next_2d();
       if (lights.sample_incident(hit.position, u_select, u, is)) {
         glm::vec3 f = bsdf.eval(wo, is.wi, Transport::radiance);
         if (max3(f) > 0) {
-          glm::vec3 o = offset_origin(hit, is.wi);
-          float tmax = std::isinf(is.distance)
-                           ? kInfinity
-                           : is.distance * (1.f - 1e-4f) - EmbreeScene::ray_epsilon(hit.position);
           ++rays;
-          if (!world.occluded(o, is.wi, tmax)) {
-            float w = is.delta ? 1.f : power_heuristic(is.pdf, bsdf.pdf(wo, is.wi));
-            out.value[next.classify()] += beta * f * is.weight * w;
+          if (std::isinf(is.distance) ? direction_clear(world, hit, is.wi)
+                                      : segment_clear(world, hit, is.point)) {
+            float w = is.delta || !use_hits ? 1.f : power_heuristic(is.pdf, bsdf.pdf(wo, is.wi));
+            out[next.classify()] += beta * f * is.weight * w;
           }
         }
       }
@@ -189,31 +122,23 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
   }
 }
 
-// ---- SPPM
-// ----------------------------------------------------------------------------------------
+// ---- photon mapping ----------------------------------------------------------------------------
 
 struct VisiblePoint {
   glm::vec3 position{0.0f}, normal{0.0f}, wo{0.0f}, beta{0.0f}, albedo{0.0f};
-  float distance = 0;  // camera path length, for the automatic initial radius
+  float distance = 0;            // camera path length, for the automatic initial radius
+  uint32_t specular_prefix = 0;  // specular vertices before it (C S^k D)
   bool valid = false;
-  bool specular_prefix = false;  // C S+ D rather than C D
-};
-
-struct PixelStats {
-  float r2 = 0;  // squared radius, 0 until the first visible point
-  double n = 0;
-  glm::dvec3
-      tau[4]{};  // by photon kind and prefix: caustics, indirect, indirect_caustics, specular
 };
 
 // Follows the camera path through specular vertices to the first diffuse one (C S* D).
 bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, float py, Pcg32& rng,
-                        uint32_t max_depth, VisiblePoint& vp, uint64_t& rays) {
+                        uint32_t budget, VisiblePoint& vp, uint64_t& rays) {
   const scene::Scene& scene = world.scene();
   glm::vec3 origin = rig.position, dir = rig.direction(px, py), beta(1.f);
   float distance = 0;
   vp.valid = false;
-  for (uint32_t depth = 0; depth < max_depth; ++depth) {
+  for (uint32_t depth = 0; depth < budget; ++depth) {
     Hit hit;
     ++rays;
     if (!world.intersect(origin, dir, kInfinity, hit)) return false;
@@ -228,7 +153,7 @@ bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, floa
       vp.beta = beta;
       vp.albedo = bsdf.albedo();
       vp.distance = distance;
-      vp.specular_prefix = depth > 0;
+      vp.specular_prefix = depth;
       vp.valid = max3(beta) > 0 && max3(vp.albedo) > 0;
       return vp.valid;
     }
@@ -306,6 +231,218 @@ bool scene_has_specular(const scene::Scene& scene) {
   return false;
 }
 
+// What one iteration of photon mapping needs across iterations: the visible points are redrawn
+// every iteration (new jitter, new specular choices), so nothing but scratch memory is kept and the
+// iterations stay independent.
+struct PhotonPass {
+  const EmbreeScene& world;
+  EmbreePhotonTracer tracer;
+  const Rig& rig;
+  const ReferenceOptions& options;
+  uint32_t wanted, budget;
+  float pixel_angle;  // footprint per metre of distance
+  std::vector<VisiblePoint> vps;
+  std::vector<float> radius2;
+  uint64_t photon_rays = 0, photon_paths = 0;
+
+  PhotonPass(const EmbreeScene& w, const Rig& r, const ReferenceOptions& o, uint32_t wanted_mask,
+             uint32_t bounce_budget)
+      : world(w), tracer(w), rig(r), options(o), wanted(wanted_mask), budget(bounce_budget) {
+    pixel_angle = 2.f * rig.tan_half / rig.height;
+    vps.resize(size_t(rig.width) * rig.height);
+    radius2.resize(vps.size());
+  }
+
+  // Iteration `i` (1-based) of Knaus & Zwicker 2011: an independent photon-map estimate whose
+  // squared radius is r_1^2 prod_{j<i} (j + alpha) / (j + 1) (their eq. 20), so that the variance
+  // grows and the blur bias shrinks just fast enough for the average over iterations to converge.
+  // Adds each pixel's estimate into frame[pixel * kClasses + class].
+  void run(uint32_t iteration_seed, double radius_scale2, tbb::task_arena& arena,
+           tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame) {
+    const int width = rig.width, height = rig.height;
+    uint32_t vp_seed = hash_combine(iteration_seed, 0x5eedu);
+    arena.execute([&] {
+      tbb::parallel_for(
+          tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+            uint64_t& rays = ray_count.local();
+            for (int y = rows.begin(); y != rows.end(); ++y)
+              for (int x = 0; x < width; ++x) {
+                size_t i = size_t(y) * width + x;
+                Pcg32 rng(vp_seed, i);
+                glm::vec2 j = rng.next_2d();
+                VisiblePoint& vp = vps[i];
+                // A photon path makes at least one specular interaction before it reaches the
+                // visible point, so the camera side may use at most budget - 2 specular vertices.
+                if (find_visible_point(world, rig, x + j.x, y + j.y, rng, budget - 1, vp, rays)) {
+                  float r = options.sppm_radius > 0 ? options.sppm_radius
+                                                    : 3.f * pixel_angle * vp.distance;
+                  radius2[i] = float(double(r) * r * radius_scale2);
+                }
+              }
+          });
+    });
+    double r_sum = 0;
+    size_t r_count = 0;
+    for (size_t i = 0; i < vps.size(); ++i)
+      if (vps[i].valid) r_sum += std::sqrt(radius2[i]), ++r_count;
+    if (r_count == 0) return;
+    PhotonBatch batch;
+    TraceSettings ts;
+    ts.paths = options.sppm_photons;
+    // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and
+    // specular.
+    ts.store = 0;
+    if (wanted & (class_bit(PathClass::caustics) | class_bit(PathClass::indirect_caustics)))
+      ts.store |= kCausticPhotons;
+    if (wanted & (class_bit(PathClass::indirect) | class_bit(PathClass::specular)))
+      ts.store |= kCausticIndirectPhotons;
+    ts.max_bounces = std::min(31u, budget);
+    ts.seed = hash_combine(iteration_seed, 0x9407u);
+    ts.seed_per_frame = false;
+    ts.rr_start = 0;
+    arena.execute([&] { tracer.trace(ts, batch); });
+    photon_rays += batch.stats.rays;
+    photon_paths += batch.stats.paths;
+    if (batch.photons.empty()) return;
+    PhotonGrid grid(batch.photons, float(2.0 * r_sum / r_count));
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, vps.size(), 256),
+                        [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i != range.end(); ++i)
+                            gather(grid, i, frame);
+                        });
+    });
+  }
+
+  void gather(const PhotonGrid& grid, size_t i, std::vector<glm::vec3>& frame) const {
+    const VisiblePoint& vp = vps[i];
+    if (!vp.valid) return;
+    float cos_o = glm::dot(vp.wo, vp.normal);
+    if (cos_o <= 0) return;
+    glm::dvec3 phi[2] = {glm::dvec3(0.0), glm::dvec3(0.0)};  // pure caustic, caustic-indirect
+    uint32_t max_photon_hits = budget - vp.specular_prefix;  // scattering vertices left for it
+    float r2 = radius2[i];
+    grid.for_each_near(vp.position, std::sqrt(r2), [&](const PhotonRecord& ph) {
+      glm::vec3 wi = -ph.direction;
+      // Same side of the same surface (no leaks through thin walls), a reflection, and a path short
+      // enough (the photon's hits, the visible point included, plus the camera's specular prefix).
+      if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(wi, vp.normal) <= 0 ||
+          ph.bounce + 1 > max_photon_hits)
+        return;
+      int kind = photon_kind(ph) == kCausticPhotons ? 0 : 1;
+      phi[kind] += glm::dvec3(vp.albedo * kInvPi * ph.power);
+    });
+    double norm = 1.0 / (kPi * double(r2));
+    glm::dvec3 beta(vp.beta);
+    // caustic photons: caustics (C D S+ L) or indirect_caustics (C S+ D S+ L); caustic-indirect
+    // ones: indirect or specular.
+    int pure = int(vp.specular_prefix > 0 ? PathClass::indirect_caustics : PathClass::caustics);
+    int mixed = int(vp.specular_prefix > 0 ? PathClass::specular : PathClass::indirect);
+    frame[i * kClasses + pure] += glm::vec3(beta * phi[0] * norm);
+    frame[i * kClasses + mixed] += glm::vec3(beta * phi[1] * norm);
+  }
+};
+
+// ---- accumulation over iterations ---------------------------------------------------------------
+
+// Per pixel and requested class: sums over iterations of the iteration image, of its square, of
+// the odd iterations' images, and of the squared luminance (for the error estimate).
+struct Moments {
+  glm::dvec3 sum{0.0}, sum2{0.0}, odd{0.0};
+  double lum2 = 0;
+};
+
+class Accumulator {
+ public:
+  Accumulator(size_t pixels, uint32_t class_mask) : pixels_(pixels) {
+    for (int c = 0; c < kPathClassCount; ++c)
+      if (class_mask & (1u << c)) classes_.push_back(c);
+    moments_.resize(pixels * classes_.size());
+  }
+  // Adds iteration `iteration` (0-based) from frame[pixel * kClasses + class].
+  void add(uint32_t iteration, const std::vector<glm::vec3>& frame, tbb::task_arena& arena) {
+    bool odd = iteration % 2 == 1;
+    size_t k = classes_.size();
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels_, 1024),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i != r.end(); ++i) {
+                            const glm::vec3* f = &frame[i * kClasses];
+                            for (size_t j = 0; j < k; ++j) {
+                              int c = classes_[j];
+                              glm::dvec3 v(0.0);
+                              if (c == int(PathClass::combined)) {
+                                for (int q = 0; q < kClasses; ++q) v += glm::dvec3(f[q]);
+                              } else {
+                                v = glm::dvec3(f[c]);
+                              }
+                              Moments& m = moments_[i * k + j];
+                              m.sum += v;
+                              m.sum2 += v * v;
+                              if (odd) m.odd += v;
+                              double l = luminance(glm::vec3(v));
+                              m.lum2 += l * l;
+                            }
+                          }
+                        });
+    });
+    ++iterations_;
+  }
+  uint32_t iterations() const { return iterations_; }
+
+  // reference.h's error estimate over the requested classes; 0 before two iterations.
+  double rel_error() const {
+    if (iterations_ < 2) return 0;
+    double n = iterations_, acc = 0;
+    size_t k = classes_.size(), counted = 0;
+    for (size_t j = 0; j < k; ++j) {
+      double mean_lum = 0;
+      for (size_t i = 0; i < pixels_; ++i)
+        mean_lum += luminance(glm::vec3(moments_[i * k + j].sum));
+      mean_lum /= n * double(pixels_);
+      if (!(mean_lum > 0)) continue;
+      double floor2 = std::pow(0.01 * mean_lum, 2.0);
+      for (size_t i = 0; i < pixels_; ++i) {
+        const Moments& m = moments_[i * k + j];
+        double mean = luminance(glm::vec3(m.sum)) / n;
+        double var_of_mean = std::max(0.0, m.lum2 - n * mean * mean) / (n * (n - 1));
+        acc += var_of_mean / (mean * mean + floor2);
+      }
+      ++counted;
+    }
+    return counted ? std::sqrt(acc / double(counted * pixels_)) : 0.0;
+  }
+
+  // Mean, variance of the mean and the even/odd halves of class slot j.
+  void resolve(size_t j, int width, int height, ReferenceImage& out) const {
+    out.mean = io::Image(width, height, 3);
+    out.variance = io::Image(width, height, 3);
+    out.half[0] = io::Image(width, height, 3);
+    out.half[1] = io::Image(width, height, 3);
+    double n = iterations_;
+    double n_odd = iterations_ / 2, n_even = iterations_ - iterations_ / 2;
+    size_t k = classes_.size();
+    for (size_t i = 0; i < pixels_; ++i) {
+      const Moments& m = moments_[i * k + j];
+      for (int ch = 0; ch < 3; ++ch) {
+        double mean = n > 0 ? m.sum[ch] / n : 0.0;
+        double var = n > 1 ? std::max(0.0, m.sum2[ch] - n * mean * mean) / (n * (n - 1)) : 0.0;
+        out.mean.pixels[i * 3 + ch] = float(mean);
+        out.variance.pixels[i * 3 + ch] = float(var);
+        out.half[0].pixels[i * 3 + ch] = n_even > 0 ? float((m.sum[ch] - m.odd[ch]) / n_even) : 0.f;
+        out.half[1].pixels[i * 3 + ch] = n_odd > 0 ? float(m.odd[ch] / n_odd) : 0.f;
+      }
+    }
+  }
+  const std::vector<int>& classes() const { return classes_; }
+
+ private:
+  size_t pixels_;
+  std::vector<int> classes_;
+  std::vector<Moments> moments_;
+  uint32_t iterations_ = 0;
+};
+
 }  // namespace
 
 std::string_view path_class_name(PathClass c) { return kClassInfo[int(c)].name; }
@@ -321,6 +458,13 @@ std::vector<PathClass> all_path_classes() {
   return out;
 }
 
+std::string_view stop_rule_name(StopRule rule) { return kStopRuleNames[int(rule)]; }
+std::optional<StopRule> parse_stop_rule(std::string_view name) {
+  for (int r = 0; r < 3; ++r)
+    if (kStopRuleNames[r] == name) return StopRule(r);
+  return std::nullopt;
+}
+
 CameraRay camera_ray(const scene::Camera& camera, int width, int height, float px, float py) {
   Rig rig(camera, width, height);
   return {rig.position, rig.direction(px, py)};
@@ -333,230 +477,111 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     throw InputError(fmt::format("reference: bad resolution {}x{}", width, height));
   if (class_mask == 0 || (class_mask & ~kAllPathClasses))
     throw InputError("reference: no path class requested");
-  if (options.samples == 0) throw InputError("reference: samples must be at least 1");
+  if (!(options.rel_error > 0) && !(options.max_seconds > 0) && options.samples == 0)
+    throw InputError("reference: no stop rule (rel_error, max_seconds and samples are all off)");
   auto t0 = std::chrono::steady_clock::now();
   const scene::Scene& scene = world.scene();
   LightSet lights(world);
   Rig rig(world.state().camera, width, height);
   uint32_t wanted = class_mask & class_bit(PathClass::combined) ? kAllPathClasses : class_mask;
-  // SPPM is needed when photons can add to a wanted class: any class but `direct`, in a scene with
-  // specular surfaces (without them its part of path space is empty).
-  uint32_t sppm_classes = class_bit(PathClass::indirect) | class_bit(PathClass::caustics) |
-                          class_bit(PathClass::indirect_caustics) | class_bit(PathClass::specular);
-  bool use_sppm = (wanted & sppm_classes) && scene_has_specular(scene) && lights.size() > 0;
-  uint32_t sppm_iterations = options.sppm_iterations ? options.sppm_iterations : options.samples;
-  uint32_t iterations = std::max(options.samples, use_sppm ? sppm_iterations : 0u);
+  uint32_t budget = bounce_budget(options.max_bounces);
+  // Photon mapping has work when photons can add to a wanted class (any but `direct`) in a scene
+  // with specular surfaces (without them its part of path space is empty), and when paths may have
+  // the two scattering vertices (L S D) its paths need at least.
+  uint32_t photon_classes = class_bit(PathClass::indirect) | class_bit(PathClass::caustics) |
+                            class_bit(PathClass::indirect_caustics) |
+                            class_bit(PathClass::specular);
+  bool use_photons =
+      (wanted & photon_classes) && scene_has_specular(scene) && lights.size() > 0 && budget >= 2;
 
   size_t pixels = size_t(width) * height;
-  std::vector<glm::dvec3> sums(pixels * kClasses, glm::dvec3(0.0));
-  std::vector<double> lum_sum(pixels, 0.0), lum_sum2(pixels, 0.0);
-  std::vector<PixelStats> stats(use_sppm ? pixels : 0);
-  std::vector<VisiblePoint> vps(use_sppm ? pixels : 0);
-  float pixel_angle = 2.f * rig.tan_half / height;  // footprint per metre of distance
-
+  std::vector<glm::vec3> frame(pixels * kClasses);
+  Accumulator acc(pixels, class_mask);
   auto arena = options.threads > 0 ? std::make_unique<tbb::task_arena>(options.threads)
                                    : std::make_unique<tbb::task_arena>();
-  EmbreePhotonTracer tracer(world);
+  std::unique_ptr<PhotonPass> photons;
+  if (use_photons) photons = std::make_unique<PhotonPass>(world, rig, options, wanted, budget);
   tbb::combinable<uint64_t> ray_count([] { return uint64_t(0); });
-  uint64_t photon_rays = 0, photon_paths = 0;
-  uint32_t pt_done = 0, sppm_done = 0;
-  double rel_error = 0;
-
-  auto estimate_error = [&]() {
-    double mean_lum = 0;
-    for (size_t i = 0; i < pixels; ++i) mean_lum += lum_sum[i] / pt_done;
-    mean_lum /= double(pixels);
-    double floor2 = std::pow(0.01 * std::max(mean_lum, 1e-12), 2.0);
-    double acc = 0;
-    for (size_t i = 0; i < pixels; ++i) {
-      double m = lum_sum[i] / pt_done;
-      double var =
-          std::max(0.0, lum_sum2[i] / pt_done - m * m) * pt_done / std::max(1u, pt_done - 1);
-      acc += (var / pt_done) / (m * m + floor2);
-    }
-    return std::sqrt(acc / double(pixels));
+  auto total_rays = [&] {
+    uint64_t rays = photons ? photons->photon_rays : 0;
+    ray_count.combine_each([&](uint64_t r) { rays += r; });
+    return rays;
   };
 
-  for (uint32_t it = 0; it < iterations; ++it) {
+  double rel_error = 0, radius_scale2 = 1;
+  StopRule stopped_by = StopRule::samples;
+  for (uint32_t it = 0;; ++it) {
     uint32_t iteration_seed = hash_combine(options.seed, it);
     // ---- path tracing: one sample per pixel ----
-    if (pt_done < options.samples) {
-      arena->execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
-                          [&](const tbb::blocked_range<int>& rows) {
-                            uint64_t& rays = ray_count.local();
-                            PtOutput o;
-                            for (int y = rows.begin(); y != rows.end(); ++y)
-                              for (int x = 0; x < width; ++x) {
-                                size_t i = size_t(y) * width + x;
-                                Pcg32 rng(iteration_seed, i);
-                                glm::vec2 j = rng.next_2d();
-                                trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted,
-                                                  options.max_depth, o, rays);
-                                glm::vec3 total(0.f);
-                                for (int c = 0; c < kClasses; ++c) {
-                                  sums[i * kClasses + c] += glm::dvec3(o.value[c]);
-                                  if (wanted & (1u << c)) total += o.value[c];
-                                }
-                                double l = luminance(total);
-                                lum_sum[i] += l;
-                                lum_sum2[i] += l * l;
-                              }
-                          });
-      });
-      ++pt_done;
+    arena->execute([&] {
+      tbb::parallel_for(
+          tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+            uint64_t& rays = ray_count.local();
+            for (int y = rows.begin(); y != rows.end(); ++y)
+              for (int x = 0; x < width; ++x) {
+                size_t i = size_t(y) * width + x;
+                Pcg32 rng(iteration_seed, i);
+                glm::vec2 j = rng.next_2d();
+                trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, budget,
+                                  options.light_strategies, &frame[i * kClasses], rays);
+              }
+          });
+    });
+    // ---- photon mapping: visible points, photons, gather ----
+    if (photons) {
+      if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
+      photons->run(iteration_seed, radius_scale2, *arena, ray_count, frame);
     }
-    // ---- SPPM: visible points, photons, gather, radius update ----
-    if (use_sppm && sppm_done < sppm_iterations) {
-      uint32_t vp_seed = hash_combine(iteration_seed, 0x5eedu);
-      arena->execute([&] {
-        tbb::parallel_for(
-            tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
-              uint64_t& rays = ray_count.local();
-              for (int y = rows.begin(); y != rows.end(); ++y)
-                for (int x = 0; x < width; ++x) {
-                  size_t i = size_t(y) * width + x;
-                  Pcg32 rng(vp_seed, i);
-                  glm::vec2 j = rng.next_2d();
-                  VisiblePoint& vp = vps[i];
-                  if (find_visible_point(world, rig, x + j.x, y + j.y, rng, options.max_depth, vp,
-                                         rays) &&
-                      stats[i].r2 == 0) {
-                    float r = options.sppm_radius > 0 ? options.sppm_radius
-                                                      : 3.f * pixel_angle * vp.distance;
-                    stats[i].r2 = r * r;
-                  }
-                }
-            });
-      });
-      double r_sum = 0;
-      size_t r_count = 0;
-      for (size_t i = 0; i < pixels; ++i)
-        if (vps[i].valid) r_sum += std::sqrt(stats[i].r2), ++r_count;
-      PhotonBatch batch;
-      TraceSettings ts;
-      ts.paths = options.sppm_photons;
-      // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and
-      // specular.
-      ts.store = 0;
-      if (wanted & (class_bit(PathClass::caustics) | class_bit(PathClass::indirect_caustics)))
-        ts.store |= kCausticPhotons;
-      if (wanted & (class_bit(PathClass::indirect) | class_bit(PathClass::specular)))
-        ts.store |= kCausticIndirectPhotons;
-      ts.max_bounces = std::min(31u, std::max(1u, options.max_depth));
-      ts.seed = hash_combine(iteration_seed, 0x9407u);
-      ts.seed_per_frame = false;
-      ts.rr_start = 0;
-      arena->execute([&] { tracer.trace(ts, batch); });
-      photon_rays += batch.stats.rays;
-      photon_paths += batch.stats.paths;
-      if (r_count > 0 && !batch.photons.empty()) {
-        PhotonGrid grid(batch.photons, float(2.0 * r_sum / r_count));
-        arena->execute([&] {
-          tbb::parallel_for(
-              tbb::blocked_range<size_t>(0, pixels, 256), [&](const tbb::blocked_range<size_t>& r) {
-                for (size_t i = r.begin(); i != r.end(); ++i) {
-                  const VisiblePoint& vp = vps[i];
-                  if (!vp.valid) continue;
-                  PixelStats& ps = stats[i];
-                  glm::dvec3 phi[2] = {glm::dvec3(0.0),
-                                       glm::dvec3(0.0)};  // pure caustic, caustic-indirect
-                  uint32_t m = 0;
-                  float cos_o = glm::dot(vp.wo, vp.normal);
-                  grid.for_each_near(vp.position, std::sqrt(ps.r2), [&](const PhotonRecord& ph) {
-                    glm::vec3 wi = -ph.direction;
-                    // Same side of the same surface (no leaks through thin walls), and a
-                    // reflection.
-                    if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(wi, vp.normal) <= 0 ||
-                        cos_o <= 0)
-                      return;
-                    ++m;
-                    glm::vec3 f = vp.albedo * kInvPi;
-                    int kind = photon_kind(ph) == kCausticPhotons ? 0 : 1;
-                    phi[kind] += glm::dvec3(f * ph.power);
-                  });
-                  if (m == 0) continue;
-                  // Hachisuka & Jensen 2009 eqs. 9-12: keep a fraction alpha of the new photons,
-                  // shrink the radius so the density stays, and scale the flux with the area.
-                  double n_new = ps.n + options.sppm_alpha * m;
-                  double ratio = n_new / (ps.n + m);
-                  int base = vp.specular_prefix ? 2 : 0;
-                  glm::dvec3 beta(vp.beta);
-                  for (int c = 0; c < 4; ++c) {
-                    glm::dvec3 add(0.0);
-                    if (c == base) add = beta * phi[0];
-                    if (c == base + 1) add = beta * phi[1];
-                    ps.tau[c] = (ps.tau[c] + add) * ratio;
-                  }
-                  ps.r2 = float(ps.r2 * ratio);
-                  ps.n = n_new;
-                }
-              });
-        });
-      }
-      ++sppm_done;
-    }
+    acc.add(it, frame, *arena);
+    // ---- stop rules: the first reached ends the render ----
+    uint32_t done = it + 1;
     double elapsed = seconds_since(t0);
     bool stop = false;
-    if (options.rel_error > 0 && pt_done >= 16 &&
-        (pt_done % 4 == 0 || pt_done == options.samples)) {
-      rel_error = estimate_error();
-      stop = rel_error <= options.rel_error && (!use_sppm || sppm_done >= pt_done);
+    if (done % 2 == 0) {  // the error and time rules stop on even counts (equal halves)
+      if (options.rel_error > 0 && done >= std::max(2u, options.min_samples)) {
+        rel_error = acc.rel_error();
+        if (rel_error <= options.rel_error) stop = true, stopped_by = StopRule::rel_error;
+      }
+      if (!stop && options.max_seconds > 0 && elapsed >= options.max_seconds)
+        stop = true, stopped_by = StopRule::max_seconds;
     }
-    if (options.max_seconds > 0 && elapsed >= options.max_seconds) stop = true;
-    if (progress) {
-      uint64_t rays = photon_rays;
-      ray_count.combine_each([&](uint64_t r) { rays += r; });
-      progress({it + 1, iterations, rel_error, elapsed, rays});
-    }
+    if (!stop && options.samples > 0 && done >= options.samples)
+      stop = true, stopped_by = StopRule::samples;
+    if (progress)
+      progress({done, options.samples, rel_error, options.rel_error, elapsed, options.max_seconds,
+                total_rays()});
     if (stop) break;
   }
 
   // ---- resolve ----
   ReferenceResult result;
-  result.samples = pt_done;
-  result.sppm_iterations = sppm_done;
-  result.photon_paths = photon_paths;
+  result.samples = acc.iterations();
+  result.photon_paths = photons ? photons->photon_paths : 0;
   result.seed = options.seed;
-  result.rel_error = pt_done >= 2 ? estimate_error() : 0.0;
-  for (int c = 0; c < kPathClassCount; ++c) {
-    if (!(class_mask & (1u << c))) continue;
-    io::Image img(width, height, 3);
-    for (size_t i = 0; i < pixels; ++i) {
-      glm::dvec3 v(0.0);
-      for (int k = 0; k < kClasses; ++k) {
-        if (c != int(PathClass::combined) && k != c) continue;
-        v += sums[i * kClasses + k] / double(std::max(1u, pt_done));
-        if (use_sppm && sppm_done > 0 && stats[i].r2 > 0) {
-          // tau index: caustics 0, indirect 1, indirect_caustics 2, specular 3.
-          int t = k == int(PathClass::caustics)            ? 0
-                  : k == int(PathClass::indirect)          ? 1
-                  : k == int(PathClass::indirect_caustics) ? 2
-                  : k == int(PathClass::specular)          ? 3
-                                                           : -1;
-          if (t >= 0) v += stats[i].tau[t] / (double(sppm_done) * kPi * double(stats[i].r2));
-        }
-      }
-      img.pixels[i * 3 + 0] = float(v.x);
-      img.pixels[i * 3 + 1] = float(v.y);
-      img.pixels[i * 3 + 2] = float(v.z);
-    }
-    result.images[c] = std::move(img);
-  }
-  uint64_t rays = photon_rays;
-  ray_count.combine_each([&](uint64_t r) { rays += r; });
-  result.rays = rays;
+  result.rel_error = acc.rel_error();
+  result.stopped_by = stopped_by;
+  result.rays = total_rays();
   result.seconds = seconds_since(t0);
+  for (size_t j = 0; j < acc.classes().size(); ++j) {
+    ReferenceImage& img = result.classes[acc.classes()[j]];
+    acc.resolve(j, width, height, img);
+    img.samples = result.samples;
+    img.seed = options.seed;
+    img.seconds = result.seconds;
+    img.rel_error = result.rel_error;
+    img.stopped_by = stopped_by;
+    img.max_bounces = options.max_bounces;
+  }
   return result;
 }
 
-io::Image render_reference(const scene::Scene& scene, const scene::FrameState& state,
-                           PathClass path_class, int width, int height,
-                           const ReferenceOptions& options, const ProgressFn& progress) {
+ReferenceImage render_reference(const scene::Scene& scene, const scene::FrameState& state,
+                                PathClass path_class, int width, int height,
+                                const ReferenceOptions& options, const ProgressFn& progress) {
   EmbreeScene world(scene, state);
   ReferenceResult r =
       render_reference_classes(world, width, height, class_bit(path_class), options, progress);
-  return std::move(r.images[int(path_class)]);
+  return std::move(r.classes[int(path_class)]);
 }
 
 }  // namespace pb::trace

@@ -1,42 +1,51 @@
 // The reference renderer: converged images of one frame, split by path class, for scoring
 // techniques on exactly what they estimate.
 //
-// Two unbiased/consistent estimators share the work, each on its own part of path space, so the sum
-// converges to the full solution with nothing counted twice:
+// Two estimators share the work, each on its own part of path space, so the sum converges to the
+// full solution with nothing counted twice:
 //   * path tracing with next-event estimation and MIS (power heuristic, Veach 1997 ch. 9) for every
-//   path
-//     whose vertex next to the light is diffuse, or that has no diffuse vertex at all;
-//   * stochastic progressive photon mapping (Hachisuka & Jensen 2009) for every path with a diffuse
-//     vertex whose vertex next to the light is specular (L S ... ): the caustic-type paths that a
-//     path tracer cannot sample when the light is a point and the S a perfect mirror or glass.
-//     Visible points are the first diffuse camera vertex (C S* D), photons are those whose first
-//     interaction was specular (PhotonKind caustic and caustic_indirect).
+//     path whose vertex next to the light is diffuse, or that has no diffuse vertex at all;
+//   * progressive photon mapping in its probabilistic form (Knaus & Zwicker 2011: every iteration
+//     an independent photon-map estimate, the radius shrinking from one iteration to the next) for
+//     every path with a diffuse vertex whose vertex next to the light is specular (L S ... ): the
+//     caustic-type paths that a path tracer cannot sample when the light is a point and the S a
+//     perfect mirror or glass. Visible points are the first diffuse camera vertex (C S* D), photons
+//     are those whose first interaction was specular (PhotonKind caustic and caustic_indirect).
+// Each iteration adds one camera sample per pixel and one photon pass; the iteration images are
+// independent, so per pixel and channel the sample variance over iterations / n is the variance of
+// the mean for both parts (photon mapping's blur bias, which shrinks with the radius, is not in
+// it).
+//
+// Error estimate (the rel_error stop rule): for each requested class, the relative RMS error of the
+// mean's luminance over the pixels, sqrt(mean(var(L) / (L^2 + f^2))), with the floor f = 1% of the
+// class's mean luminance so that dark pixels do not dominate; over several classes, the RMS of the
+// classes' errors (a class that is black everywhere is left out). It is checked after every even
+// iteration from min_samples on.
 //
 // Path classes (light path expressions read from the camera, S any non-diffuse interaction
 // including rough GGX, D diffuse or emissive, L an emitter). They partition all paths, so
 //   direct + indirect + caustics + indirect_caustics + specular = combined:
-//   direct            C L | C D L                       emitters seen directly and direct light
-//   indirect          C D (D|S)* D (D|S)* L             first hit diffuse, at least one more
-//   diffuse
-//                                                       vertex (indirect diffuse; includes caustics
-//                                                       seen via diffuse interreflection, C D D S+
-//                                                       L)
-//   caustics          C D S+ L                          caustics seen directly
-//   indirect_caustics C S+ D S+ L                       caustics seen through specular surfaces
-//   specular          C S+ L | C S+ D L | C S+ D (D|S)* D (D|S)* L
-//                                                       the rest of what is first seen through a
-//                                                       specular surface (reflections and
-//                                                       refractions of emitters, of direct and of
-//                                                       indirect light)
-// (Caustics in the wide sense, `C S* D S+ L`, are caustics + indirect_caustics.)
+//   direct             C L | C D L               emitters seen directly and direct light
+//   indirect           C D (D|S)* D (D|S)* L     first hit diffuse, at least one more diffuse
+//   vertex
+//                                                (indirect diffuse; includes caustics seen via
+//                                                diffuse interreflection, C D D S+ L)
+//   caustics           C D S+ L                  caustics seen directly
+//   indirect_caustics  C S+ D S+ L               caustics seen through specular surfaces
+//   specular           C S+ L | C S+ D L | C S+ D (D|S)* D (D|S)* L
+//                                                the rest of what is first seen through a specular
+//                                                surface (reflections and refractions of emitters,
+//                                                of direct and of indirect light)
+// (caustics + indirect_caustics is the caustic class C S* D S+ L.)
 //
 // Camera: the pinhole of scene::Camera (view = lookAtRH(position, target, up), vertical fov_y),
 // pixel (x, y) with y = 0 the top row covers [x, x+1) x [y, y+1) and its value is the box-filtered
 // mean over the pixel (samples jittered uniformly inside it), so pixel centres are at x + 0.5, y +
 // 0.5.
 //
-// Sampling: independent PCG32 streams per pixel and iteration, so the error estimate (sample
-// variance of the path-traced part) is valid; the photons of SPPM come from the photon tracer.
+// Sampling: independent PCG32 streams per pixel and iteration, so the iteration images are
+// independent and their spread estimates the variance; the photons come from the photon tracer with
+// a fresh scramble every iteration.
 #pragma once
 
 #include <array>
@@ -72,37 +81,93 @@ std::optional<PathClass> parse_path_class(std::string_view name);
 std::vector<PathClass> all_path_classes();
 
 // Bumped whenever a change alters what the renderer converges to or how it samples (part of the
-// cache key, so old references are not reused by mistake).
-inline constexpr int kReferenceRendererVersion = 1;
+// cache key, so old references are not reused by mistake). 2: mean, variance and halves; photon
+// mapping as independent per-iteration estimates; max_bounces counts full-path scattering vertices.
+// 3: shadow rays aimed from their offset origin (area lights near surfaces were biased low).
+inline constexpr int kReferenceRendererVersion = 3;
 
+// `max_bounces` 0 means untruncated: Russian roulette ends paths, this many scattering vertices
+// at most keeps them finite (the photon tracer stops at 31 on its side).
+inline constexpr uint32_t kUntruncatedBounces = 64;
+
+// Which stop rule ended a render (the first one reached wins).
+enum class StopRule : uint8_t { rel_error, max_seconds, samples };
+std::string_view stop_rule_name(StopRule rule);  // "rel_error", "max_seconds", "samples"
+std::optional<StopRule> parse_stop_rule(std::string_view name);
+
+// How the unbiased estimator reaches emitters: both strategies weighted by MIS (the default), or
+// one alone at full weight (for tests that compare strategies on the same pixel; each alone is
+// unbiased too, only noisier, except that BSDF sampling alone cannot reach delta lights).
+enum class LightStrategies : uint8_t { mis, nee_only, bsdf_only };
+
+// One iteration renders one camera sample per pixel with the unbiased estimator and, where photon
+// mapping has work (a scene with specular surfaces and a wanted class it feeds), one photon pass;
+// the iteration's image is one independent, identically seeded-apart estimate of the frame, so
+// the mean, its variance and the two halves below all come from the spread of iteration images.
 struct ReferenceOptions {
-  uint32_t samples = 256;          // path-traced samples per pixel (= iterations)
-  uint32_t sppm_iterations = 0;    // 0: as many as `samples`
-  uint32_t sppm_photons = 200000;  // photon paths per SPPM iteration
-  float sppm_alpha = 2.f / 3.f;    // radius reduction (Hachisuka & Jensen 2009, eq. 9)
+  // Stop rules: the render ends at the first one reached; 0 turns a rule off, at least one is on.
+  float rel_error = 0;     // estimated relative RMS error of the mean (reference.h, error estimate)
+  double max_seconds = 0;  // wall-clock seconds (the image is as good as the iterations done)
+  uint32_t samples = 256;  // iterations (camera samples per pixel)
+  uint32_t min_samples = 16;  // the error estimate is trusted from this many iterations on
+  // Scattering vertices on a full path between camera and emitter (C L: 0, C D L: 1, ...); 0:
+  // untruncated. A photon technique's `max_bounces: B` matches max_bounces = B
+  // (bounces_matching_photon_technique).
+  uint32_t max_bounces = 0;
+  uint32_t sppm_photons = 200000;  // photon paths per photon pass
+  float sppm_alpha = 2.f / 3.f;    // radius reduction (Knaus & Zwicker 2011, eq. 20)
   float sppm_radius = 0;           // initial radius, m; 0: 3 pixel footprints at the visible point
-  float rel_error = 0;      // > 0: stop once the estimated relative RMS error of the path-traced
-                            // part (all requested classes) is below this (checked from 16 spp)
-  double max_seconds = 0;   // > 0: stop after this long (the image is still unbiased)
-  uint32_t max_depth = 64;  // camera path vertices (Russian roulette ends most paths first)
+  LightStrategies light_strategies = LightStrategies::mis;
   uint32_t seed = 1;
   int threads = 0;  // 0: all cores
 };
 
+// The reference depth that matches a photon technique's `max_bounces: B` parameter
+// (TraceSettings::max_bounces in photonbench/photons.h): its light paths make at most B surface
+// interactions, photons are stored at diffuse hits among them, and the technique gathers each
+// photon at the camera's first hit, which is that photon's own surface interaction. So a full path
+// the technique estimates has at most B scattering vertices (C D...D L with B vertices; the direct
+// light C D L is 1), which is the reference's max_bounces = B.
+inline uint32_t bounces_matching_photon_technique(uint32_t technique_max_bounces) {
+  return technique_max_bounces;
+}
+
 struct ReferenceProgress {
-  uint32_t iteration = 0, total = 0;
-  double rel_error = 0;  // estimate for the path-traced part, 0 until known
+  uint32_t iteration = 0;    // iterations done
+  uint32_t max_samples = 0;  // the samples rule (0: off)
+  double rel_error = 0;      // estimate so far, 0 until known
+  double target = 0;         // the rel_error rule (0: off)
   double seconds = 0;
+  double max_seconds = 0;  // the max_seconds rule (0: off)
   uint64_t rays = 0;
 };
 using ProgressFn = std::function<void(const ReferenceProgress&)>;
 
+// One reference of one class: the per-pixel per-channel mean over n iterations, the variance of
+// that mean (sample variance of the iteration images / n, per pixel and channel), and two
+// independent half-estimates, the means of the even (0, 2, ...) and of the odd iterations (each
+// ceil(n/2) and floor(n/2) iterations; renders stopped by the error or time rule end on an even
+// count, so the halves are equal and mean = (half[0] + half[1]) / 2).
+struct ReferenceImage {
+  io::Image mean, variance;
+  std::array<io::Image, 2> half;
+  uint32_t samples = 0;  // iterations
+  uint32_t seed = 0;
+  double seconds = 0;
+  double rel_error = 0;  // the error estimate reached (over all classes rendered together)
+  StopRule stopped_by = StopRule::samples;
+  uint32_t max_bounces = 0;  // as requested (0: untruncated)
+  bool empty() const { return mean.pixels.empty(); }
+};
+
 struct ReferenceResult {
-  std::array<io::Image, kPathClassCount> images;  // the requested classes; others are empty
-  uint32_t samples = 0, sppm_iterations = 0;
+  std::array<ReferenceImage, kPathClassCount> classes;  // the requested classes; others are empty
+  uint32_t samples = 0;
   uint64_t rays = 0, photon_paths = 0;
   double seconds = 0, rel_error = 0;
+  StopRule stopped_by = StopRule::samples;
   uint32_t seed = 0;
+  const io::Image& image(PathClass c) const { return classes[int(c)].mean; }
   double mrays_per_second() const { return seconds > 0 ? rays / seconds * 1e-6 : 0.0; }
 };
 
@@ -112,9 +177,9 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
                                          const ProgressFn& progress = {});
 
 // One class of one frame (builds the Embree scene for `state`).
-io::Image render_reference(const scene::Scene& scene, const scene::FrameState& state,
-                           PathClass path_class, int width, int height,
-                           const ReferenceOptions& options, const ProgressFn& progress = {});
+ReferenceImage render_reference(const scene::Scene& scene, const scene::FrameState& state,
+                                PathClass path_class, int width, int height,
+                                const ReferenceOptions& options, const ProgressFn& progress = {});
 
 // Camera ray through pixel position (px, py) in pixel units (px in [0, width), y down).
 struct CameraRay {
@@ -124,10 +189,14 @@ CameraRay camera_ray(const scene::Camera& camera, int width, int height, float p
 
 // ---- the content-addressed cache ---------------------------------------------------------------
 
-// <dir>/<key>.exr plus <dir>/<key>.json (samples, seed, time, scene, frame, class, ...). The key
-// hashes the scene file's bytes and the resolved scene (meshes, materials), the frame state (time,
-// camera, lights, transforms), the resolution, the class, max_depth and kReferenceRendererVersion.
-// Writes are atomic (temporary file, then rename), so an interrupted render leaves no entry behind.
+// <dir>/<key>.exr (the mean), <key>.variance.exr, <key>.half0.exr, <key>.half1.exr, plus
+// <dir>/<key>.json (samples, seed, seconds, error reached, the stop rule that ended it, scene,
+// frame, class, ...). The key hashes the scene file's bytes and the resolved scene (meshes,
+// materials), the frame state (time, camera, lights, transforms), the resolution, the class,
+// max_bounces and kReferenceRendererVersion. An entry serves a request when it meets any of the
+// request's stop rules (its error at or below rel_error, at least `samples` iterations, or at least
+// max_seconds of rendering). Writes are atomic (temporary file, then rename; the sidecar last), so
+// an interrupted render leaves no entry behind.
 class ReferenceCache {
  public:
   explicit ReferenceCache(std::filesystem::path dir);
@@ -135,9 +204,17 @@ class ReferenceCache {
 
   std::string key(const scene::Scene& scene, const scene::FrameState& state, PathClass path_class,
                   int width, int height, const ReferenceOptions& options) const;
-  // An entry exists with at least options.samples samples, or one that met options.rel_error.
   bool has(const scene::Scene& scene, const scene::FrameState& state, PathClass path_class,
            int width, int height, const ReferenceOptions& options) const;
+  // The whole entry: mean, variance, halves and sidecar.
+  std::optional<ReferenceImage> get_entry(const scene::Scene& scene, const scene::FrameState& state,
+                                          PathClass path_class, int width, int height,
+                                          const ReferenceOptions& options) const;
+  ReferenceImage get_or_render_entry(const scene::Scene& scene, const scene::FrameState& state,
+                                     PathClass path_class, int width, int height,
+                                     const ReferenceOptions& options,
+                                     const ProgressFn& progress = {});
+  // The mean alone.
   std::optional<io::Image> get(const scene::Scene& scene, const scene::FrameState& state,
                                PathClass path_class, int width, int height,
                                const ReferenceOptions& options) const;
@@ -155,6 +232,9 @@ class ReferenceCache {
   std::string scene_file_digest(const scene::Scene& scene) const;
   mutable std::vector<std::pair<std::string, std::string>> file_digests_;  // path -> digest
 };
+
+// One progress line: iterations, error against its target, time against its limit, Mrays/s.
+std::string describe_progress(const ReferenceProgress& p);
 
 // What the `reference` command and the runner call: every frame in [first, last] of `scene`, the
 // classes of `class_mask`, through the cache. `log` receives one line per frame and progress lines.

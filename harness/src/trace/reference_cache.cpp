@@ -133,22 +133,59 @@ std::string ReferenceCache::key(const scene::Scene& scene, const scene::FrameSta
   }
   d.vec(state.object_to_world);
   d.vec(state.deformed_objects);
-  d.value(width), d.value(height), d.value(path_class), d.value(options.max_depth);
+  d.value(width), d.value(height), d.value(path_class), d.value(options.max_bounces);
   return d.hex();
 }
+
+namespace {
+
+// The four images of an entry, by file suffix.
+constexpr const char* kImageSuffix[4] = {".exr", ".variance.exr", ".half0.exr", ".half1.exr"};
+
+// Does a stored entry (its sidecar) meet any stop rule of the request?
+bool serves(const nlohmann::json& side, const ReferenceOptions& options) {
+  uint32_t samples = side.value("samples", 0u);
+  double err = side.value("rel_error", 0.0), seconds = side.value("seconds", 0.0);
+  if (options.rel_error > 0 && samples >= 2 && err > 0 && err <= options.rel_error) return true;
+  if (options.samples > 0 && samples >= options.samples) return true;
+  return options.max_seconds > 0 && seconds >= options.max_seconds;
+}
+
+}  // namespace
 
 bool ReferenceCache::has(const scene::Scene& scene, const scene::FrameState& state,
                          PathClass path_class, int width, int height,
                          const ReferenceOptions& options) const {
   std::string k = key(scene, state, path_class, width, height, options);
   std::error_code ec;
-  if (!std::filesystem::exists(dir_ / (k + ".exr"), ec)) return false;
+  for (const char* suffix : kImageSuffix)
+    if (!std::filesystem::exists(dir_ / (k + suffix), ec)) return false;
   auto side = read_sidecar(dir_ / (k + ".json"));
-  if (!side) return false;
-  uint32_t samples = side->value("samples", 0u);
-  double err = side->value("rel_error", 0.0);
-  if (samples >= options.samples) return true;
-  return options.rel_error > 0 && err > 0 && err <= options.rel_error;
+  return side && serves(*side, options);
+}
+
+std::optional<ReferenceImage> ReferenceCache::get_entry(const scene::Scene& scene,
+                                                        const scene::FrameState& state,
+                                                        PathClass path_class, int width, int height,
+                                                        const ReferenceOptions& options) const {
+  std::string k = key(scene, state, path_class, width, height, options);
+  std::error_code ec;
+  for (const char* suffix : kImageSuffix)
+    if (!std::filesystem::exists(dir_ / (k + suffix), ec)) return std::nullopt;
+  auto side = read_sidecar(dir_ / (k + ".json"));
+  if (!side || !serves(*side, options)) return std::nullopt;
+  ReferenceImage entry;
+  entry.mean = io::read_image(dir_ / (k + kImageSuffix[0]));
+  entry.variance = io::read_image(dir_ / (k + kImageSuffix[1]));
+  entry.half[0] = io::read_image(dir_ / (k + kImageSuffix[2]));
+  entry.half[1] = io::read_image(dir_ / (k + kImageSuffix[3]));
+  entry.samples = side->value("samples", 0u);
+  entry.seed = side->value("seed", 0u);
+  entry.seconds = side->value("seconds", 0.0);
+  entry.rel_error = side->value("rel_error", 0.0);
+  entry.stopped_by = parse_stop_rule(side->value("stopped_by", "")).value_or(StopRule::samples);
+  entry.max_bounces = side->value("max_bounces", 0u);
+  return entry;
 }
 
 std::optional<io::Image> ReferenceCache::get(const scene::Scene& scene,
@@ -178,7 +215,10 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
   for (PathClass c : all_path_classes()) {
     if (!(missing & class_bit(c))) continue;
     std::string k = key(scene, state, c, width, height, options);
-    io::write_image(dir_ / (k + ".exr"), r.images[int(c)]);  // atomic (io/image.h)
+    const ReferenceImage& img = r.classes[int(c)];
+    const io::Image* images[4] = {&img.mean, &img.variance, &img.half[0], &img.half[1]};
+    for (int i = 0; i < 4; ++i)
+      io::write_image(dir_ / (k + kImageSuffix[i]), *images[i]);  // atomic (io/image.h)
     nlohmann::json side = {
         {"key", k},
         {"renderer_version", kReferenceRendererVersion},
@@ -190,20 +230,41 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
         {"expression", std::string(path_class_expression(c))},
         {"width", width},
         {"height", height},
-        {"samples", r.samples},
-        {"sppm_iterations", r.sppm_iterations},
-        {"sppm_photons_per_iteration", options.sppm_photons},
-        {"seed", r.seed},
-        {"max_depth", options.max_depth},
-        {"seconds", r.seconds},
+        {"samples", img.samples},
+        {"seed", img.seed},
+        {"seconds", img.seconds},
+        {"rel_error", img.rel_error},
+        {"stopped_by", std::string(stop_rule_name(img.stopped_by))},
+        {"target_rel_error", options.rel_error},
+        {"target_max_seconds", options.max_seconds},
+        {"target_samples", options.samples},
+        {"max_bounces", options.max_bounces},
+        {"photons_per_iteration", r.photon_paths > 0 ? options.sppm_photons : 0u},
         {"rays", r.rays},
-        {"rel_error", r.rel_error},
+        {"images",
+         {{"mean", k + kImageSuffix[0]},
+          {"variance", k + kImageSuffix[1]},
+          {"half0", k + kImageSuffix[2]},
+          {"half1", k + kImageSuffix[3]}}},
         {"created", now_iso()},
     };
-    write_atomic(dir_ / (k + ".json"), side.dump(2) + "\n");
+    write_atomic(dir_ / (k + ".json"), side.dump(2) + "\n");  // last: marks the entry complete
     ++written;
   }
   return written;
+}
+
+ReferenceImage ReferenceCache::get_or_render_entry(const scene::Scene& scene,
+                                                   const scene::FrameState& state,
+                                                   PathClass path_class, int width, int height,
+                                                   const ReferenceOptions& options,
+                                                   const ProgressFn& progress) {
+  if (auto entry = get_entry(scene, state, path_class, width, height, options))
+    return std::move(*entry);
+  render_missing(scene, state, class_bit(path_class), width, height, options, progress);
+  auto entry = get_entry(scene, state, path_class, width, height, options);
+  if (!entry) throw Error("reference cache: the entry just written cannot be read back");
+  return std::move(*entry);
 }
 
 io::Image ReferenceCache::get_or_render(const scene::Scene& scene, const scene::FrameState& state,
@@ -211,10 +272,20 @@ io::Image ReferenceCache::get_or_render(const scene::Scene& scene, const scene::
                                         const ReferenceOptions& options,
                                         const ProgressFn& progress) {
   if (auto img = get(scene, state, path_class, width, height, options)) return std::move(*img);
-  render_missing(scene, state, class_bit(path_class), width, height, options, progress);
-  auto img = get(scene, state, path_class, width, height, options);
-  if (!img) throw Error("reference cache: the entry just written cannot be read back");
-  return std::move(*img);
+  return get_or_render_entry(scene, state, path_class, width, height, options, progress).mean;
+}
+
+std::string describe_progress(const ReferenceProgress& p) {
+  std::string line = p.max_samples ? fmt::format("iteration {}/{}", p.iteration, p.max_samples)
+                                   : fmt::format("iteration {}", p.iteration);
+  if (p.target > 0)
+    line += p.rel_error > 0
+                ? fmt::format(", rel. error {:.4f} (target {:.4f})", p.rel_error, p.target)
+                : fmt::format(", rel. error pending (target {:.4f})", p.target);
+  line += p.max_seconds > 0 ? fmt::format(", {:.1f}/{:.0f} s", p.seconds, p.max_seconds)
+                            : fmt::format(", {:.1f} s", p.seconds);
+  if (p.seconds > 0) line += fmt::format(", {:.1f} Mrays/s", p.rays / p.seconds * 1e-6);
+  return line;
 }
 
 ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_frame,
@@ -229,22 +300,20 @@ ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_f
     scene::FrameState state = scene.at(f);
     auto frame_t0 = std::chrono::steady_clock::now();
     double last_report = 0;
+    ReferenceProgress last;
     ProgressFn progress = [&](const ReferenceProgress& p) {
-      if (!log) return;
-      if (p.seconds - last_report < 5.0 && p.iteration != p.total) return;
+      last = p;
+      if (!log || p.seconds - last_report < 5.0) return;
       last_report = p.seconds;
-      log(fmt::format("  {} frame {}: iteration {}/{} ({:.0f}%), {:.1f} s, {:.1f} Mrays/s{}",
-                      scene.name, f, p.iteration, p.total, 100.0 * p.iteration / p.total, p.seconds,
-                      p.seconds > 0 ? p.rays / p.seconds * 1e-6 : 0.0,
-                      p.rel_error > 0 ? fmt::format(", rel. error {:.4f}", p.rel_error) : ""));
+      log(fmt::format("  {} frame {}: {}", scene.name, f, describe_progress(p)));
     };
     int rendered = cache.render_missing(scene, state, class_mask, width, height, options, progress);
     report.rendered += rendered;
     report.cached += n_classes - rendered;
     if (log) {
       double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_t0).count();
-      log(rendered ? fmt::format("{} frame {}: rendered {} class(es) in {:.1f} s", scene.name, f,
-                                 rendered, s)
+      log(rendered ? fmt::format("{} frame {}: rendered {} class(es) in {:.1f} s ({})", scene.name,
+                                 f, rendered, s, describe_progress(last))
                    : fmt::format("{} frame {}: cached", scene.name, f));
     }
   }

@@ -42,7 +42,7 @@ void expect_ok(const fs::path& cell) {
 std::string header(const fs::path& dir) {
   return "name: cluster-test\nresolution: [96, 54]\nseed: 1\nscenes: [cornell-box]\n"
          "limits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 1}\n"
-         "metrics: [psnr]\nreference: {samples: 1, cache_dir: " +
+         "metrics: [psnr]\nreference: {samples: 2, cache_dir: " +
          (dir / "refs").string() + "}\n";
 }
 

@@ -53,7 +53,7 @@ std::string header(const fs::path& dir) {
          "limits: {cell_seconds: 300}\n"
          "frames: {warmup: 0, count: 1, metrics_every: 1}\n"
          "metrics: [psnr]\n"
-         "reference: {samples: 1, cache_dir: " +
+         "reference: {samples: 2, cache_dir: " +
          (dir / "refs").string() + "}\n";
 }
 

@@ -99,7 +99,7 @@ TEST(Tiled, LongTileListsAreReadWhole) {
   fs::path dir = work_dir("long");
   std::string yaml =
       std::string(kHeader) + "frames: {warmup: 0, count: 1, metrics_every: 1}\n" +
-      "metrics: [psnr]\nreference: {samples: 1, cache_dir: " + (dir / "refs").string() +
+      "metrics: [psnr]\nreference: {samples: 2, cache_dir: " + (dir / "refs").string() +
       "}\n"
       "techniques:\n"
       "  - technique: tiled\n"

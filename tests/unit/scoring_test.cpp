@@ -1,0 +1,142 @@
+// Scoring (run/scoring.h) with noise floors and bounce-matched references: which references a cell
+// is scored against, and what one scored cell writes (metrics.csv columns and rows, cell.json
+// means), checked against the metrics computed here from the cached reference entries.
+#include "run/scoring.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+
+#include "config/config.h"
+#include "io/image.h"
+#include "io/results.h"
+#include "metrics/metrics.h"
+#include "metrics/noise_floor.h"
+#include "photonbench/error.h"
+#include "run/cell_record.h"
+#include "scene/scene.h"
+#include "trace/reference.h"
+
+namespace pb::run {
+namespace {
+
+const std::filesystem::path kTemp = std::filesystem::path(testing::TempDir()) / "pb_scoring_test";
+
+config::Config load(const std::string& reference_block) {
+  std::filesystem::create_directories(kTemp);
+  auto file = kTemp / "config.yaml";
+  std::ofstream(file) << "name: t\nresolution: [32, 18]\nframes: {warmup: 0, count: 1, "
+                         "metrics_every: 1}\nscenes: [" PB_SOURCE_DIR
+                         "/scenes/cornell-box.yaml]\ntechniques:\n  - technique: direct\n"
+                      << reference_block;
+  return config::load_config(file, {});
+}
+
+std::vector<std::string> names(const std::vector<ScoredReference>& refs) {
+  std::vector<std::string> out;
+  for (const auto& r : refs) out.push_back(r.name);
+  return out;
+}
+
+TEST(Scoring, BounceMatchedReferencesOnlyWhenAskedAndForTruncatedTechniques) {
+  const std::map<std::string, std::string> photon = {{"max_bounces", "4"}}, plain = {};
+  config::Config c = load("reference: {samples: 8}\n");
+  EXPECT_EQ(names(scored_references(c, photon)), std::vector<std::string>{"full"});
+  c = load("reference: {samples: 8, bounce_matched: true}\n");
+  const auto refs = scored_references(c, photon);
+  ASSERT_EQ(names(refs), (std::vector<std::string>{"full", "bounce_matched"}));
+  EXPECT_EQ(refs[0].options.max_bounces, 0u);
+  EXPECT_EQ(refs[1].options.max_bounces, trace::bounces_matching_photon_technique(4));
+  EXPECT_EQ(refs[1].options.samples, refs[0].options.samples);
+  EXPECT_EQ(names(scored_references(c, plain)), std::vector<std::string>{"full"});
+  try {
+    load("reference: {samples: 8, bounce_matched: 3}\n");
+    FAIL() << "bounce_matched: 3 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("reference.bounce_matched"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(Scoring, RowsCarryFloorsAndUnbiasedErrorsAgainstBothReferences) {
+  const config::Config c =
+      load(fmt::format("reference: {{samples: 8, bounce_matched: true, cache_dir: {}}}\n",
+                       (kTemp / "cache").string()));
+  const scene::Scene scene = scene::load_scene(PB_SOURCE_DIR "/scenes/cornell-box.yaml");
+  Cell cell;
+  cell.params = {{"max_bounces", "4"}};
+  std::filesystem::remove_all(kTemp / "cache");
+  const std::filesystem::path dir = kTemp / "cell";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "images");
+  // The technique's output: a flat grey, far from the reference (its scores are resolved).
+  io::Image output(32, 18, 4);
+  for (size_t i = 0; i < output.pixels.size(); ++i) output.pixels[i] = i % 4 == 3 ? 1.f : 0.3f;
+  io::write_image(dir / "images" / "frame_0000.exr", output);
+
+  const ScoreResult result = score_cell(c, cell, scene, {0}, "combined", dir);
+  const auto csv = io::read_csv(dir / "metrics.csv");
+  const std::vector<std::string> header = {
+      "frame",      "path_class", "reference",    "flip",         "ssim",
+      "psnr",       "rmse",       "relmse",       "flip_floor",   "ssim_floor",
+      "psnr_floor", "rmse_floor", "relmse_floor", "mse_unbiased", "relmse_unbiased"};
+  ASSERT_EQ(csv.size(), 3u);  // header, full, bounce_matched
+  EXPECT_EQ(csv[0], header);
+
+  trace::ReferenceCache cache(kTemp / "cache");
+  for (const ScoredReference& ref : scored_references(c, cell.params)) {
+    SCOPED_TRACE(ref.name);
+    const auto entry =
+        cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18, ref.options);
+    ASSERT_TRUE(entry);
+    EXPECT_EQ(entry->max_bounces, ref.options.max_bounces);
+    const metrics::NoisyReference noisy{entry->mean, entry->variance, entry->half[0],
+                                        entry->half[1]};
+    const metrics::Scores s = metrics::evaluate(entry->mean, output);
+    const metrics::NoiseFloor f = metrics::noise_floor(noisy);
+    const metrics::UnbiasedErrors u = metrics::unbiased_errors(noisy, output);
+    const auto& row = csv[ref.name == "full" ? 1 : 2];
+    std::map<std::string, double> v;
+    for (size_t k = 3; k < header.size(); ++k) v[header[k]] = std::stod(row[k]);
+    EXPECT_EQ(row[1], "combined");
+    EXPECT_EQ(row[2], ref.name);
+    EXPECT_NEAR(v["flip"], s.flip.mean, 1e-5);
+    EXPECT_NEAR(v["flip_floor"], f.scores.flip.mean, 1e-5);
+    EXPECT_NEAR(v["ssim_floor"], f.scores.ssim, 1e-5);
+    EXPECT_NEAR(v["psnr_floor"], *f.scores.psnr, 1e-3);
+    EXPECT_NEAR(v["rmse_floor"] / f.scores.rmse, 1.0, 1e-5);
+    EXPECT_NEAR(v["relmse_floor"] / f.scores.relmse, 1.0, 1e-5);
+    EXPECT_NEAR(v["mse_unbiased"] / u.mse, 1.0, 1e-5);
+    EXPECT_NEAR(v["relmse_unbiased"] / u.relmse, 1.0, 1e-5);
+    // The floors are real: 8 samples leave noise, and the grey scores well above it.
+    EXPECT_GT(v["flip_floor"], 0.0);
+    EXPECT_GT(v["flip"], 4 * v["flip_floor"]);
+    // cell.json: the per-class means (one frame: the row itself) under the reference's key.
+    const nlohmann::json& means = ref.name == "full" ? result.means : result.bounce_matched_means;
+    EXPECT_NEAR(means["combined"]["flip_floor"].get<double>(), f.scores.flip.mean, 1e-9);
+    EXPECT_NEAR(means["combined"]["mse_floor_halves"].get<double>(), f.mse_from_halves, 1e-12);
+    EXPECT_EQ(means["combined"]["frames"].get<int>(), 1);
+  }
+  EXPECT_EQ(result.bounce_matched_means["max_bounces"].get<uint32_t>(),
+            trace::bounces_matching_photon_technique(4));
+  ASSERT_EQ(result.references.size(), 2u);
+  EXPECT_EQ(result.references[1]["reference"], "bounce_matched");
+  EXPECT_EQ(result.references[1]["samples"].get<uint32_t>(), 8u);
+  // The report's images come from the full reference only.
+  EXPECT_TRUE(std::filesystem::exists(dir / "images" / "reference_0000_combined.png"));
+  // cell.json carries all three: what the cell runner copies into its record.
+  CellRecord cell_record(cell);
+  cell_record.metrics = result.means;
+  cell_record.metrics_bounce_matched = result.bounce_matched_means;
+  cell_record.references = result.references;
+  const nlohmann::json record = to_json(cell_record);
+  EXPECT_TRUE(record.contains("metrics") && record.contains("metrics_bounce_matched") &&
+              record.contains("references"));
+}
+
+}  // namespace
+}  // namespace pb::run
