@@ -2,7 +2,12 @@
 # Compiles each GLSL file with glslc at build time and embeds the SPIR-V words in a generated header
 # `name.h`, as `constexpr uint32_t k<Stem>Spv[]` (stem: file name with '.' and '-' turned to '_').
 # Embedding keeps a plugin one self-contained file: no shader search paths at run time.
-set(PB_SHADER_INCLUDE_DIR ${CMAKE_CURRENT_LIST_DIR}/../harness/shaders)
+# Include paths: harness/shaders (the GLSL library, "toolkit/*.glsl"), the public headers
+# ("photonbench/photon_layout.h", "photonbench/scene_layout.h") and the toolkit's public headers
+# ("photonbench/toolkit/*.h", the layouts it shares with GLSL), then the target's own shaders/.
+get_filename_component(PB_SOURCE_ROOT ${CMAKE_CURRENT_LIST_DIR}/.. ABSOLUTE)
+set(PB_SHADER_INCLUDE_FLAGS -I ${PB_SOURCE_ROOT}/harness/shaders -I ${PB_SOURCE_ROOT}/harness/include
+    -I ${PB_SOURCE_ROOT}/harness/toolkit/include)
 
 function(pb_embed_shaders)
   cmake_parse_arguments(ARG "" "TARGET;HEADER" "SHADERS" ${ARGN})
@@ -18,7 +23,7 @@ function(pb_embed_shaders)
     set(words ${out_dir}/${name}.inc)
     add_custom_command(
       OUTPUT ${words}
-      COMMAND ${GLSLC} --target-env=vulkan1.2 -O -I ${PB_SHADER_INCLUDE_DIR} -I ${CMAKE_CURRENT_SOURCE_DIR}/shaders
+      COMMAND ${GLSLC} --target-env=vulkan1.2 -O ${PB_SHADER_INCLUDE_FLAGS} -I ${CMAKE_CURRENT_SOURCE_DIR}/shaders
               -MD -MF ${words}.d -mfmt=c -o ${words} ${abs}
       DEPENDS ${abs}
       DEPFILE ${words}.d

@@ -1,0 +1,56 @@
+// Per-bin photon lists built by Paper I's two splatting runs (§4.3: "We calculate the required
+// array size for each node in a first pass (traversing the hierarchy exactly as we do when inserting
+// photons)"): a count run adds 1 per (bin, photon), a prefix sum turns the counts into offsets, an
+// insert run writes each photon id at offset + cursor. Bins are tiles (tiled) or hierarchy nodes
+// (cluster). C++ side: pb::toolkit::PhotonLists (photonbench/toolkit/photon_lists.h).
+//
+// The two runs must agree bin for bin, and the lists are not cleared between frames, so an insert
+// never writes past its bin's count (it would land in the next bin's range), the estimate reads only
+// the entries both runs agree on (min(count, cursor): never an entry left from an earlier frame),
+// and pb::toolkit::PhotonLists::check counts the bins where they differ (counter list_mismatches,
+// with a warning).
+//
+// Use: define PB_LISTS_BINDING (first of PB_LISTS_BINDING_COUNT bindings), include this, bind
+// PhotonLists::bindings() there.
+#ifndef PB_TOOLKIT_PHOTON_LISTS_GLSL
+#define PB_TOOLKIT_PHOTON_LISTS_GLSL
+
+#include "photonbench/toolkit/photon_lists_layout.h"
+#include "toolkit/counters.glsl"
+
+#ifndef PB_LISTS_BINDING
+#error "define PB_LISTS_BINDING before including photon_lists.glsl"
+#endif
+
+layout(std430, binding = PB_LISTS_BINDING + 0) buffer PbListCounts { uint pb_list_counts[]; };
+layout(std430, binding = PB_LISTS_BINDING + 1) buffer PbListOffsets { uint pb_list_offsets[]; };
+layout(std430, binding = PB_LISTS_BINDING + 2) buffer PbListCursors { uint pb_list_cursors[]; };
+layout(std430, binding = PB_LISTS_BINDING + 3) buffer PbLists { uint pb_lists[]; };
+layout(std430, binding = PB_LISTS_BINDING + 4) buffer PbListStats { uint pb_list_stats[]; };
+
+// Count run: one more entry for `bin`.
+void pb_list_count(uint bin) {
+  atomicAdd(pb_list_counts[bin], 1u);
+  ++pb_prof_atomics;
+}
+
+// Insert run: `photon` into `bin`'s list. Entries past the capacity are not written (the host
+// reports them as overflows: entries wanted - capacity); entries past the bin's count are not
+// written either (a count/insert disagreement, which the check pass reports).
+void pb_list_insert(uint bin, uint photon) {
+  uint k = atomicAdd(pb_list_cursors[bin], 1u);
+  ++pb_prof_atomics;
+  if (k >= pb_list_counts[bin]) return;
+  uint slot = pb_list_offsets[bin] + k;
+  if (slot < pb_list_stats[PB_LIST_STAT_CAPACITY]) pb_lists[slot] = photon;
+}
+
+// The entries of `bin` an estimate reads: [x, x + y) of pb_lists.
+uvec2 pb_list_range(uint bin) {
+  uint begin = pb_list_offsets[bin];
+  uint end = min(begin + min(pb_list_counts[bin], pb_list_cursors[bin]),
+                 pb_list_stats[PB_LIST_STAT_CAPACITY]);
+  return uvec2(begin, end > begin ? end - begin : 0u);
+}
+
+#endif
