@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,50 @@ inline bool all_finite(const io::Image& image) {
   for (float v : image.pixels)
     if (!std::isfinite(v)) return false;
   return true;
+}
+
+// The warnings of a cell (cell.json), as one string to search.
+inline std::string warnings(const fs::path& cell) { return read_json(cell / "cell.json")["warnings"].dump(); }
+
+// A Cornell box whose every surface is the same grey and whose light has the colour `rgb` (YAML
+// "[r, g, b]"): every photon, and so every pixel of an exact estimate, has the light's channel
+// ratios. Written to DIR/<name>.yaml; returns its path (a config names a scene by path).
+inline fs::path grey_box_scene(const fs::path& dir, const std::string& name, const std::string& rgb) {
+  fs::path file = dir / (name + ".yaml");
+  std::ofstream(file) << "purpose: channel ratios (tests)\n"
+                         "camera: {position: [0.5, 0.5, 2.44], target: [0.5, 0.5, 0.0], fov_deg: 39.3}\n"
+                         "lights:\n"
+                         "  - {name: ceiling, type: point, position: [0.5, 0.97, 0.5], intensity: 2.5, color: "
+                      << rgb
+                      << "}\n"
+                         "materials:\n"
+                         "  grey: {type: diffuse, albedo: [0.7, 0.7, 0.7]}\n"
+                         "objects:\n"
+                         "  - {name: floor, shape: {type: quad}, material: grey, transform: {translate: [0.5, 0, 0.5]}}\n"
+                         "  - {name: ceiling, shape: {type: quad}, material: grey,\n"
+                         "     transform: {translate: [0.5, 1, 0.5], rotate_deg: [180, 0, 0]}}\n"
+                         "  - {name: back, shape: {type: quad}, material: grey,\n"
+                         "     transform: {translate: [0.5, 0.5, 0], rotate_deg: [90, 0, 0]}}\n"
+                         "  - {name: left, shape: {type: quad}, material: grey,\n"
+                         "     transform: {translate: [0, 0.5, 0.5], rotate_deg: [0, 0, -90]}}\n"
+                         "  - {name: right, shape: {type: quad}, material: grey,\n"
+                         "     transform: {translate: [1, 0.5, 0.5], rotate_deg: [0, 0, 90]}}\n"
+                         "  - {name: block, shape: {type: box, size: 0.3}, material: grey,\n"
+                         "     transform: {translate: [0.6, 0.15, 0.6], rotate_deg: [0, -17, 0]}}\n";
+  return file;
+}
+
+// The largest relative deviation, over pixels whose channel `strong` exceeds `floor`, of
+// channel `weak` / channel `strong` from `ratio`.
+inline double worst_channel_ratio(const io::Image& image, int weak, int strong, double ratio, double floor) {
+  double worst = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      double s = image.at(x, y, strong);
+      if (s <= floor) continue;
+      worst = std::max(worst, std::abs(image.at(x, y, weak) / (s * ratio) - 1.0));
+    }
+  return worst;
 }
 
 }  // namespace pb::testing
