@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "photonbench/error.h"
 #include "photonbench/toolkit/tiled_splat.h"
 #include "toolkit_shaders.h"
@@ -47,10 +49,8 @@ void ClusterSplat::setup(Context& ctx, const Params& params, const PhotonParams&
   auto options = HierarchyOptions::named_layout(layout);
   options.normal_cones = variant_ != kPlain;
   hierarchy_.setup(gpu, options);
-  if (top_levels_ > hierarchy_.accumulation_level())
-    throw InputError(fmt::format(
-        "cluster: top_levels = {} must be at most {} (the level above the leaves) for layout {}",
-        top_levels_, hierarchy_.accumulation_level(), layout));
+  // The top pass stops at the level above the leaves at the latest: leaves are stored, not walked.
+  top_levels_ = std::min(top_levels_, hierarchy_.accumulation_level());
 
   scan_.setup(gpu);
   jobs_.setup(gpu, job_capacity, kJobsPerThread, "cluster");

@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "photonbench/error.h"
 #include "toolkit_shaders.h"
 
@@ -59,11 +61,7 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
   auto options = HierarchyOptions::named_layout(layout);
   options.normal_cones = false;
   hierarchy_.setup(gpu, options);
-  if (top_levels_ > stop_level())
-    throw InputError(fmt::format(
-        "directional: top_levels = {} must be at most {} (the level the splat stops at) for layout "
-        "{} with accumulate_at = {}",
-        top_levels_, stop_level(), layout, at_leaves_ ? "leaves" : "accumulation"));
+  top_levels_ = std::min(top_levels_, stop_level());
 
   scan_.setup(gpu);
   jobs_.setup(gpu, job_capacity, kJobsPerThread, "directional");

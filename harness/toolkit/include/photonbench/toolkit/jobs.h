@@ -27,7 +27,8 @@ namespace pb::toolkit {
 inline constexpr pb_param_spec kTopLevelsParam = {
     "top_levels", PB_PARAM_INT, 3, 0, 5, nullptr, "levels",
     "levels the top splat pass walks below the roots before it hands (photon, node) jobs to the "
-    "per-node passes (Paper I §4.3: 3); at most the level the splat stops at"};
+    "per-node passes (Paper I §4.3: 3); larger values mean the level the splat stops at (cluster: "
+    "the level above the leaves)"};
 inline constexpr pb_param_spec kMaxJobsParam = {
     "max_jobs", PB_PARAM_INT, 1 << 22, 1, 1 << 24, nullptr, "jobs",
     "capacity of the (photon, node) job list of the top pass; overflowing jobs are dropped and "
