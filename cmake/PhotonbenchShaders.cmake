@@ -1,6 +1,8 @@
-# pb_embed_shaders(TARGET target HEADER name.h SHADERS a.comp b.vert ...)
+# pb_embed_shaders(TARGET target HEADER name.h SHADERS a.comp b.vert ... [SUFFIX s DEFINES D ...])
 # Compiles each GLSL file with glslc at build time and embeds the SPIR-V words in a generated header
-# `name.h`, as `constexpr uint32_t k<Stem>Spv[]` (stem: file name with '.' and '-' turned to '_').
+# `name.h`, as `constexpr uint32_t k<stem>_spv[]` (stem: file name with '.' and '-' turned to '_').
+# With SUFFIX and DEFINES: a variant of each file compiled with -D<each define>, as k<stem>_<s>_spv
+# (e.g. the toolkit's profiled traversal passes).
 # Embedding keeps a plugin one self-contained file: no shader search paths at run time.
 # Include paths: harness/shaders (the GLSL library, "toolkit/*.glsl"), the public headers
 # ("photonbench/photon_layout.h", "photonbench/scene_layout.h") and the toolkit's public headers
@@ -10,7 +12,7 @@ set(PB_SHADER_INCLUDE_FLAGS -I ${PB_SOURCE_ROOT}/harness/shaders -I ${PB_SOURCE_
     -I ${PB_SOURCE_ROOT}/harness/toolkit/include)
 
 function(pb_embed_shaders)
-  cmake_parse_arguments(ARG "" "TARGET;HEADER" "SHADERS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TARGET;HEADER;SUFFIX" "SHADERS;DEFINES" ${ARGN})
   set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/spv)
   file(MAKE_DIRECTORY ${out_dir})
   set(header ${out_dir}/${ARG_HEADER})
@@ -20,10 +22,18 @@ function(pb_embed_shaders)
     get_filename_component(abs ${src} ABSOLUTE)
     get_filename_component(name ${src} NAME)
     string(REGEX REPLACE "[.-]" "_" stem ${name})
+    set(defines "")
+    if(ARG_SUFFIX)
+      set(stem ${stem}_${ARG_SUFFIX})
+      set(name ${name}.${ARG_SUFFIX})
+      foreach(define IN LISTS ARG_DEFINES)
+        list(APPEND defines -D${define})
+      endforeach()
+    endif()
     set(words ${out_dir}/${name}.inc)
     add_custom_command(
       OUTPUT ${words}
-      COMMAND ${GLSLC} --target-env=vulkan1.2 -O ${PB_SHADER_INCLUDE_FLAGS} -I ${CMAKE_CURRENT_SOURCE_DIR}/shaders
+      COMMAND ${GLSLC} --target-env=vulkan1.2 -O ${defines} ${PB_SHADER_INCLUDE_FLAGS} -I ${CMAKE_CURRENT_SOURCE_DIR}/shaders
               -MD -MF ${words}.d -mfmt=c -o ${words} ${abs}
       DEPENDS ${abs}
       DEPFILE ${words}.d

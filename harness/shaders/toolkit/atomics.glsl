@@ -38,9 +38,9 @@ uvec3 pb_flux_units(vec3 phi, vec3 units_per_watt) {
     }                                                                     \
   }
 
-// The watts a 64-bit sum of units stands for.
-vec3 pb_flux_watts(uvec3 lo, uvec3 hi, vec3 watts_per_unit) {
-  return (vec3(hi) * 4294967296.0 + vec3(lo)) * watts_per_unit;
+// The watts a 64-bit sum of units (low word, high word) stands for.
+float pb_flux_watts(uint lo, uint hi, float watts_per_unit) {
+  return (float(hi) * 4294967296.0 + float(lo)) * watts_per_unit;
 }
 
 #endif

@@ -5,10 +5,11 @@
 // (cluster). C++ side: pb::toolkit::PhotonLists (photonbench/toolkit/photon_lists.h).
 //
 // The two runs must agree bin for bin, and the lists are not cleared between frames, so an insert
-// never writes past its bin's count (it would land in the next bin's range), the estimate reads only
-// the entries both runs agree on (min(count, cursor): never an entry left from an earlier frame),
-// and pb::toolkit::PhotonLists::check counts the bins where they differ (counter list_mismatches,
-// with a warning).
+// never writes past its bin's count (it would land in the next bin's range), and the check pass
+// (lists_check.comp, after the insert run) counts the bins where the runs differ (counter
+// list_mismatches, with a warning) and leaves in each bin's count the entries an estimate may read:
+// those both runs agree on (min(count, inserted): never an entry left from an earlier frame) and
+// that fit the capacity.
 //
 // Use: define PB_LISTS_BINDING (first of PB_LISTS_BINDING_COUNT bindings), include this, bind
 // PhotonLists::bindings() there.
@@ -45,12 +46,7 @@ void pb_list_insert(uint bin, uint photon) {
   if (slot < pb_list_stats[PB_LIST_STAT_CAPACITY]) pb_lists[slot] = photon;
 }
 
-// The entries of `bin` an estimate reads: [x, x + y) of pb_lists.
-uvec2 pb_list_range(uint bin) {
-  uint begin = pb_list_offsets[bin];
-  uint end = min(begin + min(pb_list_counts[bin], pb_list_cursors[bin]),
-                 pb_list_stats[PB_LIST_STAT_CAPACITY]);
-  return uvec2(begin, end > begin ? end - begin : 0u);
-}
+// After the check pass: the entries of `bin` an estimate reads, [x, x + y) of pb_lists.
+uvec2 pb_list_range(uint bin) { return uvec2(pb_list_offsets[bin], pb_list_counts[bin]); }
 
 #endif

@@ -7,6 +7,7 @@
 
 #include "photonbench/error.h"
 #include "photonbench/toolkit/tiled_splat.h"
+#include "toolkit_profiled_shaders.h"
 #include "toolkit_shaders.h"
 
 namespace pb::toolkit {
@@ -20,14 +21,14 @@ struct ClusterPush {
   float radius = 0;
   uint32_t flags = 0, top_level = 0, mode = 0, budget = 0, list_first = 0;
   float estimate_radius = 0;
-  glm::vec4 units_per_watt{1.0f}, watts_per_unit{1.0f};
+  glm::vec4 units_per_watt{1.0f}, pad0{0.0f};
 };
 static_assert(sizeof(ClusterPush) == 128);
 
 // Stats words (cluster_common.glsl).
 constexpr uint32_t kStatRead = 0, kStatRejected = 2, kStatTrivial = 4, kStatCone = 5,
                    kStatTruncated = 6, kStatWords = 8;
-constexpr uint32_t kFlagProfile = 4, kModeCount = 0, kModeInsert = 1;
+constexpr uint32_t kModeCount = 0, kModeInsert = 1;
 
 }  // namespace
 
@@ -55,17 +56,24 @@ void ClusterSplat::setup(Context& ctx, const Params& params, const PhotonParams&
   scan_.setup(gpu);
   jobs_.setup(gpu, job_capacity, kJobsPerThread, "cluster");
   lists_.setup(gpu, list_capacity, "cluster");
-  profile_.setup(gpu, {"top", "count", "insert"}, params.flag(kProfileParam.name));
+  const bool profile = params.flag(kProfileParam.name);
+  profile_.setup(gpu, {"top", "count", "insert"}, profile);
   stats_ = storage_buffer(gpu, "cluster/stats", kStatWords * 4, gpu::Memory::host_visible);
+  node_flux_.setup(gpu);
 
   auto B = gpu::Binding::storage_buffer;
   auto I = gpu::Binding::storage_image;
   std::vector<gpu::Binding> bindings(
-      Hierarchy::kBindingCount + JobQueue::kBindingCount + PhotonLists::kBindingCount + 4, B);
+      Hierarchy::kBindingCount + JobQueue::kBindingCount + PhotonLists::kBindingCount + 5, B);
   bindings.insert(bindings.end(), {I, I, I, I});
   constexpr uint32_t kPush = sizeof(ClusterPush);
-  top_pipeline_ = gpu.create_compute_pipeline("splat/top", kcluster_top_comp_spv, bindings, kPush);
-  leaf_pipeline_ = gpu.create_compute_pipeline("splat/leaf", kcluster_leaf_comp_spv, bindings, kPush);
+  auto pick = [&](std::span<const uint32_t> plain, std::span<const uint32_t> profiled) {
+    return profile ? profiled : plain;
+  };
+  top_pipeline_ = gpu.create_compute_pipeline(
+      "splat/top", pick(kcluster_top_comp_spv, kcluster_top_comp_profiled_spv), bindings, kPush);
+  leaf_pipeline_ = gpu.create_compute_pipeline(
+      "splat/leaf", pick(kcluster_leaf_comp_spv, kcluster_leaf_comp_profiled_spv), bindings, kPush);
   estimate_pipeline_ = gpu.create_compute_pipeline("radiance-estimate", kcluster_estimate_comp_spv,
                                                    bindings, kPush);
 }
@@ -77,7 +85,9 @@ void ClusterSplat::ensure_resources(Context& ctx) {
   const uint32_t nodes = hierarchy_.node_capacity();
   jobs_.resize(gpu, scan_, nodes);
   lists_.resize(gpu, scan_, nodes);
-  node_flux_ = storage_buffer(gpu, "cluster/node-flux", variant_ == kTrivial ? uint64_t(nodes) * 24 : 16);
+  // trivial: node flux for every level (a photon can be accepted at any node); else a placeholder.
+  node_flux_.resize(gpu, hierarchy_, variant_ == kTrivial ? hierarchy_.leaf_level() : 0,
+                    variant_ == kTrivial ? 3 : 0, "cluster/node-flux", "cluster: node flux");
   indirect_ = gpu.create_image("cluster/indirect", {frame.width, frame.height},
                                vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage);
 }
@@ -92,18 +102,18 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
   push.view = frame.camera.view;
   push.photon_count = photons.count();
   push.radius = radius_;
-  push.flags = variant_ | (profile_.enabled() ? kFlagProfile : 0u);
+  push.flags = variant_;
   push.top_level = top_levels_;
   push.budget = budget_;
   push.estimate_radius = radius_;
   push.units_per_watt = glm::vec4(scale.units_per_watt, 0.0f);
-  push.watts_per_unit = glm::vec4(scale.watts_per_unit, 0.0f);
 
   std::vector<gpu::Resource> resources;
   hierarchy_.append_bindings(resources);
   jobs_.append_bindings(resources);
   lists_.append_bindings(resources);
-  resources.insert(resources.end(), {photons.buffer, &node_flux_, &stats_, &profile_.buffer()});
+  resources.insert(resources.end(), {photons.buffer, &node_flux_.lo(), &node_flux_.hi(), &stats_,
+                                     &profile_.buffer()});
   auto g = gbuffer_resources(ctx.shared().gbuffer_images());
   resources.insert(resources.end(), g.begin(), g.end());
   resources.push_back(&indirect_);
@@ -117,7 +127,7 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
       auto scope = ctx.pass("top");
       auto cmd = ctx.cmd();
       cmd.fillBuffer(stats_.handle(), 0, VK_WHOLE_SIZE, 0u);
-      cmd.fillBuffer(node_flux_.handle(), 0, VK_WHOLE_SIZE, 0u);
+      node_flux_.clear(cmd);
       jobs_.clear(cmd);
       lists_.clear(cmd);
       profile_.clear(cmd);
@@ -164,6 +174,10 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
   {
     auto scope = ctx.pass("radiance-estimate");
     auto cmd = ctx.cmd();
+    if (variant_ == kTrivial) {  // the node flux in watts for the estimate
+      node_flux_.resolve(cmd, hierarchy_, scale);
+      gpu::full_barrier(cmd);
+    }
     dispatch_slices(cmd, photons.count(), [&](uint32_t first) {
       push.list_first = first;
       estimate_pipeline_.bind(cmd, resources, push);
@@ -191,7 +205,7 @@ void ClusterSplat::report(Context& ctx, const PhotonSet&) {
   ctx.count("bytes_cluster_hierarchy", double(hierarchy_.bytes_hierarchy()));
   ctx.count("bytes_final_bounds", double(hierarchy_.bytes_final_bounds()));
   ctx.count("bytes_normal_cone", double(hierarchy_.bytes_normal_cone()));
-  ctx.count("bytes_accum_flux", variant_ == kTrivial ? double(node_flux_.size()) : 0.0);
+  ctx.count("bytes_accum_flux", variant_ == kTrivial ? double(node_flux_.bytes()) : 0.0);
   ctx.count("bytes_jobs", double(jobs_.bytes()));
   ctx.count("bytes_photon_lists", double(lists_.bytes() + scan_.scratch_bytes()));
   profile_.report(ctx);

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "photonbench/error.h"
+#include "toolkit_profiled_shaders.h"
 #include "toolkit_shaders.h"
 
 namespace pb::toolkit {
@@ -32,8 +33,7 @@ struct BlurPush {
 };
 
 // Flags and stats words of directional_common.glsl.
-constexpr uint32_t kFlagDepositPaper = 1, kFlagWeightClip = 2, kFlagDebugNormal = 4,
-                   kFlagProfile = 8;
+constexpr uint32_t kFlagDepositPaper = 1, kFlagWeightClip = 2, kFlagDebugNormal = 4;
 constexpr uint32_t kStatDeposits = 0, kStatTruncated = 2, kStatMissed = 3, kStatWords = 4;
 constexpr uint32_t kBucketWords = 24;  // 8 octants x RGB (Paper I §5.2: "24 floats per node")
 
@@ -49,8 +49,7 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
   const bool profile = params.flag(kProfileParam.name);
   flags_ = (params.choice(kDepositParam.name) == "paper" ? kFlagDepositPaper : 0u) |
            (params.choice(kWeightingParam.name) == "clip" ? kFlagWeightClip : 0u) |
-           (params.choice(kDebugIrradianceParam.name) == "normal" ? kFlagDebugNormal : 0u) |
-           (profile ? kFlagProfile : 0u);
+           (params.choice(kDebugIrradianceParam.name) == "normal" ? kFlagDebugNormal : 0u);
   at_leaves_ = params.choice(kAccumulateAtParam.name) == "leaves";
   const uint32_t job_capacity = uint32_t(params.integer(kMaxJobsParam.name));
   auto& gpu = ctx.gpu();
@@ -67,6 +66,7 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
   jobs_.setup(gpu, job_capacity, kJobsPerThread, "directional");
   profile_.setup(gpu, {"top", "deposit"}, profile);
   stats_ = storage_buffer(gpu, "directional/stats", kStatWords * 4, gpu::Memory::host_visible);
+  flux_.setup(gpu);
 
   auto B = gpu::Binding::storage_buffer;
   auto I = gpu::Binding::storage_image;
@@ -75,10 +75,15 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
   constexpr uint32_t kPush = sizeof(DirPush);
   leaf_counts_pipeline_ = gpu.create_compute_pipeline(
       "directional/leaf-counts", kdirectional_leaf_counts_comp_spv, bindings, kPush);
-  top_pipeline_ =
-      gpu.create_compute_pipeline("directional/top", kdirectional_top_comp_spv, bindings, kPush);
-  deposit_pipeline_ = gpu.create_compute_pipeline("directional/deposit",
-                                                  kdirectional_deposit_comp_spv, bindings, kPush);
+  auto pick = [&](std::span<const uint32_t> plain, std::span<const uint32_t> profiled) {
+    return profile ? profiled : plain;
+  };
+  top_pipeline_ = gpu.create_compute_pipeline(
+      "directional/top", pick(kdirectional_top_comp_spv, kdirectional_top_comp_profiled_spv),
+      bindings, kPush);
+  deposit_pipeline_ = gpu.create_compute_pipeline(
+      "directional/deposit",
+      pick(kdirectional_deposit_comp_spv, kdirectional_deposit_comp_profiled_spv), bindings, kPush);
   estimate_pipeline_ = gpu.create_compute_pipeline(
       "directional/radiance-estimate", kdirectional_estimate_comp_spv, bindings, kPush);
   blur_pipeline_ = gpu.create_compute_pipeline("directional/blur", kdirectional_blur_comp_spv,
@@ -97,15 +102,10 @@ void DirectionalSplat::ensure_resources(Context& ctx) {
   height_ = frame.height;
   // Buckets for every node from the roots down to the stop level, indexed by compact id: the
   // hierarchy hands out ids level by level, so those levels' ids are [0, end of the stop level).
-  const uint32_t stop = stop_level();
-  const uint32_t bucket_nodes = hierarchy_.first_cid(stop) + hierarchy_.node_capacity(stop);
-  const uint64_t flux_bytes = uint64_t(bucket_nodes) * kBucketWords * 4;
-  check_storage_range(gpu, flux_bytes,
-                      fmt::format("directional: accumulate_at = {} at {}x{} (the direction buckets' "
-                                  "low words; use accumulate_at = accumulation or a lower resolution)",
-                                  at_leaves_ ? "leaves" : "accumulation", width_, height_));
-  flux_lo_ = storage_buffer(gpu, "directional/accum-flux-lo", flux_bytes);
-  flux_hi_ = storage_buffer(gpu, "directional/accum-flux-hi", flux_bytes);
+  flux_.resize(gpu, hierarchy_, stop_level(), kBucketWords, "directional/accum-flux",
+               fmt::format("directional: accumulate_at = {} at {}x{} (the direction buckets; use "
+                           "accumulate_at = accumulation or a lower resolution)",
+                           at_leaves_ ? "leaves" : "accumulation", width_, height_));
   leaf_counts_ = storage_buffer(
       gpu, "directional/leaf-counts", uint64_t(hierarchy_.node_capacity(hierarchy_.leaf_level())) * 16);
   jobs_.resize(gpu, scan_, hierarchy_.node_capacity());
@@ -133,8 +133,8 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
   std::vector<gpu::Resource> resources;
   hierarchy_.append_bindings(resources);
   jobs_.append_bindings(resources);
-  resources.insert(resources.end(), {photons.buffer, &flux_lo_, &flux_hi_, &leaf_counts_, &stats_,
-                                     &profile_.buffer()});
+  resources.insert(resources.end(), {photons.buffer, &flux_.lo(), &flux_.hi(), &leaf_counts_,
+                                     &stats_, &profile_.buffer()});
   auto gbuf = ctx.shared().gbuffer_images();
   auto g = gbuffer_resources(gbuf);
   resources.insert(resources.end(), g.begin(), g.end());
@@ -149,8 +149,9 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
     {
       auto scope = ctx.pass("leaf-counts");
       auto cmd = ctx.cmd();
-      for (const gpu::Buffer* b : {&leaf_counts_, &flux_lo_, &flux_hi_, &stats_})
+      for (const gpu::Buffer* b : {&leaf_counts_, &stats_})
         cmd.fillBuffer(b->handle(), 0, VK_WHOLE_SIZE, 0u);
+      flux_.clear(cmd);
       jobs_.clear(cmd);
       profile_.clear(cmd);
       gpu::full_barrier(cmd);
@@ -185,6 +186,8 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
   {
     auto scope = ctx.pass("radiance-estimate");
     auto cmd = ctx.cmd();
+    flux_.resolve(cmd, hierarchy_, scale);  // the buckets in watts for the estimate
+    gpu::full_barrier(cmd);
     estimate_pipeline_.bind(cmd, resources, p);
     cmd.dispatch(gx, gy, 1);
   }
@@ -222,7 +225,7 @@ void DirectionalSplat::report(Context& ctx, const PhotonSet&) {
   report_truncated(ctx, "directional", s[kStatTruncated], budget_);
   ctx.count("bytes_cluster_hierarchy", double(hierarchy_.bytes_hierarchy()));
   ctx.count("bytes_final_bounds", double(hierarchy_.bytes_final_bounds()));
-  ctx.count("bytes_accum_flux", double(flux_lo_.size() + flux_hi_.size()));
+  ctx.count("bytes_accum_flux", double(flux_.bytes()));
   ctx.count("bytes_leaf_counts", double(leaf_counts_.size()));
   ctx.count("bytes_jobs", double(jobs_.bytes()));
   profile_.report(ctx);

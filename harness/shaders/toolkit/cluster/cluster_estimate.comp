@@ -28,12 +28,9 @@ void main() {
         accepted += pb_gather(list.x, part.x, part.y, x, n, r2, flux);
         read += part.y - part.x;
         base += list.y;
-        if (trivial) {
-          uint at = cid * 6u;
-          flux += pb_flux_watts(uvec3(node_flux[at], node_flux[at + 1u], node_flux[at + 2u]),
-                                uvec3(node_flux[at + 3u], node_flux[at + 4u], node_flux[at + 5u]),
-                                push.watts_per_unit.xyz);
-        }
+        if (trivial)  // resolved to watts (NodeFlux::resolve)
+          flux += uintBitsToFloat(uvec3(node_flux_lo[cid * 3u], node_flux_lo[cid * 3u + 1u],
+                                        node_flux_lo[cid * 3u + 2u]));
         key = hier_parent_key(key);
       }
       pb_gather_tally(read, accepted);

@@ -40,7 +40,7 @@ int visit(uint level, uint cid) {
       if (ph_effects) {
         ++local_trivial;
         uvec3 units = pb_flux_units(ph_power, push.units_per_watt.xyz);
-        PB_FLUX_ADD(node_flux, cid * 6u, node_flux, cid * 6u + 3u, units);
+        PB_FLUX_ADD(node_flux_lo, cid * 3u, node_flux_hi, cid * 3u, units);
         pb_prof_atomics += 3u;
       }
       return PB_VISIT_SKIP;

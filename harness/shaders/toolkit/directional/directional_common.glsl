@@ -6,7 +6,8 @@
 // levels 0 .. the stop level) owns words [24 c, 24 c + 24) of flux_lo and of flux_hi: octant o's
 // channel k at 24 c + 3 o + k, a 64-bit fixed-point sum (low and high word, toolkit/atomics.glsl,
 // photonbench/toolkit/fixed_point.h): order-independent, so the buckets are the same bits on every
-// run, and with a relative error per channel bounded whatever the photon count.
+// run, and with a relative error per channel bounded whatever the photon count. After the splat
+// (pb::toolkit::NodeFlux::resolve) the low words hold the sums in watts as float bits.
 #include "photonbench/photon_layout.h"
 #define HIER_BINDING 0
 #include "toolkit/hierarchy.glsl"
@@ -35,7 +36,6 @@ layout(push_constant) uniform Push {
 #define DIR_FLAG_DEPOSIT_PAPER 1u  // intersected stop-level nodes get the whole flux
 #define DIR_FLAG_WEIGHT_CLIP 2u    // octant weights: solid-angle share above the tangent plane
 #define DIR_FLAG_DEBUG_NORMAL 4u   // test hook: irradiance = |world normal|
-#define DIR_FLAG_PROFILE 8u
 
 // Stats words (host-visible): [0..1] bucket deposits (64-bit), [2] traversals cut short by the
 // loop budget, [3] photons whose sphere met no occupied node (no deposit, no job).
@@ -46,6 +46,5 @@ layout(push_constant) uniform Push {
 // Fixed-point scale of the sample-position sums of directional_leaf_counts.comp.
 #define DIR_CENTROID_SCALE 4096.0
 
-#define PB_PROFILE_ON ((push.counts.z & DIR_FLAG_PROFILE) != 0u)
 #include "toolkit/profile.glsl"
 #include "toolkit/gbuffer.glsl"

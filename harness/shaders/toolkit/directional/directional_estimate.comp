@@ -30,11 +30,8 @@ void main() {
       for (int level = int(push.counts.y); level >= 0; --level) {
         uint key = leaf >> (5u * (leaf_level - uint(level)));
         uint at = hier_cid(uint(level), key) * 24u;
-        for (uint o = 0u; o < 8u; ++o, at += 3u)
-          e += weights[o] *
-               pb_flux_watts(uvec3(flux_lo[at], flux_lo[at + 1u], flux_lo[at + 2u]),
-                             uvec3(flux_hi[at], flux_hi[at + 1u], flux_hi[at + 2u]),
-                             push.inverse_area.xyz);
+        for (uint o = 0u; o < 8u; ++o, at += 3u)  // watts (resolved after the splat)
+          e += weights[o] * uintBitsToFloat(uvec3(flux_lo[at], flux_lo[at + 1u], flux_lo[at + 2u]));
       }
       e *= push.inverse_area.w;  // / (pi r^2)
     }

@@ -9,6 +9,7 @@
 #include "photonbench/toolkit/gpu_scan.h"
 #include "photonbench/toolkit/hierarchy.h"
 #include "photonbench/toolkit/jobs.h"
+#include "photonbench/toolkit/node_flux.h"
 #include "photonbench/toolkit/photon_lists.h"
 #include "photonbench/toolkit/traversal.h"
 #include "photonbench/toolkit/technique.h"
@@ -42,7 +43,8 @@ class ClusterSplat final : public Splatter {
   JobQueue jobs_;
   PhotonLists lists_;
   PassProfile profile_;
-  gpu::Buffer node_flux_, stats_;
+  NodeFlux node_flux_;
+  gpu::Buffer stats_;
   gpu::Image indirect_;
   gpu::Pipeline top_pipeline_, leaf_pipeline_, estimate_pipeline_;
 };

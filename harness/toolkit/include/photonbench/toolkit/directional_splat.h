@@ -12,6 +12,7 @@
 #include "photonbench/toolkit/gpu_scan.h"
 #include "photonbench/toolkit/hierarchy.h"
 #include "photonbench/toolkit/jobs.h"
+#include "photonbench/toolkit/node_flux.h"
 #include "photonbench/toolkit/technique.h"
 #include "photonbench/toolkit/traversal.h"
 
@@ -65,7 +66,8 @@ class DirectionalSplat final : public Splatter {
   PrefixSum scan_;
   JobQueue jobs_;
   PassProfile profile_;
-  gpu::Buffer flux_lo_, flux_hi_, leaf_counts_, stats_;
+  NodeFlux flux_;
+  gpu::Buffer leaf_counts_, stats_;
   gpu::Image irradiance_, blur_tmp_, indirect_;
   gpu::Pipeline leaf_counts_pipeline_, top_pipeline_, deposit_pipeline_, estimate_pipeline_,
       blur_pipeline_;

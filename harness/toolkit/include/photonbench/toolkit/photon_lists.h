@@ -31,7 +31,8 @@ class PhotonLists {
   void clear(vk::CommandBuffer cmd) const;
   // Offsets = exclusive prefix sum of the counts; the total to the stats (entries wanted).
   void scan(vk::CommandBuffer cmd, const PrefixSum& scan) const;
-  // After the insert run: counts the bins whose inserts differ from their counts.
+  // After the insert run: counts the bins whose inserts differ from their counts, and leaves in
+  // the counts what an estimate may read (pb_list_range). Must run before any estimate.
   void check(vk::CommandBuffer cmd) const;
   void append_bindings(std::vector<gpu::Resource>& resources) const;
 
