@@ -35,15 +35,16 @@ void pb_list_count(uint bin) {
   ++pb_prof_atomics;
 }
 
-// Insert run: `photon` into `bin`'s list. Entries past the capacity are not written (the host
-// reports them as overflows: entries wanted - capacity); entries past the bin's count are not
-// written either (a count/insert disagreement, which the check pass reports).
+// Insert run: `photon` into `bin`'s list. Entries past the end of the lists are not written (the
+// host reports the entries past the capacity as overflows: entries wanted - capacity; the check pass
+// keeps estimates within the capacity); entries past the bin's count are not written either (a
+// count/insert disagreement, which the check pass reports).
 void pb_list_insert(uint bin, uint photon) {
   uint k = atomicAdd(pb_list_cursors[bin], 1u);
   ++pb_prof_atomics;
   if (k >= pb_list_counts[bin]) return;
   uint slot = pb_list_offsets[bin] + k;
-  if (slot < pb_list_stats[PB_LIST_STAT_CAPACITY]) pb_lists[slot] = photon;
+  if (slot < uint(pb_lists.length())) pb_lists[slot] = photon;
 }
 
 // After the check pass: the entries of `bin` an estimate reads, [x, x + y) of pb_lists.
