@@ -4,11 +4,12 @@
 // (the octants of the incident direction in view space) instead of per-node lists; each view sample
 // sums its containing nodes' buckets weighted by 2cos(n, d) into an irradiance texture, which a
 // depth- and normal-aware blur smooths before the diffuse BRDF. The splat runs in Paper I's two
-// sub-passes: a top pass per photon down 3 levels, then per-node jobs sorted by node. The passes are
-// pb::toolkit::DirectionalSplat (harness/toolkit/); README.md gives them and the deviations.
+// sub-passes: a top pass per photon down 3 levels, then per-node jobs sorted by node. The passes
+// are pb::toolkit::DirectionalSplat (harness/toolkit/); README.md gives them and the deviations.
+#include "photonbench/toolkit/technique.h"
+
 #include "photonbench/plugin.h"
 #include "photonbench/toolkit/directional_splat.h"
-#include "photonbench/toolkit/technique.h"
 
 namespace {
 
@@ -16,12 +17,23 @@ using namespace pb::toolkit;
 using D = DirectionalSplat;
 
 const pb_param_spec kParams[] = {
-    kPhotonsParam,           kRadiusParam,           kMaxBouncesParam,
-    kShadowMapSizeParam,     D::kDepositParam,       D::kWeightingParam,
-    kLayoutParam,            D::kAccumulateAtParam,  kTopLevelsParam,
-    kMaxJobsParam,           D::kBlurRadiusParam,    D::kBlurDepthSigmaParam,
-    D::kBlurNormalSigmaParam, kStoreFirstHitParam,   kLoopBudgetParam,
-    kProfileParam,           D::kDebugIrradianceParam,
+    kPhotonsParam,
+    kRadiusParam,
+    kMaxBouncesParam,
+    kShadowMapSizeParam,
+    D::kDepositParam,
+    D::kWeightingParam,
+    kLayoutParam,
+    D::kAccumulateAtParam,
+    kTopLevelsParam,
+    kMaxJobsParam,
+    D::kBlurRadiusParam,
+    D::kBlurDepthSigmaParam,
+    D::kBlurNormalSigmaParam,
+    kStoreFirstHitParam,
+    kLoopBudgetParam,
+    kProfileParam,
+    D::kDebugIrradianceParam,
 };
 
 using Directional = SplatTechnique<DirectionalSplat>;

@@ -1,7 +1,7 @@
-// A pb::Context for unit tests that drive toolkit passes directly on a Device (no runner, no scene):
-// one command buffer recorded between begin() and submit(), pass scopes that time nothing, counters
-// and warnings kept in maps, a G-buffer the test fills itself, and a camera it sets. Shared passes
-// other than gbuffer_images() and the tracer are not available (they throw).
+// A pb::Context for unit tests that drive toolkit passes directly on a Device (no runner, no
+// scene): one command buffer recorded between begin() and submit(), pass scopes that time nothing,
+// counters and warnings kept in maps, a G-buffer the test fills itself, and a camera it sets.
+// Shared passes other than gbuffer_images() and the tracer are not available (they throw).
 #pragma once
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -29,12 +29,13 @@ class TestGBuffer final : public SharedPasses {
   // Uploads RGBA32F texels (width * height * 4 floats) into one of the images.
   static void upload(gpu::Device& gpu, const gpu::Image& image, const std::vector<float>& rgba) {
     auto bytes = vk::DeviceSize(rgba.size() * sizeof(float));
-    gpu::Buffer staging = gpu.create_buffer("test/staging", bytes, vk::BufferUsageFlagBits::eTransferSrc,
-                                            gpu::Memory::host_visible);
+    gpu::Buffer staging = gpu.create_buffer(
+        "test/staging", bytes, vk::BufferUsageFlagBits::eTransferSrc, gpu::Memory::host_visible);
     std::memcpy(staging.mapped(), rgba.data(), bytes);
     gpu.submit_and_wait([&](vk::CommandBuffer cmd) {
-      vk::BufferImageCopy region{0, 0, 0, {vk::ImageAspectFlagBits::eColor, 0, 0, 1}, {0, 0, 0},
-                                 {image.extent().width, image.extent().height, 1}};
+      vk::BufferImageCopy region{0,         0,
+                                 0,         {vk::ImageAspectFlagBits::eColor, 0, 0, 1},
+                                 {0, 0, 0}, {image.extent().width, image.extent().height, 1}};
       cmd.copyBufferToImage(staging.handle(), image.handle(), vk::ImageLayout::eGeneral, region);
       gpu::full_barrier(cmd);
     });
@@ -56,9 +57,10 @@ class TestGBuffer final : public SharedPasses {
 class TestContext final : public Context {
  public:
   TestContext(gpu::Device& gpu, SharedPasses& shared) : gpu_(gpu), shared_(shared) {
-    pool_ = vk::raii::CommandPool(gpu.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer,
-                                                 gpu.queue_family()});
-    buffers_ = vk::raii::CommandBuffers(gpu.device(), {*pool_, vk::CommandBufferLevel::ePrimary, 1});
+    pool_ = vk::raii::CommandPool(
+        gpu.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, gpu.queue_family()});
+    buffers_ =
+        vk::raii::CommandBuffers(gpu.device(), {*pool_, vk::CommandBufferLevel::ePrimary, 1});
     begin();
   }
   ~TestContext() override {
@@ -71,8 +73,7 @@ class TestContext final : public Context {
     frame_.width = width;
     frame_.height = height;
     frame_.camera.view = glm::lookAt(eye, target, up);
-    frame_.camera.projection =
-        glm::perspective(fov_y, float(width) / float(height), 0.01f, 100.0f);
+    frame_.camera.projection = glm::perspective(fov_y, float(width) / float(height), 0.01f, 100.0f);
     frame_.camera.view_projection = frame_.camera.projection * frame_.camera.view;
     frame_.camera.inverse_view_projection = glm::inverse(frame_.camera.view_projection);
     frame_.camera.position = eye;
@@ -101,7 +102,9 @@ class TestContext final : public Context {
   void warn(std::string_view message) override { warnings.emplace_back(message); }
   const FrameInfo& frame() const override { return frame_; }
   SharedPasses& shared() override { return shared_; }
-  trace::PhotonTracer& photon_tracer() override { throw std::logic_error("test context: no tracer"); }
+  trace::PhotonTracer& photon_tracer() override {
+    throw std::logic_error("test context: no tracer");
+  }
   const gpu::Image& output() override { throw std::logic_error("test context: no output"); }
 
   std::map<std::string, double> counters;
@@ -110,7 +113,8 @@ class TestContext final : public Context {
  private:
   void begin() {
     (*buffers_[0]).reset();
-    (*buffers_[0]).begin(vk::CommandBufferBeginInfo{vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+    (*buffers_[0])
+        .begin(vk::CommandBufferBeginInfo{vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
     recording_ = true;
   }
   gpu::Device& gpu_;

@@ -5,6 +5,8 @@
 // other at every level, child masks hold exactly the occupied children, every AABB contains its
 // samples and its children's AABBs, and every normal cone bounds its samples' normals and its
 // children's cones.
+#include "photonbench/toolkit/hierarchy.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,7 +19,6 @@
 #include <vector>
 
 #include "gpu_context.h"
-#include "photonbench/toolkit/hierarchy.h"
 
 namespace {
 
@@ -65,7 +66,9 @@ struct HostHierarchy {
     uint32_t below = mask(level - 1, parent) & ((1u << (key & 31u)) - 1u);
     return base + uint32_t(std::popcount(below));
   }
-  glm::vec3 lo(uint32_t cid) const { return {aabbs[6 * cid], aabbs[6 * cid + 1], aabbs[6 * cid + 2]}; }
+  glm::vec3 lo(uint32_t cid) const {
+    return {aabbs[6 * cid], aabbs[6 * cid + 1], aabbs[6 * cid + 2]};
+  }
   glm::vec3 hi(uint32_t cid) const {
     return {aabbs[6 * cid + 3], aabbs[6 * cid + 4], aabbs[6 * cid + 5]};
   }
@@ -90,9 +93,9 @@ struct HostHierarchy {
 
 float angle(glm::vec3 a, glm::vec3 b) { return std::acos(std::clamp(glm::dot(a, b), -1.0f, 1.0f)); }
 
-// A random G-buffer seen by a camera at the origin looking down -z: 12x12-pixel patches of planes at
-// random depths (0.3 to 40 m: depth discontinuities at every patch edge) with random tilts, random
-// normals facing the camera, and about a tenth of the patches background.
+// A random G-buffer seen by a camera at the origin looking down -z: 12x12-pixel patches of planes
+// at random depths (0.3 to 40 m: depth discontinuities at every patch edge) with random tilts,
+// random normals facing the camera, and about a tenth of the patches background.
 struct RandomScene {
   uint32_t width, height;
   std::vector<float> position, normal, albedo;
@@ -213,8 +216,9 @@ void check_hierarchy(const char* layout, uint32_t seed) {
                                                scene.position[4 * i + 2], 1.0f));
       lo = glm::min(lo, p);
       hi = glm::max(hi, p);
-      glm::vec3 n = glm::normalize(glm::mat3(view) * glm::vec3(scene.normal[4 * i], scene.normal[4 * i + 1],
-                                                                 scene.normal[4 * i + 2]));
+      glm::vec3 n =
+          glm::normalize(glm::mat3(view) * glm::vec3(scene.normal[4 * i], scene.normal[4 * i + 1],
+                                                     scene.normal[4 * i + 2]));
       glm::vec4 c = host.cone(cid);
       ASSERT_LE(angle(n, glm::vec3(c)), c.w + 1e-3f) << "sample normal outside its leaf's cone";
     }
@@ -230,7 +234,8 @@ void check_hierarchy(const char* layout, uint32_t seed) {
     for (size_t i : pixels) {
       glm::uvec3 cell = host.leaf_cell(key);
       float depth = -(view * glm::vec4(scene.position[4 * i], scene.position[4 * i + 1],
-                                       scene.position[4 * i + 2], 1.0f)).z;
+                                       scene.position[4 * i + 2], 1.0f))
+                         .z;
       blocks[{cell.x, cell.y}].push_back({depth, cell.z});
     }
   for (auto& [block, list] : blocks) {

@@ -1,15 +1,16 @@
 // Each Paper I technique's irradiance against a case with a closed form (issue: an analytic check
 // whose tolerance follows from the photon count): a point light of intensity I at height h = 1 m
-// over a large diffuse plane, photons stored at the first hit (the store_first_hit test hook, so the
-// estimate is of direct irradiance, E(rho) = I h / (h^2 + rho^2)^(3/2)), seen head-on by a camera 3 m
-// above it. A constant-kernel estimate at x is expected to be the mean of E over the disk of radius r
-// around x (photons lie on the plane); the radiance it hands to shade is albedo / pi times that.
+// over a large diffuse plane, photons stored at the first hit (the store_first_hit test hook, so
+// the estimate is of direct irradiance, E(rho) = I h / (h^2 + rho^2)^(3/2)), seen head-on by a
+// camera 3 m above it. A constant-kernel estimate at x is expected to be the mean of E over the
+// disk of radius r around x (photons lie on the plane); the radiance it hands to shade is albedo /
+// pi times that.
 //
 // Compared per 32x32-pixel block (directional's accumulation-level nodes), whose mean over N paths
-// has a relative standard deviation of at most 1 / sqrt(n), n the expected number of photons landing
-// in the block (Poisson; the tracer's Sobol sequence only lowers it): each block must be within 4 of
-// those deviations (plus 0.5% for the float sums), and the mean of all blocks within 4 deviations of
-// the whole frame's photons.
+// has a relative standard deviation of at most 1 / sqrt(n), n the expected number of photons
+// landing in the block (Poisson; the tracer's Sobol sequence only lowers it): each block must be
+// within 4 of those deviations (plus 0.5% for the float sums), and the mean of all blocks within 4
+// deviations of the whole frame's photons.
 //
 // directional: with weighting clip and no blur, a node's value is the node mean of that estimate
 // (coverage deposits are unbiased on a plane); Paper I's cos2 weights give exactly 2/sqrt(3) of it
@@ -112,14 +113,12 @@ class Paper1Analytic : public ::testing::Test {
         (g_dir / "point-over-plane.yaml").string() +
         "]\nframes: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [psnr]\n"
         "limits: {cell_seconds: 300}\nreference: {samples: 1, cache_dir: " +
-        (g_dir / "refs").string() + "}\ntechniques:\n" +
-        "  - {technique: tiled, params: {" + common + "}}\n" +
-        "  - {technique: cluster, params: {" + common + ", variant: [plain, cone, trivial]}}\n" +
-        "  - {technique: cluster, params: {" + common + ", variant: trivial, layout: deep}}\n" +
-        "  - {technique: directional, params: {" + common +
-        ", weighting: [clip, cos2], blur_radius: 0}}\n" +
-        "  - {technique: directional, params: {" + common +
-        ", weighting: clip, blur_radius: 0, layout: deep}}\n" +
+        (g_dir / "refs").string() + "}\ntechniques:\n" + "  - {technique: tiled, params: {" +
+        common + "}}\n" + "  - {technique: cluster, params: {" + common +
+        ", variant: [plain, cone, trivial]}}\n" + "  - {technique: cluster, params: {" + common +
+        ", variant: trivial, layout: deep}}\n" + "  - {technique: directional, params: {" + common +
+        ", weighting: [clip, cos2], blur_radius: 0}}\n" + "  - {technique: directional, params: {" +
+        common + ", weighting: clip, blur_radius: 0, layout: deep}}\n" +
         "  - {technique: directional, params: {" + common +
         ", weighting: clip, blur_radius: 0, deposit: paper}}\n";
     g_exit = run_config(g_dir, yaml);
@@ -148,7 +147,8 @@ class Paper1Analytic : public ::testing::Test {
     for (size_t k = 0; k < bs.size(); ++k) {
       const Block& b = bs[k];
       double tolerance = 4.0 / std::sqrt(b.photons) + 0.005;
-      worst = std::max(worst, std::abs(b.measured / (factor * b.expected) - 1.0) * std::sqrt(b.photons));
+      worst = std::max(worst,
+                       std::abs(b.measured / (factor * b.expected) - 1.0) * std::sqrt(b.photons));
       EXPECT_NEAR(b.measured / (factor * b.expected), 1.0, tolerance)
           << what << ", block " << k << " (" << b.photons << " photons)";
       measured += b.measured;
@@ -180,7 +180,8 @@ TEST_F(Paper1Analytic, ClusterIrradianceIsTheDiskMean) {
 
 TEST_F(Paper1Analytic, DirectionalIrradianceIsTheNodeMean) {
   ASSERT_EQ(g_exit, 0) << "see " << (g_dir / "log.txt");
-  expect_matches(blocks("directional", {{"weighting", "clip"}, {"layout", "default"}, {"deposit", "coverage"}}),
+  expect_matches(blocks("directional",
+                        {{"weighting", "clip"}, {"layout", "default"}, {"deposit", "coverage"}}),
                  1.0, "directional clip");
   expect_matches(blocks("directional", {{"weighting", "clip"}, {"layout", "deep"}}), 1.0,
                  "directional clip, deep layout");

@@ -1,6 +1,6 @@
-// The photon-technique toolkit's GPU building blocks on the device (lavapipe): fixed-point flux sums
-// keep every channel within their documented error bound (a weak channel included, at Paper I's
-// photon counts), the prefix sum equals a CPU scan, and the counting sort groups items by key.
+// The photon-technique toolkit's GPU building blocks on the device (lavapipe): fixed-point flux
+// sums keep every channel within their documented error bound (a weak channel included, at Paper
+// I's photon counts), the prefix sum equals a CPU scan, and the counting sort groups items by key.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -32,8 +32,8 @@ struct FluxPush {
   uint32_t count, pad[3];
 };
 
-// Sums `values` (watts per channel) on the GPU with the toolkit's fixed point; returns the sums read
-// back as watts.
+// Sums `values` (watts per channel) on the GPU with the toolkit's fixed point; returns the sums
+// read back as watts.
 glm::dvec3 gpu_flux_sum(const std::vector<glm::vec4>& values, const FluxScale& scale) {
   auto& gpu = device();
   auto in = toolkit::storage_buffer(gpu, "test/values", values.size() * 16);
@@ -48,8 +48,8 @@ glm::dvec3 gpu_flux_sum(const std::vector<glm::vec4>& values, const FluxScale& s
     pipeline.bind(cmd, {&in, &sums}, push);
     cmd.dispatch(gpu::groups_for(values.size(), 64), 1, 1);
     vk::MemoryBarrier to_host{vk::AccessFlagBits::eMemoryWrite, vk::AccessFlagBits::eHostRead};
-    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands, vk::PipelineStageFlagBits::eHost, {},
-                        to_host, {}, {});
+    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands, vk::PipelineStageFlagBits::eHost,
+                        {}, to_host, {}, {});
   });
   auto w = sums.view<uint32_t>();
   glm::dvec3 watts;
@@ -72,7 +72,8 @@ TEST(FixedPoint, WeakChannelKeepsItsShareAtPaperScale) {
   for (int c = 0; c < 3; ++c) {
     double exact = double(values.size()) * double(photon[c]);
     double bound = scale.error_bound(values.size(), exact, photon[c]);
-    EXPECT_LE(std::abs(sum[c] - exact), bound) << "channel " << c << ": " << sum[c] << " vs " << exact;
+    EXPECT_LE(std::abs(sum[c] - exact), bound)
+        << "channel " << c << ": " << sum[c] << " vs " << exact;
     EXPECT_LT(std::abs(sum[c] / exact - 1.0), 2.5e-7) << "channel " << c;
   }
 }
@@ -84,7 +85,8 @@ TEST(FixedPoint, UnequalPhotonsStayWithinTheBound) {
   std::lognormal_distribution<float> spread(0.0f, 1.0f);
   std::uniform_real_distribution<float> tint(1e-4f, 1.0f);
   std::vector<glm::vec4> values(200000);
-  for (auto& v : values) v = glm::vec4(spread(rng) * tint(rng), spread(rng) * tint(rng) * 1e-3f, spread(rng), 0) * 1e-6f;
+  for (auto& v : values)
+    v = glm::vec4(spread(rng) * tint(rng), spread(rng) * tint(rng) * 1e-3f, spread(rng), 0) * 1e-6f;
   glm::vec3 largest(0.0f);
   for (const auto& v : values) largest = glm::max(largest, glm::vec3(v));
   const FluxScale scale = FluxScale::for_largest(largest);
@@ -184,7 +186,8 @@ TEST(CountingSort, GroupsItemsByKey) {
     ASSERT_LE(sorted[i - 1].y & 0x7fffffffu, sorted[i].y & 0x7fffffffu) << "at " << i;
   auto by_index = [](glm::uvec2 a, glm::uvec2 b) { return a.x < b.x; };
   std::sort(sorted.begin(), sorted.end(), by_index);
-  for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(sorted[i], items[i]) << "item " << i << " lost or changed";
+  for (uint32_t i = 0; i < n; ++i)
+    ASSERT_EQ(sorted[i], items[i]) << "item " << i << " lost or changed";
 }
 
 }  // namespace

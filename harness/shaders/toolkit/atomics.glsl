@@ -1,7 +1,7 @@
 // Exact integer accumulation with 32-bit atomics (the harness's device enables no float or 64-bit
 // atomics): 64-bit counters as two words, and the fixed-point flux sums of
-// photonbench/toolkit/fixed_point.h. GLSL cannot pass a buffer to a function, so the adds are macros
-// over any `uint` array.
+// photonbench/toolkit/fixed_point.h. GLSL cannot pass a buffer to a function, so the adds are
+// macros over any `uint` array.
 #ifndef PB_TOOLKIT_ATOMICS_GLSL
 #define PB_TOOLKIT_ATOMICS_GLSL
 
@@ -23,9 +23,9 @@ uvec3 pb_flux_units(vec3 phi, vec3 units_per_watt) {
   return uvec3(round(max(phi, vec3(0.0)) * units_per_watt));
 }
 
-// Adds `units` (uvec3) to three 64-bit sums: channel c's low word at lo[lo_at + c], its high word at
-// hi[hi_at + c] (lo and hi may be one array). The high word only changes on a carry, i.e. about once
-// per 2^(32 - PB_FLUX_UNIT_BITS) adds of the largest photon.
+// Adds `units` (uvec3) to three 64-bit sums: channel c's low word at lo[lo_at + c], its high word
+// at hi[hi_at + c] (lo and hi may be one array). The high word only changes on a carry, i.e. about
+// once per 2^(32 - PB_FLUX_UNIT_BITS) adds of the largest photon.
 #define PB_FLUX_ADD(lo, lo_at, hi, hi_at, units)                          \
   {                                                                       \
     uvec3 pb_u_ = (units);                                                \

@@ -1,6 +1,6 @@
 // The shared G-buffer as toolkit shaders read it (pb::GBuffer, photonbench/context.h): define
-// PB_GBUFFER_BINDING to the first of three consecutive storage-image bindings, include this, and bind
-// pb::toolkit::gbuffer_resources() there.
+// PB_GBUFFER_BINDING to the first of three consecutive storage-image bindings, include this, and
+// bind pb::toolkit::gbuffer_resources() there.
 //   + 0 gbuffer_position  world xyz, w = distance to the camera (0: background)
 //   + 1 gbuffer_normal    world shading normal facing the camera, w = material index
 //   + 2 gbuffer_albedo    diffuse albedo rgb, w = material type (PB_MATERIAL_*)
@@ -10,7 +10,7 @@
 #include "photonbench/scene_layout.h"
 
 #ifndef PB_GBUFFER_BINDING
-#error "define PB_GBUFFER_BINDING (first of the G-buffer's three bindings) before including gbuffer.glsl"
+#error "define PB_GBUFFER_BINDING (the first of the G-buffer's three bindings) first"
 #endif
 
 layout(binding = PB_GBUFFER_BINDING + 0, rgba32f) readonly uniform image2D gbuffer_position;

@@ -1,17 +1,20 @@
-// The view-sample cluster hierarchy for shaders (Paper I §4.1, §4.3, §4.5, §5.2): buffer declarations
-// and helpers shared by the cluster-build passes and by every shader that reads the hierarchy
-// (cluster, directional). Layout and terms: photonbench/toolkit/hierarchy_layout.h; C++ side:
-// photonbench/toolkit/hierarchy.h; the traversal of a photon sphere: toolkit/traverse.glsl.
+// The view-sample cluster hierarchy for shaders (Paper I §4.1, §4.3, §4.5, §5.2): buffer
+// declarations and helpers shared by the cluster-build passes and by every shader that reads the
+// hierarchy (cluster, directional). Layout and terms: photonbench/toolkit/hierarchy_layout.h; C++
+// side: photonbench/toolkit/hierarchy.h; the traversal of a photon sphere: toolkit/traverse.glsl.
 //
 // Use: define HIER_BINDING to the first of HIER_BINDING_COUNT consecutive bindings (set 0), then
 // include this file; bind pb::toolkit::Hierarchy::bindings() there in order:
 //   HIER_BINDING + 0  info           HierInfo (hierarchy_layout.h)
-//               + 1  masks[]        uint: roots' occupancy flags, child masks of levels 0..L-2, leaf bases
-//               + 2  slots[]        uint: key -> cid, dense per level but the leaves' (read where occupied)
+//               + 1  masks[]        uint: roots' occupancy flags, child masks of levels 0..L-2,
+//                                   leaf bases
+//               + 2  slots[]        uint: key -> cid, dense per level but the leaves' (read where
+//                                   occupied)
 //               + 3  node_keys[]    uint: key of each cid (the per-level lists of occupied nodes)
 //               + 4  aabbs[]        6 floats per cid: view-space min xyz, max xyz
 //               + 5  cones[]        vec4 per cid: view-space cone axis xyz, half-angle w (radians)
-//               + 6  sample_leaves[] uint per pixel: leaf key of the view sample, HIER_NO_LEAF if none
+//               + 6  sample_leaves[] uint per pixel: leaf key of the view sample, HIER_NO_LEAF if
+//                                   none
 // The build shaders define HIER_BUILD first: then the buffers are writable and aabbs / cones are
 // seen as uint words (the build reduces into them with integer atomics).
 #ifndef PB_TOOLKIT_HIERARCHY_GLSL
@@ -22,7 +25,7 @@
 
 #define HIER_BINDING_COUNT 7
 #ifndef HIER_BINDING
-#error "define HIER_BINDING (first binding of the hierarchy's buffers) before including hierarchy.glsl"
+#error "define HIER_BINDING (the first binding of the hierarchy's buffers) first"
 #endif
 
 #ifdef HIER_BUILD
@@ -42,17 +45,21 @@ layout(std430, binding = HIER_BINDING + 5) buffer HierCones { uint hier_cone_wor
 layout(std430, binding = HIER_BINDING + 4) readonly buffer HierAabbs { float hier_aabbs[]; };
 layout(std430, binding = HIER_BINDING + 5) readonly buffer HierCones { vec4 hier_cones[]; };
 #endif
-layout(std430, binding = HIER_BINDING + 6) HIER_RO buffer HierSampleLeaves { uint hier_sample_leaves[]; };
+layout(std430, binding = HIER_BINDING + 6) HIER_RO buffer HierSampleLeaves {
+  uint hier_sample_leaves[];
+};
 
 // Margin (radians) on normal-cone decisions: cone angles come from float acos and fixed-point
-// normal sums, so a decision within this margin of the boundary is left to the exact per-sample test.
+// normal sums, so a decision within this margin of the boundary is left to the exact per-sample
+// test.
 const float HIER_CONE_EPS = 2e-3;
 
 uint hier_levels() { return hier.dims.x; }
 uint hier_leaf_level() { return hier.dims.x - 1u; }
 uint hier_root_count() { return hier.dims.w; }
 
-// Node keys (Paper I §4.3: "the node key is simply shifted five bits to the left, and i is appended").
+// Node keys (Paper I §4.3: "the node key is simply shifted five bits to the left, and i is
+// appended").
 uint hier_child_key(uint key, uint i) { return (key << 5u) | i; }
 uint hier_parent_key(uint key) { return key >> 5u; }
 
@@ -113,8 +120,8 @@ bool hier_sphere_encloses(vec3 lo, vec3 hi, vec3 c, float r) {
 
 // Normal-cone tests (Paper I §4.5, §4.6) for a photon arriving from view-space unit direction w_in
 // (pointing away from the surface, towards where the photon came from, i.e. -direction of travel):
-// reject when the angle to the cone axis exceeds pi/2 + alpha (below every contained tangent plane);
-// "all above" when it is under pi/2 - alpha (above every contained tangent plane).
+// reject when the angle to the cone axis exceeds pi/2 + alpha (below every contained tangent
+// plane); "all above" when it is under pi/2 - alpha (above every contained tangent plane).
 float hier_cone_angle(vec4 cone, vec3 w_in) { return acos(clamp(dot(cone.xyz, w_in), -1.0, 1.0)); }
 bool hier_cone_rejects(vec4 cone, vec3 w_in) {
   return hier_cone_angle(cone, w_in) > PB_HALF_PI + cone.w + HIER_CONE_EPS;
@@ -124,8 +131,8 @@ bool hier_cone_all_above(vec4 cone, vec3 w_in) {
 }
 
 // Depth slice of a view depth (metres along the viewing axis): exponential slices (Olsson et al.'s
-// clustered shading, so leaves are roughly cubical), slice 0 starting at depth `near`, each slice
-// q times deeper than the previous (inv_ln_q = 1 / ln q). cluster-build stores the frame's values in
+// clustered shading, so leaves are roughly cubical), slice 0 starting at depth `near`, each slice q
+// times deeper than the previous (inv_ln_q = 1 / ln q). cluster-build stores the frame's values in
 // hier.depth.zw.
 uint hier_depth_slice_at(float view_depth, float near, float inv_ln_q) {
   float s = floor(log(max(view_depth, near) / near) * inv_ln_q);

@@ -1,9 +1,10 @@
 // (photon, node) jobs between the top splat pass and the per-node passes below it (Paper I §4.3:
 // "the first pass traverses down 3 levels ... and outputs a list of jobs; the jobs are rearranged
-// into local groups that are used in the following insertion passes"; §5.2: "two lists are needed in
-// practice"). The producer emits into an unordered list; pb::toolkit::JobQueue counts them, writes
-// the consumers' dispatch arguments and sorts the list by node (CountingSort), so that consecutive
-// jobs, and an invocation's run of jobs, share nodes. C++ side: photonbench/toolkit/jobs.h.
+// into local groups that are used in the following insertion passes"; §5.2: "two lists are needed
+// in practice"). The producer emits into an unordered list; pb::toolkit::JobQueue counts them,
+// writes the consumers' dispatch arguments and sorts the list by node (CountingSort), so that
+// consecutive jobs, and an invocation's run of jobs, share nodes. C++ side:
+// photonbench/toolkit/jobs.h.
 //
 // Use: define PB_JOBS_BINDING (first of PB_JOBS_BINDING_COUNT bindings), include this, bind
 // JobQueue::bindings() there.
@@ -21,8 +22,8 @@ layout(std430, binding = PB_JOBS_BINDING + 0) buffer PbJobsEmitted { uvec2 pb_jo
 layout(std430, binding = PB_JOBS_BINDING + 1) readonly buffer PbJobs { uvec2 pb_jobs[]; };
 layout(std430, binding = PB_JOBS_BINDING + 2) buffer PbJobStats { uint pb_job_stats[]; };
 
-// Producer: a job for `photon` at node word `node` (a cid, | PB_JOB_WHOLE to store there). Jobs past
-// the capacity are dropped; the host reports them (job_overflows: wanted - capacity).
+// Producer: a job for `photon` at node word `node` (a cid, | PB_JOB_WHOLE to store there). Jobs
+// past the capacity are dropped; the host reports them (job_overflows: wanted - capacity).
 void pb_job_emit(uint photon, uint node) {
   uint slot = atomicAdd(pb_job_stats[PB_JOB_STAT_WANTED], 1u);
   ++pb_prof_atomics;

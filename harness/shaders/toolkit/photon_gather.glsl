@@ -1,10 +1,11 @@
 // Paper I's radiance estimate over photon lists (§4.4, shared by tiled and cluster): a photon in a
-// sample's lists contributes when the sample lies inside its sphere and the photon arrives from above
-// the sample's tangent plane (implied by §4.6); I = f * sum(Phi) with the Lambertian f = albedo / pi
-// (every estimate here is diffuse: photons are stored on diffuse surfaces only), L = I / (pi r^2)
-// (constant kernel, no smoothing). Lists are read in slices of PB_LIST_SLICE entries, one dispatch
-// each (llvmpipe's loop limit; pb::toolkit::dispatch_slices), later slices adding to the image; a
-// work group sums the entries it read and rejected and adds them to two 64-bit counters once.
+// sample's lists contributes when the sample lies inside its sphere and the photon arrives from
+// above the sample's tangent plane (implied by §4.6); I = f * sum(Phi) with the Lambertian f =
+// albedo / pi (every estimate here is diffuse: photons are stored on diffuse surfaces only), L = I
+// / (pi r^2) (constant kernel, no smoothing). Lists are read in slices of PB_LIST_SLICE entries,
+// one dispatch each (llvmpipe's loop limit; pb::toolkit::dispatch_slices), later slices adding to
+// the image; a work group sums the entries it read and rejected and adds them to two 64-bit
+// counters once.
 //
 // Use: declare `PhotonRecord photons[]`, include toolkit/photon_lists.glsl, then this.
 #ifndef PB_TOOLKIT_PHOTON_GATHER_GLSL

@@ -1,8 +1,9 @@
 // Per-bin photon lists built by Paper I's two splatting runs (§4.3: "We calculate the required
-// array size for each node in a first pass (traversing the hierarchy exactly as we do when inserting
-// photons)"): a count run adds 1 per (bin, photon), a prefix sum turns the counts into offsets, an
-// insert run writes each photon id at offset + cursor. Bins are tiles (tiled) or hierarchy nodes
-// (cluster). C++ side: pb::toolkit::PhotonLists (photonbench/toolkit/photon_lists.h).
+// array size for each node in a first pass (traversing the hierarchy exactly as we do when
+// inserting photons)"): a count run adds 1 per (bin, photon), a prefix sum turns the counts into
+// offsets, an insert run writes each photon id at offset + cursor. Bins are tiles (tiled) or
+// hierarchy nodes (cluster). C++ side: pb::toolkit::PhotonLists
+// (photonbench/toolkit/photon_lists.h).
 //
 // The two runs must agree bin for bin, and the lists are not cleared between frames, so an insert
 // never writes past its bin's count (it would land in the next bin's range), and the check pass
@@ -36,8 +37,8 @@ void pb_list_count(uint bin) {
 }
 
 // Insert run: `photon` into `bin`'s list. Entries past the end of the lists are not written (the
-// host reports the entries past the capacity as overflows: entries wanted - capacity; the check pass
-// keeps estimates within the capacity); entries past the bin's count are not written either (a
+// host reports the entries past the capacity as overflows: entries wanted - capacity; the check
+// pass keeps estimates within the capacity); entries past the bin's count are not written either (a
 // count/insert disagreement, which the check pass reports).
 void pb_list_insert(uint bin, uint photon) {
   uint k = atomicAdd(pb_list_cursors[bin], 1u);

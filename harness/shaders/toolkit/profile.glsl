@@ -1,15 +1,16 @@
 // Where a pass's time goes (the `profile` parameter; pb::toolkit::PassProfile reads it back): per
 // pass, 64-bit sums over its invocations of loop steps, hierarchy nodes visited, global atomics
-// issued, the most steps one invocation took, and SIMD lane use: for each loop step of a subgroup, the lanes that took it (active) and
-// the lanes it had (gl_SubgroupSize), so 1 - active / lanes is the share of lanes idle in the
-// traversal loops (divergence: on lavapipe a subgroup is one SIMD register of invocations, and a loop
-// runs until its slowest lane is done). The counters are kept in locals and written once per
-// invocation, and only when profiling (PB_PROFILE_ON), so they cost nothing otherwise.
+// issued, the most steps one invocation took, and SIMD lane use: for each loop step of a subgroup,
+// the lanes that took it (active) and the lanes it had (gl_SubgroupSize), so 1 - active / lanes is
+// the share of lanes idle in the traversal loops (divergence: on lavapipe a subgroup is one SIMD
+// register of invocations, and a loop runs until its slowest lane is done). The counters are kept
+// in locals and written once per invocation, and only when profiling (PB_PROFILE_ON), so they cost
+// nothing otherwise.
 //
 // Use: define PB_PROFILE_BINDING (one storage buffer) and PB_PROFILE_SLOT (a uint expression: which
 // pass), include this, call pb_profile_flush() at the end. The counting is compiled in only with
-// PB_PROFILED defined (the toolkit embeds a profiled variant of each splat pass: even a branch never
-// taken cost 15% of directional's frame on lavapipe), so the counters are free otherwise.
+// PB_PROFILED defined (the toolkit embeds a profiled variant of each splat pass: even a branch
+// never taken cost 15% of directional's frame on lavapipe), so the counters are free otherwise.
 #ifndef PB_TOOLKIT_PROFILE_GLSL
 #define PB_TOOLKIT_PROFILE_GLSL
 

@@ -1,22 +1,22 @@
 // A photon sphere's walk through the view-sample cluster hierarchy (Paper I §4.3), shared by every
-// splatter on it (cluster's top and leaf passes, directional's top and job passes): iterative, with a
-// stack of the remaining child masks, one per level, started from a node's child mask; take the
+// splatter on it (cluster's top and leaf passes, directional's top and job passes): iterative, with
+// a stack of the remaining child masks, one per level, started from a node's child mask; take the
 // first set bit, clear it, visit that child (§4.3: "the node key is simply shifted five bits to the
 // left, and i is appended"), then skip it, store at it, or descend (or, at the stop level, hand it
 // on); a pop shifts the key back.
 //
 // The including shader includes toolkit/hierarchy.glsl and toolkit/profile.glsl, then defines:
 //   int  visit(uint level, uint cid)            PB_VISIT_SKIP, PB_VISIT_STORE or PB_VISIT_DESCEND
-//   void on_store(uint level, uint cid)         the photon is stored at (or deposited into) the node
+//   void on_store(uint level, uint cid)         the photon is stored at (deposited into) the node
 //   void on_descend_stop(uint level, uint cid)  an intersected node at the stop level
 //
 // Budget (llvmpipe's loop limit, photonbench/toolkit/limits.h): every loop step of the invocation
-// (the walks' and any other loop's that calls pb_step) takes one unit of pb_budget, which the shader
-// sets at the start of main (the `loop_budget` parameter, PB_LOOP_BUDGET by default). A walk with no
-// unit left before its work is done stops and returns false: truncated, for the caller to count. A
-// walk whose last step takes the last unit is complete. The check comes before every step, so the
-// budget never wraps below zero. (A global rather than an inout parameter, so that loops inside
-// visit() draw on the same budget.)
+// (the walks' and any other loop's that calls pb_step) takes one unit of pb_budget, which the
+// shader sets at the start of main (the `loop_budget` parameter, PB_LOOP_BUDGET by default). A walk
+// with no unit left before its work is done stops and returns false: truncated, for the caller to
+// count. A walk whose last step takes the last unit is complete. The check comes before every step,
+// so the budget never wraps below zero. (A global rather than an inout parameter, so that loops
+// inside visit() draw on the same budget.)
 #ifndef PB_TOOLKIT_TRAVERSE_GLSL
 #define PB_TOOLKIT_TRAVERSE_GLSL
 

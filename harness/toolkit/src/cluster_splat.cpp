@@ -6,7 +6,6 @@
 #include <algorithm>
 
 #include "photonbench/error.h"
-#include "photonbench/toolkit/tiled_splat.h"
 #include "toolkit_profiled_shaders.h"
 #include "toolkit_shaders.h"
 
@@ -74,8 +73,8 @@ void ClusterSplat::setup(Context& ctx, const Params& params, const PhotonParams&
       "splat/top", pick(kcluster_top_comp_spv, kcluster_top_comp_profiled_spv), bindings, kPush);
   leaf_pipeline_ = gpu.create_compute_pipeline(
       "splat/leaf", pick(kcluster_leaf_comp_spv, kcluster_leaf_comp_profiled_spv), bindings, kPush);
-  estimate_pipeline_ = gpu.create_compute_pipeline("radiance-estimate", kcluster_estimate_comp_spv,
-                                                   bindings, kPush);
+  estimate_pipeline_ =
+      gpu.create_compute_pipeline("radiance-estimate", kcluster_estimate_comp_spv, bindings, kPush);
 }
 
 void ClusterSplat::ensure_resources(Context& ctx) {

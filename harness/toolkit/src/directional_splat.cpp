@@ -84,8 +84,8 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
   deposit_pipeline_ = gpu.create_compute_pipeline(
       "directional/deposit",
       pick(kdirectional_deposit_comp_spv, kdirectional_deposit_comp_profiled_spv), bindings, kPush);
-  estimate_pipeline_ = gpu.create_compute_pipeline(
-      "directional/radiance-estimate", kdirectional_estimate_comp_spv, bindings, kPush);
+  estimate_pipeline_ = gpu.create_compute_pipeline("directional/radiance-estimate",
+                                                   kdirectional_estimate_comp_spv, bindings, kPush);
   blur_pipeline_ = gpu.create_compute_pipeline("directional/blur", kdirectional_blur_comp_spv,
                                                {I, I, I, I, I}, sizeof(BlurPush));
 }
@@ -106,8 +106,8 @@ void DirectionalSplat::ensure_resources(Context& ctx) {
                fmt::format("directional: accumulate_at = {} at {}x{} (the direction buckets; use "
                            "accumulate_at = accumulation or a lower resolution)",
                            at_leaves_ ? "leaves" : "accumulation", width_, height_));
-  leaf_counts_ = storage_buffer(
-      gpu, "directional/leaf-counts", uint64_t(hierarchy_.node_capacity(hierarchy_.leaf_level())) * 16);
+  leaf_counts_ = storage_buffer(gpu, "directional/leaf-counts",
+                                uint64_t(hierarchy_.node_capacity(hierarchy_.leaf_level())) * 16);
   jobs_.resize(gpu, scan_, hierarchy_.node_capacity());
   auto usage = vk::ImageUsageFlagBits::eStorage;
   auto format = vk::Format::eR32G32B32A32Sfloat;

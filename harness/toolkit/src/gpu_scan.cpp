@@ -1,10 +1,10 @@
 // PrefixSum and CountingSort (photonbench/toolkit/gpu_scan.h).
 #include "photonbench/toolkit/gpu_scan.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <string>
-
-#include <fmt/format.h>
 
 #include "photonbench/error.h"
 #include "toolkit_shaders.h"
@@ -34,8 +34,8 @@ constexpr auto kStorage = U::eStorageBuffer | U::eTransferDst | U::eTransferSrc;
 void PrefixSum::setup(gpu::Device& gpu) {
   gpu_ = &gpu;
   std::vector<Binding> bindings(4, Binding::storage_buffer);
-  blocks_pipeline_ = gpu.create_compute_pipeline("prefix-sum/blocks", kscan_blocks_comp_spv, bindings,
-                                                 sizeof(ScanPush));
+  blocks_pipeline_ = gpu.create_compute_pipeline("prefix-sum/blocks", kscan_blocks_comp_spv,
+                                                 bindings, sizeof(ScanPush));
   top_pipeline_ =
       gpu.create_compute_pipeline("prefix-sum/top", kscan_top_comp_spv, bindings, sizeof(ScanPush));
   add_pipeline_ =
@@ -54,7 +54,8 @@ void PrefixSum::record(vk::CommandBuffer cmd, const gpu::Buffer& in, const gpu::
                        uint32_t count, const gpu::Buffer* total, uint32_t total_word) const {
   const uint32_t blocks = std::max<uint32_t>(1, gpu::groups_for(count, kScanBlock));
   if (blocks_.size() < uint64_t(blocks) * 4)
-    throw Error(fmt::format("prefix sum of {} words: only {} reserved", count, blocks_.size() / 4 * kScanBlock));
+    throw Error(fmt::format("prefix sum of {} words: only {} reserved", count,
+                            blocks_.size() / 4 * kScanBlock));
   ScanPush push{count, total ? total_word : 0xffffffffu};
   const gpu::Buffer* total_buffer = total ? total : &no_total_;
   blocks_pipeline_.bind(cmd, {&in, &out, &blocks_, total_buffer}, push);
@@ -80,7 +81,8 @@ void CountingSort::resize(gpu::Device& gpu, PrefixSum& scan, uint32_t bins, std:
   scan.reserve(bins);
   uint64_t bytes = std::max<uint64_t>(uint64_t(bins) * 4, 16);
   auto make = [&](const char* what) {
-    return gpu.create_buffer(std::string(name) + "/" + what, bytes, kStorage, gpu::Memory::device_local);
+    return gpu.create_buffer(std::string(name) + "/" + what, bytes, kStorage,
+                             gpu::Memory::device_local);
   };
   bins_ = make("sort-bins");
   offsets_ = make("sort-offsets");
@@ -89,7 +91,8 @@ void CountingSort::resize(gpu::Device& gpu, PrefixSum& scan, uint32_t bins, std:
 
 void CountingSort::record(vk::CommandBuffer cmd, const PrefixSum& scan, const gpu::Buffer& items,
                           const gpu::Buffer& sorted, const gpu::Buffer& count_buffer,
-                          uint32_t count_word, vk::DeviceSize args_offset, uint32_t key_mask) const {
+                          uint32_t count_word, vk::DeviceSize args_offset,
+                          uint32_t key_mask) const {
   cmd.fillBuffer(bins_.handle(), 0, VK_WHOLE_SIZE, 0u);
   cmd.fillBuffer(cursors_.handle(), 0, VK_WHOLE_SIZE, 0u);
   gpu::full_barrier(cmd);

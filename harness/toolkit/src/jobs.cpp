@@ -8,7 +8,8 @@
 
 namespace pb::toolkit {
 
-void JobQueue::setup(gpu::Device& gpu, uint32_t capacity, uint32_t jobs_per_thread, std::string name) {
+void JobQueue::setup(gpu::Device& gpu, uint32_t capacity, uint32_t jobs_per_thread,
+                     std::string name) {
   name_ = std::move(name);
   capacity_ = capacity;
   jobs_per_thread_ = jobs_per_thread;

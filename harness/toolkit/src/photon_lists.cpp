@@ -13,7 +13,8 @@ void PhotonLists::setup(gpu::Device& gpu, uint32_t capacity, std::string name) {
   capacity_ = capacity;
   name_ = std::move(name);
   lists_ = storage_buffer(gpu, name_ + "/photon-lists", uint64_t(capacity) * 4);
-  stats_ = storage_buffer(gpu, name_ + "/list-stats", PB_LIST_STAT_WORDS * 4, gpu::Memory::host_visible);
+  stats_ =
+      storage_buffer(gpu, name_ + "/list-stats", PB_LIST_STAT_WORDS * 4, gpu::Memory::host_visible);
   check_pipeline_ = gpu.create_compute_pipeline(
       name_ + "/list-check", klists_check_comp_spv,
       std::vector<gpu::Binding>(kBindingCount, gpu::Binding::storage_buffer), 0);
@@ -45,7 +46,8 @@ void PhotonLists::check(vk::CommandBuffer cmd) const {
 }
 
 void PhotonLists::append_bindings(std::vector<gpu::Resource>& resources) const {
-  for (const gpu::Buffer* b : {&counts_, &offsets_, &cursors_, &lists_, &stats_}) resources.push_back(b);
+  for (const gpu::Buffer* b : {&counts_, &offsets_, &cursors_, &lists_, &stats_})
+    resources.push_back(b);
 }
 
 PhotonLists::Stats PhotonLists::stats() const {
@@ -59,7 +61,8 @@ PhotonLists::Stats PhotonLists::stats() const {
   return out;
 }
 
-void PhotonLists::report(Context& ctx, std::string_view who, std::string_view capacity_param) const {
+void PhotonLists::report(Context& ctx, std::string_view who,
+                         std::string_view capacity_param) const {
   Stats s = stats();
   ctx.count("list_entries", double(s.written));
   ctx.count("list_overflows", double(s.overflows));
@@ -70,10 +73,11 @@ void PhotonLists::report(Context& ctx, std::string_view who, std::string_view ca
         "underestimated in this frame)",
         who, s.wanted, capacity_param, capacity_, s.overflows));
   if (s.mismatched_bins > 0)
-    ctx.warn(fmt::format(
-        "{}: the count and insert runs disagree on {} lists ({} entries); those lists are read only "
-        "as far as both runs agree (indirect light is wrong there in this frame)",
-        who, s.mismatched_bins, s.mismatched_entries));
+    ctx.warn(
+        fmt::format("{}: the count and insert runs disagree on {} lists ({} entries); those lists "
+                    "are read only "
+                    "as far as both runs agree (indirect light is wrong there in this frame)",
+                    who, s.mismatched_bins, s.mismatched_entries));
 }
 
 uint64_t PhotonLists::bytes() const {

@@ -15,7 +15,8 @@ PhotonParams PhotonParams::read(const Params& params) {
   p.radius = float(params.number("radius"));
   p.max_bounces = uint32_t(params.integer("max_bounces"));
   p.shadow_map_size = uint32_t(params.integer("shadow_map_size"));
-  if (params.all().count(kStoreFirstHitParam.name)) p.store_first_hit = params.flag("store_first_hit");
+  if (params.all().count(kStoreFirstHitParam.name))
+    p.store_first_hit = params.flag("store_first_hit");
   return p;
 }
 

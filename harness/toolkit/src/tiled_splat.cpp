@@ -49,7 +49,8 @@ void TiledSplat::setup(Context& ctx, const Params& params, const PhotonParams& p
   std::vector<gpu::Binding> bindings(PhotonLists::kBindingCount + 3, B);
   bindings.insert(bindings.end(), {I, I, I, I});
   constexpr uint32_t kPush = sizeof(TiledPush);
-  bounds_pipeline_ = gpu.create_compute_pipeline("tile-bounds", ktiled_bounds_comp_spv, bindings, kPush);
+  bounds_pipeline_ =
+      gpu.create_compute_pipeline("tile-bounds", ktiled_bounds_comp_spv, bindings, kPush);
   splat_pipeline_ = gpu.create_compute_pipeline("splat", ktiled_splat_comp_spv, bindings, kPush);
   estimate_pipeline_ =
       gpu.create_compute_pipeline("radiance-estimate", ktiled_estimate_comp_spv, bindings, kPush);

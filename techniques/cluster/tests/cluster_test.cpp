@@ -1,9 +1,9 @@
 // cluster technique, end to end through `photonbench run` (with Vulkan validation). Paper I's
 // cluster method shades each sample with the same photons as tiled ("they end up shading view
 // samples with the same list of photons: only the way those lists are computed changes", §5.3), and
-// the cone and trivial optimisations are exact on diffuse scenes (§4.5, §4.6): on cornell-box and on
-// pillars (depth discontinuities inside every tile) every variant must give tiled's image, and the
-// list-based variants must accept exactly tiled's photons. Also: long per-sample lists are read
+// the cone and trivial optimisations are exact on diffuse scenes (§4.5, §4.6): on cornell-box and
+// on pillars (depth discontinuities inside every tile) every variant must give tiled's image, and
+// the list-based variants must accept exactly tiled's photons. Also: long per-sample lists are read
 // whole (lavapipe's loop limit); each overflow is counted in its own unit and warned, not fatal; a
 // traversal that runs out of its loop budget is counted exactly at the budget; the trivial node
 // flux keeps a weak colour channel (fixed point per channel).
@@ -58,9 +58,11 @@ void expect_tiled_image(const std::string& scene, const std::string& photons) {
   std::string yaml = header(dir, scene) +
                      "techniques:\n"
                      "  - technique: direct\n"
-                     "  - {technique: tiled, params: " + p + "}}\n" +
-                     "  - {technique: cluster, params: " + p + ", variant: [plain, cone, trivial]}}\n" +
-                     "  - {technique: cluster, params: " + p + ", layout: shallow, top_levels: 0}}\n";
+                     "  - {technique: tiled, params: " +
+                     p + "}}\n" + "  - {technique: cluster, params: " + p +
+                     ", variant: [plain, cone, trivial]}}\n" +
+                     "  - {technique: cluster, params: " + p +
+                     ", layout: shallow, top_levels: 0}}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   fs::path direct = find_cell(dir, "direct"), tiled = find_cell(dir, "tiled");
   fs::path shallow = find_cell(dir, "cluster", {{"layout", "shallow"}});
@@ -85,7 +87,8 @@ void expect_tiled_image(const std::string& scene, const std::string& photons) {
     // methods accept is one tiled accepts (the sphere and tangent-plane tests are the same).
     EXPECT_LT(sums["photons_read"], counters(tiled)["photons_read"]);
     if (variant != "trivial")
-      EXPECT_NEAR(accepted(cell) / tiled_accepted, 1.0, 1e-6) << accepted(cell) << " vs " << tiled_accepted;
+      EXPECT_NEAR(accepted(cell) / tiled_accepted, 1.0, 1e-6)
+          << accepted(cell) << " vs " << tiled_accepted;
   }
   SCOPED_TRACE("shallow layout, top_levels 0");
   expect_ok(shallow);
@@ -164,8 +167,8 @@ TEST(Cluster, EachOverflowIsCountedInItsOwnUnitAndWarned) {
 }
 
 // One photon, profiled: the most loop steps an invocation took is M. With loop_budget = M nothing
-// is truncated (a walk that ends with no budget left is complete: it used to be reported truncated);
-// with M - 1 some traversal is, counted and warned about.
+// is truncated (a walk that ends with no budget left is complete: it used to be reported
+// truncated); with M - 1 some traversal is, counted and warned about.
 TEST(Cluster, TraversalsAreTruncatedExactlyPastTheBudget) {
   fs::path dir = work_dir("budget");
   expect_budget_boundary(dir, header(dir), "cluster",
@@ -181,10 +184,11 @@ TEST(Cluster, TraversalsAreTruncatedExactlyPastTheBudget) {
 TEST(Cluster, TrivialNodeFluxKeepsAWeakChannel) {
   fs::path dir = work_dir("weak");
   fs::path scene = grey_box_scene(dir, "grey-box", "[1, 1e-5, 1]");
-  std::string yaml = header(dir, scene.string()) +
-                     "techniques:\n"
-                     "  - {technique: tiled, params: {photons: 80000, radius: 0.1}}\n"
-                     "  - {technique: cluster, params: {photons: 80000, radius: 0.1, variant: trivial}}\n";
+  std::string yaml =
+      header(dir, scene.string()) +
+      "techniques:\n"
+      "  - {technique: tiled, params: {photons: 80000, radius: 0.1}}\n"
+      "  - {technique: cluster, params: {photons: 80000, radius: 0.1, variant: trivial}}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   fs::path tiled = find_cell(dir, "tiled"), trivial = find_cell(dir, "cluster");
   expect_ok(trivial);

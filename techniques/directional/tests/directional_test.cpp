@@ -29,7 +29,9 @@ namespace {
 
 using namespace pb::testing;
 
-fs::path work_dir(const std::string& name) { return pb::testing::work_dir("directional_test", name); }
+fs::path work_dir(const std::string& name) {
+  return pb::testing::work_dir("directional_test", name);
+}
 
 // directional against tiled with the same photons on cornell-box at 160x90, 20k paths, r = 0.05:
 // the mean indirect light directional adds, relative to tiled's (measured 1.037: Paper I's cos2
@@ -144,9 +146,9 @@ TEST(Directional, BlurKeepsDepthAndNormalEdges) {
 }
 
 // One photon, profiled: the most loop steps an invocation took is M. With loop_budget = M nothing
-// is truncated; with M - 1 some traversal is, counted and warned about, and the cell still succeeds.
-// (The splat used to decrement its budget in the root loop without a check, so a walk that ended
-// at 0 wrapped it to 2^32 - 1 and ran on unguarded and uncounted.)
+// is truncated; with M - 1 some traversal is, counted and warned about, and the cell still
+// succeeds. (The splat used to decrement its budget in the root loop without a check, so a walk
+// that ended at 0 wrapped it to 2^32 - 1 and ran on unguarded and uncounted.)
 TEST(Directional, TraversalsAreTruncatedExactlyPastTheBudget) {
   fs::path dir = work_dir("budget");
   expect_budget_boundary(dir, header(dir), "directional",
@@ -161,11 +163,12 @@ TEST(Directional, TraversalsAreTruncatedExactlyPastTheBudget) {
 TEST(Directional, BucketsKeepAWeakChannel) {
   fs::path dir = work_dir("weak");
   fs::path scene = grey_box_scene(dir, "grey-box", "[1, 1e-5, 1]");
-  std::string yaml = "name: directional-test\nresolution: [160, 90]\nseed: 1\nscenes: [" +
-                     scene.string() +
-                     "]\nlimits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 1}\n"
-                     "metrics: [psnr]\nreference: {samples: 1, cache_dir: " + (dir / "refs").string() +
-                     "}\ntechniques:\n  - {technique: directional, params: {photons: 80000, radius: 0.1}}\n";
+  std::string yaml =
+      "name: directional-test\nresolution: [160, 90]\nseed: 1\nscenes: [" + scene.string() +
+      "]\nlimits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 1}\n"
+      "metrics: [psnr]\nreference: {samples: 1, cache_dir: " +
+      (dir / "refs").string() +
+      "}\ntechniques:\n  - {technique: directional, params: {photons: 80000, radius: 0.1}}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   auto found = cells_with_prefix(dir, "grey-box__directional__");
   ASSERT_EQ(found.size(), 1u);

@@ -133,12 +133,13 @@ TEST(Tiled, ListOverflowIsCountedAndWarnedNotFatal) {
 // no insert writes outside the lists.
 TEST(Tiled, CountInsertDisagreementIsCountedAndWarned) {
   fs::path dir = work_dir("mismatch");
-  std::string yaml = std::string(kHeader) + "frames: {warmup: 0, count: 1, metrics_every: 1}\n" +
-                     "metrics: [psnr]\nreference: {samples: 1, cache_dir: " + (dir / "refs").string() +
-                     "}\n"
-                     "techniques:\n"
-                     "  - technique: tiled\n"
-                     "    params: {photons: 5000, radius: 0.08, debug_insert_radius: [0.5, 1.0, 2.0]}\n";
+  std::string yaml =
+      std::string(kHeader) + "frames: {warmup: 0, count: 1, metrics_every: 1}\n" +
+      "metrics: [psnr]\nreference: {samples: 1, cache_dir: " + (dir / "refs").string() +
+      "}\n"
+      "techniques:\n"
+      "  - technique: tiled\n"
+      "    params: {photons: 5000, radius: 0.08, debug_insert_radius: [0.5, 1.0, 2.0]}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   for (const char* scale : {"0.5", "1", "2"}) {
     SCOPED_TRACE(scale);

@@ -1,10 +1,10 @@
 #version 460
 // radiance-estimate (Paper I §4.4, the estimator of tiled, toolkit/photon_gather.glsl): one
-// invocation per view sample over the photon lists of its leaf and all of the leaf's ancestors ("the
-// lists of photons of the containing nodes"); trivial adds the containing nodes' accumulated flux
-// (§4.6: "we add this flux multiplied by the BRDF"). A sample's lists, concatenated, hold each photon
-// at most once (a photon stored at a node is not stored below it), so their total length is at most
-// the photon count; this dispatch reads its slice of them.
+// invocation per view sample over the photon lists of its leaf and all of the leaf's ancestors
+// ("the lists of photons of the containing nodes"); trivial adds the containing nodes' accumulated
+// flux (§4.6: "we add this flux multiplied by the BRDF"). A sample's lists, concatenated, hold each
+// photon at most once (a photon stored at a node is not stored below it), so their total length is
+// at most the photon count; this dispatch reads its slice of them.
 #define PB_PROFILE_SLOT 0u
 #include "cluster_common.glsl"
 #include "toolkit/photon_gather.glsl"

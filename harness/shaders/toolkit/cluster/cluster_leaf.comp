@@ -1,7 +1,7 @@
 #version 460
-// splat/count and splat/insert (Paper I §4.3, the leaf passes, run twice: "We calculate the required
-// array size for each node in a first pass (traversing the hierarchy exactly as we do when inserting
-// photons)"): each invocation takes a run of consecutive jobs of the list sorted by node
+// splat/count and splat/insert (Paper I §4.3, the leaf passes, run twice: "We calculate the
+// required array size for each node in a first pass (traversing the hierarchy exactly as we do when
+// inserting photons)"): each invocation takes a run of consecutive jobs of the list sorted by node
 // (toolkit/jobs.glsl). A "store here" job stores at its node; a "descend" job walks its node's
 // subtree down to the leaves. CLUSTER_MODE_COUNT counts entries per node (and applies cone rejects
 // and trivial accepts), CLUSTER_MODE_INSERT writes photon ids (toolkit/photon_lists.glsl).

@@ -2,8 +2,8 @@
 // splat/top (Paper I §4.3, first sub-pass): one invocation per photon walks from the occupied roots
 // down to push.top_level (3 levels by default) and emits (photon id, node) jobs: a node the sphere
 // encloses (or an intersected leaf) as a "store here" job, an intersected node at the stop level as
-// a "descend" job for the leaf passes. Cone rejects and trivial accepts of these levels happen here,
-// once.
+// a "descend" job for the leaf passes. Cone rejects and trivial accepts of these levels happen
+// here, once.
 #define PB_PROFILE_SLOT 0u
 #include "cluster_splat.glsl"
 layout(local_size_x = 64) in;

@@ -1,9 +1,9 @@
 #version 460
-// blur (Paper I §4.7): "for diffuse materials, we store only the irradiance in a texture, and
-// apply a depth- and normal-aware blur filter to that texture. The blurred irradiance is then
-// multiplied by the diffuse BRDF in the final shading stage." Paper I gives neither kernel nor
-// weights (digest §4, [GAP]); this is a separable cross-bilateral filter guided by the G-buffer, run
-// once along x and once along y. A tap q of pixel p weighs
+// blur (Paper I §4.7): "for diffuse materials, we store only the irradiance in a texture, and apply
+// a depth- and normal-aware blur filter to that texture. The blurred irradiance is then multiplied
+// by the diffuse BRDF in the final shading stage." Paper I gives neither kernel nor weights (digest
+// §4, [GAP]); this is a separable cross-bilateral filter guided by the G-buffer, run once along x
+// and once along y. A tap q of pixel p weighs
 //   w = exp(-k^2 / (2 sigma_s^2))                         spatial Gaussian, sigma_s = radius / 2
 //     * exp(-(angle(n_p, n_q) / normal_sigma)^2)          normal awareness
 //     * exp(-(dot(n_p, x_q - x_p) / (depth_sigma d_p))^2) depth awareness: distance of q from p's

@@ -1,6 +1,6 @@
 // Bindings and push constants of directional's passes but the blur (pb::toolkit::DirectionalSplat,
-// Paper I §4.7): the hierarchy's buffers, the jobs, then the splatter's own. One binding list and one
-// push block (128 bytes, what Vulkan guarantees) for all, so the C++ side binds one list.
+// Paper I §4.7): the hierarchy's buffers, the jobs, then the splatter's own. One binding list and
+// one push block (128 bytes, what Vulkan guarantees) for all, so the C++ side binds one list.
 //
 // Buckets (Paper I §4.7, §5.2: "24 floats per node"): node cid c (the hierarchy's compact node id,
 // levels 0 .. the stop level) owns words [24 c, 24 c + 24) of flux_lo and of flux_hi: octant o's
@@ -29,7 +29,7 @@ layout(push_constant) uniform Push {
   mat4 view;           // world -> view (right-handed, the camera looks along -z)
   vec4 scale_radius;   // xyz fixed-point units per watt (per channel), w r (m)
   vec4 inverse_area;   // xyz watts per unit, w 1 / (pi r^2)
-  uvec4 counts;        // x photons, y stop level (buckets at and above it), z DIR_FLAG_*, w top level
+  uvec4 counts;        // x photons, y stop level (buckets at and above), z DIR_FLAG_*, w top level
   uvec4 limits;        // x loop budget per invocation, y width, z height (pixels)
 } push;
 

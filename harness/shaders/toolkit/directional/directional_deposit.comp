@@ -2,7 +2,8 @@
 // splat/deposit (Paper I §4.3's per-node jobs, with §4.7's deposits): each invocation takes a run
 // of consecutive jobs of the list sorted by node (toolkit/jobs.glsl), so neighbouring invocations
 // work on the same nodes; a job at the stop level deposits the photon's flux times the node's
-// coverage; a job above it walks the node's subtree down to the stop level (directional_splat.glsl).
+// coverage; a job above it walks the node's subtree down to the stop level
+// (directional_splat.glsl).
 #define PB_PROFILE_SLOT 1u
 #include "directional_splat.glsl"
 layout(local_size_x = 64) in;

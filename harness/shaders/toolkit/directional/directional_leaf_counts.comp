@@ -2,8 +2,9 @@
 // splat/leaf-counts: for each leaf (the children of the accumulation level), the number of its view
 // samples and the sum of their view-space positions, the weights and centres of the coverage
 // estimate (directional_splat.glsl). Integer atomics only (the device enables no float atomics): a
-// position is summed as its offset in the leaf's AABB in units of 1/4096 of the box, so 2^20 samples
-// per leaf fit the 32-bit words. Four words per leaf (by cid - first leaf cid): count, x, y, z.
+// position is summed as its offset in the leaf's AABB in units of 1/4096 of the box, so 2^20
+// samples per leaf fit the 32-bit words. Four words per leaf (by cid - first leaf cid): count, x,
+// y, z.
 #define PB_PROFILE_SLOT 0u
 #include "directional_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;

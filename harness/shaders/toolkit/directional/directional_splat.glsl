@@ -1,14 +1,14 @@
 // The photon walk of directional's splat passes (Paper I §4.3 traversal, §4.7 deposit), shared by
-// splat/top and splat/deposit: a node the sphere encloses (any level down to the stop level) gets the
-// photon's whole flux; a stop-level node it only intersects gets the flux times the node's coverage
-// (deposit = coverage) or the whole flux (deposit = paper, as §4.7 states: "When a photon is found
-// to enclose a node, or intersect a leaf node, it adds its contribution"). The flux goes to the
-// bucket of the octant of the photon's view-space incident direction.
+// splat/top and splat/deposit: a node the sphere encloses (any level down to the stop level) gets
+// the photon's whole flux; a stop-level node it only intersects gets the flux times the node's
+// coverage (deposit = coverage) or the whole flux (deposit = paper, as §4.7 states: "When a photon
+// is found to enclose a node, or intersect a leaf node, it adds its contribution"). The flux goes
+// to the bucket of the octant of the photon's view-space incident direction.
 //
 // Coverage: the share of the node's view samples inside the sphere, estimated from its children
-// (the leaves): each child weighs its sample count (directional_leaf_counts.comp) times a ramp in the
-// distance d from the photon to the mean position of the child's samples, clamp(0.5 + (r' - d) / w,
-// 0, 1) with w = min(child extent, r) and r'^2 = r^2 - w^2 / 12. The ramp is a smoothed "mean
+// (the leaves): each child weighs its sample count (directional_leaf_counts.comp) times a ramp in
+// the distance d from the photon to the mean position of the child's samples, clamp(0.5 + (r' - d)
+// / w, 0, 1) with w = min(child extent, r) and r'^2 = r^2 - w^2 / 12. The ramp is a smoothed "mean
 // position inside the sphere", whose integral over photon positions on a plane is pi r^2, as is
 // that of the exact share of a planar child's samples inside the sphere: over many photons the
 // deposits are unbiased for planar children, only noisier than the exact share. Without it, at low

@@ -1,9 +1,9 @@
 #version 460
 // splat/top (Paper I §4.3's first sub-pass, with §4.7's deposits): one invocation per photon walks
-// from the occupied roots down to the top level (top_levels, 3 by default: the accumulation level of
-// the default layout), depositing into the nodes its sphere encloses, and hands every intersected
-// node at the top level to a (photon, node) job for splat/deposit, which covers the rest of the way
-// down to the stop level.
+// from the occupied roots down to the top level (top_levels, 3 by default: the accumulation level
+// of the default layout), depositing into the nodes its sphere encloses, and hands every
+// intersected node at the top level to a (photon, node) job for splat/deposit, which covers the
+// rest of the way down to the stop level.
 #define PB_PROFILE_SLOT 0u
 #define DIR_TOP_PASS
 #include "directional_splat.glsl"

@@ -7,8 +7,10 @@ void main() {
   uint i = gl_GlobalInvocationID.x;
   uint node = i / push.words_per_node, word = i % push.words_per_node;
   if (node >= resolve_args[3]) return;
-  uint level = 0u;  // the node-th occupied node, level by level (their cids are contiguous per level)
+  // The node-th occupied node, level by level (their cids are contiguous per level).
+  uint level = 0u;
   while (level < push.stop_level && node >= hier_count(level)) node -= hier_count(level++);
   uint at = hier_level_cid(level, node) * push.words_per_node + word;
-  flux_lo[at] = floatBitsToUint(pb_flux_watts(flux_lo[at], flux_hi[at], push.watts_per_unit[word % 3u]));
+  float watts = pb_flux_watts(flux_lo[at], flux_hi[at], push.watts_per_unit[word % 3u]);
+  flux_lo[at] = floatBitsToUint(watts);
 }

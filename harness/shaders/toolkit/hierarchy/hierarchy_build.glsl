@@ -16,8 +16,8 @@ layout(push_constant) uniform HierPush {
   uint pad0;
 } hp;
 
-// Monotonic map of floats to uints (negative floats reversed), so atomicMin / atomicMax on the words
-// order like the floats.
+// Monotonic map of floats to uints (negative floats reversed), so atomicMin / atomicMax on the
+// words order like the floats.
 uint hier_order(float f) {
   uint b = floatBitsToUint(f);
   return (b & 0x80000000u) != 0u ? ~b : (b | 0x80000000u);

@@ -1,7 +1,7 @@
 #version 460
 // cluster-build/occupancy, second half: one invocation per occupied node of the level above the
-// leaves reserves consecutive cids for its occupied leaves (one atomicAdd of the mask's popcount), so
-// a leaf's cid is found from its parent without a dense leaf map (hier_cid), records the leaves'
+// leaves reserves consecutive cids for its occupied leaves (one atomicAdd of the mask's popcount),
+// so a leaf's cid is found from its parent without a dense leaf map (hier_cid), records the leaves'
 // keys and initialises their bounds (empty, in the ordered-uint encoding) and normal sums.
 #include "hierarchy_build.glsl"
 layout(local_size_x = 64) in;

@@ -1,7 +1,7 @@
 #version 460
 // cluster-build/leaf-bounds (Paper I §4.1, Fig. 3 "bounds"): each view sample grows its leaf's
-// view-space AABB (order-preserving uint atomics) and, with normal cones, adds its view-space normal
-// to the leaf's fixed-point normal sum (Paper I §4.5: the cone axis is the average normal).
+// view-space AABB (order-preserving uint atomics) and, with normal cones, adds its view-space
+// normal to the leaf's fixed-point normal sum (Paper I §4.5: the cone axis is the average normal).
 #include "hierarchy_build.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 void main() {

@@ -1,7 +1,7 @@
 #version 460
-// cluster-build/cones, leaves (Paper I §4.5): "the maximum angle that a view sample's normal deviates
-// from this average" -- each sample widens its leaf's half-angle (positive float bits order like the
-// floats, so atomicMax on the bits is a float max).
+// cluster-build/cones, leaves (Paper I §4.5): "the maximum angle that a view sample's normal
+// deviates from this average" -- each sample widens its leaf's half-angle (positive float bits
+// order like the floats, so atomicMax on the bits is a float max).
 #include "hierarchy_build.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 void main() {

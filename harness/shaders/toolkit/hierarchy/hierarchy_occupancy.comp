@@ -1,11 +1,12 @@
 #version 460
-// cluster-build/occupancy (Paper I §4.1, Fig. 3 "occupancy"): each view sample finds its leaf cluster
-// (screen block x exponential depth slice), records it in sample_leaves[], and marks it occupied in its
-// parent's child mask, then the parent in the grandparent's, and so on while it is the first to do
-// so. The first sample to occupy an inner node (atomicOr returned the bit clear) hands the node its
-// compact id (appending it to its level's list of occupied nodes) and writes the key -> cid map
-// entry; leaves get theirs next, in hierarchy_leaf_alloc. Masks and root flags are cleared before this
-// pass; the map is never cleared (an entry is read only where a mask says the node exists).
+// cluster-build/occupancy (Paper I §4.1, Fig. 3 "occupancy"): each view sample finds its leaf
+// cluster (screen block x exponential depth slice), records it in sample_leaves[], and marks it
+// occupied in its parent's child mask, then the parent in the grandparent's, and so on while it is
+// the first to do so. The first sample to occupy an inner node (atomicOr returned the bit clear)
+// hands the node its compact id (appending it to its level's list of occupied nodes) and writes the
+// key -> cid map entry; leaves get theirs next, in hierarchy_leaf_alloc. Masks and root flags are
+// cleared before this pass; the map is never cleared (an entry is read only where a mask says the
+// node exists).
 #include "hierarchy_build.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 void main() {

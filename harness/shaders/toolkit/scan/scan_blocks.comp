@@ -1,5 +1,6 @@
 #version 460
-// Prefix sum, pass 1 of 3 (scan_common.glsl): each group scans its 4096 words and records their sum.
+// Prefix sum, pass 1 of 3 (scan_common.glsl): each group scans its 4096 words and records their
+// sum.
 #include "scan_common.glsl"
 void main() {
   uint begin = gl_WorkGroupID.x * SCAN_BLOCK + gl_LocalInvocationID.x * SCAN_PER_THREAD;

@@ -1,6 +1,6 @@
 #version 460
-// Prefix sum, pass 2 of 3 (scan_common.glsl): one group scans the block sums in place and writes the
-// total.
+// Prefix sum, pass 2 of 3 (scan_common.glsl): one group scans the block sums in place and writes
+// the total.
 #include "scan_common.glsl"
 void main() {
   uint blocks = (push.count + SCAN_BLOCK - 1u) / SCAN_BLOCK;

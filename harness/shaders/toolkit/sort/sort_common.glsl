@@ -1,6 +1,6 @@
-// pb::toolkit::CountingSort's kernels (photonbench/toolkit/gpu_scan.h): items (uvec2) sorted by key =
-// item.y & push.key_mask into `sort_bins` bins: count per key, an exclusive prefix sum of the counts
-// (PrefixSum), then a scatter to offset + cursor. Items of one key end up contiguous, in no
+// pb::toolkit::CountingSort's kernels (photonbench/toolkit/gpu_scan.h): items (uvec2) sorted by key
+// = item.y & push.key_mask into `sort_bins` bins: count per key, an exclusive prefix sum of the
+// counts (PrefixSum), then a scatter to offset + cursor. Items of one key end up contiguous, in no
 // particular order among themselves. The item count is read on the GPU (sort_count[push.count_at]),
 // so a producer's output can be sorted without a read-back; the dispatch is indirect.
 layout(local_size_x = 64) in;

@@ -1,6 +1,6 @@
 #version 460
-// Counting sort, pass 3 (after the prefix sum of the counts): each item to its key's offset + cursor
-// (sort_common.glsl).
+// Counting sort, pass 3 (after the prefix sum of the counts): each item to its key's offset +
+// cursor (sort_common.glsl).
 #include "sort_common.glsl"
 void main() {
   uvec2 item;

@@ -1,12 +1,12 @@
 #version 460
-// splat/count and splat/insert (Paper I §5.1's tiled splatting, after Mara et al. 2013, in the count
-// / prefix-sum / insert scheme of toolkit/photon_lists.glsl): one invocation per photon tests its
-// sphere of influence against the tiles under its screen rectangle, the rectangle of the projections
-// of its bounding cube's eight corners (conservative: the cube contains the sphere, and while every
-// corner lies in front of the camera the projected hull contains the projected sphere; otherwise the
-// whole screen), then per tile the depth-range test [z - r, z + r] against the tile's [zmin, zmax].
-// The count run adds 1 per touched tile, the insert run writes the photon's index: one shader, so
-// both runs take the same tests.
+// splat/count and splat/insert (Paper I §5.1's tiled splatting, after Mara et al. 2013, in the
+// count / prefix-sum / insert scheme of toolkit/photon_lists.glsl): one invocation per photon tests
+// its sphere of influence against the tiles under its screen rectangle, the rectangle of the
+// projections of its bounding cube's eight corners (conservative: the cube contains the sphere, and
+// while every corner lies in front of the camera the projected hull contains the projected sphere;
+// otherwise the whole screen), then per tile the depth-range test [z - r, z + r] against the tile's
+// [zmin, zmax]. The count run adds 1 per touched tile, the insert run writes the photon's index:
+// one shader, so both runs take the same tests.
 #include "tiled_common.glsl"
 layout(local_size_x = 64) in;
 

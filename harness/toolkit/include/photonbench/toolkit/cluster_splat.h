@@ -11,14 +11,15 @@
 #include "photonbench/toolkit/jobs.h"
 #include "photonbench/toolkit/node_flux.h"
 #include "photonbench/toolkit/photon_lists.h"
-#include "photonbench/toolkit/traversal.h"
 #include "photonbench/toolkit/technique.h"
+#include "photonbench/toolkit/traversal.h"
 
 namespace pb::toolkit {
 
 class ClusterSplat final : public Splatter {
  public:
   static constexpr const char* kName = "cluster";
+  // clang-format off
   static constexpr pb_param_spec kVariantParam = {
       "variant", PB_PARAM_ENUM, 0, 0, 2, "plain|cone|trivial", "",
       "plain; cone: normal-cone rejection (Paper I §4.5); trivial: cone + per-node flux (§4.6)"};
@@ -26,6 +27,7 @@ class ClusterSplat final : public Splatter {
       "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 25, nullptr, "entries",
       "capacity of all per-node photon lists together; overflowing entries are dropped and "
       "counted (list_overflows)"};
+  // clang-format on
   enum Variant : uint32_t { kPlain = 0, kCone = 1, kTrivial = 2 };
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;

@@ -1,11 +1,12 @@
 // Paper I's directional approximation (§4.7, §5.1, §5.2) as a Splatter: photons splatted into the
-// view-sample cluster hierarchy accumulate flux per node in eight view-space octant buckets from the
-// accumulation level ("level 4", one above the leaves) up, instead of per-node lists; per view sample
-// the containing nodes' buckets weighted by 2cos(n, d) give irradiance; a depth- and normal-aware blur
-// smooths it before the diffuse BRDF. The splat runs in Paper I's two sub-passes: a top pass per
-// photon down `top_levels` levels, then per-node jobs (sorted by node) down to the stop level.
-// Passes: cluster-build, splat/{leaf-counts, top, regroup, deposit}, radiance-estimate, blur.
-// Shaders: harness/shaders/toolkit/directional/. techniques/directional/README.md describes it.
+// view-sample cluster hierarchy accumulate flux per node in eight view-space octant buckets from
+// the accumulation level ("level 4", one above the leaves) up, instead of per-node lists; per view
+// sample the containing nodes' buckets weighted by 2cos(n, d) give irradiance; a depth- and
+// normal-aware blur smooths it before the diffuse BRDF. The splat runs in Paper I's two sub-passes:
+// a top pass per photon down `top_levels` levels, then per-node jobs (sorted by node) down to the
+// stop level. Passes: cluster-build, splat/{leaf-counts, top, regroup, deposit}, radiance-estimate,
+// blur. Shaders: harness/shaders/toolkit/directional/. techniques/directional/README.md describes
+// it.
 #pragma once
 
 #include "photonbench/toolkit/fixed_point.h"
@@ -21,6 +22,7 @@ namespace pb::toolkit {
 class DirectionalSplat final : public Splatter {
  public:
   static constexpr const char* kName = "directional";
+  // clang-format off
   static constexpr pb_param_spec kDepositParam = {
       "deposit", PB_PARAM_ENUM, 0, 0, 1, "coverage|paper", "",
       "flux an intersected (not enclosed) stop-level node receives: coverage = the photon's flux "
@@ -48,6 +50,7 @@ class DirectionalSplat final : public Splatter {
       "debug_irradiance", PB_PARAM_ENUM, 0, 0, 1, "photons|normal", "",
       "test hook: normal = irradiance is |world normal| instead of the photon estimate (checks "
       "that the blur keeps surfaces apart)"};
+  // clang-format on
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
   const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;

@@ -2,10 +2,11 @@
 // atomics (the harness's device enables no float atomics), for cluster's trivial-accept node flux
 // (Paper I §4.6) and directional's buckets (§4.7). GPU side: toolkit/atomics.glsl.
 //
-// Scale, per channel c: units_per_watt[c] = 2^PB_FLUX_UNIT_BITS / (the largest value channel c takes
-// over the frame's photons), so every photon's value is at most 2^26 units, and a weak channel (a
-// photon's green at 1e-3 of its red) is resolved as finely as a strong one. Sums are 64-bit (a low
-// word and a high word taking the carry: PB_FLUX_ADD), so nothing overflows below 2^38 adds.
+// Scale, per channel c: units_per_watt[c] = 2^PB_FLUX_UNIT_BITS / (the largest value channel c
+// takes over the frame's photons), so every photon's value is at most 2^26 units, and a weak
+// channel (a photon's green at 1e-3 of its red) is resolved as finely as a strong one. Sums are
+// 64-bit (a low word and a high word taking the carry: PB_FLUX_ADD), so nothing overflows below
+// 2^38 adds.
 //
 // Error bound, per channel and per sum of n photon values v_1..v_n (watts, v_i <= max_c):
 //   |sum read back - sum v_i| <= n * 0.5 * max_c / 2^26   (rounding each value to a whole unit)

@@ -1,13 +1,13 @@
 // The toolkit's GPU prefix sum and its one sort (kernels: harness/shaders/toolkit/scan, sort).
 //
 //   PrefixSum scan;          scan.setup(gpu);  scan.reserve(n);
-//   scan.record(cmd, counts, offsets, n, &stats, kTotalWord);   // offsets = exclusive scan of counts
+//   scan.record(cmd, counts, offsets, n, &stats, kTotalWord);   // offsets = exclusive scan
 //
 //   CountingSort sort;       sort.setup(gpu);  sort.resize(gpu, scan, bins, "cluster/jobs");
 //   sort.record(cmd, scan, items, sorted, count_buffer, count_word, args_offset);
 //
-// Both record into a command buffer with full barriers between their own dispatches; the caller puts
-// a barrier before (inputs written) and after (outputs read).
+// Both record into a command buffer with full barriers between their own dispatches; the caller
+// puts a barrier before (inputs written) and after (outputs read).
 #pragma once
 
 #include <cstdint>
@@ -40,8 +40,8 @@ class PrefixSum {
 // Counting sort of uvec2 items by key = item.y & key_mask (< bins): count, prefix sum, scatter. The
 // item count is read on the GPU from count_buffer[count_word], and the two item passes are
 // dispatched indirectly from count_buffer at args_offset (bytes: a VkDispatchIndirectCommand of
-// ceil(count / 64) groups), so a GPU producer's output is sorted without a read-back. Items of one key
-// end up contiguous; their order among themselves is not fixed.
+// ceil(count / 64) groups), so a GPU producer's output is sorted without a read-back. Items of one
+// key end up contiguous; their order among themselves is not fixed.
 class CountingSort {
  public:
   static constexpr uint32_t kGroupSize = 64;  // items per group of the indirect dispatch
@@ -50,9 +50,8 @@ class CountingSort {
   // (Re)allocates the per-key counters (bins keys) and reserves the scan for them.
   void resize(gpu::Device& gpu, PrefixSum& scan, uint32_t bins, std::string_view name);
   void record(vk::CommandBuffer cmd, const PrefixSum& scan, const gpu::Buffer& items,
-              const gpu::Buffer& sorted,
-              const gpu::Buffer& count_buffer, uint32_t count_word, vk::DeviceSize args_offset,
-              uint32_t key_mask = 0x7fffffffu) const;
+              const gpu::Buffer& sorted, const gpu::Buffer& count_buffer, uint32_t count_word,
+              vk::DeviceSize args_offset, uint32_t key_mask = 0x7fffffffu) const;
   uint64_t bytes() const { return bins_.size() + offsets_.size() + cursors_.size(); }
   uint32_t bins() const { return bin_count_; }
 

@@ -1,6 +1,7 @@
 // pb::toolkit::Hierarchy: Paper I's view-sample cluster hierarchy (Moreau et al. 2016, §4.1, §4.5,
-// §5.2, after Sintorn et al. 2014), rebuilt on the GPU every frame from the shared G-buffer. Part of
-// the toolkit library (photonbench::toolkit), so cluster, directional and any later technique link it.
+// §5.2, after Sintorn et al. 2014), rebuilt on the GPU every frame from the shared G-buffer. Part
+// of the toolkit library (photonbench::toolkit), so cluster, directional and any later technique
+// link it.
 //
 // LAYOUT (GPU side in hierarchy_layout.h, shader helpers in harness/shaders/toolkit/hierarchy.glsl)
 //   Levels 0..L-1. Level 0: one root per root tile of root_tile_px x root_tile_px screen pixels,
@@ -22,7 +23,7 @@
 //                      level-0 list) says the node is occupied this frame. A leaf's cid is its
 //                      parent's leaf base + the rank of its bit in the parent's mask (Paper I §5.2
 //                      also avoids a dense last level), so no dense leaf array exists.
-//     node_keys[] uint per cid: the key; cids [level[l].z, + count(l)) are level l's occupied nodes.
+//     node_keys[] uint per cid: the key; cids [level[l].z, + count(l)) are level l's occupied nodes
 //     aabbs[]    6 floats per cid: view-space min xyz, max xyz (full floats, not Paper I's halves).
 //     cones[]    vec4 per cid: view-space axis, half-angle (only with normal_cones; not packed).
 //     sample_leaves[] uint per pixel: the leaf key of its view sample, or HIER_NO_LEAF.
@@ -53,10 +54,12 @@ namespace pb::toolkit {
 // The `layout` parameter of every technique on the hierarchy (HierarchyOptions::named_layout), so a
 // sweep compares them on the same hierarchy. Each keeps the level above the leaves at 32x32 pixels
 // (Paper I's "leaf node at most contains 32x32 view samples" of its fastest version).
+// clang-format off
 inline constexpr pb_param_spec kLayoutParam = {
     "layout", PB_PARAM_ENUM, 0, 0, 2, "default|shallow|deep", "",
     "hierarchy levels: default 256:2x2x8,2x2x8,2x2x8,4x4x2; shallow 128:2x2x8,2x2x8,4x4x2; deep "
     "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2"};
+// clang-format on
 
 struct LevelSplit {
   uint32_t x = 2, y = 2, z = 8;  // children per node along screen x, screen y and depth

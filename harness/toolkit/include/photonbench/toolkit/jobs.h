@@ -1,8 +1,8 @@
 // (photon, node) jobs between a top splat pass and the per-node passes below it (Paper I §4.3; GPU
 // side: harness/shaders/toolkit/jobs.glsl): an unordered list the producer emits into, the count
-// and dispatch arguments (finish), a counting sort by node (regroup), and indirect dispatches of the
-// consumers, each invocation taking a run of `jobs_per_thread` consecutive sorted jobs (Paper I's
-// persistent threads loop until the list is empty; a bounded run keeps each invocation under
+// and dispatch arguments (finish), a counting sort by node (regroup), and indirect dispatches of
+// the consumers, each invocation taking a run of `jobs_per_thread` consecutive sorted jobs (Paper
+// I's persistent threads loop until the list is empty; a bounded run keeps each invocation under
 // llvmpipe's loop limit).
 //
 //   jobs.setup(gpu, capacity, jobs_per_thread, "cluster");  jobs.resize(gpu, scan, nodes);
@@ -24,6 +24,7 @@
 namespace pb::toolkit {
 
 // The rows of every splatter with a top pass and jobs (cluster, directional).
+// clang-format off
 inline constexpr pb_param_spec kTopLevelsParam = {
     "top_levels", PB_PARAM_INT, 3, 0, 5, nullptr, "levels",
     "levels the top splat pass walks below the roots before it hands (photon, node) jobs to the "
@@ -33,6 +34,7 @@ inline constexpr pb_param_spec kMaxJobsParam = {
     "max_jobs", PB_PARAM_INT, 1 << 22, 1, 1 << 24, nullptr, "jobs",
     "capacity of the (photon, node) job list of the top pass; overflowing jobs are dropped and "
     "counted (job_overflows)"};
+// clang-format on
 // Jobs one per-node invocation takes (Paper I's persistent threads loop until the list is empty;
 // a bounded run keeps every invocation under llvmpipe's loop limit).
 inline constexpr uint32_t kJobsPerThread = 16;

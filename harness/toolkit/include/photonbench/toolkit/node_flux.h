@@ -1,9 +1,9 @@
-// Per-node fixed-point flux sums over a Hierarchy's nodes (cluster's trivial-accept node flux, Paper
-// I §4.6; directional's direction buckets, §4.7): `words_per_node` words (groups of r, g, b) per cid
-// of levels 0 to `stop_level`, 64-bit each as a low and a high word (GPU side: PB_FLUX_ADD of
-// toolkit/atomics.glsl; the scale and the error bound: fixed_point.h). After the splat, resolve()
-// turns the occupied nodes' sums into floats in place (the low words hold the float bits), so an
-// estimate reads `uintBitsToFloat(lo[at])`, in watts.
+// Per-node fixed-point flux sums over a Hierarchy's nodes (cluster's trivial-accept node flux,
+// Paper I §4.6; directional's direction buckets, §4.7): `words_per_node` words (groups of r, g, b)
+// per cid of levels 0 to `stop_level`, 64-bit each as a low and a high word (GPU side: PB_FLUX_ADD
+// of toolkit/atomics.glsl; the scale and the error bound: fixed_point.h). After the splat,
+// resolve() turns the occupied nodes' sums into floats in place (the low words hold the float
+// bits), so an estimate reads `uintBitsToFloat(lo[at])`, in watts.
 //
 //   flux.resize(gpu, hierarchy, stop_level, words_per_node, "directional/accum-flux");
 //   per frame: flux.clear(cmd); [splat: PB_FLUX_ADD into lo(), hi()]; flux.resolve(cmd, hierarchy,

@@ -3,7 +3,8 @@
 // photon_lists.glsl). Bins are tiles (tiled) or hierarchy nodes (cluster).
 //
 //   lists.setup(gpu, capacity, "tiled");   lists.resize(gpu, scan, bins);      (per resolution)
-//   per frame: lists.clear(cmd); [count run]; lists.scan(cmd, scan); [insert run]; lists.check(cmd);
+//   per frame: lists.clear(cmd); [count run]; lists.scan(cmd, scan); [insert run];
+//              lists.check(cmd);
 //   estimate: pb_list_range(bin); after ctx.flush(): lists.report(ctx, ...)
 #pragma once
 
@@ -14,10 +15,20 @@
 
 #include "photonbench/context.h"
 #include "photonbench/gpu.h"
+#include "photonbench/plugin.h"
 #include "photonbench/toolkit/gpu_scan.h"
 #include "photonbench/toolkit/photon_lists_layout.h"
 
 namespace pb::toolkit {
+
+// The test hook of every count / insert splatter (tiled, cluster): the insert run tests spheres of
+// radius x this, so that the two runs disagree and the consistency check must report it.
+// clang-format off
+inline constexpr pb_param_spec kListCheckHookParam = {
+    "debug_insert_radius", PB_PARAM_FLOAT, 1, 0.25, 4, nullptr, "",
+    "test hook: the insert run's sphere radius relative to the count run's (1: the same); "
+    "anything else makes them disagree, which is counted (list_mismatches) and warned about"};
+// clang-format on
 
 class PhotonLists {
  public:
@@ -42,7 +53,8 @@ class PhotonLists {
   Stats stats() const;  // this frame's, after ctx.flush()
   // Counters list_entries (written), list_overflows (entries dropped for want of capacity),
   // list_mismatches (bins whose count and insert runs disagree), with a warning for each non-zero
-  // one; `who` ("tiled: per-tile photon lists") and `capacity_param` ("max_list_entries") name them.
+  // one; `who` ("tiled: per-tile photon lists") and `capacity_param` ("max_list_entries") name
+  // them.
   void report(Context& ctx, std::string_view who, std::string_view capacity_param) const;
   uint64_t bytes() const;  // lists + counts + offsets + cursors
   uint32_t capacity() const { return capacity_; }

@@ -1,12 +1,12 @@
-// What every photon technique shares, so that each is written once (harness/toolkit/README.md):
-// the parameter rows and their defaults, the trace settings they make, the shadow set-up, storage-
-// range checks, sliced dispatch for llvmpipe's loop limit, the G-buffer's bindings, and the frame of
-// a splatting technique (trace, upload, G-buffer, direct light, splat and estimate, shade, counters)
-// around a Splatter, so that a technique is its parameter schema and one Splatter:
+// What every photon technique shares, so that each is written once (harness/toolkit/README.md): the
+// parameter rows and their defaults, the trace settings they make, the shadow set-up, storage-
+// range checks, sliced dispatch for llvmpipe's loop limit, the G-buffer's bindings, and the frame
+// of a splatting technique (trace, upload, G-buffer, direct light, splat and estimate, shade,
+// counters) around a Splatter, so that a technique is its parameter schema and one Splatter:
 //
-//   const pb_param_spec kParams[] = {pb::toolkit::kPhotonsParam, pb::toolkit::kRadiusParam,
-//                                    pb::toolkit::kMaxBouncesParam, pb::toolkit::kShadowMapSizeParam,
-//                                    ...the splatter's rows...};
+//   const pb_param_spec kParams[] = {
+//       pb::toolkit::kPhotonsParam, pb::toolkit::kRadiusParam, pb::toolkit::kMaxBouncesParam,
+//       pb::toolkit::kShadowMapSizeParam, ...the splatter's rows...};
 //   using Tiled = pb::toolkit::SplatTechnique<pb::toolkit::TiledSplat>;
 //   PB_EXPORT_TECHNIQUE(Tiled, "tiled", "indirect", "...", kParams)
 //
@@ -28,9 +28,11 @@ namespace pb::toolkit {
 
 // ---- Parameter rows every photon technique lists first (defaults chosen for lavapipe; Paper I's
 // values in the docs). `photons` counts light paths, not stored photons (Paper I §5 counts stored).
+// clang-format off
 inline constexpr pb_param_spec kPhotonsParam = {
     "photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
-    "light paths traced per frame (Paper I counts stored photons; default kept small for lavapipe)"};
+    "light paths traced per frame (Paper I counts stored photons; default kept small for "
+    "lavapipe)"};
 inline constexpr pb_param_spec kRadiusParam = {
     "radius", PB_PARAM_FLOAT, 0.05, 1e-5, 1e4, nullptr, "m",
     "photon sphere radius, one for every photon (Paper I Table 2 sets it per scene)"};
@@ -45,6 +47,7 @@ inline constexpr pb_param_spec kStoreFirstHitParam = {
     "store_first_hit", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
     "test hook: also store photons at the first hit (L D), so the estimate includes direct light "
     "(checked against closed-form irradiance); Paper I: false"};
+// clang-format on
 
 // The shared rows' values of one cell.
 struct PhotonParams {
@@ -66,9 +69,9 @@ struct PhotonParams {
 inline constexpr float kShadowRelativeBias = 0.01f, kShadowNormalOffsetM = 0.01f;
 void configure_shadows(Context& ctx, uint32_t map_size);
 
-// ---- Device limits.
-// Throws InputError when one binding of `bytes` exceeds the device's maxStorageBufferRange (lavapipe:
-// 128 MiB); `what` names the parameter that sized it, e.g. "tiled: max_list_entries = 4194304".
+// ---- Device limits. Throws InputError when one binding of `bytes` exceeds the device's
+// maxStorageBufferRange (lavapipe: 128 MiB); `what` names the parameter that sized it, e.g. "tiled:
+// max_list_entries = 4194304".
 void check_storage_range(const gpu::Device& gpu, uint64_t bytes, std::string_view what);
 
 // Dispatches that read lists of up to `longest` entries per invocation in slices of PB_LIST_SLICE

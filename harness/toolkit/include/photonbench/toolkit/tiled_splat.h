@@ -12,16 +12,10 @@
 
 namespace pb::toolkit {
 
-// The test hook of every count / insert splatter (tiled, cluster): the insert run tests spheres of
-// radius x this, so that the two runs disagree and the consistency check must report it.
-inline constexpr pb_param_spec kListCheckHookParam = {
-    "debug_insert_radius", PB_PARAM_FLOAT, 1, 0.25, 4, nullptr, "",
-    "test hook: the insert run's sphere radius relative to the count run's (1: the same); "
-    "anything else makes them disagree, which is counted (list_mismatches) and warned about"};
-
 class TiledSplat final : public Splatter {
  public:
   static constexpr const char* kName = "tiled";
+  // clang-format off
   static constexpr pb_param_spec kTileSizeParam = {
       "tile_size", PB_PARAM_INT, 32, 8, 256, nullptr, "pixels",
       "tile side, a multiple of 8; Paper I §5.1 uses 32"};
@@ -29,6 +23,7 @@ class TiledSplat final : public Splatter {
       "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 28, nullptr, "entries",
       "capacity of all per-tile lists together (photon indices); overflowing entries are dropped "
       "and counted"};
+  // clang-format on
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
   const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;
