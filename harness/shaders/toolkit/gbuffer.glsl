@@ -28,14 +28,17 @@ bool pb_material_lit(float type_as_float) {
   return type == PB_MATERIAL_DIFFUSE || type == PB_MATERIAL_EMISSIVE;
 }
 
-// A pixel's view sample when it has geometry of a lit material: world position, normal and albedo.
+// A pixel's view sample when it has geometry of a lit material: world position, normal and albedo
+// (the normal is read only then).
 bool pb_lit_sample(ivec2 pixel, out vec3 position, out vec3 normal, out vec3 albedo) {
   vec4 p = imageLoad(gbuffer_position, pixel);
   vec4 a = imageLoad(gbuffer_albedo, pixel);
   position = p.xyz;
   albedo = a.rgb;
+  normal = vec3(0.0);
+  if (p.w <= 0.0 || !pb_material_lit(a.w)) return false;
   normal = imageLoad(gbuffer_normal, pixel).xyz;
-  return p.w > 0.0 && pb_material_lit(a.w);
+  return true;
 }
 
 #endif
