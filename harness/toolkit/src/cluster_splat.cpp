@@ -122,9 +122,7 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
   gpu::full_barrier(ctx.cmd());
   {
     auto splat = ctx.pass("splat");
-    {
-      auto scope = ctx.pass("top");
-      auto cmd = ctx.cmd();
+    jobs_.record_top(ctx, scan_, [&](vk::CommandBuffer cmd) {
       cmd.fillBuffer(stats_.handle(), 0, VK_WHOLE_SIZE, 0u);
       node_flux_.clear(cmd);
       jobs_.clear(cmd);
@@ -133,41 +131,15 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
       gpu::full_barrier(cmd);
       top_pipeline_.bind(cmd, resources, push);
       cmd.dispatch(std::max<uint32_t>(1, gpu::groups_for(photons.count(), 64)), 1, 1);
-      gpu::full_barrier(cmd);
-      jobs_.finish(cmd);
-    }
+    });
     gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("regroup");
-      jobs_.regroup(ctx.cmd(), scan_);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("count");
-      auto cmd = ctx.cmd();
-      push.mode = kModeCount;
+    // The leaf passes, twice (Paper I §4.3).
+    lists_.record_runs(ctx, scan_, [&](vk::CommandBuffer cmd, bool insert) {
+      push.mode = insert ? kModeInsert : kModeCount;
+      push.radius = insert ? radius_ * insert_radius_scale_ : radius_;
       leaf_pipeline_.bind(cmd, resources, push);
       jobs_.dispatch_consumers(cmd);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("prefix-sum");
-      lists_.scan(ctx.cmd(), scan_);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("insert");
-      auto cmd = ctx.cmd();
-      push.mode = kModeInsert;
-      push.radius = radius_ * insert_radius_scale_;
-      leaf_pipeline_.bind(cmd, resources, push);
-      jobs_.dispatch_consumers(cmd);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("check");
-      lists_.check(ctx.cmd());
-    }
+    });
   }
   gpu::full_barrier(ctx.cmd());
   {

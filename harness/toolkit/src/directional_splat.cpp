@@ -161,19 +161,10 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
       }
     }
     gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("top");
-      auto cmd = ctx.cmd();
+    jobs_.record_top(ctx, scan_, [&](vk::CommandBuffer cmd) {
       top_pipeline_.bind(cmd, resources, p);
       cmd.dispatch(std::max<uint32_t>(1, gpu::groups_for(photons.count(), 64)), 1, 1);
-      gpu::full_barrier(cmd);
-      jobs_.finish(cmd);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("regroup");
-      jobs_.regroup(ctx.cmd(), scan_);
-    }
+    });
     gpu::full_barrier(ctx.cmd());
     {
       auto scope = ctx.pass("deposit");

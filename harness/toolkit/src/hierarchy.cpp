@@ -254,26 +254,22 @@ void Hierarchy::build(Context& ctx) {
     cmd.dispatch(gx, gy, 1);
   }
   gpu::full_barrier(ctx.cmd());
-  {
-    auto pass = ctx.pass("occupancy");
-    auto cmd = ctx.cmd();
-    bind(occupancy_, cmd);
-    cmd.dispatch(gx, gy, 1);
-    gpu::full_barrier(cmd);
-    bind(leaf_alloc_, cmd);
-    cmd.dispatch(gpu::groups_for(node_capacity(L - 2), 64), 1, 1);
-  }
-  gpu::full_barrier(ctx.cmd());
-  {
-    auto pass = ctx.pass("leaf-bounds");
-    auto cmd = ctx.cmd();
-    bind(leaf_bounds_, cmd);
-    cmd.dispatch(gx, gy, 1);
-    gpu::full_barrier(cmd);
-    bind(leaf_finalize_, cmd);
-    cmd.dispatch(gpu::groups_for(node_capacity(L - 1), 64), 1, 1);
-  }
-  gpu::full_barrier(ctx.cmd());
+  // A pass of one invocation per pixel, then one per node of a level (up to its capacity).
+  auto per_pixel_then_per_node = [&](const char* name, const gpu::Pipeline& per_pixel,
+                                     const gpu::Pipeline& per_node, uint32_t level) {
+    {
+      auto pass = ctx.pass(name);
+      auto cmd = ctx.cmd();
+      bind(per_pixel, cmd);
+      cmd.dispatch(gx, gy, 1);
+      gpu::full_barrier(cmd);
+      bind(per_node, cmd);
+      cmd.dispatch(gpu::groups_for(node_capacity(level), 64), 1, 1);
+    }
+    gpu::full_barrier(ctx.cmd());
+  };
+  per_pixel_then_per_node("occupancy", occupancy_, leaf_alloc_, L - 2);
+  per_pixel_then_per_node("leaf-bounds", leaf_bounds_, leaf_finalize_, L - 1);
   if (options_.normal_cones) {
     auto pass = ctx.pass("cones");
     auto cmd = ctx.cmd();

@@ -45,6 +45,22 @@ void JobQueue::regroup(vk::CommandBuffer cmd, const PrefixSum& scan) const {
                ~PB_JOB_WHOLE);
 }
 
+void JobQueue::record_top(Context& ctx, const PrefixSum& scan,
+                          const std::function<void(vk::CommandBuffer cmd)>& produce) const {
+  {
+    auto pass = ctx.pass("top");
+    auto cmd = ctx.cmd();
+    produce(cmd);
+    gpu::full_barrier(cmd);
+    finish(cmd);
+  }
+  gpu::full_barrier(ctx.cmd());
+  {
+    auto pass = ctx.pass("regroup");
+    regroup(ctx.cmd(), scan);
+  }
+}
+
 void JobQueue::dispatch_consumers(vk::CommandBuffer cmd) const {
   cmd.dispatchIndirect(stats_.handle(), PB_JOB_STAT_THREAD_ARGS * 4);
 }

@@ -45,6 +45,32 @@ void PhotonLists::check(vk::CommandBuffer cmd) const {
   cmd.dispatch(std::max<uint32_t>(1, gpu::groups_for(bins_, 64)), 1, 1);
 }
 
+void PhotonLists::record_runs(
+    Context& ctx, const PrefixSum& prefix_sum,
+    const std::function<void(vk::CommandBuffer cmd, bool insert)>& splat) const {
+  // ctx.cmd() is fetched anew in every pass: with fenced timing (lavapipe) a pass scope submits and
+  // continues in a fresh command buffer.
+  {
+    auto pass = ctx.pass("count");
+    splat(ctx.cmd(), false);
+  }
+  gpu::full_barrier(ctx.cmd());
+  {
+    auto pass = ctx.pass("prefix-sum");
+    scan(ctx.cmd(), prefix_sum);
+  }
+  gpu::full_barrier(ctx.cmd());
+  {
+    auto pass = ctx.pass("insert");
+    splat(ctx.cmd(), true);
+  }
+  gpu::full_barrier(ctx.cmd());
+  {
+    auto pass = ctx.pass("check");
+    check(ctx.cmd());
+  }
+}
+
 void PhotonLists::append_bindings(std::vector<gpu::Resource>& resources) const {
   for (const gpu::Buffer* b : {&counts_, &offsets_, &cursors_, &lists_, &stats_})
     resources.push_back(b);

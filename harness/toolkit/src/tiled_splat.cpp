@@ -115,32 +115,12 @@ const gpu::Image& TiledSplat::render(Context& ctx, const PhotonSet& photons) {
   gpu::full_barrier(ctx.cmd());
   {
     auto splat = ctx.pass("splat");
-    {
-      auto scope = ctx.pass("count");
-      auto cmd = ctx.cmd();
-      push.mode = kModeCount;
+    lists_.record_runs(ctx, scan_, [&](vk::CommandBuffer cmd, bool insert) {
+      push.mode = insert ? kModeInsert : kModeCount;
+      push.radius = insert ? radius_ * insert_radius_scale_ : radius_;
       splat_pipeline_.bind(cmd, resources, push);
       cmd.dispatch(photon_groups, 1, 1);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("prefix-sum");
-      lists_.scan(ctx.cmd(), scan_);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("insert");
-      auto cmd = ctx.cmd();
-      push.mode = kModeInsert;
-      push.radius = radius_ * insert_radius_scale_;
-      splat_pipeline_.bind(cmd, resources, push);
-      cmd.dispatch(photon_groups, 1, 1);
-    }
-    gpu::full_barrier(ctx.cmd());
-    {
-      auto scope = ctx.pass("check");
-      lists_.check(ctx.cmd());
-    }
+    });
   }
   gpu::full_barrier(ctx.cmd());
   {

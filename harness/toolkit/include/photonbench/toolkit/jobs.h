@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -54,6 +55,10 @@ class JobQueue {
   void regroup(vk::CommandBuffer cmd, const PrefixSum& scan) const;
   // One invocation (64 a group) per run of jobs_per_thread sorted jobs, of the bound pipeline.
   void dispatch_consumers(vk::CommandBuffer cmd) const;
+  // Passes "top" and "regroup" (nested in the caller's scope): `produce` records the clears and the
+  // producer's dispatch, then finish and regroup follow.
+  void record_top(Context& ctx, const PrefixSum& scan,
+                  const std::function<void(vk::CommandBuffer cmd)>& produce) const;
   void append_bindings(std::vector<gpu::Resource>& resources) const;
 
   // Counters "jobs" (emitted) and "job_overflows" (dropped), a warning naming `who` and max_jobs

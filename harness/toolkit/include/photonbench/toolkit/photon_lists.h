@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -45,6 +46,11 @@ class PhotonLists {
   // After the insert run: counts the bins whose inserts differ from their counts, and leaves in
   // the counts what an estimate may read (pb_list_range). Must run before any estimate.
   void check(vk::CommandBuffer cmd) const;
+  // Passes "count", "prefix-sum", "insert" and "check" (nested in the caller's scope): `splat`
+  // records one splatting run into the command buffer, the count run (insert = false), then the
+  // insert run; the lists must be cleared already.
+  void record_runs(Context& ctx, const PrefixSum& scan,
+                   const std::function<void(vk::CommandBuffer cmd, bool insert)>& splat) const;
   void append_bindings(std::vector<gpu::Resource>& resources) const;
 
   struct Stats {
