@@ -4,7 +4,7 @@
 // centre, so its shadows are hard: a documented approximation); directional lights one orthographic tile.
 // Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter et al. 2007) with
 // Schlick's Fresnel; smooth specular surfaces receive no direct light from delta or small lights here.
-#include "scene_layout.h"
+#include "photonbench/scene_layout.h"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial materials[]; };

@@ -1,7 +1,7 @@
 #version 460
 // G-buffer pass, fragment stage: world position + view distance, shading normal facing the camera +
 // material index, albedo + material type. A cleared texel (w = 0 in target 0) is background.
-#include "scene_layout.h"
+#include "photonbench/scene_layout.h"
 layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };

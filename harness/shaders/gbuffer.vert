@@ -1,6 +1,6 @@
 #version 460
 // G-buffer pass, vertex stage: one draw per object, its object-to-world matrix pushed.
-#include "scene_layout.h"
+#include "photonbench/scene_layout.h"
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };

@@ -1,7 +1,7 @@
 #version 460
 // Final shading: emitted radiance seen directly (C L) + direct light (C D L) + the technique's indirect
 // estimate (outgoing radiance of its path class). Background is black.
-#include "scene_layout.h"
+#include "photonbench/scene_layout.h"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial materials[]; };

@@ -1,6 +1,6 @@
 #version 460
 // Shadow-map pass: depth only, one viewport tile of the atlas per light view (cube faces or ortho).
-#include "scene_layout.h"
+#include "photonbench/scene_layout.h"
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 layout(std430, binding = 0) readonly buffer TileBlock { mat4 tiles[]; };

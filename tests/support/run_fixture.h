@@ -1,10 +1,12 @@
-// Helpers for tests that run `photonbench run` end to end (technique tests): a scratch folder, a run
-// of a YAML text with Vulkan validation, and readers for the run's cells, counters and images.
+// Helpers for tests that run `photonbench run` end to end (technique tests): a scratch folder, a
+// run of a YAML text with Vulkan validation, and readers for the run's cells, counters and images.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -22,18 +24,20 @@ namespace fs = std::filesystem;
 
 // An empty folder under the temp dir, unique to this test process.
 inline fs::path work_dir(const std::string& suite, const std::string& name) {
-  fs::path dir = fs::temp_directory_path() / ("pb_" + suite + "_" + name + "_" + std::to_string(::getpid()));
+  fs::path dir =
+      fs::temp_directory_path() / ("pb_" + suite + "_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
 }
 
-// Writes `yaml` to DIR/config.yaml and runs it into DIR/run with validation; the console output goes to
-// DIR/log.txt. Returns the exit status as std::system does.
+// Writes `yaml` to DIR/config.yaml and runs it into DIR/run with validation; the console output
+// goes to DIR/log.txt. Returns the exit status as std::system does.
 inline int run_config(const fs::path& dir, const std::string& yaml) {
   std::ofstream(dir / "config.yaml") << yaml;
-  std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") + (dir / "config.yaml").string() + " --out " +
-                    (dir / "run").string() + " --validation > " + (dir / "log.txt").string() + " 2>&1";
+  std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") +
+                    (dir / "config.yaml").string() + " --out " + (dir / "run").string() +
+                    " --validation > " + (dir / "log.txt").string() + " 2>&1";
   return std::system(cmd.c_str());
 }
 
@@ -90,7 +94,8 @@ inline std::map<std::string, double> counters(const fs::path& cell) {
 
 // images/frame_NNNN.exr, or with `path_class` the technique's estimate of that class alone
 // (frame_NNNN_<class>.exr).
-inline io::Image frame_image(const fs::path& cell, int frame = 0, const std::string& path_class = "") {
+inline io::Image frame_image(const fs::path& cell, int frame = 0,
+                             const std::string& path_class = "") {
   char name[64];
   std::snprintf(name, sizeof name, "frame_%04d%s%s.exr", frame, path_class.empty() ? "" : "_",
                 path_class.c_str());
@@ -109,6 +114,113 @@ inline bool all_finite(const io::Image& image) {
   for (float v : image.pixels)
     if (!std::isfinite(v)) return false;
   return true;
+}
+
+// The warnings of a cell (cell.json), as one string to search.
+inline std::string warnings(const fs::path& cell) {
+  return read_json(cell / "cell.json")["warnings"].dump();
+}
+
+// The loop-budget boundary of a hierarchy technique: `params` (one photon, so that which jobs share
+// an invocation is fixed) run once with `profile: true` gives the most loop steps an invocation
+// took, M (the largest `profile_*_steps_max`); then runs with loop_budget M and M - 1. What each
+// reported. expect_budget_boundary checks it: with M nothing is truncated (a walk whose last step
+// takes the last unit is complete), with M - 1 some traversal is, counted and warned about.
+struct BudgetBoundary {
+  int most = 0;
+  double photons = 0, truncated_unlimited = -1, truncated_at_most = -1, truncated_below = -1;
+  std::string warnings_at_most, warnings_below;
+};
+inline BudgetBoundary budget_boundary(const fs::path& dir, const std::string& header,
+                                      const std::string& technique, const std::string& params) {
+  BudgetBoundary b;
+  std::string p = params + ", profile: true";
+  auto run = [&](const std::string& extra) {
+    fs::remove_all(dir / "run");
+    return run_config(dir, header + "techniques:\n  - {technique: " + technique + ", params: {" +
+                               p + extra + "}}\n");
+  };
+  if (run("") != 0) return b;
+  auto sums = counters(find_cell(dir, technique));
+  b.photons = sums["photons_stored"];
+  b.truncated_unlimited = sums["truncated_traversals"];
+  for (const auto& [name, value] : sums)
+    if (name.rfind("profile_", 0) == 0 && name.size() > 10 &&
+        name.substr(name.size() - 10) == "_steps_max")
+      b.most = std::max(b.most, int(value));
+  for (int budget : {b.most, b.most - 1}) {
+    if (budget < 1 || run(", loop_budget: " + std::to_string(budget)) != 0) return b;
+    fs::path cell = find_cell(dir, technique);
+    (budget == b.most ? b.truncated_at_most : b.truncated_below) =
+        counters(cell)["truncated_traversals"];
+    (budget == b.most ? b.warnings_at_most : b.warnings_below) = warnings(cell);
+  }
+  return b;
+}
+
+inline void expect_budget_boundary(const fs::path& dir, const std::string& header,
+                                   const std::string& technique, const std::string& params) {
+  auto b = budget_boundary(dir, header, technique, params);
+  ASSERT_EQ(b.photons, 1) << "see " << (dir / "log.txt");
+  ASSERT_EQ(b.truncated_unlimited, 0);
+  ASSERT_GT(b.most, 2);
+  EXPECT_EQ(b.truncated_at_most, 0) << "budget " << b.most;
+  EXPECT_EQ(b.warnings_at_most.find("loop budget"), std::string::npos) << b.warnings_at_most;
+  EXPECT_GE(b.truncated_below, 1) << "budget " << b.most - 1;
+  EXPECT_NE(b.warnings_below.find("loop budget"), std::string::npos) << b.warnings_below;
+}
+
+// A Cornell box whose every surface is the same grey and whose light has the colour `rgb` (YAML
+// "[r, g, b]"): every photon, and so every pixel of an exact estimate, has the light's channel
+// ratios. Written to DIR/<name>.yaml; returns its path (a config names a scene by path).
+inline fs::path grey_box_scene(const fs::path& dir, const std::string& name,
+                               const std::string& rgb) {
+  fs::path file = dir / (name + ".yaml");
+  std::ofstream(file)
+      << "purpose: channel ratios (tests)\n"
+         "camera: {position: [0.5, 0.5, 2.44], target: [0.5, 0.5, 0.0], fov_deg: 39.3}\n"
+         "lights:\n"
+         "  - {name: ceiling, type: point, position: [0.5, 0.97, 0.5], intensity: 2.5, color: "
+      << rgb
+      << "}\n"
+         "materials:\n"
+         "  grey: {type: diffuse, albedo: [0.7, 0.7, 0.7]}\n"
+         "objects:\n"
+         "  - {name: floor, shape: {type: quad}, material: grey, transform: {translate: [0.5, 0, "
+         "0.5]}}\n"
+         "  - {name: ceiling, shape: {type: quad}, material: grey,\n"
+         "     transform: {translate: [0.5, 1, 0.5], rotate_deg: [180, 0, 0]}}\n"
+         "  - {name: back, shape: {type: quad}, material: grey,\n"
+         "     transform: {translate: [0.5, 0.5, 0], rotate_deg: [90, 0, 0]}}\n"
+         "  - {name: left, shape: {type: quad}, material: grey,\n"
+         "     transform: {translate: [0, 0.5, 0.5], rotate_deg: [0, 0, -90]}}\n"
+         "  - {name: right, shape: {type: quad}, material: grey,\n"
+         "     transform: {translate: [1, 0.5, 0.5], rotate_deg: [0, 0, 90]}}\n"
+         "  - {name: block, shape: {type: box, size: 0.3}, material: grey,\n"
+         "     transform: {translate: [0.6, 0.15, 0.6], rotate_deg: [0, -17, 0]}}\n";
+  return file;
+}
+
+// The largest relative deviation, over pixels whose channel `strong` exceeds `floor`, of channel
+// `weak` / channel `strong` from `ratio`. expect_green_ratio: a cell's indirect image (of the grey
+// box lit by [1, 1e-5, 1]) keeps green / red = 1e-5 to 1e-3 in every pixel brighter than 1e-4 of
+// the mean.
+inline double worst_channel_ratio(const io::Image& image, int weak, int strong, double ratio,
+                                  double floor) {
+  double worst = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      double s = image.at(x, y, strong);
+      if (s <= floor) continue;
+      worst = std::max(worst, std::abs(image.at(x, y, weak) / (s * ratio) - 1.0));
+    }
+  return worst;
+}
+
+inline void expect_green_ratio(const fs::path& cell) {
+  auto image = frame_image(cell, 0, "indirect");
+  double worst = worst_channel_ratio(image, 1, 0, 1e-5, 1e-4 * mean_rgb(image));
+  EXPECT_LT(worst, 1e-3) << cell.filename() << ": green / red off by " << worst;
 }
 
 }  // namespace pb::testing

@@ -56,7 +56,7 @@ struct FrameInfo {
 // The G-buffer: RGBA32F images, one texel per pixel.
 //   position: world xyz, w = distance to the camera (0: background)
 //   normal:   world shading normal facing the camera, w = material index
-//   albedo:   diffuse albedo rgb, w = material type (PB_MATERIAL_* of harness/shaders/scene_layout.h)
+//   albedo:   diffuse albedo rgb, w = material type (PB_MATERIAL_* of photonbench/scene_layout.h)
 struct GBuffer {
   const gpu::Image* position;
   const gpu::Image* normal;
@@ -75,7 +75,7 @@ class SharedPasses {
   virtual void configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) = 0;
   virtual GBuffer gbuffer_images() const = 0;
   virtual const gpu::Image& direct_image() const = 0;
-  // Bindable scene data for a technique's own shaders (layouts in harness/shaders/scene_layout.h).
+  // Bindable scene data for a technique's own shaders (layouts in photonbench/scene_layout.h).
   virtual const gpu::Buffer& frame_buffer() const = 0;     // GpuFrame
   virtual const gpu::Buffer& material_buffer() const = 0;  // GpuMaterial[]
   virtual const gpu::Buffer& light_buffer() const = 0;     // GpuLight[]

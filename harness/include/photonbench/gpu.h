@@ -85,10 +85,18 @@ class Pipeline {
   Pipeline(Pipeline&&) = default;
   Pipeline& operator=(Pipeline&&) = default;
   // Binds the pipeline and pushes its resources and push constants.
-  void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const void* push = nullptr,
+  void bind(vk::CommandBuffer cmd, std::span<const Resource> resources, const void* push = nullptr,
             uint32_t push_bytes = 0) const;
+  void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const void* push = nullptr,
+            uint32_t push_bytes = 0) const {
+    bind(cmd, std::span<const Resource>(resources.begin(), resources.size()), push, push_bytes);
+  }
   template <class T>
   void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const T& push) const {
+    bind(cmd, resources, &push, sizeof(T));
+  }
+  template <class T>
+  void bind(vk::CommandBuffer cmd, std::span<const Resource> resources, const T& push) const {
     bind(cmd, resources, &push, sizeof(T));
   }
   const std::string& name() const { return name_; }

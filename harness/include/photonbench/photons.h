@@ -18,7 +18,7 @@
 
 namespace pb::trace {
 
-#include "../../shaders/photon_layout.h"
+#include "photonbench/photon_layout.h"
 
 static_assert(sizeof(PhotonRecord) == 96, "std430 size of PhotonRecord");
 static_assert(offsetof(PhotonRecord, position) == 0 && offsetof(PhotonRecord, object) == 12);

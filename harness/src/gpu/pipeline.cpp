@@ -128,7 +128,7 @@ Pipeline Device::create_graphics_pipeline(const GraphicsPipelineDesc& desc) {
   return pipeline;
 }
 
-void Pipeline::bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const void* push,
+void Pipeline::bind(vk::CommandBuffer cmd, std::span<const Resource> resources, const void* push,
                     uint32_t push_bytes) const {
   if (resources.size() != bindings_.size())
     throw Error(fmt::format("pipeline '{}' takes {} resources, got {}", name_, bindings_.size(), resources.size()));

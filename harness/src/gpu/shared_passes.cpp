@@ -4,7 +4,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../../shaders/scene_layout.h"
+#include "photonbench/scene_layout.h"
 #include "photonbench/error.h"
 #include "shared_shaders.h"
 

@@ -1,9 +1,10 @@
 // directional technique, end to end through `photonbench run` (with Vulkan validation): on
 // cornell-box its image is close to tiled's with the same photons (FLIP and the mean of the added
-// indirect light), its blur does not carry irradiance across depth or normal edges, doubling the
-// photons at a fixed radius keeps the mean irradiance (flux is conserved by the node buckets), and
-// a photon that would visit too many nodes is counted and warned about instead of being lost
-// silently.
+// indirect light), its blur does not carry irradiance across depth or normal edges, its buckets
+// keep a weak colour channel (fixed point per channel), and a traversal that runs out of its loop
+// budget is counted exactly past the budget and warned about instead of being lost silently. (Its
+// irradiance against a closed form, with both octant weightings, both deposits and the deep layout:
+// tests/unit/paper1_analytic_test.cpp.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -28,13 +29,20 @@ namespace {
 
 using namespace pb::testing;
 
-fs::path work_dir(const std::string& name) { return pb::testing::work_dir("directional_test", name); }
+fs::path work_dir(const std::string& name) {
+  return pb::testing::work_dir("directional_test", name);
+}
 
-// Mean HDR-FLIP of directional's full image against tiled's (same photons) on cornell-box at
-// 160x90, 20k paths, r = 0.05: measured 0.184. Most of it is the approximation itself, not tiled's
-// noise: against tiled with 400k paths directional gives 0.171 (20k) and 0.166 (100k paths), while
-// tiled's own 20k image gives 0.104 (README "Tests"). The bound leaves a margin of ~35%.
-constexpr double kFlipBound = 0.25;
+// directional against tiled with the same photons on cornell-box at 160x90, 20k paths, r = 0.05:
+// the mean indirect light directional adds, relative to tiled's (measured 1.037: Paper I's cos2
+// weights over-weight an axis-aligned surface's four octants by 15%, the node mixing of walls and
+// floor loses about 11%; README "Octant weights"), and the mean HDR-FLIP of the full images
+// (measured 0.1845, most of it the approximation itself: against tiled with 400k paths directional
+// gives 0.171 while tiled's own 20k image gives 0.104). The photons, the hierarchy and the integer
+// bucket sums are deterministic, so the bounds sit just outside the measured values: they catch a
+// change of the approximation's quality, which the analytic test (exact on a plane) cannot see.
+constexpr double kMeanBound = 0.06;
+constexpr double kFlipBound = 0.2;
 
 void expect_ok(const fs::path& cell) {
   auto record = read_json(cell / "cell.json");
@@ -80,7 +88,7 @@ TEST(Directional, CloseToTiledOnCornellBox) {
   double added_tiled = mean_rgb(frame_image(tiled[0], 0, "indirect"));
   double added_directional = mean_rgb(frame_image(directional[0], 0, "indirect"));
   ASSERT_GT(added_tiled, 0);
-  EXPECT_NEAR(added_directional / added_tiled, 1.0, 0.15)
+  EXPECT_NEAR(added_directional / added_tiled, 1.0, kMeanBound)
       << "directional adds " << added_directional << ", tiled " << added_tiled;
   // HDR-FLIP of the full image against tiled's; the bound is justified in README.md ("Tests").
   double flip = pb::metrics::flip(t, a).stats.mean;
@@ -88,12 +96,8 @@ TEST(Directional, CloseToTiledOnCornellBox) {
   std::printf("directional/tiled indirect mean %.4f, FLIP %.4f\n", added_directional / added_tiled,
               flip);
   auto sums = counters(directional[0]);
-  EXPECT_GT(sums["photons_stored"], 0);
-  EXPECT_GT(sums["node_deposits"], 0);
-  EXPECT_EQ(sums["overflows"], 0);
-  EXPECT_GT(sums["bytes_cluster_hierarchy"], 0);
-  EXPECT_GT(sums["bytes_accum_flux"], 0);
-  EXPECT_GT(sums["bytes_photons"], 0);
+  EXPECT_EQ(sums["truncated_traversals"] + sums["job_overflows"], 0);
+  EXPECT_GT(sums["jobs"], 0);
   fs::remove_all(dir);
 }
 
@@ -141,54 +145,36 @@ TEST(Directional, BlurKeepsDepthAndNormalEdges) {
   fs::remove_all(dir);
 }
 
-// Each photon's flux goes into the buckets once (whole, or shared out by coverage), so twice the
-// photons of half the flux each give the same mean irradiance; only the noise changes.
-TEST(Directional, DoublingPhotonsKeepsMeanIrradiance) {
-  fs::path dir = work_dir("flux");
-  std::string yaml = header(dir) +
-                     "techniques:\n"
-                     "  - technique: directional\n"
-                     "    params: {photons: [20000, 40000], radius: 0.05, max_bounces: 12,\n"
-                     "             accumulate_at: [accumulation, leaves]}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells_with_prefix(dir, "cornell-box__directional__");
-  ASSERT_EQ(found.size(), 4u);
-  // (accumulate_at, photons) -> mean indirect radiance and photons stored.
-  std::map<std::pair<std::string, std::string>, std::pair<double, double>> runs;
-  for (const auto& cell : found) {
-    expect_ok(cell);
-    auto params = read_json(cell / "cell.json")["params"];
-    runs[{params["accumulate_at"].get<std::string>(), params["photons"].get<std::string>()}] = {
-        mean_rgb(frame_image(cell, 0, "indirect")), counters(cell)["photons_stored"]};
-  }
-  ASSERT_EQ(runs.size(), 4u);
-  for (const char* at : {"accumulation", "leaves"}) {
-    auto once = runs[{at, "20000"}], twice = runs[{at, "40000"}];
-    ASSERT_GT(once.first, 0) << at;
-    EXPECT_GT(twice.second, 1.8 * once.second) << at;
-    EXPECT_NEAR(twice.first / once.first, 1.0, 0.05)
-        << at << ": " << once.first << " vs " << twice.first;
-    std::printf("%s: mean indirect at 2x photons / 1x: %.4f\n", at, twice.first / once.first);
-  }
+// One photon, profiled: the most loop steps an invocation took is M. With loop_budget = M nothing
+// is truncated; with M - 1 some traversal is, counted and warned about, and the cell still
+// succeeds. (The splat used to decrement its budget in the root loop without a check, so a walk
+// that ended at 0 wrapped it to 2^32 - 1 and ran on unguarded and uncounted.)
+TEST(Directional, TraversalsAreTruncatedExactlyPastTheBudget) {
+  fs::path dir = work_dir("budget");
+  expect_budget_boundary(dir, header(dir), "directional",
+                         "photons: 1, radius: 0.6, max_bounces: 2");
   fs::remove_all(dir);
 }
 
-// A photon whose traversal would pass the visit budget (kept for llvmpipe's loop limit) is counted
-// and warned about; the cell still succeeds.
-TEST(Directional, VisitBudgetOverflowIsCountedAndWarned) {
-  fs::path dir = work_dir("overflow");
-  std::string yaml = header(dir) +
-                     "techniques:\n"
-                     "  - technique: directional\n"
-                     "    params: {photons: 2000, radius: 0.3, max_visits: 2}\n";
+// The light's green is 1e-5 of its red and every surface is the same grey, so every bucket, and
+// every pixel, has green / red = 1e-5. The old scale (4e9 / the total red flux) gave each photon
+// 1e-5 x 4e9 / 1.1e5 = 0.4 units of green, rounded to 0: the image had no green at all (the same
+// loss as a channel at 1e-3 at Paper I's 1e7 photons).
+TEST(Directional, BucketsKeepAWeakChannel) {
+  fs::path dir = work_dir("weak");
+  fs::path scene = grey_box_scene(dir, "grey-box", "[1, 1e-5, 1]");
+  std::string yaml =
+      "name: directional-test\nresolution: [160, 90]\nseed: 1\nscenes: [" + scene.string() +
+      "]\nlimits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 1}\n"
+      "metrics: [psnr]\nreference: {samples: 2, cache_dir: " +
+      (dir / "refs").string() +
+      "}\ntechniques:\n  - {technique: directional, params: {photons: 80000, radius: 0.1}}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells_with_prefix(dir, "cornell-box__directional__");
+  auto found = cells_with_prefix(dir, "grey-box__directional__");
   ASSERT_EQ(found.size(), 1u);
   expect_ok(found[0]);
-  auto sums = counters(found[0]);
-  EXPECT_GT(sums["overflows"], 0);
-  std::string warnings = read_json(found[0] / "cell.json")["warnings"].dump();
-  EXPECT_NE(warnings.find("max_visits"), std::string::npos) << warnings;
+  ASSERT_GT(counters(found[0])["photons_stored"], 100000);
+  expect_green_ratio(found[0]);
   fs::remove_all(dir);
 }
 

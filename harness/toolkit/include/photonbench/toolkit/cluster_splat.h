@@ -1,0 +1,54 @@
+// Paper I's photon splatting with the view-sample cluster hierarchy (§4) as a Splatter, in three
+// variants: plain, cone (normal-cone rejection, §4.5) and trivial (per-node flux for photons that
+// enclose a node and arrive above all its samples, §4.6). Passes: cluster-build (the Hierarchy),
+// splat/{top, regroup, count, prefix-sum, insert, check}, radiance-estimate. Shaders:
+// harness/shaders/toolkit/cluster/. techniques/cluster/README.md describes it and its deviations.
+#pragma once
+
+#include "photonbench/toolkit/fixed_point.h"
+#include "photonbench/toolkit/gpu_scan.h"
+#include "photonbench/toolkit/hierarchy.h"
+#include "photonbench/toolkit/jobs.h"
+#include "photonbench/toolkit/node_flux.h"
+#include "photonbench/toolkit/photon_lists.h"
+#include "photonbench/toolkit/technique.h"
+#include "photonbench/toolkit/traversal.h"
+
+namespace pb::toolkit {
+
+class ClusterSplat final : public Splatter {
+ public:
+  static constexpr const char* kName = "cluster";
+  // clang-format off
+  static constexpr pb_param_spec kVariantParam = {
+      "variant", PB_PARAM_ENUM, 0, 0, 2, "plain|cone|trivial", "",
+      "plain; cone: normal-cone rejection (Paper I §4.5); trivial: cone + per-node flux (§4.6)"};
+  static constexpr pb_param_spec kMaxListEntriesParam = {
+      "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 25, nullptr, "entries",
+      "capacity of all per-node photon lists together; overflowing entries are dropped and "
+      "counted (list_overflows)"};
+  // clang-format on
+  enum Variant : uint32_t { kPlain = 0, kCone = 1, kTrivial = 2 };
+
+  void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
+  const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;
+  void report(Context& ctx, const PhotonSet& photons) override;
+  const Hierarchy& hierarchy() const { return hierarchy_; }
+
+ private:
+  void ensure_resources(Context& ctx);
+
+  float radius_ = 0, insert_radius_scale_ = 1;
+  uint32_t variant_ = kPlain, top_levels_ = 3, budget_ = PB_LOOP_BUDGET;
+  Hierarchy hierarchy_;
+  PrefixSum scan_;
+  JobQueue jobs_;
+  PhotonLists lists_;
+  PassProfile profile_;
+  NodeFlux node_flux_;
+  gpu::Buffer stats_;
+  gpu::Image indirect_;
+  gpu::Pipeline top_pipeline_, leaf_pipeline_, estimate_pipeline_;
+};
+
+}  // namespace pb::toolkit

@@ -1,0 +1,139 @@
+// What every photon technique shares, so that each is written once (harness/toolkit/README.md): the
+// parameter rows and their defaults, the trace settings they make, the shadow set-up, storage-
+// range checks, sliced dispatch for llvmpipe's loop limit, the G-buffer's bindings, and the frame
+// of a splatting technique (trace, upload, G-buffer, direct light, splat and estimate, shade,
+// counters) around a Splatter, so that a technique is its parameter schema and one Splatter:
+//
+//   const pb_param_spec kParams[] = {
+//       pb::toolkit::kPhotonsParam, pb::toolkit::kRadiusParam, pb::toolkit::kMaxBouncesParam,
+//       pb::toolkit::kShadowMapSizeParam, ...the splatter's rows...};
+//   using Tiled = pb::toolkit::SplatTechnique<pb::toolkit::TiledSplat>;
+//   PB_EXPORT_TECHNIQUE(Tiled, "tiled", "indirect", "...", kParams)
+//
+// A technique with its own photons (path verification's re-validated paths) calls a Splatter's
+// render() with its own PhotonSet instead.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string_view>
+
+#include "photonbench/context.h"
+#include "photonbench/plugin.h"
+#include "photonbench/toolkit/limits.h"
+
+namespace pb::toolkit {
+
+// ---- Parameter rows every photon technique lists first (defaults chosen for lavapipe; Paper I's
+// values in the docs). `photons` counts light paths, not stored photons (Paper I §5 counts stored).
+// clang-format off
+inline constexpr pb_param_spec kPhotonsParam = {
+    "photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
+    "light paths traced per frame (Paper I counts stored photons; default kept small for "
+    "lavapipe)"};
+inline constexpr pb_param_spec kRadiusParam = {
+    "radius", PB_PARAM_FLOAT, 0.05, 1e-5, 1e4, nullptr, "m",
+    "photon sphere radius, one for every photon (Paper I Table 2 sets it per scene)"};
+inline constexpr pb_param_spec kMaxBouncesParam = {
+    "max_bounces", PB_PARAM_INT, 4, 2, 31, nullptr, "hits",
+    "surface interactions per light path; photons are stored at hits 2 to max_bounces, so full "
+    "paths of 2 to max_bounces surface vertices are estimated (Paper I §4.2: four bounces)"};
+inline constexpr pb_param_spec kShadowMapSizeParam = {
+    "shadow_map_size", PB_PARAM_INT, 512, 16, 4096, nullptr, "texels",
+    "shadow-map tile side of the direct light"};
+inline constexpr pb_param_spec kStoreFirstHitParam = {
+    "store_first_hit", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+    "test hook: also store photons at the first hit (L D), so the estimate includes direct light "
+    "(checked against closed-form irradiance); Paper I: false"};
+// clang-format on
+
+// The shared rows' values of one cell.
+struct PhotonParams {
+  uint32_t paths = 100000;
+  float radius = 0.05f;
+  uint32_t max_bounces = 4;
+  uint32_t shadow_map_size = 512;
+  bool store_first_hit = false;  // read only where the technique lists kStoreFirstHitParam
+
+  static PhotonParams read(const Params& params);
+  // Paper I's photons (§4.2: "at each bounce (except the first), a photon is stored"), of the
+  // `indirect` path class C D (D|S)* D (D|S)* L: without pure caustics L S+ D (stored photons on
+  // diffuse surfaces only; Russian roulette from the second hit on, so a stored photon carries the
+  // emitted flux times the first hit's albedo).
+  trace::TraceSettings trace_settings() const;
+};
+
+// The shared passes' default shadow biases (harness/src/gpu/shared_passes.h), with this map size.
+inline constexpr float kShadowRelativeBias = 0.01f, kShadowNormalOffsetM = 0.01f;
+void configure_shadows(Context& ctx, uint32_t map_size);
+
+// ---- Device limits. Throws InputError when one binding of `bytes` exceeds the device's
+// maxStorageBufferRange (lavapipe: 128 MiB); `what` names the parameter that sized it, e.g. "tiled:
+// max_list_entries = 4194304".
+void check_storage_range(const gpu::Device& gpu, uint64_t bytes, std::string_view what);
+
+// Dispatches that read lists of up to `longest` entries per invocation in slices of PB_LIST_SLICE
+// (llvmpipe's loop limit): `dispatch(first)` records one dispatch over entries [first, first +
+// PB_LIST_SLICE) of every list, with a full barrier between slices (later slices add to earlier
+// ones' output). At least one slice, so the output is always written.
+uint32_t list_slices(uint64_t longest);
+void dispatch_slices(vk::CommandBuffer cmd, uint64_t longest,
+                     const std::function<void(uint32_t first)>& dispatch);
+
+// The G-buffer in the binding order of toolkit/gbuffer.glsl (position, normal, albedo).
+std::array<gpu::Resource, 3> gbuffer_resources(const GBuffer& gbuffer);
+
+// A buffer created for storage, transfer fills and read-backs (tests read toolkit buffers back).
+gpu::Buffer storage_buffer(gpu::Device& gpu, std::string name, uint64_t bytes,
+                           gpu::Memory memory = gpu::Memory::device_local);
+
+// ---- The photons one frame splats: `records` uploaded into `buffer` (PhotonRecord[]).
+struct PhotonSet {
+  const gpu::Buffer* buffer = nullptr;
+  std::span<const trace::PhotonRecord> records;
+  uint32_t count() const { return uint32_t(records.size()); }
+};
+
+// A Paper I splatter: the passes between the G-buffer and the shade pass.
+class Splatter {
+ public:
+  virtual ~Splatter() = default;
+  // In Technique::setup: reads the splatter's own parameter rows, creates pipelines.
+  virtual void setup(Context& ctx, const Params& params, const PhotonParams& photon) = 0;
+  // Per frame, after ctx.shared().gbuffer() and direct_light(): records the splat and the radiance
+  // estimate of `photons`; returns the indirect radiance image (RGBA32F) for ctx.shared().shade().
+  virtual const gpu::Image& render(Context& ctx, const PhotonSet& photons) = 0;
+  // After ctx.flush(): this frame's counters and warnings.
+  virtual void report(Context& ctx, const PhotonSet& photons) = 0;
+};
+
+// One frame of a splatting technique: photon-trace and photon-upload (pb::trace_and_upload_photons
+// into `photons`, named "<name>/photons"), gbuffer, direct-light, the splatter, shade; then a
+// flush so that the splatter reads its counters, and "bytes_photons".
+void render_photon_frame(Context& ctx, const PhotonParams& photon, trace::PhotonBatch& batch,
+                         gpu::Buffer& photons, std::string_view name, Splatter& splatter);
+
+// A technique that is one Splatter: S has `static constexpr const char* kName` and S() and the
+// Splatter interface.
+template <class S>
+class SplatTechnique final : public Technique {
+ public:
+  void setup(Context& ctx, const Params& params) override {
+    photon_ = PhotonParams::read(params);
+    configure_shadows(ctx, photon_.shadow_map_size);
+    splatter_.setup(ctx, params, photon_);
+  }
+  void render(Context& ctx) override {
+    render_photon_frame(ctx, photon_, batch_, photons_, S::kName, splatter_);
+  }
+
+ private:
+  PhotonParams photon_;
+  trace::PhotonBatch batch_;
+  gpu::Buffer photons_;
+  S splatter_;
+};
+
+}  // namespace pb::toolkit

@@ -1,0 +1,44 @@
+// Paper I's tiled photon splatting (§5.1, after Mara, Luebke & McGuire 2013) as a Splatter: 32x32
+// screen tiles with view-depth bounds, photons binned into per-tile lists by testing each photon's
+// sphere against the tiles under its screen rectangle, then per pixel a constant-kernel estimate
+// over its tile's list. Passes: tile-bounds, splat/{count, prefix-sum, insert, check},
+// radiance-estimate. Shaders: harness/shaders/toolkit/tiled/. The `tiled` technique is this alone;
+// techniques/tiled/README.md describes it and its deviations.
+#pragma once
+
+#include "photonbench/toolkit/gpu_scan.h"
+#include "photonbench/toolkit/photon_lists.h"
+#include "photonbench/toolkit/technique.h"
+
+namespace pb::toolkit {
+
+class TiledSplat final : public Splatter {
+ public:
+  static constexpr const char* kName = "tiled";
+  // clang-format off
+  static constexpr pb_param_spec kTileSizeParam = {
+      "tile_size", PB_PARAM_INT, 32, 8, 256, nullptr, "pixels",
+      "tile side, a multiple of 8; Paper I §5.1 uses 32"};
+  static constexpr pb_param_spec kMaxListEntriesParam = {
+      "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 28, nullptr, "entries",
+      "capacity of all per-tile lists together (photon indices); overflowing entries are dropped "
+      "and counted"};
+  // clang-format on
+
+  void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
+  const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;
+  void report(Context& ctx, const PhotonSet& photons) override;
+
+ private:
+  void ensure_resources(Context& ctx);
+
+  float radius_ = 0, insert_radius_scale_ = 1;
+  uint32_t tile_size_ = 32, width_ = 0, height_ = 0, tiles_x_ = 0, tiles_y_ = 0, tile_count_ = 0;
+  PrefixSum scan_;
+  PhotonLists lists_;
+  gpu::Buffer bounds_, stats_;
+  gpu::Image indirect_;
+  gpu::Pipeline bounds_pipeline_, splat_pipeline_, estimate_pipeline_;
+};
+
+}  // namespace pb::toolkit

@@ -1,0 +1,58 @@
+// What the hierarchy traversals share on the C++ side (GPU side: harness/shaders/toolkit/
+// traverse.glsl, profile.glsl): the loop budget and the report of traversals that ran out of it,
+// and the per-pass work profile, reported as counters "profile_<pass>_steps", "_visits",
+// "_atomics", "_steps_max" and "_lanes_idle" (the share of SIMD lanes idle in the loop steps, 0 to
+// 1), for finding where a splat pass's time goes.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "photonbench/context.h"
+#include "photonbench/gpu.h"
+#include "photonbench/plugin.h"
+#include "photonbench/toolkit/limits.h"
+
+namespace pb::toolkit {
+
+// clang-format off
+inline constexpr pb_param_spec kProfileParam = {
+    "profile", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+    "count loop steps, nodes visited, atomics and idle SIMD lanes per splat pass (counters "
+    "profile_*; slower)"};
+// clang-format on
+
+// The `loop_budget` test hook: iterations a traversal may take per invocation (the default is
+// llvmpipe's loop limit less room for other loops); lower, it makes traversals run out, to check
+// that they are counted (truncated_traversals) and warned about.
+// clang-format off
+inline constexpr pb_param_spec kLoopBudgetParam = {
+    "loop_budget", PB_PARAM_INT, PB_LOOP_BUDGET, 1, PB_LOOP_BUDGET, nullptr, "steps",
+    "test hook: loop steps one splat invocation may take (llvmpipe's limit is 65535); traversals "
+    "that run out are counted (truncated_traversals) and warned about"};
+// clang-format on
+
+// Counter "truncated_traversals" (walks that ran out of `budget` steps), with a warning when
+// non-zero; `who` names the technique.
+void report_truncated(Context& ctx, std::string_view who, uint64_t truncated, uint32_t budget);
+
+class PassProfile {
+ public:
+  static constexpr uint32_t kSlotWords = 16;  // PB_PROFILE_SLOT_WORDS
+  // Slot i of the GPU buffer is pass `passes[i]`.
+  void setup(gpu::Device& gpu, std::vector<std::string> passes, bool enabled);
+  void clear(vk::CommandBuffer cmd) const;
+  const gpu::Buffer& buffer() const { return buffer_; }
+  bool enabled() const { return enabled_; }
+  // After ctx.flush(), when enabled.
+  void report(Context& ctx) const;
+
+ private:
+  std::vector<std::string> passes_;
+  bool enabled_ = false;
+  gpu::Buffer buffer_;
+};
+
+}  // namespace pb::toolkit
