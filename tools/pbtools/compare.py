@@ -187,8 +187,9 @@ class Comparison:
 
 
 def robust_noise(samples: np.ndarray) -> float:
-    """Robust per-sample standard deviation of one run's frames (measures.successive_difference_sigma:
-    1.4826 x MAD of successive differences / sqrt 2, so the animation's slow change is not noise)."""
+    """Robust per-sample standard deviation of one run's frames: 1.4826 x MAD of successive
+    differences / sqrt 2 (measures.successive_difference_sigma), so the animation's slow change of
+    cost is not noise."""
     return measures.successive_difference_sigma(samples)
 
 
@@ -271,7 +272,7 @@ def compare_detail(base, new, threshold, alpha, noise_k, min_ms):
 
 
 def error_change(metric: str, base: float, new: float) -> float:
-    """Relative change (%) of the error quantity behind a metric; positive means worse (measures.py)."""
+    """Relative change (%) of the error quantity behind a metric, positive worse (measures.py)."""
     return measures.error_change(metric, base, new)
 
 

@@ -47,7 +47,8 @@ def entries(run: Run, clock: str = "auto") -> Tuple[List[dict], List[dict], List
         names[prefix] = names.get(prefix, 0) + 1
         if names[prefix] > 1:  # two cells with the same visible setting: keep names unique by id
             prefix = f"{c.scene}/{c.id}"
-        extra = f"cell {c.id}; frames {c.text('frames')}; commit {run.commit[:12]}; device {run.device}"
+        extra = (f"cell {c.id}; frames {c.text('frames')}; commit {run.commit[:12]}; "
+                 f"device {run.device}")
         v = c.value("frame_ms_median")  # times: lower is better
         if math.isfinite(v):
             smaller.append({"name": f"{prefix}/frame", "unit": "ms", "value": v,
@@ -64,7 +65,8 @@ def entries(run: Run, clock: str = "auto") -> Tuple[List[dict], List[dict], List
             if math.isfinite(value):
                 target = smaller if measures.lower_is_better(metric) else bigger
                 target.append({"name": f"{prefix}/{metric}", "unit": measures.metric(metric).unit,
-                               "value": value, "extra": extra + (f"; path class {cls}" if cls else "")})
+                               "value": value,
+                               "extra": extra + (f"; path class {cls}" if cls else "")})
     return smaller, bigger, skipped
 
 

@@ -172,7 +172,8 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
         raise RunError(f"{path}: no history (run `photonbench history append RUN_DIR` first)")
     os.makedirs(out_dir, exist_ok=True)
     devices = list(dict.fromkeys(e["device"] for e in entries))
-    written, cp_rows, sections = [], [], []  # sections: one per device, for templates/history.html.j2
+    written, cp_rows = [], []
+    sections = []  # one per device, for templates/history.html.j2
     for device in devices:
         dev_entries = [e for e in entries if e["device"] == device]
         commits = [e["commit"][:8] for e in dev_entries]

@@ -12,9 +12,10 @@ Metrics (metrics.csv columns; summary.csv has <metric>_mean and <metric>_floor):
     relmse  lower   sqrt(relMSE) (a weighted RMS)  relMSE
 
 The distance is what floors.py reads a score against its floor with (a norm of X - R where one
-exists, so the triangle inequality bounds the reference's noise); the error is what a relative change
-of a metric means to a reader: PSNR is a log of the MSE, so a drop of d dB is an MSE ratio of
-10^(d/10), and relMSE is already a squared error. Times (frame and pass medians, ms) are lower-is-better.
+exists, so the triangle inequality bounds the reference's noise); the error is what a relative
+change of a metric means to a reader: PSNR is a log of the MSE, so a drop of d dB is an MSE ratio
+of 10^(d/10), and relMSE is already a squared error. Times (frame and pass medians, ms) are
+lower-is-better.
 
 Noise: the per-sample standard deviation of a series whose level drifts slowly (frame times over an
 animation, a pass's medians over commits) is estimated from successive differences, which a slow
@@ -51,7 +52,8 @@ def _psnr_from_distance(d: float) -> float:
 
 METRICS = {m.name: m for m in (
     Metric("flip", "FLIP", r"\textsc{Flip}", "FLIP", True, lambda v: v, lambda d: d, lambda v: v),
-    Metric("ssim", "SSIM", "SSIM", "SSIM", False, lambda v: 1.0 - v, lambda d: 1.0 - d, lambda v: 1.0 - v),
+    Metric("ssim", "SSIM", "SSIM", "SSIM", False, lambda v: 1.0 - v, lambda d: 1.0 - d,
+           lambda v: 1.0 - v),
     Metric("psnr", "PSNR [dB]", "PSNR [dB]", "dB", False, lambda v: 10.0 ** (-v / 20.0),
            _psnr_from_distance, lambda v: 10.0 ** (-v / 10.0)),
     Metric("rmse", "RMSE", "RMSE", "RMSE", True, lambda v: v, lambda d: d, lambda v: v),
@@ -94,8 +96,8 @@ def from_distance(name: str, d: float) -> float:
 
 
 def error_change(name: str, base: float, new: float) -> float:
-    """Relative change (%) of the error quantity behind a metric; positive means worse. A base error of
-    zero makes any new error an infinite change (and none no change)."""
+    """Relative change (%) of the error quantity behind a metric; positive means worse. A base
+    error of zero makes any new error an infinite change (and none no change)."""
     if not (math.isfinite(base) and math.isfinite(new)):
         return math.nan
     m = metric(name)

@@ -33,13 +33,13 @@ def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
 
 
 RUN_INFO_KEYS = [("git_commit", "commit"), ("tool_version", "tool version"), ("device", "device"),
-                 ("driver", "driver"), ("cpu", "CPU"), ("os", "OS"), ("start", "start"), ("end", "end"),
-                 ("config_hash", "config hash"), ("schema_version", "schema")]
+                 ("driver", "driver"), ("cpu", "CPU"), ("os", "OS"), ("start", "start"),
+                 ("end", "end"), ("config_hash", "config hash"), ("schema_version", "schema")]
 
 
 def run_info_view(run: Run) -> List[tuple]:
-    """(label, text) of run.json's facts: the known ones first, then anything else the runner records
-    (timing fallbacks, flags...) that is not a structure."""
+    """(label, text) of run.json's facts: the known ones first, then anything else the runner
+    records (timing fallbacks, flags...) that is not a structure."""
     rows = []
     for key, label in RUN_INFO_KEYS:
         if key in run.info:
@@ -64,7 +64,8 @@ def status_view(run: Run) -> dict:
     return {
         "cells": len(run.cells), "ok": len(run.cells) - len(failed),
         "failed": [{"scene": c.scene, "label": run.label(c), "reason": c.reason,
-                    "frame": "" if c.failed_frame is None else str(c.failed_frame)} for c in failed],
+                    "frame": "" if c.failed_frame is None else str(c.failed_frame)}
+                   for c in failed],
         "warnings": [{"scene": c.scene, "label": run.label(c), "message": w["message"],
                       "frame": "" if w["frame"] is None else str(w["frame"])}
                      for c in run.cells for w in c.warnings]}
@@ -121,8 +122,10 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         for fig in figs:
             files = style.save(fig.fig, fig_dir, fig.stem)
             style.close(fig.fig)
-            tables.write_csv(os.path.join(fig_dir, fig.stem + ".csv"), pd.DataFrame(fig.rows, columns=fig.header))
-            shown.append({"stem": fig.stem, "title": fig.title, "caption": fig.caption, "files": files,
+            tables.write_csv(os.path.join(fig_dir, fig.stem + ".csv"),
+                             pd.DataFrame(fig.rows, columns=fig.header))
+            shown.append({"stem": fig.stem, "title": fig.title, "caption": fig.caption,
+                          "files": files,
                           "shown": files["png"] if fig.kind == "image" else files["svg"],
                           "width": _display_width_px(os.path.join(fig_dir, files["svg"]))})
         tex = f"passes_{F.slug(scene)}.tex"
@@ -131,10 +134,11 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         sections.append({"name": scene, "slug": F.slug(scene), "figures": shown, "passes_tex": tex})
 
     page = pages.render(
-        "report.html.j2", run_name=run.name, scenes=[{"name": s, "slug": F.slug(s)} for s in run.scenes()],
-        run_info=run_info_view(run), config=config_text(run), status=status_view(run),
-        summary=tables.summary_view(run), floors=tables.floors_view(run, floor_rows), sections=sections,
-        cells=cells_view(run), clock=clock)
+        "report.html.j2", run_name=run.name,
+        scenes=[{"name": s, "slug": F.slug(s)} for s in run.scenes()], run_info=run_info_view(run),
+        config=config_text(run), status=status_view(run), summary=tables.summary_view(run),
+        floors=tables.floors_view(run, floor_rows), sections=sections, cells=cells_view(run),
+        clock=clock)
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"

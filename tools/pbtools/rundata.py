@@ -11,11 +11,12 @@
     RUN/cells/<cell>/images/         frame_NNNN.{exr,png}, flip_NNNN_<class>.png, reference_NNNN_<class>.png
 
 The CSV files are read with pandas (read_table): the schema's text columns stay text, param.* are
-parsed by param_value, everything else is numeric. Everything here is read-only and tolerant of what
-a failed or interrupted cell leaves behind (a missing, empty or header-only file is an empty table with
-the schema's columns, an empty or unparsable field is NaN, a column the file lacks reads as empty),
-because a failed cell must be shown, never dropped; a row with more fields than its header is bad input.
-Nothing in here parses a cell's id: cells are labelled from their scene, technique and param.* columns.
+parsed by param_value, everything else is numeric. Everything here is read-only and tolerant of
+what a failed or interrupted cell leaves behind (a missing, empty or header-only file is an empty
+table with the schema's columns, an empty or unparsable field is NaN, a column the file lacks reads
+as empty), because a failed cell must be shown, never dropped; a row with more fields than its
+header is bad input. Nothing in here parses a cell's id: cells are labelled from their scene,
+technique and param.* columns.
 """
 
 from __future__ import annotations
@@ -66,8 +67,8 @@ class RunError(Exception):
 
 
 def param_value(text: str):
-    """A param.* field: a number when it reads as one (so sweeps sort numerically), an int when written
-    as one (no '.' or exponent), else the string; None when empty."""
+    """A param.* field: a number when it reads as one (so sweeps sort numerically), an int when
+    written as one (no '.' or exponent), else the string; None when empty."""
     if text is None:
         return None
     text = str(text).strip()
@@ -94,8 +95,8 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 
 
 def _read_csv(path: str, **options) -> pd.DataFrame:
-    """pd.read_csv, with a missing or empty file as an empty table and a malformed one (a row with more
-    fields than the header, bytes that are not UTF-8) as a RunError naming the file and the line."""
+    """pd.read_csv, with a missing or empty file as an empty table and a malformed one (a row with
+    more fields than the header, bytes that are not UTF-8) a RunError naming the file and line."""
     if not os.path.isfile(path):
         return pd.DataFrame()
     try:
@@ -135,9 +136,10 @@ def _with_columns(table: pd.DataFrame, columns: Sequence[str]) -> pd.DataFrame:
 
 
 def read_table(path: str, columns: Sequence[str] = ()) -> pd.DataFrame:
-    """A per-cell CSV file: TEXT_COLUMNS as text ("" where empty), every other column parsed as numbers
-    by pandas (NaN where empty or unparsable), `columns` added where the file lacks them."""
-    table = _read_csv(path, dtype={c: str for c in TEXT_COLUMNS}, keep_default_na=False, na_values=[""])
+    """A per-cell CSV file: TEXT_COLUMNS as text ("" where empty), every other column parsed as
+    numbers by pandas (NaN where empty or unparsable), `columns` added where the file lacks them."""
+    table = _read_csv(path, dtype={c: str for c in TEXT_COLUMNS}, keep_default_na=False,
+                      na_values=[""])
     for col in table.columns:
         column = table[col]
         if col in TEXT_COLUMNS:
@@ -156,8 +158,10 @@ class Cell:
         self.run_dir = run_dir
         self._text = text  # the summary row as written
         self._values = values  # the same row, numeric columns converted
-        self.params: Dict[str, object] = params  # param.<name> columns this cell sets (others' are empty)
-        self.index = index  # position in summary.csv: the config's order, for stable colours and sorting
+        # param.<name> columns this cell sets (other techniques' are empty)
+        self.params: Dict[str, object] = params
+        # Position in summary.csv: the config's order, for stable colours and sorting.
+        self.index = index
         self._json: Optional[dict] = None
         self._frames: Optional[pd.DataFrame] = None
         self._metrics: Optional[pd.DataFrame] = None
@@ -204,7 +208,8 @@ class Cell:
         """pass.<name>.ms_median columns with a value, name -> ms (nested names keep their '/')."""
         out = {}
         for key, v in self._values.items():
-            if key.startswith(PASS_PREFIX) and key.endswith(PASS_SUFFIX) and not math.isnan(self.value(key)):
+            is_pass = key.startswith(PASS_PREFIX) and key.endswith(PASS_SUFFIX)
+            if is_pass and not math.isnan(self.value(key)):
                 out[key[len(PASS_PREFIX):-len(PASS_SUFFIX)]] = float(v)
         return out
 
@@ -268,7 +273,7 @@ class Cell:
 
     @property
     def metrics(self) -> pd.DataFrame:
-        """metrics.csv, its `reference` column filled with "full" where empty or absent (older runs)."""
+        """metrics.csv, its `reference` column "full" where empty or absent (older runs)."""
         if self._metrics is None:
             m = read_table(os.path.join(self.dir, "metrics.csv"), METRICS_COLUMNS)
             m.loc[m["reference"] == "", "reference"] = FULL_REFERENCE
@@ -294,28 +299,31 @@ class Cell:
         """frame, pass, ms of every frames.csv row with a time on `clock`.
 
         clock "gpu", "cpu" or "process" picks gpu_ms, cpu_ms or process_cpu_ms (the CPU time of the
-        cell's process in the pass, recorded on fenced runs; NaN where absent); "auto" is the harness's
-        own rule for a pass's time (the one behind summary.csv's medians): the larger of gpu_ms and
-        cpu_ms, i.e. where the pass ran. A GPU pass's CPU time is only its recording; a CPU pass (Embree
-        photon tracing) still has a timestamp pair around it, whose difference is only the barriers'."""
+        cell's process in the pass, recorded on fenced runs; NaN where absent); "auto" is the
+        harness's own rule for a pass's time (the one behind summary.csv's medians): the larger of
+        gpu_ms and cpu_ms, i.e. where the pass ran. A GPU pass's CPU time is only its recording; a
+        CPU pass (Embree photon tracing) still has a timestamp pair around it, whose difference is
+        only the barriers'."""
         f = self.frames
         if clock in CLOCK_COLUMNS:
             column = CLOCK_COLUMNS[clock]
             ms = f[column].to_numpy(float) if column in f.columns else np.full(len(f), np.nan)
         else:
             ms = np.fmax(f["gpu_ms"].to_numpy(float), f["cpu_ms"].to_numpy(float))  # fmax skips NaN
-        out = pd.DataFrame({"frame": f["frame"].to_numpy(float), "pass": f["pass"].to_numpy(), "ms": ms})
+        out = pd.DataFrame({"frame": f["frame"].to_numpy(float), "pass": f["pass"].to_numpy(),
+                            "ms": ms})
         return out[~np.isnan(out["ms"]) & np.isfinite(out["frame"])]
 
     def pass_samples(self, name: str, clock: str = "auto") -> (np.ndarray, np.ndarray):
-        """(frames, ms) of one pass over the measured frames, sorted by frame (pass_times' clocks). The
-        arrays are shared between calls and read-only."""
+        """(frames, ms) of one pass over the measured frames, sorted by frame (pass_times' clocks).
+        The arrays are shared between calls and read-only."""
         if clock not in self._samples:
             t = self.pass_times(clock).sort_values("frame", kind="stable")
             frames, ms = t["frame"].to_numpy(int), t["ms"].to_numpy(float)
             self._samples[clock] = {name: (_frozen(frames[rows]), _frozen(ms[rows]))
                                     for name, rows in t.groupby("pass", sort=False).indices.items()}
-        return self._samples[clock].get(name, (_frozen(np.zeros(0, dtype=int)), _frozen(np.zeros(0))))
+        none = (_frozen(np.zeros(0, dtype=int)), _frozen(np.zeros(0)))
+        return self._samples[clock].get(name, none)
 
     def metric_classes(self) -> List[str]:
         return list(pd.unique(self.metrics["path_class"]))
@@ -334,9 +342,9 @@ class Cell:
 
     def metric_series(self, metric: str, path_class: Optional[str] = None,
                       reference: str = FULL_REFERENCE) -> (np.ndarray, np.ndarray):
-        """(frames, values) of one metrics.csv column (a metric, its <metric>_floor, ...) for one path
-        class (default: primary_class()) against one reference (default: the full one), sorted by frame.
-        The arrays are shared between calls and read-only."""
+        """(frames, values) of one metrics.csv column (a metric, its <metric>_floor, ...) for one
+        path class (default: primary_class()) against one reference (default: the full one), sorted
+        by frame. The arrays are shared between calls and read-only."""
         cls = path_class if path_class is not None else self.primary_class()
         key = (metric, cls, reference)
         if key not in self._series:
@@ -373,8 +381,8 @@ class Cell:
 
 
 class Run:
-    """A run directory: run.json, summary.csv (as `text`, the fields as written, and `summary`, numeric
-    columns converted; one row per cell in the config's order) and its cells."""
+    """A run directory: run.json, summary.csv (as `text`, the fields as written, and `summary`,
+    numeric columns converted; one row per cell in the config's order) and its cells."""
 
     def __init__(self, path: str):
         self.path = os.path.abspath(path)
@@ -398,10 +406,11 @@ class Run:
             raise RunError(f"{summary}:1: missing column(s) {', '.join(missing)}")
         self.summary = typed(self.text)
         param_columns = [c for c in self.columns if c.startswith(PARAM_PREFIX)]
-        # Object columns of int, float, str, or None where the cell does not set the parameter (kept as
-        # objects: pandas would turn a column of ints and Nones into floats and NaNs).
-        self.params = pd.DataFrame({c: pd.Series([param_value(t) for t in self.text[c]], dtype=object)
-                                    for c in param_columns}, index=self.text.index)
+        # Object columns of int, float, str, or None where the cell does not set the parameter (kept
+        # as objects: pandas would turn a column of ints and Nones into floats and NaNs).
+        self.params = pd.DataFrame(
+            {c: pd.Series([param_value(t) for t in self.text[c]], dtype=object)
+             for c in param_columns}, index=self.text.index)
         self.cells: List[Cell] = []
         for i, (text, values, params) in enumerate(zip(self.text.to_dict("records"),
                                                        self.summary.to_dict("records"),
@@ -456,14 +465,15 @@ class Run:
                 if rows[PARAM_PREFIX + p].dropna().map(format_param).nunique() > 1]
 
     def label(self, cell: Cell, with_technique: bool = True) -> str:
-        """A short human label: technique plus the parameters that are swept within its technique (in
-        its scene)."""
+        """A short human label: technique plus the parameters that are swept within its technique
+        (in its scene)."""
         if self._swept is None:
             groups = self.summary.groupby(["scene", "technique"], sort=False).indices
             self._swept = {key: self.swept_params([self.cells[i] for i in rows])
                            for key, rows in groups.items()}
         swept = self._swept[(cell.scene, cell.technique)]
-        setting = ", ".join(f"{p}={format_param(cell.params[p])}" for p in swept if p in cell.params)
+        setting = ", ".join(f"{p}={format_param(cell.params[p])}"
+                            for p in swept if p in cell.params)
         if not with_technique:
             return setting or cell.technique
         return f"{cell.technique} ({setting})" if setting else cell.technique

@@ -1,16 +1,16 @@
-"""The summary as tables: CSV (for scripts and spreadsheets), LaTeX with booktabs (for papers; rendered
-by pandas' Styler) and the rows of the HTML report's tables (templates/report.html.j2). The best
-successful value per scene and column is set in bold; failed cells stay in the table with their
-status. A score within RESOLVE_FACTOR times its noise floor (floors.py) is marked unresolved: a dagger
-in LaTeX, an asterisk and the class "unresolved" in HTML, resolved_<metric> = 0 in the CSV. The floor
-table lists every score of every cell, class and reference beside its floor.
+"""The summary as tables: CSV (for scripts and spreadsheets), LaTeX with booktabs (for papers;
+rendered by pandas' Styler) and the rows of the HTML report's tables (templates/report.html.j2).
+The best successful value per scene and column is set in bold; failed cells stay in the table with
+their status. A score within RESOLVE_FACTOR times its noise floor (floors.py) is marked unresolved:
+a dagger in LaTeX, an asterisk and the class "unresolved" in HTML, resolved_<metric> = 0 in the
+CSV. The floor table lists every score of every cell, class and reference beside its floor.
 
 Every CSV file the tools write goes through write_csv, so they share one convention."""
 
 from __future__ import annotations
 
 import math
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 import pandas as pd
@@ -18,8 +18,8 @@ import pandas as pd
 from . import floors, measures
 from .rundata import Run
 
-# (key, heading, LaTeX heading, decimals, lower is better or None when not ranked). Times are lower-is-
-# better; each metric's direction and heading come from measures.py.
+# (key, heading, LaTeX heading, decimals, lower is better or None when not ranked). Times are
+# lower-is-better; each metric's direction and heading come from measures.py.
 SUMMARY_COLUMNS = [
     ("frames", "frames", "frames", 0, None),
     ("frame_ms_median", "median ms", r"median [ms]", 2, True),
@@ -62,7 +62,7 @@ def _csv_field(v):
 
 
 def _flags(values: pd.Series, test) -> np.ndarray:
-    """test() of every value of an object column (resolved: True, False or None) as a boolean array."""
+    """test() of every value of an object column (resolved: True, False or None) as booleans."""
     return np.fromiter((bool(test(v)) for v in values), dtype=bool, count=len(values))
 
 
@@ -73,18 +73,19 @@ def write_csv(path: str, table: pd.DataFrame) -> None:
     table.applymap(_csv_field).to_csv(path, index=False, lineterminator="\r\n", encoding="utf-8")
 
 
-# -- the summary -------------------------------------------------------------------------------------
+# -- the summary ----------------------------------------------------------------------------------
 
 def summary_table(run: Run) -> pd.DataFrame:
-    """One row per cell, in the run's order: scene, technique, setting (the swept parameters' values,
-    "" when none), cell, status, reason, SUMMARY_COLUMNS, and resolved_<metric> (True, False, None: no
-    floor) for each FLOORED score."""
+    """One row per cell, in the run's order: scene, technique, setting (the swept parameters'
+    values, "" when none), cell, status, reason, SUMMARY_COLUMNS, and resolved_<metric> (True,
+    False, None: no floor) for each FLOORED score."""
     s = run.summary
     settings = [run.label(c, with_technique=False) for c in run.cells]
     table = pd.DataFrame({
         "scene": s["scene"], "technique": s["technique"],
         "setting": [st if st != c.technique else "" for st, c in zip(settings, run.cells)],
-        "cell": s["cell"], "status": [c.status for c in run.cells], "reason": [c.reason for c in run.cells]})
+        "cell": s["cell"], "status": [c.status for c in run.cells],
+        "reason": [c.reason for c in run.cells]})
     for key, *_ in SUMMARY_COLUMNS:
         table[key] = s[key].astype(float) if key in s.columns else np.nan
     for key, metric in FLOORED.items():
@@ -129,7 +130,7 @@ def write_summary_csv(run: Run, path: str) -> None:
 
 
 def _styled_latex(cells: pd.DataFrame, headers: List[str], column_format: str,
-                  bold: Optional[pd.DataFrame] = None, escaped: List[str] = ()) -> str:
+                  bold: Optional[pd.DataFrame] = None, escaped: Sequence[int] = ()) -> str:
     """A booktabs tabular by pandas' Styler from a table of display strings: `headers` are the LaTeX
     column headings, `escaped` the columns whose text Styler escapes (tables.latex_escape), `bold` a
     boolean mask of cells set in \\textbf."""
@@ -138,18 +139,20 @@ def _styled_latex(cells: pd.DataFrame, headers: List[str], column_format: str,
         styler = styler.format(latex_escape, subset=list(escaped))
     if bold is not None:
         props = bold.reindex(index=cells.index, columns=cells.columns, fill_value=False)
-        styler = styler.apply(lambda _: props.applymap(lambda b: "textbf: --rwrap;" if b else ""), axis=None)
+        textbf = props.applymap(lambda b: "textbf: --rwrap;" if b else "")  # \textbf{value}
+        styler = styler.apply(lambda _: textbf, axis=None)
     return styler.to_latex(column_format=column_format, hrules=True)
 
 
 def summary_latex(run: Run) -> str:
-    """A booktabs table (needs \\usepackage{booktabs}); one block per scene separated by \\midrule. A
-    failed cell keeps its row: its frame count, then its reason, set over the empty number columns."""
+    """A booktabs table (needs \\usepackage{booktabs}); one block per scene separated by
+    \\midrule. A failed cell keeps its row: its frame count, then its reason, set over the empty
+    number columns."""
     table = summary_table(run)
     bold, loose = best_mask(table), unresolved_mask(table)
     keys = [k for k, *_ in SUMMARY_COLUMNS]
-    # Scene: named on a scene's first row, after a \midrule from the scene before (a \midrule opening
-    # a row's first cell is where booktabs expects it: right after the previous row's \\).
+    # Scene: named on a scene's first row, after a \midrule from the scene before (a \midrule
+    # opening a row's first cell is where booktabs expects it: right after the previous row's \\).
     first = table["scene"] != table["scene"].shift()
     scene = [("" if i == 0 else "\\midrule\n") + latex_escape(s) if f else ""
              for i, (s, f) in enumerate(zip(table["scene"], first))]
@@ -164,13 +167,14 @@ def summary_latex(run: Run) -> str:
         reason = latex_escape(table["reason"].iat[i][:FAILED_REASON_CHARS])
         cells.iloc[i, 3] = str(int(frames)) if math.isfinite(frames) else "--"
         # \rlap: the reason runs on over the empty cells to its right without widening its column.
-        cells.iloc[i, 4] = (r"\multicolumn{1}{l}{\rlap{\emph{failed}" + (": " + reason if reason else "")
-                            + "}}")
+        note = r"\emph{failed}" + (": " + reason if reason else "")
+        cells.iloc[i, 4] = r"\multicolumn{1}{l}{\rlap{" + note + "}}"
         cells.iloc[i, 5:] = ""
     bold_cells = pd.DataFrame({3 + keys.index(k): bold[k] for k in bold.columns}, index=table.index)
     headers = ["Scene", "Technique", "Setting"] + [h for _, _, h, _, _ in SUMMARY_COLUMNS]
     out = [r"% Generated by photonbench report from summary.csv; needs \usepackage{booktabs}.",
-           _styled_latex(cells, headers, "lll" + "r" * len(SUMMARY_COLUMNS), bold_cells, escaped=[1, 2])]
+           _styled_latex(cells, headers, "lll" + "r" * len(SUMMARY_COLUMNS), bold_cells,
+                         escaped=[1, 2])]
     if loose.to_numpy().any():
         out.append(rf"% $^\dagger$: within {floors.RESOLVE_FACTOR:g}x the reference's noise floor "
                    "(unresolved).\n")
@@ -180,24 +184,25 @@ def summary_latex(run: Run) -> str:
 def passes_latex(run: Run, scene: str) -> str:
     """Median ms per pass (columns: top-level passes in run order, then the frame) for one scene."""
     cells = run.cells_of(scene)
-    passes = [p for p in run.pass_columns if "/" not in p and any(p in c.pass_medians() for c in cells)]
+    passes = [p for p in run.pass_columns
+              if "/" not in p and any(p in c.pass_medians() for c in cells)]
     rows = []
     for c in cells:
         med = c.pass_medians()
         setting = run.label(c, with_technique=False)
         rows.append([latex_escape(c.technique) + ("" if c.ok else r" (\emph{failed})"),
-                     latex_escape("" if setting == c.technique else setting)]
+                     "" if setting == c.technique else setting]
                     + [_fmt(med.get(p, math.nan), 2) or "--" for p in passes]
                     + [_fmt(c.value("frame_ms_median"), 2) or "--"])
     headers = ["Technique", "Setting"] + [latex_escape(p) for p in passes] + ["frame"]
     table = pd.DataFrame(rows, columns=range(len(headers)))
-    return (r"% Generated by photonbench report; median ms per pass; needs \usepackage{booktabs}." + "\n"
-            + _styled_latex(table, headers, "ll" + "r" * (len(passes) + 1)))
+    return (r"% Generated by photonbench report; median ms per pass; needs \usepackage{booktabs}."
+            + "\n" + _styled_latex(table, headers, "ll" + "r" * (len(passes) + 1), escaped=[1]))
 
 
 def summary_view(run: Run) -> dict:
-    """The summary table of the HTML report: headings, and per cell its text fields and each column's
-    shown value, bold (best in its scene) and unresolved flags."""
+    """The summary table of the HTML report: headings, and per cell its text fields and each
+    column's shown value, bold (best in its scene) and unresolved flags."""
     table = summary_table(run)
     bold, loose = best_mask(table), unresolved_mask(table)
     rows = []
@@ -208,9 +213,10 @@ def summary_view(run: Run) -> dict:
                            "bold": bool(key in bold and bold[key].iat[i]),
                            "unresolved": bool(key in loose and loose[key].iat[i])})
         rows.append({"ok": r["status"] == "ok", "scene": r["scene"], "technique": r["technique"],
-                     "setting": r["setting"], "status": r["status"], "reason": r["reason"], "values": values})
-    return {"headers": ["scene", "technique", "setting", "status"] + [h for _, h, *_ in SUMMARY_COLUMNS],
-            "rows": rows, "unresolved_title": UNRESOLVED_TITLE}
+                     "setting": r["setting"], "status": r["status"], "reason": r["reason"],
+                     "values": values})
+    headers = ["scene", "technique", "setting", "status"] + [h for _, h, *_ in SUMMARY_COLUMNS]
+    return {"headers": headers, "rows": rows, "unresolved_title": UNRESOLVED_TITLE}
 
 
 # -- noise floors ------------------------------------------------------------------------------------
@@ -256,14 +262,16 @@ def write_floors_csv(rows: pd.DataFrame, path: str) -> None:
 
 
 def floors_view(run: Run, rows: pd.DataFrame) -> dict:
-    """The report's noise-floor section: counts, the unresolved FLIP scores named up front (the issue's
-    criterion), then every score against its floor, one row per cell, reference and class."""
+    """The report's noise-floor section: counts, the unresolved FLIP scores named up front (the
+    issue's criterion), then every score against its floor, one row per cell, reference and
+    class."""
     floored = rows.loc[_flags(rows["resolved"], lambda r: r is not None)]
     loose = floored.loc[_flags(floored["resolved"], lambda r: r is False)]
     flip_loose = loose[loose["metric"] == "flip"]
     metrics = [m for m in floors.FLOOR_METRICS if (rows["metric"] == m).any()]
     groups = []
-    for (cell_id, reference, cls), group in rows.groupby(["cell", "reference", "path_class"], sort=False):
+    by_score = rows.groupby(["cell", "reference", "path_class"], sort=False)
+    for (cell_id, reference, cls), group in by_score:
         cell = run.cell(cell_id)
         by_metric = {r["metric"]: r for r in group.to_dict("records")}
         scores = []
@@ -274,14 +282,16 @@ def floors_view(run: Run, rows: pd.DataFrame) -> dict:
                 continue
             floor = "" if not math.isfinite(r["floor"]) else f" / {r['floor']:.4g}"
             ratio = "" if not math.isfinite(r["floor_ratio"]) else f" ({r['floor_ratio']:.1f}x)"
-            scores.append({"text": f"{r['mean']:.4g}{floor}{ratio}", "unresolved": r["resolved"] is False})
-        groups.append({"scene": cell.scene, "label": run.label(cell), "reference": reference, "path_class": cls,
-                       "scores": scores})
+            scores.append({"text": f"{r['mean']:.4g}{floor}{ratio}",
+                           "unresolved": r["resolved"] is False})
+        groups.append({"scene": cell.scene, "label": run.label(cell), "reference": reference,
+                       "path_class": cls, "scores": scores})
     return {
         "any": len(floored) > 0, "factor": f"{floors.RESOLVE_FACTOR:g}", "loose": len(loose),
         "floored": len(floored), "flip_loose": len(flip_loose),
         "flip_floored": int((floored["metric"] == "flip").sum()),
-        "flip_rows": [{"scene": r["scene"], "label": run.label(run.cell(r["cell"])), "reference": r["reference"],
-                       "path_class": r["path_class"], "mean": f"{r['mean']:.4f}", "floor": f"{r['floor']:.4f}",
+        "flip_rows": [{"scene": r["scene"], "label": run.label(run.cell(r["cell"])),
+                       "reference": r["reference"], "path_class": r["path_class"],
+                       "mean": f"{r['mean']:.4f}", "floor": f"{r['floor']:.4f}",
                        "ratio": f"{r['floor_ratio']:.2f}x"} for r in flip_loose.to_dict("records")],
         "metrics": metrics, "groups": groups}

@@ -1,6 +1,6 @@
-"""measures.py, the one home of the metric directions and the noise formulas: its values on hand-worked
-cases, and the tools that used to repeat them (compare, history, export, floors, tables, figures,
-claims) now answering with it."""
+"""measures.py, the one home of the metric directions and the noise formulas: its values on
+hand-worked cases, and the tools that used to repeat them (compare, history, export, floors, tables,
+figures, claims) now answering with it."""
 
 import glob
 import math
@@ -24,46 +24,53 @@ class DirectionsTest(unittest.TestCase):
             measures.lower_is_better("psnr_mean")
 
     def test_tables_and_export_take_their_direction_from_it(self):
-        ranked = {key: lower for key, _, _, _, lower in tables.SUMMARY_COLUMNS if key.endswith("_mean")}
-        self.assertEqual(ranked, {f"{m}_mean": measures.lower_is_better(m) for m in ("flip", "ssim", "psnr")})
+        ranked = {key: lower for key, _, _, _, lower in tables.SUMMARY_COLUMNS
+                  if key.endswith("_mean")}
+        self.assertEqual(ranked, {f"{m}_mean": measures.lower_is_better(m)
+                                  for m in ("flip", "ssim", "psnr")})
         # The LaTeX heading's arrow points to better values.
         self.assertEqual(measures.latex_heading("flip"), r"\textsc{Flip}~$\downarrow$")
         self.assertEqual(measures.latex_heading("psnr"), r"PSNR [dB]~$\uparrow$")
-        self.assertEqual([m for m in export.EXPORTED_METRICS if measures.lower_is_better(m)], ["flip", "relmse"])
+        self.assertEqual([m for m in export.EXPORTED_METRICS if measures.lower_is_better(m)],
+                         ["flip", "relmse"])
 
     def test_no_tool_keeps_its_own_copy(self):
         """The formulas and tables live in measures.py only: no other module's code (strings and
-        comments aside) spells the MAD constant, a MAD, a metric-direction table or the PSNR/SSIM error
-        transforms again."""
+        comments aside) spells the MAD constant, a MAD, a metric-direction table or the PSNR/SSIM
+        error transforms again."""
         pbtools = os.path.dirname(measures.__file__)
-        patterns = [r"1\.4826", r"LOWER_IS_BETTER =", r"10\.0 \*\* \(", r"1\.0 - (base|value|new)\b",
-                    r"median \( np \. abs \("]
+        patterns = [r"1\.4826", r"LOWER_IS_BETTER =", r"10\.0 \*\* \(",
+                    r"1\.0 - (base|value|new)\b", r"median \( np \. abs \("]
         for path in glob.glob(os.path.join(pbtools, "**", "*.py"), recursive=True):
             if os.path.basename(path) == "measures.py":
                 continue
+            text = (tokenize.STRING, tokenize.COMMENT, tokenize.ENCODING)
             with open(path, "rb") as f:
-                code = " ".join(t.string for t in tokenize.tokenize(f.readline)
-                                if t.type not in (tokenize.STRING, tokenize.COMMENT, tokenize.ENCODING))
+                tokens = tokenize.tokenize(f.readline)
+                code = " ".join(t.string for t in tokens if t.type not in text)
             for pattern in patterns:
                 self.assertIsNone(re.search(pattern, code), f"{path}: {pattern}")
 
 
 class DistanceAndErrorTest(unittest.TestCase):
     def test_distances_invert(self):
-        for m, v in (("flip", 0.2), ("ssim", 0.9), ("psnr", 31.0), ("rmse", 0.05), ("relmse", 0.04)):
+        for m, v in (("flip", 0.2), ("ssim", 0.9), ("psnr", 31.0), ("rmse", 0.05),
+                     ("relmse", 0.04)):
             self.assertAlmostEqual(measures.from_distance(m, measures.distance(m, v)), v)
         self.assertAlmostEqual(measures.distance("psnr", 40.0), 0.01)
         self.assertTrue(math.isnan(measures.distance("ssim", math.nan)))
         self.assertIs(floors.distance, measures.distance)
 
     def test_error_change_is_of_the_error_behind_the_metric(self):
-        # PSNR: a drop of 10 log10(1.1) dB is 10% more MSE; SSIM: 1 - SSIM from 0.10 to 0.12 is +20%.
-        self.assertAlmostEqual(measures.error_change("psnr", 30.0, 30.0 - 10 * math.log10(1.1)), 10.0)
+        # PSNR: a drop of 10 log10(1.1) dB is 10% more MSE; SSIM: 1 - SSIM 0.10 -> 0.12 is +20%.
+        drop = 10 * math.log10(1.1)
+        self.assertAlmostEqual(measures.error_change("psnr", 30.0, 30.0 - drop), 10.0)
         self.assertAlmostEqual(measures.error_change("ssim", 0.90, 0.88), 20.0)
         self.assertAlmostEqual(measures.error_change("relmse", 0.02, 0.01), -50.0)
         self.assertEqual(measures.error_change("flip", 0.0, 0.0), 0.0)
         self.assertEqual(measures.error_change("flip", 0.0, 0.1), math.inf)
-        self.assertEqual(compare.error_change("psnr", 30.0, 29.0), measures.error_change("psnr", 30.0, 29.0))
+        self.assertEqual(compare.error_change("psnr", 30.0, 29.0),
+                         measures.error_change("psnr", 30.0, 29.0))
 
 
 class NoiseTest(unittest.TestCase):
@@ -71,7 +78,8 @@ class NoiseTest(unittest.TestCase):
         x = np.array([10.0, 12.0, 11.0, 15.0, 14.0, 14.5])
         d = np.diff(x)  # 2, -1, 4, -1, 0.5: median 0.5, |d - 0.5| = 1.5, 1.5, 3.5, 1.5, 0: MAD 1.5
         self.assertEqual(float(np.median(np.abs(d - np.median(d)))), 1.5)
-        expected = 1.5 / (math.sqrt(2) * 0.6744897501960817)  # 1 / Phi^-1(3/4): the normal MAD scale
+        # 1 / Phi^-1(3/4) is the normal distribution's MAD scale.
+        expected = 1.5 / (math.sqrt(2) * 0.6744897501960817)
         self.assertAlmostEqual(measures.successive_difference_sigma(x), expected, places=12)
         self.assertTrue(math.isnan(measures.successive_difference_sigma([1.0, 2.0])))
 
@@ -84,7 +92,8 @@ class NoiseTest(unittest.TestCase):
         x = 10 * np.exp(np.random.default_rng(8).normal(0, 0.05, 40))
         self.assertEqual(compare.robust_noise(x), measures.successive_difference_sigma(x))
         self.assertEqual(history._noise(np.log(x)), measures.successive_difference_sigma(np.log(x)))
-        self.assertEqual(history._noise(np.array([1.0, 2.0])), 0.0)  # too short: no change can be tested
+        # Too short for a change to be tested: no noise.
+        self.assertEqual(history._noise(np.array([1.0, 2.0])), 0.0)
 
     def test_percentile_range_is_the_harness_rule(self):
         # harness/src/run/stats.cpp: rank p/100 (n - 1), linear between the order statistics.

@@ -126,8 +126,8 @@ class LatexEscapeTest(unittest.TestCase):
 
 
 class HostileNamesTest(unittest.TestCase):
-    """Names are text: a scene, technique, reason, warning or device holding markup shows as written in
-    the report and the history page (autoescaped templates) and in LaTeX (escaped), and adds no
+    """Names are text: a scene, technique, reason, warning or device holding markup shows as written
+    in the report and the history page (autoescaped templates) and in LaTeX (escaped), and adds no
     element to either page."""
 
     SCENE = 'cornell-box <script>alert("scene")</script> & co'
@@ -180,7 +180,8 @@ class HostileNamesTest(unittest.TestCase):
         parsed = self.page(self.html)
         self.assertEqual(parsed.tags["script"], 0)
         self.assertEqual(parsed.tags["i"], 0)
-        self.assertTrue(parsed.img_srcs and all(src.startswith("figures/") for src in parsed.img_srcs))
+        self.assertTrue(parsed.img_srcs)
+        self.assertTrue(all(src.startswith("figures/") for src in parsed.img_srcs))
         # The page's own bold (best values) only: the technique's <b> is not an element.
         self.assertNotIn("bold", [t for tag, t in parsed.inside if tag == "b"])
         for text in (self.SCENE, self.TECHNIQUE, self.REASON, self.DEVICE, "<i>warned</i>"):
@@ -189,7 +190,8 @@ class HostileNamesTest(unittest.TestCase):
         self.assertIn("&amp;amp;", self.html)  # the literal "&amp;" in the name, escaped once
 
     def test_latex_escapes_them(self):
-        with open(os.path.join(self.run_dir, "report", "tables", "summary.tex"), encoding="utf-8") as f:
+        path = os.path.join(self.run_dir, "report", "tables", "summary.tex")
+        with open(path, encoding="utf-8") as f:
             tex = f.read()
         self.assertIn(r"direct<b>bold</b>\&amp;", tex)
         self.assertIn(r"\& co", tex)

@@ -149,10 +149,10 @@ def write(path, text):
 
 
 class HandMadeRunTest(unittest.TestCase):
-    """What pandas makes of a run a failed or interrupted sweep leaves behind: columns the summary lacks,
-    empty and unparsable fields, a failed cell with no files, a frames.csv without cpu_ms, a metrics.csv
-    from before the reference column, an empty counters.csv; and names pandas would take for missing
-    values ("nan", "NA", "null") staying names."""
+    """What pandas makes of a run a failed or interrupted sweep leaves behind: columns the summary
+    lacks, empty and unparsable fields, a failed cell with no files, a frames.csv without cpu_ms, a
+    metrics.csv from before the reference column, an empty counters.csv; and names pandas would take
+    for missing values ("nan", "NA", "null") staying names."""
 
     @classmethod
     def setUpClass(cls):
@@ -160,22 +160,26 @@ class HandMadeRunTest(unittest.TestCase):
         cls.run_dir = root = cls.tmp.path("hand")
         write(os.path.join(root, "run.json"), '{"git_commit": "abc", "device": "test"}')
         write(os.path.join(root, "summary.csv"),
-              "cell,scene,technique,status,frames,frame_ms_median,flip_mean,param.photons,param.variant,"
-              "pass.splat.ms_median\n"
+              "cell,scene,technique,status,frames,frame_ms_median,flip_mean,param.photons,"
+              "param.variant,pass.splat.ms_median\n"
               "c-ok,nan,NA,ok,3,2.5,,100000,,1.25\n"
               "c-failed,nan,null,failed,0,,n/a,1e5,plain,\n"
               "c-box,box,direct,ok,2,3.0,0.2,,,\n")
         cells = os.path.join(root, "cells")
         write(os.path.join(cells, "c-ok", "cell.json"), '{"status": "ok"}')
-        write(os.path.join(cells, "c-ok", "frames.csv"),  # no cpu_ms column; one splat time missing
-              "frame,pass,gpu_ms\n2,splat,1.5\n0,splat,1.0\n1,splat,\n0,frame,2.0\n1,frame,2.5\n2,frame,3.0\n")
-        write(os.path.join(cells, "c-ok", "metrics.csv"),  # no reference column: scored against the full one
+        # No cpu_ms column; one splat time missing.
+        write(os.path.join(cells, "c-ok", "frames.csv"),
+              "frame,pass,gpu_ms\n2,splat,1.5\n0,splat,1.0\n1,splat,\n"
+              "0,frame,2.0\n1,frame,2.5\n2,frame,3.0\n")
+        # No reference column (a run from before it): scored against the full reference.
+        write(os.path.join(cells, "c-ok", "metrics.csv"),
               "frame,path_class,flip,ssim\n0,combined,0.3,\n2,combined,0.1,0.9\n")
         write(os.path.join(cells, "c-ok", "counters.csv"), "")
         write(os.path.join(cells, "c-failed", "cell.json"),
               '{"status": "failed", "reason": "plugin did not load", "failed_frame": null}')
         write(os.path.join(cells, "c-box", "cell.json"), '{"status": "ok"}')
-        write(os.path.join(cells, "c-box", "frames.csv"), "frame,pass,gpu_ms,cpu_ms\n0,frame,3.0,3.1\n")
+        write(os.path.join(cells, "c-box", "frames.csv"),
+              "frame,pass,gpu_ms,cpu_ms\n0,frame,3.0,3.1\n")
         write(os.path.join(cells, "c-box", "metrics.csv"), "frame,path_class,reference,flip\n")
         cls.rd = Run(root)
         cls.ok, cls.failed, cls.box = (cls.rd.cell(c) for c in ("c-ok", "c-failed", "c-box"))
@@ -209,7 +213,8 @@ class HandMadeRunTest(unittest.TestCase):
 
     def test_per_cell_files_with_missing_columns(self):
         frames, ms = self.ok.pass_samples("splat")
-        self.assertEqual((list(frames), list(ms)), ([0, 2], [1.0, 1.5]))  # sorted; the empty time dropped
+        # Sorted by frame; the empty time dropped.
+        self.assertEqual((list(frames), list(ms)), ([0, 2], [1.0, 1.5]))
         self.assertEqual(len(self.ok.pass_samples("splat", "cpu")[0]), 0)  # the file has no cpu_ms
         self.assertEqual(self.ok.metric_references(), ["full"])
         self.assertEqual([list(a) for a in self.ok.metric_series("flip")], [[0, 2], [0.3, 0.1]])

@@ -68,7 +68,7 @@ def setting_label(s: Tuple[float, float]) -> str:
 
 
 def group_series(cell: Cell, passes) -> pd.Series:
-    """frame -> summed time of the named top-level passes that the cell has (Cell.pass_times' rule)."""
+    """frame -> summed time of the named top-level passes the cell has (Cell.pass_times' rule)."""
     t = cell.pass_times()
     return t[t["pass"].isin(passes)].groupby("frame")["ms"].sum()
 
