@@ -118,21 +118,13 @@ def _numeric(column: pd.Series) -> pd.Series:
     return pd.to_numeric(column.astype(str).where(column.notna(), ""), errors="coerce")
 
 
-def typed(text: pd.DataFrame, columns: Sequence[str] = ()) -> pd.DataFrame:
-    """A table read as text with its numeric columns converted (empty or unparsable fields NaN) and
-    `columns` added where missing (text columns as "", numeric ones as NaN)."""
+def typed(text: pd.DataFrame) -> pd.DataFrame:
+    """A table read as text with its numeric columns converted (empty or unparsable fields NaN)."""
     out = text.copy()
     for col in out.columns:
         if col not in TEXT_COLUMNS and not col.startswith(PARAM_PREFIX):
             out[col] = _numeric(out[col])
-    return _with_columns(out, columns)
-
-
-def _with_columns(table: pd.DataFrame, columns: Sequence[str]) -> pd.DataFrame:
-    for col in columns:
-        if col not in table.columns:
-            table[col] = "" if col in TEXT_COLUMNS else np.nan
-    return table
+    return out
 
 
 def read_table(path: str, columns: Sequence[str] = ()) -> pd.DataFrame:
@@ -147,7 +139,10 @@ def read_table(path: str, columns: Sequence[str] = ()) -> pd.DataFrame:
                 table[col] = column.fillna("")
         elif not is_numeric_dtype(column) or is_bool_dtype(column):
             table[col] = _numeric(column)
-    return _with_columns(table, columns)
+    for col in columns:
+        if col not in table.columns:
+            table[col] = "" if col in TEXT_COLUMNS else np.nan
+    return table
 
 
 class Cell:
