@@ -8,7 +8,7 @@ packages=(
   libopenimageio-dev openimageio-tools libopenexr-dev
   libyaml-cpp-dev libglm-dev libtbb-dev libgtest-dev libbenchmark-dev
   libcli11-dev libfmt-dev libspdlog-dev libtinyobjloader-dev nlohmann-json3-dev
-  python3 python3-matplotlib python3-numpy python3-scipy
+  python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
   clang-format     # scripts/check_format.sh
   chromium  # tests/e2e/report_html.sh opens the HTML report headless

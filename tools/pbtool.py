@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Entry point of photonbench's Python tools: pbtool.py {report,compare,history,export,claims} ARGS...
 
-The photonbench executable's sub-commands of the same names run this file with /usr/bin/python3 (Debian's
-interpreter, which has python3-matplotlib, -numpy and -scipy) and forward its exit code.
+The photonbench executable's sub-commands of the same names run this file with /usr/bin/python3
+(Debian's interpreter, which has python3-pandas, -scipy, -numpy, -matplotlib and -jinja2) and forward
+its exit code.
 Exit codes follow photonbench's: 0 success, 1 failed work (compare: a significant regression), 2 bad input.
 """
 

@@ -66,13 +66,14 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .rundata import Cell, Run, RunError, format_param, to_float
+from . import measures
+from .rundata import CLOCK_COLUMNS, Cell, Run, RunError, format_param
 
 DEFAULTS = {"threshold": 15.0, "alpha": 0.01, "noise_k": 1.0, "metric_tol": 2.0, "min_ms": 0.02}
 COMPARED_METRICS = ("flip", "ssim", "psnr", "relmse")
 MIN_SAMPLES = 5  # with fewer frames per side a two-sided U test cannot reach p < 0.01
 FLOOR_SAMPLES = 3  # a side's level: the mean of its this many fastest frames
-PROCESS_COLUMN = "process_cpu_ms"  # frames.csv: CPU time of the cell's process in the pass
+PROCESS_COLUMN = CLOCK_COLUMNS["process"]  # frames.csv: CPU time of the cell's process in the pass
 CLOCKS = ("auto", "gpu", "cpu", "process")
 
 
@@ -186,13 +187,10 @@ class Comparison:
 
 
 def robust_noise(samples: np.ndarray) -> float:
-    """Robust per-sample standard deviation from successive differences: for independent noise of
-    s.d. sigma, x[i]-x[i-1] has s.d. sigma*sqrt(2); 1.4826*MAD estimates a normal s.d. robustly."""
-    if len(samples) < 3:
-        return math.nan
-    d = np.diff(samples)
-    mad = float(np.median(np.abs(d - np.median(d))))
-    return 1.4826 * mad / math.sqrt(2.0)
+    """Robust per-sample standard deviation of one run's frames: 1.4826 x MAD of successive
+    differences / sqrt 2 (measures.successive_difference_sigma), so the animation's slow change of
+    cost is not noise."""
+    return measures.successive_difference_sigma(samples)
 
 
 def floor_level(samples: np.ndarray) -> float:
@@ -274,18 +272,8 @@ def compare_detail(base, new, threshold, alpha, noise_k, min_ms):
 
 
 def error_change(metric: str, base: float, new: float) -> float:
-    """Relative change (%) of the error quantity behind a metric; positive means worse."""
-    if not (math.isfinite(base) and math.isfinite(new)):
-        return math.nan
-    if metric == "psnr":  # PSNR = 10 log10(peak^2 / MSE): MSE_new / MSE_base = 10^((base - new) / 10)
-        return (10.0 ** ((base - new) / 10.0) - 1.0) * 100.0
-    if metric == "ssim":
-        eb, en = 1.0 - base, 1.0 - new
-    else:
-        eb, en = base, new
-    if eb <= 0:
-        return 0.0 if en <= 0 else math.inf
-    return (en / eb - 1.0) * 100.0
+    """Relative change (%) of the error quantity behind a metric, positive worse (measures.py)."""
+    return measures.error_change(metric, base, new)
 
 
 def _key(c: Cell) -> tuple:
@@ -316,8 +304,7 @@ def is_fenced(cell: Cell, run_info: dict) -> bool:
 
 
 def has_process_clock(cell: Cell) -> bool:
-    rows = cell.frames_rows
-    return bool(rows) and PROCESS_COLUMN in rows[0]
+    return len(cell.frames) > 0 and PROCESS_COLUMN in cell.frames.columns
 
 
 def resolve_clock(requested: str, cells: List[Tuple[Cell, dict]]) -> str:
@@ -331,17 +318,8 @@ def resolve_clock(requested: str, cells: List[Tuple[Cell, dict]]) -> str:
 
 
 def pass_samples(cell: Cell, name: str, clock: str) -> np.ndarray:
-    """One pass's per-frame samples (ms, frame order) on a clock; "process" reads process_cpu_ms."""
-    if clock != "process":
-        return cell.pass_samples(name, clock)[1]
-    pts = []
-    for r in cell.frames_rows:
-        if r.get("pass") == name:
-            v = to_float(r.get(PROCESS_COLUMN))
-            if math.isfinite(v):
-                pts.append((int(to_float(r["frame"])), v))
-    pts.sort(key=lambda t: t[0])
-    return np.asarray([v for _, v in pts], dtype=float)
+    """One pass's per-frame samples (ms, frame order) on a clock ("process": process_cpu_ms)."""
+    return cell.pass_samples(name, clock)[1]
 
 
 def compare(base, new, threshold: float = DEFAULTS["threshold"], alpha: float = DEFAULTS["alpha"],

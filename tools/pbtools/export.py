@@ -18,13 +18,14 @@ import os
 import sys
 from typing import Dict, List, Tuple
 
-import numpy as np
-
+from . import measures
 from .rundata import Run, RunError
 
 FORMATS = ("github-action-benchmark",)
 SMALLER_FILE = "customSmallerIsBetter.json"
 BIGGER_FILE = "customBiggerIsBetter.json"
+# The metric means exported, in this order; each goes to the file its direction (measures.py) names.
+EXPORTED_METRICS = ("flip", "relmse", "ssim", "psnr")
 
 
 def _range(lo: float, hi: float) -> str:
@@ -46,24 +47,25 @@ def entries(run: Run, clock: str = "auto") -> Tuple[List[dict], List[dict], List
         names[prefix] = names.get(prefix, 0) + 1
         if names[prefix] > 1:  # two cells with the same visible setting: keep names unique by id
             prefix = f"{c.scene}/{c.id}"
-        extra = f"cell {c.id}; frames {c.row.get('frames', '')}; commit {run.commit[:12]}; device {run.device}"
-        v = c.value("frame_ms_median")
+        extra = (f"cell {c.id}; frames {c.text('frames')}; commit {run.commit[:12]}; "
+                 f"device {run.device}")
+        v = c.value("frame_ms_median")  # times: lower is better
         if math.isfinite(v):
             smaller.append({"name": f"{prefix}/frame", "unit": "ms", "value": v,
                             "range": _range(c.value("frame_ms_p5"), c.value("frame_ms_p95")), "extra": extra})
         for p, ms in c.pass_medians().items():
             _, samples = c.pass_samples(p, clock)
-            rng = _range(*np.percentile(samples, [5, 95])) if len(samples) else ""
-            smaller.append({"name": f"{prefix}/pass {p}", "unit": "ms", "value": ms, "range": rng,
-                            "extra": extra})
+            smaller.append({"name": f"{prefix}/pass {p}", "unit": "ms", "value": ms,
+                            "range": _range(*measures.percentile_range(samples)), "extra": extra})
         cls = c.primary_class()
-        for metric, unit, target in (("flip", "FLIP", smaller), ("relmse", "relMSE", smaller),
-                                     ("ssim", "SSIM", bigger), ("psnr", "dB", bigger)):
+        for metric in EXPORTED_METRICS:
             value = c.value(f"{metric}_mean")
             if not math.isfinite(value):
                 value = c.metric_mean(metric, cls)
             if math.isfinite(value):
-                target.append({"name": f"{prefix}/{metric}", "unit": unit, "value": value,
+                target = smaller if measures.lower_is_better(metric) else bigger
+                target.append({"name": f"{prefix}/{metric}", "unit": measures.metric(metric).unit,
+                               "value": value,
                                "extra": extra + (f"; path class {cls}" if cls else "")})
     return smaller, bigger, skipped
 

@@ -15,8 +15,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import floors, style
-from .rundata import (METRIC_LABEL, METRIC_LOWER_IS_BETTER, WHOLE_FRAME_PASS, Cell, Run, format_param)
+from . import floors, measures, style
+from .rundata import WHOLE_FRAME_PASS, Cell, Run, format_param
 
 QUALITY_METRICS = ("flip", "ssim", "psnr")
 
@@ -90,7 +90,7 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
         xs = [c.value("frame_ms_median") for c in ok]
         ys = [c.value(f"{m}_mean") for c in ok]
         any_floor |= _draw_floor(ax, m, [c.value(f"{m}_floor") for c in ok], label=k == 0)
-        front = pareto_front(xs, ys, METRIC_LOWER_IS_BETTER[m])
+        front = pareto_front(xs, ys, measures.lower_is_better(m))
         on_front[m] = {ok[i].id for i in front}
         if len(front) >= 1:
             fx = [xs[i] for i in front]
@@ -126,7 +126,8 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
                     ax.annotate(run.label(c, with_technique=False), (x, y), xytext=(3, 2),
                                 textcoords="offset points", fontsize=5, color=color)
         ax.set_xlabel("median frame time [ms]")
-        ax.set_ylabel(METRIC_LABEL[m] + (" (lower is better)" if METRIC_LOWER_IS_BETTER[m] else ""))
+        lower = " (lower is better)" if measures.lower_is_better(m) else ""
+        ax.set_ylabel(measures.metric(m).label + lower)
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="upper center", ncol=min(6, len(labels)), bbox_to_anchor=(0.5, 1.08))
     note = _failed_note(run, cells)
@@ -362,7 +363,8 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
         for k, panel in enumerate(panels):
             ax = axes[0][k]
             ax.set_xlabel(p)
-            ax.set_ylabel("median frame time [ms]" if panel == "time" else METRIC_LABEL[panel])
+            ax.set_ylabel("median frame time [ms]" if panel == "time"
+                          else measures.metric(panel).label)
             if panel == "time":  # techniques an order of magnitude apart: log time, or the fast ones vanish
                 times = [c.value("frame_ms_median") for c in cells if c.ok and p in c.params]
                 times = [t for t in times if math.isfinite(t) and t > 0]

@@ -5,7 +5,7 @@ A metric row of metrics.csv carries, beside each score m(R, X) of a technique X 
 R, the score's floor <metric>_floor = E m(R, T): what the true image T itself would score against this
 reference (harness/src/metrics/noise_floor.h says how the harness estimates it). Reading a score
 against its floor needs a common scale, so every metric is first turned into a *distance* from the
-reference, zero for a perfect match:
+reference, zero for a perfect match (measures.distance, which holds every metric's definitions):
 
     flip    FLIP itself                        rmse    RMSE itself
     ssim    1 - SSIM                           relmse  sqrt(relMSE)  (a weighted RMS error)
@@ -43,37 +43,11 @@ from __future__ import annotations
 import math
 from typing import Optional
 
+from .measures import METRICS, distance, from_distance
+
 RESOLVE_FACTOR = 4.0
 FLOOR_SUFFIX = "_floor"
-FLOOR_METRICS = ("flip", "ssim", "psnr", "rmse", "relmse")
-
-
-def distance(metric: str, value: float) -> float:
-    """A score as a distance from the reference (0: identical); NaN when the value is missing."""
-    if value is None or not math.isfinite(value):
-        return math.nan
-    if metric == "ssim":
-        return 1.0 - value
-    if metric == "psnr":
-        return 10.0 ** (-value / 20.0)
-    if metric == "relmse":
-        return math.sqrt(max(value, 0.0))
-    if metric in ("flip", "rmse"):
-        return value
-    raise ValueError(f"no distance for metric {metric!r}")
-
-
-def from_distance(metric: str, d: float) -> float:
-    """The inverse of distance(): the score at distance d (e.g. where RESOLVE_FACTOR x floor lies)."""
-    if not math.isfinite(d):
-        return math.nan
-    if metric == "ssim":
-        return 1.0 - d
-    if metric == "psnr":
-        return -20.0 * math.log10(d) if d > 0 else math.inf
-    if metric == "relmse":
-        return d * d
-    return d
+FLOOR_METRICS = tuple(METRICS)  # flip, ssim, psnr, rmse, relmse: every metric has a floor
 
 
 def floor_ratio(metric: str, value: float, floor: float) -> float:

@@ -22,8 +22,6 @@ is found in 96% (tools/tests/test_history.py checks the detection and the no-cha
 from __future__ import annotations
 
 import argparse
-import csv
-import html
 import json
 import math
 import os
@@ -32,7 +30,9 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from . import style
+import pandas as pd
+
+from . import measures, pages, style, tables
 from .figures import slug
 from .rundata import Run, RunError
 
@@ -101,10 +101,9 @@ def append(run_dir: str, path: str) -> Tuple[dict, bool]:
 
 # ---- change points ---------------------------------------------------------------------------------
 def _noise(x: np.ndarray) -> float:
-    if len(x) < 3:
-        return 0.0
-    d = np.diff(x)
-    return 1.4826 * float(np.median(np.abs(d - np.median(d)))) / math.sqrt(2.0)
+    """The series' noise (measures.successive_difference_sigma); 0 when too short to tell."""
+    sigma = measures.successive_difference_sigma(x)
+    return sigma if math.isfinite(sigma) else 0.0
 
 
 def _sad(x: np.ndarray) -> float:
@@ -173,12 +172,14 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
         raise RunError(f"{path}: no history (run `photonbench history append RUN_DIR` first)")
     os.makedirs(out_dir, exist_ok=True)
     devices = list(dict.fromkeys(e["device"] for e in entries))
-    written, cp_rows, sections = [], [], []
+    written, cp_rows = [], []
+    sections = []  # one per device, for templates/history.html.j2
     for device in devices:
         dev_entries = [e for e in entries if e["device"] == device]
         commits = [e["commit"][:8] for e in dev_entries]
         cells = list(dict.fromkeys(c for e in dev_entries for c in e["cells"]))
-        sections.append(f"<h2>{html.escape(device)}</h2><p>{len(dev_entries)} runs.</p>")
+        section = {"name": device, "runs": len(dev_entries), "figures": []}
+        sections.append(section)
         for cell in cells:
             info = next(e["cells"][cell] for e in dev_entries if cell in e["cells"])
             series = series_of(dev_entries, cell)
@@ -212,20 +213,11 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
             files = style.save(fig, out_dir, stem)
             style.close(fig)
             written.append(os.path.join(out_dir, files["svg"]))
-            sections.append(f'<figure><img src="{html.escape(files["svg"])}" alt="{html.escape(cell)}">'
-                            f'<figcaption>{html.escape(cell)}: <a href="{html.escape(files["pdf"])}">PDF</a> '
-                            f'<a href="{html.escape(files["png"])}">PNG</a></figcaption></figure>')
-    with open(os.path.join(out_dir, "changepoints.csv"), "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["device", "cell", "series", "index", "commit", "before_ms", "after_ms", "change_pct"])
-        for r in cp_rows:
-            w.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in r])
+            section["figures"].append({"cell": cell, **files})
+    tables.write_csv(os.path.join(out_dir, "changepoints.csv"), pd.DataFrame(cp_rows, columns=[
+        "device", "cell", "series", "index", "commit", "before_ms", "after_ms", "change_pct"]))
     with open(os.path.join(out_dir, "index.html"), "w", encoding="utf-8") as f:
-        f.write("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>photonbench history"
-                "</title><style>body{font:14px system-ui,sans-serif;max-width:1100px;margin:auto;padding:1em}"
-                "img{max-width:100%}</style></head><body><h1>photonbench history</h1>"
-                f"<p>Source: {html.escape(os.path.abspath(path))}. Triangles: change points (binary "
-                "segmentation on log time, see changepoints.csv).</p>" + "".join(sections) + "</body></html>\n")
+        f.write(pages.render("history.html.j2", source=os.path.abspath(path), devices=sections))
     return written
 
 

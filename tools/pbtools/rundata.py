@@ -10,28 +10,33 @@
                                      <metric>_floor..., mse_unbiased, relmse_unbiased
     RUN/cells/<cell>/images/         frame_NNNN.{exr,png}, flip_NNNN_<class>.png, reference_NNNN_<class>.png
 
-Everything here is read-only and tolerant of what a failed or interrupted cell leaves behind (a missing
-file is an empty table, an empty CSV field is NaN), because a failed cell must be shown, never dropped.
-Nothing in here parses a cell's id: cells are labelled from their scene, technique and param.* columns.
+The CSV files are read with pandas (read_table): the schema's text columns stay text, param.* are
+parsed by param_value, everything else is numeric. Everything here is read-only and tolerant of
+what a failed or interrupted cell leaves behind (a missing, empty or header-only file is an empty
+table with the schema's columns, an empty or unparsable field is NaN, a column the file lacks reads
+as empty), because a failed cell must be shown, never dropped; a row with more fields than its
+header is bad input. Nothing in here parses a cell's id: cells are labelled from their scene,
+technique and param.* columns.
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
 import re
-from dataclasses import dataclass, field
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
+import pandas as pd
+from pandas.api.types import is_bool_dtype, is_numeric_dtype
 
 # The summary's fixed leading columns (docs/architecture.md); anything else is param.* or pass.*.ms_median.
 SUMMARY_FIXED = [
     "cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
     "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor",
 ]
+SUMMARY_REQUIRED = ("cell", "scene", "technique", "status")
 PASS_PREFIX = "pass."
 PASS_SUFFIX = ".ms_median"
 PARAM_PREFIX = "param."
@@ -43,9 +48,16 @@ PRIMARY_CLASS = "combined"  # the path class of the composed image, preferred wh
 FULL_REFERENCE = "full"
 BOUNCE_MATCHED_REFERENCE = "bounce_matched"
 
-# Metrics: which direction is better. FLIP, RMSE and relMSE are errors; SSIM and PSNR are similarities.
-METRIC_LOWER_IS_BETTER = {"flip": True, "rmse": True, "relmse": True, "ssim": False, "psnr": False}
-METRIC_LABEL = {"flip": "FLIP", "ssim": "SSIM", "psnr": "PSNR [dB]", "rmse": "RMSE", "relmse": "relMSE"}
+# Columns of the run's CSV files that hold text; every other column (but param.*) is numeric.
+TEXT_COLUMNS = frozenset({"cell", "scene", "technique", "status", "reason", "pass", "path_class",
+                          "reference", "name"})
+# What each per-cell file always has once read, whatever the file held.
+FRAMES_COLUMNS = ("frame", "pass", "gpu_ms", "cpu_ms")
+METRICS_COLUMNS = ("frame", "path_class", "reference")
+COUNTERS_COLUMNS = ("frame", "name", "value")
+
+# frames.csv's column behind each named clock (Cell.pass_times; "auto" is the harness's rule).
+CLOCK_COLUMNS = {"gpu": "gpu_ms", "cpu": "cpu_ms", "process": "process_cpu_ms"}
 
 _IMAGE_RE = re.compile(r"^(frame|flip|reference)_(\d+)(?:_(.+))?\.(png|exr)$")
 
@@ -54,26 +66,12 @@ class RunError(Exception):
     """A run directory that cannot be read (bad input: the command exits 2)."""
 
 
-def to_float(text) -> float:
-    """CSV field -> float; empty, missing or unparsable fields are NaN (a failed cell leaves them empty)."""
-    if text is None:
-        return math.nan
-    if isinstance(text, (int, float)):
-        return float(text)
-    text = text.strip()
-    if not text:
-        return math.nan
-    try:
-        return float(text)
-    except ValueError:
-        return math.nan
-
-
 def param_value(text: str):
-    """A param.* field: a number when it reads as one (so sweeps sort numerically), else the string."""
+    """A param.* field: a number when it reads as one (so sweeps sort numerically), an int when
+    written as one (no '.' or exponent), else the string; None when empty."""
     if text is None:
         return None
-    text = text.strip()
+    text = str(text).strip()
     if text == "":
         return None
     try:
@@ -91,68 +89,123 @@ def format_param(value) -> str:
     return str(value)
 
 
-def read_csv(path: str) -> List[Dict[str, str]]:
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+def _read_csv(path: str, **options) -> pd.DataFrame:
+    """pd.read_csv, with a missing or empty file as an empty table and a malformed one (a row with
+    more fields than the header, bytes that are not UTF-8) a RunError naming the file and line."""
     if not os.path.isfile(path):
-        return []
-    with open(path, newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f))
+        return pd.DataFrame()
+    try:
+        return pd.read_csv(path, encoding="utf-8", **options)
+    except pd.errors.EmptyDataError:
+        return pd.DataFrame()
+    except (pd.errors.ParserError, UnicodeDecodeError) as e:
+        raise RunError(f"{path}: {e}".strip()) from e
 
 
-@dataclass
+def read_text_table(path: str) -> pd.DataFrame:
+    """A CSV file as a table of text fields ("" where empty)."""
+    return _read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
+
+
+def _numeric(column: pd.Series) -> pd.Series:
+    """A column as numbers, NaN where a field is empty or not a number (a column pandas read as
+    booleans, "True"/"False", is not one)."""
+    return pd.to_numeric(column.astype(str).where(column.notna(), ""), errors="coerce")
+
+
+def typed(text: pd.DataFrame) -> pd.DataFrame:
+    """A table read as text with its numeric columns converted (empty or unparsable fields NaN)."""
+    out = text.copy()
+    for col in out.columns:
+        if col not in TEXT_COLUMNS and not col.startswith(PARAM_PREFIX):
+            out[col] = _numeric(out[col])
+    return out
+
+
+def read_table(path: str, columns: Sequence[str] = ()) -> pd.DataFrame:
+    """A per-cell CSV file: TEXT_COLUMNS as text ("" where empty), every other column parsed as
+    numbers by pandas (NaN where empty or unparsable), `columns` added where the file lacks them."""
+    table = _read_csv(path, dtype={c: str for c in TEXT_COLUMNS}, keep_default_na=False,
+                      na_values=[""])
+    for col in table.columns:
+        column = table[col]
+        if col in TEXT_COLUMNS:
+            if column.isna().any():
+                table[col] = column.fillna("")
+        elif not is_numeric_dtype(column) or is_bool_dtype(column):
+            table[col] = _numeric(column)
+    for col in columns:
+        if col not in table.columns:
+            table[col] = "" if col in TEXT_COLUMNS else np.nan
+    return table
+
+
 class Cell:
     """One row of summary.csv plus what its cells/<cell>/ directory holds (loaded on first use)."""
 
-    run_dir: str
-    row: Dict[str, str]
-    index: int  # position in summary.csv: the config's order, used for stable colours and sorting
-    _json: Optional[dict] = field(default=None, repr=False)
-    _frames: Optional[List[Dict[str, str]]] = field(default=None, repr=False)
-    _metrics: Optional[List[Dict[str, str]]] = field(default=None, repr=False)
-    _counters: Optional[List[Dict[str, str]]] = field(default=None, repr=False)
+    def __init__(self, run_dir: str, text: Dict[str, str], values: Dict[str, object],
+                 params: Dict[str, object], index: int):
+        self.run_dir = run_dir
+        self._text = text  # the summary row as written
+        self._values = values  # the same row, numeric columns converted
+        # param.<name> columns this cell sets (other techniques' are empty)
+        self.params: Dict[str, object] = params
+        # Position in summary.csv: the config's order, for stable colours and sorting.
+        self.index = index
+        self._json: Optional[dict] = None
+        self._frames: Optional[pd.DataFrame] = None
+        self._metrics: Optional[pd.DataFrame] = None
+        self._counters: Optional[pd.DataFrame] = None
+        # Per-cell caches: pass samples by clock, metric series by (metric, class, reference).
+        self._samples: Dict[str, Dict[str, tuple]] = {}
+        self._metric_groups: Optional[Dict[tuple, np.ndarray]] = None  # (class, reference) -> rows
+        self._series: Dict[tuple, tuple] = {}
+
+    def __repr__(self) -> str:
+        return f"Cell({self.id!r})"
 
     # -- summary row -------------------------------------------------------------------------------
     @property
     def id(self) -> str:
-        return self.row["cell"]
+        return self._text["cell"]
 
     @property
     def scene(self) -> str:
-        return self.row.get("scene", "")
+        return self._text.get("scene", "")
 
     @property
     def technique(self) -> str:
-        return self.row.get("technique", "")
+        return self._text.get("technique", "")
 
     @property
     def status(self) -> str:
-        return (self.row.get("status") or "").strip() or self.json.get("status", "unknown")
+        return self._text.get("status", "").strip() or self.json.get("status", "unknown")
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
 
-    def value(self, column: str) -> float:
-        return to_float(self.row.get(column))
+    def text(self, column: str) -> str:
+        """A summary.csv field as written ("" when the column is absent)."""
+        return self._text.get(column, "")
 
-    @property
-    def params(self) -> Dict[str, object]:
-        """param.<name> columns that this cell sets (empty fields belong to other techniques)."""
-        out = {}
-        for key, text in self.row.items():
-            if key and key.startswith(PARAM_PREFIX):
-                v = param_value(text)
-                if v is not None:
-                    out[key[len(PARAM_PREFIX):]] = v
-        return out
+    def value(self, column: str) -> float:
+        """A numeric summary.csv field; NaN when empty, unparsable, absent or a text column."""
+        v = self._values.get(column)
+        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
 
     def pass_medians(self) -> Dict[str, float]:
         """pass.<name>.ms_median columns with a value, name -> ms (nested names keep their '/')."""
         out = {}
-        for key, text in self.row.items():
-            if key and key.startswith(PASS_PREFIX) and key.endswith(PASS_SUFFIX):
-                v = to_float(text)
-                if not math.isnan(v):
-                    out[key[len(PASS_PREFIX):-len(PASS_SUFFIX)]] = v
+        for key, v in self._values.items():
+            is_pass = key.startswith(PASS_PREFIX) and key.endswith(PASS_SUFFIX)
+            if is_pass and not math.isnan(self.value(key)):
+                out[key[len(PASS_PREFIX):-len(PASS_SUFFIX)]] = float(v)
         return out
 
     # -- cells/<cell>/ -----------------------------------------------------------------------------
@@ -172,7 +225,7 @@ class Cell:
 
     @property
     def reason(self) -> str:
-        return str(self.json.get("reason") or self.row.get("reason") or "")
+        return str(self.json.get("reason") or self._text.get("reason") or "")
 
     @property
     def failed_frame(self) -> Optional[int]:
@@ -207,67 +260,72 @@ class Cell:
         return out
 
     @property
-    def frames_rows(self) -> List[Dict[str, str]]:
+    def frames(self) -> pd.DataFrame:
+        """frames.csv: frame, pass, gpu_ms, cpu_ms (and process_cpu_ms on fenced runs)."""
         if self._frames is None:
-            self._frames = read_csv(os.path.join(self.dir, "frames.csv"))
+            self._frames = read_table(os.path.join(self.dir, "frames.csv"), FRAMES_COLUMNS)
         return self._frames
 
     @property
-    def metrics_rows(self) -> List[Dict[str, str]]:
+    def metrics(self) -> pd.DataFrame:
+        """metrics.csv, its `reference` column "full" where empty or absent (older runs)."""
         if self._metrics is None:
-            self._metrics = read_csv(os.path.join(self.dir, "metrics.csv"))
+            m = read_table(os.path.join(self.dir, "metrics.csv"), METRICS_COLUMNS)
+            m.loc[m["reference"] == "", "reference"] = FULL_REFERENCE
+            self._metrics = m
         return self._metrics
 
     @property
-    def counters_rows(self) -> List[Dict[str, str]]:
+    def counters(self) -> pd.DataFrame:
         if self._counters is None:
-            self._counters = read_csv(os.path.join(self.dir, "counters.csv"))
+            self._counters = read_table(os.path.join(self.dir, "counters.csv"), COUNTERS_COLUMNS)
         return self._counters
+
+    def counter_means(self) -> pd.Series:
+        """Mean per frame of every counter with a value, name -> mean, in first-seen order."""
+        c = self.counters.dropna(subset=["value"])
+        return c.groupby("name", sort=False)["value"].mean()
 
     def pass_names(self) -> List[str]:
         """Passes in frames.csv, in first-seen order."""
-        seen = {}
-        for r in self.frames_rows:
-            seen.setdefault(r["pass"], None)
-        return list(seen)
+        return list(pd.unique(self.frames["pass"]))
+
+    def pass_times(self, clock: str = "auto") -> pd.DataFrame:
+        """frame, pass, ms of every frames.csv row with a time on `clock`.
+
+        clock "gpu", "cpu" or "process" picks gpu_ms, cpu_ms or process_cpu_ms (the CPU time of the
+        cell's process in the pass, recorded on fenced runs; NaN where absent); "auto" is the
+        harness's own rule for a pass's time (the one behind summary.csv's medians): the larger of
+        gpu_ms and cpu_ms, i.e. where the pass ran. A GPU pass's CPU time is only its recording; a
+        CPU pass (Embree photon tracing) still has a timestamp pair around it, whose difference is
+        only the barriers'."""
+        f = self.frames
+        if clock in CLOCK_COLUMNS:
+            column = CLOCK_COLUMNS[clock]
+            ms = f[column].to_numpy(float) if column in f.columns else np.full(len(f), np.nan)
+        else:
+            ms = np.fmax(f["gpu_ms"].to_numpy(float), f["cpu_ms"].to_numpy(float))  # fmax skips NaN
+        out = pd.DataFrame({"frame": f["frame"].to_numpy(float), "pass": f["pass"].to_numpy(),
+                            "ms": ms})
+        return out[~np.isnan(out["ms"]) & np.isfinite(out["frame"])]
 
     def pass_samples(self, name: str, clock: str = "auto") -> (np.ndarray, np.ndarray):
-        """(frames, ms) of one pass over the measured frames, sorted by frame.
-
-        clock "gpu" or "cpu" picks that column; "auto" is the harness's own rule for a pass's time (the
-        one behind summary.csv's medians): the larger of the two clocks, i.e. where the pass ran. A GPU
-        pass's CPU time is only its recording; a CPU pass (Embree photon tracing) still has a timestamp
-        pair around it, whose difference is only the barriers'."""
-        frames, values = [], []
-        for r in self.frames_rows:
-            if r.get("pass") != name:
-                continue
-            gpu, cpu = to_float(r.get("gpu_ms")), to_float(r.get("cpu_ms"))
-            if clock == "gpu":
-                v = gpu
-            elif clock == "cpu":
-                v = cpu
-            else:
-                v = cpu if math.isnan(gpu) else gpu if math.isnan(cpu) else max(gpu, cpu)
-            if math.isnan(v):
-                continue
-            frames.append(int(to_float(r["frame"])))
-            values.append(v)
-        order = np.argsort(frames, kind="stable")
-        return np.asarray(frames, dtype=int)[order], np.asarray(values, dtype=float)[order]
+        """(frames, ms) of one pass over the measured frames, sorted by frame (pass_times' clocks).
+        The arrays are shared between calls and read-only."""
+        if clock not in self._samples:
+            t = self.pass_times(clock).sort_values("frame", kind="stable")
+            frames, ms = t["frame"].to_numpy(int), t["ms"].to_numpy(float)
+            self._samples[clock] = {name: (_frozen(frames[rows]), _frozen(ms[rows]))
+                                    for name, rows in t.groupby("pass", sort=False).indices.items()}
+        none = (_frozen(np.zeros(0, dtype=int)), _frozen(np.zeros(0)))
+        return self._samples[clock].get(name, none)
 
     def metric_classes(self) -> List[str]:
-        seen = {}
-        for r in self.metrics_rows:
-            seen.setdefault(r.get("path_class", ""), None)
-        return list(seen)
+        return list(pd.unique(self.metrics["path_class"]))
 
     def metric_references(self) -> List[str]:
         """The references this cell was scored against (metrics.csv's `reference` column), in order."""
-        seen = {}
-        for r in self.metrics_rows:
-            seen.setdefault(r.get("reference") or FULL_REFERENCE, None)
-        return list(seen)
+        return list(pd.unique(self.metrics["reference"]))
 
     def primary_class(self) -> Optional[str]:
         """The path class the report shows first: "combined" (the composed image) when scored, else the
@@ -279,17 +337,25 @@ class Cell:
 
     def metric_series(self, metric: str, path_class: Optional[str] = None,
                       reference: str = FULL_REFERENCE) -> (np.ndarray, np.ndarray):
-        """(frames, values) of one metrics.csv column (a metric, its <metric>_floor, ...) for one path
-        class (default: primary_class()) against one reference (default: the full one)."""
+        """(frames, values) of one metrics.csv column (a metric, its <metric>_floor, ...) for one
+        path class (default: primary_class()) against one reference (default: the full one), sorted
+        by frame. The arrays are shared between calls and read-only."""
         cls = path_class if path_class is not None else self.primary_class()
-        if cls is None:
-            return np.zeros(0, dtype=int), np.zeros(0)
-        pts = [(int(to_float(r["frame"])), to_float(r.get(metric)))
-               for r in self.metrics_rows
-               if r.get("path_class", "") == cls and (r.get("reference") or FULL_REFERENCE) == reference]
-        pts = [(f, v) for f, v in pts if not math.isnan(v)]
-        pts.sort()
-        return (np.asarray([p[0] for p in pts], dtype=int), np.asarray([p[1] for p in pts], dtype=float))
+        key = (metric, cls, reference)
+        if key not in self._series:
+            m = self.metrics
+            if self._metric_groups is None:
+                self._metric_groups = m.groupby(["path_class", "reference"], sort=False).indices
+            rows = self._metric_groups.get((cls, reference))
+            frames, values = np.zeros(0), np.zeros(0)
+            if rows is not None and metric in m.columns and metric not in TEXT_COLUMNS:
+                frames, values = m["frame"].to_numpy(float)[rows], m[metric].to_numpy(float)[rows]
+                keep = ~(np.isnan(frames) | np.isnan(values))
+                frames, values = frames[keep], values[keep]
+                order = np.lexsort((values, frames))
+                frames, values = frames[order], values[order]
+            self._series[key] = (_frozen(frames.astype(int)), _frozen(values))
+        return self._series[key]
 
     def metric_mean(self, metric: str, path_class: Optional[str] = None,
                     reference: str = FULL_REFERENCE) -> float:
@@ -310,7 +376,8 @@ class Cell:
 
 
 class Run:
-    """A run directory: run.json, summary.csv and its cells."""
+    """A run directory: run.json, summary.csv (as `text`, the fields as written, and `summary`,
+    numeric columns converted; one row per cell in the config's order) and its cells."""
 
     def __init__(self, path: str):
         self.path = os.path.abspath(path)
@@ -327,14 +394,28 @@ class Run:
                     self.info = json.load(f)
             except json.JSONDecodeError as e:
                 raise RunError(f"{run_json}:{e.lineno}:{e.colno}: {e.msg}") from e
-        with open(summary, newline="", encoding="utf-8") as f:
-            reader = csv.DictReader(f)
-            self.columns: List[str] = list(reader.fieldnames or [])
-            rows = list(reader)
-        missing = [c for c in ("cell", "scene", "technique", "status") if c not in self.columns]
+        self.text = read_text_table(summary)
+        self.columns: List[str] = [str(c) for c in self.text.columns]
+        missing = [c for c in SUMMARY_REQUIRED if c not in self.columns]
         if missing:
             raise RunError(f"{summary}:1: missing column(s) {', '.join(missing)}")
-        self.cells: List[Cell] = [Cell(self.path, r, i) for i, r in enumerate(rows)]
+        self.summary = typed(self.text)
+        param_columns = [c for c in self.columns if c.startswith(PARAM_PREFIX)]
+        # Object columns of int, float, str, or None where the cell does not set the parameter (kept
+        # as objects: pandas would turn a column of ints and Nones into floats and NaNs).
+        self.params = pd.DataFrame(
+            {c: pd.Series([param_value(t) for t in self.text[c]], dtype=object)
+             for c in param_columns}, index=self.text.index)
+        self.cells: List[Cell] = []
+        for i, (text, values, params) in enumerate(zip(self.text.to_dict("records"),
+                                                       self.summary.to_dict("records"),
+                                                       self.params.to_dict("records"))):
+            set_params = {k[len(PARAM_PREFIX):]: v for k, v in params.items() if v is not None}
+            self.cells.append(Cell(self.path, text, values, set_params, i))
+        self._by_id: Dict[str, Cell] = {}
+        for c in self.cells:
+            self._by_id.setdefault(c.id, c)
+        self._swept: Optional[Dict[tuple, List[str]]] = None
 
     @property
     def name(self) -> str:
@@ -361,35 +442,33 @@ class Run:
                 if c.startswith(PASS_PREFIX) and c.endswith(PASS_SUFFIX)]
 
     def scenes(self) -> List[str]:
-        return list(dict.fromkeys(c.scene for c in self.cells))
+        return list(pd.unique(self.summary["scene"]))
 
     def techniques(self) -> List[str]:
-        return list(dict.fromkeys(c.technique for c in self.cells))
+        return list(pd.unique(self.summary["technique"]))
 
     def cells_of(self, scene: str) -> List[Cell]:
-        return [c for c in self.cells if c.scene == scene]
+        return [self.cells[i] for i in np.flatnonzero(self.summary["scene"].to_numpy() == scene)]
 
     def cell(self, cell_id: str) -> Optional[Cell]:
-        for c in self.cells:
-            if c.id == cell_id:
-                return c
-        return None
+        return self._by_id.get(cell_id)
 
     def swept_params(self, cells: List[Cell]) -> List[str]:
         """Parameters that take more than one value among `cells` of one technique (a sweep axis)."""
-        out = []
-        for p in self.param_columns:
-            values = {format_param(c.params[p]) for c in cells if p in c.params}
-            if len(values) > 1:
-                out.append(p)
-        return out
+        rows = self.params.iloc[[c.index for c in cells]]
+        return [p for p in self.param_columns
+                if rows[PARAM_PREFIX + p].dropna().map(format_param).nunique() > 1]
 
     def label(self, cell: Cell, with_technique: bool = True) -> str:
-        """A short human label: technique plus the parameters that are swept within its technique."""
-        same = [c for c in self.cells if c.technique == cell.technique and c.scene == cell.scene]
-        swept = self.swept_params(same)
-        parts = [f"{p}={format_param(cell.params[p])}" for p in swept if p in cell.params]
-        setting = ", ".join(parts)
+        """A short human label: technique plus the parameters that are swept within its technique
+        (in its scene)."""
+        if self._swept is None:
+            groups = self.summary.groupby(["scene", "technique"], sort=False).indices
+            self._swept = {key: self.swept_params([self.cells[i] for i in rows])
+                           for key, rows in groups.items()}
+        swept = self._swept[(cell.scene, cell.technique)]
+        setting = ", ".join(f"{p}={format_param(cell.params[p])}"
+                            for p in swept if p in cell.params)
         if not with_technique:
             return setting or cell.technique
         return f"{cell.technique} ({setting})" if setting else cell.technique

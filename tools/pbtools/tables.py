@@ -1,34 +1,41 @@
-"""The summary as tables: CSV (for scripts and spreadsheets), LaTeX with booktabs (for papers) and HTML
-(for the report). The best successful value per scene and column is set in bold; failed cells stay in
-the table with their status. A score within RESOLVE_FACTOR times its noise floor (floors.py) is marked
-unresolved: a dagger in LaTeX, an asterisk and the class "unresolved" in HTML, resolved_<metric> = 0 in
-the CSV. The floor table lists every score of every cell, class and reference beside its floor."""
+"""The summary as tables: CSV (for scripts and spreadsheets), LaTeX with booktabs (for papers;
+rendered by pandas' Styler) and the rows of the HTML report's tables (templates/report.html.j2).
+The best successful value per scene and column is set in bold; failed cells stay in the table with
+their status. A score within RESOLVE_FACTOR times its noise floor (floors.py) is marked unresolved:
+a dagger in LaTeX, an asterisk and the class "unresolved" in HTML, resolved_<metric> = 0 in the
+CSV. The floor table lists every score of every cell, class and reference beside its floor.
+
+Every CSV file the tools write goes through write_csv, so they share one convention."""
 
 from __future__ import annotations
 
-import csv
-import html
 import math
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Sequence
 
-from . import floors
+import numpy as np
+import pandas as pd
+
+from . import floors, measures
 from .rundata import Run
 
-# (key, heading, LaTeX heading, decimals, lower is better or None when not ranked)
+# (key, heading, LaTeX heading, decimals, lower is better or None when not ranked). Times are
+# lower-is-better; each metric's direction and heading come from measures.py.
 SUMMARY_COLUMNS = [
     ("frames", "frames", "frames", 0, None),
     ("frame_ms_median", "median ms", r"median [ms]", 2, True),
     ("frame_ms_p5", "p5 ms", r"p5 [ms]", 2, None),
     ("frame_ms_p95", "p95 ms", r"p95 [ms]", 2, None),
-    ("flip_mean", "FLIP", r"\textsc{Flip}~$\downarrow$", 4, True),
-    ("ssim_mean", "SSIM", r"SSIM~$\uparrow$", 4, False),
-    ("psnr_mean", "PSNR dB", r"PSNR [dB]~$\uparrow$", 2, False),
+    ("flip_mean", "FLIP", measures.latex_heading("flip"), 4, measures.lower_is_better("flip")),
+    ("ssim_mean", "SSIM", measures.latex_heading("ssim"), 4, measures.lower_is_better("ssim")),
+    ("psnr_mean", "PSNR dB", measures.latex_heading("psnr"), 2, measures.lower_is_better("psnr")),
     ("flip_floor", "FLIP floor", r"\textsc{Flip} floor", 4, None),
     ("ssim_floor", "SSIM floor", r"SSIM floor", 4, None),
     ("psnr_floor", "PSNR floor", r"PSNR floor", 2, None),
 ]
 # The score columns read against a floor column: summary key -> metric (its floor is <metric>_floor).
 FLOORED = {"flip_mean": "flip", "ssim_mean": "ssim", "psnr_mean": "psnr"}
+UNRESOLVED_TITLE = f"within {floors.RESOLVE_FACTOR:g}x its noise floor: unresolved"
+FAILED_REASON_CHARS = 60  # of a failed cell's reason in the LaTeX table
 
 _LATEX_ESCAPES = {"&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_", "{": r"\{", "}": r"\}",
                   "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "\\": r"\textbackslash{}"}
@@ -44,147 +51,172 @@ def _fmt(v: float, decimals: int) -> str:
     return f"{v:.{decimals}f}"
 
 
+def _csv_field(v):
+    if v is None:
+        return ""
+    if isinstance(v, (bool, np.bool_)):
+        return int(v)
+    if isinstance(v, float):
+        return f"{v:.6g}" if math.isfinite(v) else ""
+    return v
+
+
+def _flags(values: pd.Series, test) -> np.ndarray:
+    """test() of every value of an object column (resolved: True, False or None) as booleans."""
+    return np.fromiter((bool(test(v)) for v in values), dtype=bool, count=len(values))
+
+
+def write_csv(path: str, table: pd.DataFrame) -> None:
+    """The tools' CSV convention: numbers to 6 significant digits, missing and non-finite values
+    empty, booleans 0/1, and CRLF line ends (RFC 4180's, and Python's csv module's, which wrote
+    these files before pandas did)."""
+    table.applymap(_csv_field).to_csv(path, index=False, lineterminator="\r\n", encoding="utf-8")
+
+
+# -- the summary ----------------------------------------------------------------------------------
+
+def summary_table(run: Run) -> pd.DataFrame:
+    """One row per cell, in the run's order: scene, technique, setting (the swept parameters'
+    values, "" when none), cell, status, reason, SUMMARY_COLUMNS, and resolved_<metric> (True,
+    False, None: no floor) for each FLOORED score."""
+    s = run.summary
+    settings = [run.label(c, with_technique=False) for c in run.cells]
+    table = pd.DataFrame({
+        "scene": s["scene"], "technique": s["technique"],
+        "setting": [st if st != c.technique else "" for st, c in zip(settings, run.cells)],
+        "cell": s["cell"], "status": [c.status for c in run.cells],
+        "reason": [c.reason for c in run.cells]})
+    for key, *_ in SUMMARY_COLUMNS:
+        table[key] = s[key].astype(float) if key in s.columns else np.nan
+    for key, metric in FLOORED.items():
+        table[f"resolved_{metric}"] = pd.Series(
+            [floors.resolved(metric, v, f) for v, f in zip(table[key], table[f"{metric}_floor"])],
+            index=table.index, dtype=object)
+    return table
+
+
 def summary_rows(run: Run) -> List[Dict[str, object]]:
-    rows = []
-    for c in run.cells:
-        row = {"scene": c.scene, "technique": c.technique, "setting": run.label(c, with_technique=False)
-               if run.label(c, with_technique=False) != c.technique else "", "cell": c.id,
-               "status": c.status, "reason": c.reason}
-        for key, *_ in SUMMARY_COLUMNS:
-            row[key] = c.value(key)
-        for key, metric in FLOORED.items():
-            row[f"resolved_{metric}"] = floors.resolved(metric, row[key], c.value(f"{metric}_floor"))
-        rows.append(row)
-    return rows
+    """summary_table as one dict per cell."""
+    return summary_table(run).to_dict("records")
 
 
-def _unresolved(row: Dict[str, object], key: str) -> bool:
-    return key in FLOORED and row["status"] == "ok" and row[f"resolved_{FLOORED[key]}"] is False
-
-
-def best_per_scene(rows: List[Dict[str, object]]) -> Dict[tuple, float]:
-    """(scene, column) -> best value among successful cells, for the ranked columns."""
-    best = {}
-    for key, _, _, _, lower in SUMMARY_COLUMNS:
+def best_mask(table: pd.DataFrame) -> pd.DataFrame:
+    """For the ranked columns: True where a successful cell's value is its scene's best among the
+    successful cells, to the digits shown (a tie to the digits shown is bold twice)."""
+    usable = table["status"] == "ok"
+    mask = pd.DataFrame(index=table.index)
+    for key, _, _, decimals, lower in SUMMARY_COLUMNS:
         if lower is None:
             continue
-        for r in rows:
-            v = r[key]
-            if r["status"] != "ok" or not math.isfinite(v):
-                continue
-            k = (r["scene"], key)
-            if k not in best or (v < best[k] if lower else v > best[k]):
-                best[k] = v
-    return best
+        values = table[key].where(usable & np.isfinite(table[key]))
+        best = values.groupby(table["scene"], sort=False).transform("min" if lower else "max")
+        shown = values.map(lambda v: _fmt(v, decimals))
+        mask[key] = values.notna() & (shown == best.map(lambda v: _fmt(v, decimals)))
+    return mask
+
+
+def unresolved_mask(table: pd.DataFrame) -> pd.DataFrame:
+    """For the FLOORED columns: True where a successful cell's score is within its floor's reach."""
+    usable = table["status"] == "ok"
+    return pd.DataFrame({key: usable & _flags(table[f"resolved_{metric}"], lambda r: r is False)
+                         for key, metric in FLOORED.items()}, index=table.index)
 
 
 def write_summary_csv(run: Run, path: str) -> None:
-    rows = summary_rows(run)
+    table = summary_table(run)
     header = (["scene", "technique", "setting", "cell", "status"] + [k for k, *_ in SUMMARY_COLUMNS]
               + [f"resolved_{m}" for m in FLOORED.values()] + ["reason"])
+    write_csv(path, table[header])
 
-    def text(v):
-        if v is None:
-            return ""
-        if isinstance(v, bool):
-            return int(v)
-        if isinstance(v, float):
-            return "" if not math.isfinite(v) else f"{v:.6g}"
-        return v
 
-    with open(path, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        for r in rows:
-            w.writerow([text(r[h]) for h in header])
+def _styled_latex(cells: pd.DataFrame, headers: List[str], column_format: str,
+                  bold: Optional[pd.DataFrame] = None, escaped: Sequence[int] = ()) -> str:
+    """A booktabs tabular by pandas' Styler from a table of display strings: `headers` are the LaTeX
+    column headings, `escaped` the columns whose text Styler escapes (tables.latex_escape), `bold` a
+    boolean mask of cells set in \\textbf."""
+    styler = cells.style.hide(axis="index").format_index(lambda i: headers[i], axis="columns")
+    if escaped:
+        styler = styler.format(latex_escape, subset=list(escaped))
+    if bold is not None:
+        props = bold.reindex(index=cells.index, columns=cells.columns, fill_value=False)
+        textbf = props.applymap(lambda b: "textbf: --rwrap;" if b else "")  # \textbf{value}
+        styler = styler.apply(lambda _: textbf, axis=None)
+    return styler.to_latex(column_format=column_format, hrules=True)
 
 
 def summary_latex(run: Run) -> str:
-    """A booktabs table (needs \\usepackage{booktabs}); one block per scene separated by \\midrule."""
-    rows = summary_rows(run)
-    best = best_per_scene(rows)
-    cols = "ll" + "l" + "r" * len(SUMMARY_COLUMNS)
+    """A booktabs table (needs \\usepackage{booktabs}); one block per scene separated by
+    \\midrule. A failed cell keeps its row: its frame count, then its reason, set over the empty
+    number columns."""
+    table = summary_table(run)
+    bold, loose = best_mask(table), unresolved_mask(table)
+    keys = [k for k, *_ in SUMMARY_COLUMNS]
+    # Scene: named on a scene's first row, after a \midrule from the scene before (a \midrule
+    # opening a row's first cell is where booktabs expects it: right after the previous row's \\).
+    first = table["scene"] != table["scene"].shift()
+    scene = [("" if i == 0 else "\\midrule\n") + latex_escape(s) if f else ""
+             for i, (s, f) in enumerate(zip(table["scene"], first))]
+    cells = pd.DataFrame({0: scene, 1: table["technique"], 2: table["setting"]})
+    for j, (key, _, _, decimals, _) in enumerate(SUMMARY_COLUMNS, start=3):
+        text = table[key].map(lambda v: _fmt(v, decimals) or "--")
+        if key in loose:
+            text = text.where(~loose[key], text + r"$^\dagger$")
+        cells[j] = text
+    for i in np.flatnonzero(table["status"] != "ok"):
+        frames = table["frames"].iat[i]
+        reason = latex_escape(table["reason"].iat[i][:FAILED_REASON_CHARS])
+        cells.iloc[i, 3] = str(int(frames)) if math.isfinite(frames) else "--"
+        # \rlap: the reason runs on over the empty cells to its right without widening its column.
+        note = r"\emph{failed}" + (": " + reason if reason else "")
+        cells.iloc[i, 4] = r"\multicolumn{1}{l}{\rlap{" + note + "}}"
+        cells.iloc[i, 5:] = ""
+    bold_cells = pd.DataFrame({3 + keys.index(k): bold[k] for k in bold.columns}, index=table.index)
+    headers = ["Scene", "Technique", "Setting"] + [h for _, _, h, _, _ in SUMMARY_COLUMNS]
     out = [r"% Generated by photonbench report from summary.csv; needs \usepackage{booktabs}.",
-           r"\begin{tabular}{" + cols + "}", r"\toprule",
-           " & ".join(["Scene", "Technique", "Setting"] + [h for _, _, h, _, _ in SUMMARY_COLUMNS]) + r" \\",
-           r"\midrule"]
-    last_scene = None
-    for r in rows:
-        if last_scene is not None and r["scene"] != last_scene:
-            out.append(r"\midrule")
-        scene = latex_escape(r["scene"]) if r["scene"] != last_scene else ""
-        last_scene = r["scene"]
-        cells = [scene, latex_escape(r["technique"]), latex_escape(r["setting"])]
-        if r["status"] != "ok":
-            # A failed cell keeps its row, with its frame count and the reason in place of numbers.
-            cells.append(str(int(r["frames"])) if math.isfinite(r["frames"]) else "--")
-            span = len(SUMMARY_COLUMNS) - 1
-            reason = latex_escape(r["reason"][:60])
-            cells.append(r"\multicolumn{" + str(span) + r"}{c}{\emph{failed}" +
-                         (": " + reason if reason else "") + "}")
-        else:
-            for key, _, _, dec, lower in SUMMARY_COLUMNS:
-                text = _fmt(r[key], dec) or "--"
-                if lower is not None and (r["scene"], key) in best and math.isfinite(r[key]) and \
-                        _fmt(r[key], dec) == _fmt(best[(r["scene"], key)], dec):
-                    text = r"\textbf{" + text + "}"
-                if _unresolved(r, key):
-                    text += r"$^\dagger$"
-                cells.append(text)
-        out.append(" & ".join(cells) + r" \\")
-    out += [r"\bottomrule", r"\end{tabular}"]
-    if any(_unresolved(r, k) for r in rows for k in FLOORED):
-        out.append(rf"% $^\dagger$: within {floors.RESOLVE_FACTOR:g}x the reference's noise floor (unresolved).")
-    out.append("")
-    return "\n".join(out)
+           _styled_latex(cells, headers, "lll" + "r" * len(SUMMARY_COLUMNS), bold_cells,
+                         escaped=[1, 2])]
+    if loose.to_numpy().any():
+        out.append(rf"% $^\dagger$: within {floors.RESOLVE_FACTOR:g}x the reference's noise floor "
+                   "(unresolved).\n")
+    return "".join(line if line.endswith("\n") else line + "\n" for line in out)
 
 
 def passes_latex(run: Run, scene: str) -> str:
     """Median ms per pass (columns: top-level passes in run order, then the frame) for one scene."""
     cells = run.cells_of(scene)
-    passes = [p for p in run.pass_columns if "/" not in p and any(p in c.pass_medians() for c in cells)]
-    out = [r"% Generated by photonbench report; median ms per pass; needs \usepackage{booktabs}.",
-           r"\begin{tabular}{ll" + "r" * (len(passes) + 1) + "}", r"\toprule",
-           " & ".join(["Technique", "Setting"] + [latex_escape(p) for p in passes] + ["frame"]) + r" \\",
-           r"\midrule"]
+    passes = [p for p in run.pass_columns
+              if "/" not in p and any(p in c.pass_medians() for c in cells)]
+    rows = []
     for c in cells:
         med = c.pass_medians()
         setting = run.label(c, with_technique=False)
-        setting = "" if setting == c.technique else setting
-        vals = [_fmt(med.get(p, math.nan), 2) or "--" for p in passes]
-        frame = _fmt(c.value("frame_ms_median"), 2) or "--"
-        tech = latex_escape(c.technique) + ("" if c.ok else r" (\emph{failed})")
-        out.append(" & ".join([tech, latex_escape(setting)] + vals + [frame]) + r" \\")
-    out += [r"\bottomrule", r"\end{tabular}", ""]
-    return "\n".join(out)
+        rows.append([latex_escape(c.technique) + ("" if c.ok else r" (\emph{failed})"),
+                     "" if setting == c.technique else setting]
+                    + [_fmt(med.get(p, math.nan), 2) or "--" for p in passes]
+                    + [_fmt(c.value("frame_ms_median"), 2) or "--"])
+    headers = ["Technique", "Setting"] + [latex_escape(p) for p in passes] + ["frame"]
+    table = pd.DataFrame(rows, columns=range(len(headers)))
+    return (r"% Generated by photonbench report; median ms per pass; needs \usepackage{booktabs}."
+            + "\n" + _styled_latex(table, headers, "ll" + "r" * (len(passes) + 1), escaped=[1]))
 
 
-def summary_html(run: Run, link_cells: Optional[Dict[str, str]] = None) -> str:
-    rows = summary_rows(run)
-    best = best_per_scene(rows)
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in
-                   ["scene", "technique", "setting", "status"] + [h for _, h, *_ in SUMMARY_COLUMNS])
-    body = []
-    for r in rows:
-        status = html.escape(r["status"])
-        cls = "ok" if r["status"] == "ok" else "failed"
-        title = f' title="{html.escape(r["reason"])}"' if r["reason"] else ""
-        tds = [f"<td>{html.escape(r['scene'])}</td>", f"<td>{html.escape(r['technique'])}</td>",
-               f"<td>{html.escape(r['setting'])}</td>", f'<td class="{cls}"{title}>{status}</td>']
-        for key, _, _, dec, lower in SUMMARY_COLUMNS:
-            text = _fmt(r[key], dec)
-            strong = (r["status"] == "ok" and lower is not None and (r["scene"], key) in best
-                      and math.isfinite(r[key]) and text == _fmt(best[(r["scene"], key)], dec))
-            text = "<b>" + text + "</b>" if strong else text
-            if _unresolved(r, key):
-                tds.append(f'<td class="num unresolved" title="within {floors.RESOLVE_FACTOR:g}x its noise '
-                           f'floor: unresolved">{text}*</td>')
-            else:
-                tds.append(f'<td class="num">{text}</td>')
-        body.append(f'<tr class="{cls}">' + "".join(tds) + "</tr>")
-    return f'<table class="summary"><thead><tr>{head}</tr></thead><tbody>' + "\n".join(body) + \
-        "</tbody></table>"
-
+def summary_view(run: Run) -> dict:
+    """The summary table of the HTML report: headings, and per cell its text fields and each
+    column's shown value, bold (best in its scene) and unresolved flags."""
+    table = summary_table(run)
+    bold, loose = best_mask(table), unresolved_mask(table)
+    rows = []
+    for i, r in enumerate(table.to_dict("records")):
+        values = []
+        for key, _, _, decimals, _ in SUMMARY_COLUMNS:
+            values.append({"text": _fmt(r[key], decimals),
+                           "bold": bool(key in bold and bold[key].iat[i]),
+                           "unresolved": bool(key in loose and loose[key].iat[i])})
+        rows.append({"ok": r["status"] == "ok", "scene": r["scene"], "technique": r["technique"],
+                     "setting": r["setting"], "status": r["status"], "reason": r["reason"],
+                     "values": values})
+    headers = ["scene", "technique", "setting", "status"] + [h for _, h, *_ in SUMMARY_COLUMNS]
+    return {"headers": headers, "rows": rows, "unresolved_title": UNRESOLVED_TITLE}
 
 
 # -- noise floors ------------------------------------------------------------------------------------
@@ -193,90 +225,73 @@ FLOOR_HEADER = ["scene", "technique", "setting", "cell", "reference", "path_clas
                 "floor", "floor_ratio", "resolved"]
 
 
-def floor_rows(run: Run) -> List[Dict[str, object]]:
+def floor_rows(run: Run) -> pd.DataFrame:
     """Every successful cell's mean score of each metric, path class and reference beside its mean floor
     (metrics.csv), with floor_ratio (floors.floor_ratio) and resolved (True, False, None: no floor)."""
     rows = []
+    columns = [m + suffix for m in floors.FLOOR_METRICS for suffix in ("", floors.FLOOR_SUFFIX)]
     for c in run.cells:
         if not c.ok:
             continue
         setting = run.label(c, with_technique=False)
+        metrics = c.metrics.reindex(columns=list(c.metrics.columns) + [
+            col for col in columns if col not in c.metrics.columns])
+        # Means over the metric frames (NaNs skipped) per reference and path class.
+        means = metrics.groupby(["reference", "path_class"], sort=False)[columns].mean()
         for reference in c.metric_references():
             for cls in c.metric_classes():
+                if (reference, cls) not in means.index:
+                    continue
                 for m in floors.FLOOR_METRICS:
-                    mean = c.metric_mean(m, cls, reference)
+                    mean = float(means.at[(reference, cls), m])
                     if not math.isfinite(mean):
                         continue
-                    floor = c.metric_mean(m + floors.FLOOR_SUFFIX, cls, reference)
+                    floor = float(means.at[(reference, cls), m + floors.FLOOR_SUFFIX])
                     rows.append({"scene": c.scene, "technique": c.technique,
                                  "setting": "" if setting == c.technique else setting, "cell": c.id,
                                  "reference": reference, "path_class": cls, "metric": m, "mean": mean,
                                  "floor": floor, "floor_ratio": floors.floor_ratio(m, mean, floor),
                                  "resolved": floors.resolved(m, mean, floor)})
-    return rows
+    table = pd.DataFrame(rows, columns=FLOOR_HEADER)
+    table["resolved"] = table["resolved"].astype(object)
+    return table
 
 
-def write_floors_csv(rows: List[Dict[str, object]], path: str) -> None:
-    with open(path, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(FLOOR_HEADER)
-        for r in rows:
-            out = []
-            for h in FLOOR_HEADER:
-                v = r[h]
-                out.append("" if v is None or (isinstance(v, float) and not math.isfinite(v)) else
-                           int(v) if isinstance(v, bool) else f"{v:.6g}" if isinstance(v, float) else v)
-            w.writerow(out)
+def write_floors_csv(rows: pd.DataFrame, path: str) -> None:
+    write_csv(path, rows[FLOOR_HEADER])
 
 
-def floors_html(run: Run, rows: List[Dict[str, object]]) -> str:
-    """The unresolved scores named up front (FLIP first: the issue's criterion), then every score against
-    its floor, one row per cell, reference and class."""
-    if not any(r["resolved"] is not None for r in rows):
-        return ('<p class="muted">This run has no noise floors (its metrics.csv files predate them, or '
-                "no cell was scored).</p>")
-    k = floors.RESOLVE_FACTOR
-    loose = [r for r in rows if r["resolved"] is False]
-    flip_loose = [r for r in loose if r["metric"] == "flip"]
-    floored = [r for r in rows if r["resolved"] is not None]
-    out = [f"<p>A score is <b>unresolved</b> when it lies within {k:g}x its noise floor, the score the "
-           "true image itself gets against this reference (as a distance from the reference: FLIP, "
-           "1&minus;SSIM, the display RMS error behind PSNR, RMSE, &radic;relMSE): such a score may "
-           "measure the reference's noise rather than the technique. "
-           f"{len(loose)} of {len(floored)} scores are unresolved; FLIP: {len(flip_loose)} of "
-           f"{sum(r['metric'] == 'flip' for r in floored)}. Table: "
-           '<a href="tables/floors.csv">CSV</a>.</p>']
-    if flip_loose:
-        out.append('<table class="unresolved-flip"><tr><th>scene</th><th>cell</th><th>reference</th>'
-                   "<th>class</th><th>FLIP</th><th>floor</th><th>ratio</th></tr>")
-        for r in flip_loose:
-            cell = run.cell(r["cell"])
-            out.append(f'<tr><td>{html.escape(r["scene"])}</td><td>{html.escape(run.label(cell))}</td>'
-                       f'<td>{html.escape(r["reference"])}</td><td>{html.escape(r["path_class"])}</td>'
-                       f'<td class="num bad">{r["mean"]:.4f}</td><td class="num">{r["floor"]:.4f}</td>'
-                       f'<td class="num">{r["floor_ratio"]:.2f}x</td></tr>')
-        out.append("</table>")
-    groups: Dict[tuple, Dict[str, Dict[str, object]]] = {}
-    for r in rows:
-        groups.setdefault((r["cell"], r["reference"], r["path_class"]), {})[r["metric"]] = r
-    metrics = [m for m in floors.FLOOR_METRICS if any(r["metric"] == m for r in rows)]
-    head = "".join(f"<th>{html.escape(m)}: score / floor</th>" for m in metrics)
-    body = []
-    for (cell_id, reference, cls), by_metric in groups.items():
+def floors_view(run: Run, rows: pd.DataFrame) -> dict:
+    """The report's noise-floor section: counts, the unresolved FLIP scores named up front (the
+    issue's criterion), then every score against its floor, one row per cell, reference and
+    class."""
+    floored = rows.loc[_flags(rows["resolved"], lambda r: r is not None)]
+    loose = floored.loc[_flags(floored["resolved"], lambda r: r is False)]
+    flip_loose = loose[loose["metric"] == "flip"]
+    metrics = [m for m in floors.FLOOR_METRICS if (rows["metric"] == m).any()]
+    groups = []
+    by_score = rows.groupby(["cell", "reference", "path_class"], sort=False)
+    for (cell_id, reference, cls), group in by_score:
         cell = run.cell(cell_id)
-        tds = [f"<td>{html.escape(cell.scene)}</td><td>{html.escape(run.label(cell))}</td>"
-               f"<td>{html.escape(reference)}</td><td>{html.escape(cls)}</td>"]
+        by_metric = {r["metric"]: r for r in group.to_dict("records")}
+        scores = []
         for m in metrics:
             r = by_metric.get(m)
             if r is None:
-                tds.append("<td></td>")
+                scores.append(None)
                 continue
             floor = "" if not math.isfinite(r["floor"]) else f" / {r['floor']:.4g}"
             ratio = "" if not math.isfinite(r["floor_ratio"]) else f" ({r['floor_ratio']:.1f}x)"
-            cls_attr = "num unresolved" if r["resolved"] is False else "num"
-            tds.append(f'<td class="{cls_attr}">{r["mean"]:.4g}{floor}{ratio}</td>')
-        body.append("<tr>" + "".join(tds) + "</tr>")
-    out.append("<details><summary>every score against its floor</summary><table class=\"floors\"><tr>"
-               "<th>scene</th><th>cell</th><th>reference</th><th>class</th>" + head + "</tr>"
-               + "\n".join(body) + "</table></details>")
-    return "\n".join(out)
+            scores.append({"text": f"{r['mean']:.4g}{floor}{ratio}",
+                           "unresolved": r["resolved"] is False})
+        groups.append({"scene": cell.scene, "label": run.label(cell), "reference": reference,
+                       "path_class": cls, "scores": scores})
+    return {
+        "any": len(floored) > 0, "factor": f"{floors.RESOLVE_FACTOR:g}", "loose": len(loose),
+        "floored": len(floored), "flip_loose": len(flip_loose),
+        "flip_floored": int((floored["metric"] == "flip").sum()),
+        "flip_rows": [{"scene": r["scene"], "label": run.label(run.cell(r["cell"])),
+                       "reference": r["reference"], "path_class": r["path_class"],
+                       "mean": f"{r['mean']:.4f}", "floor": f"{r['floor']:.4f}",
+                       "ratio": f"{r['floor_ratio']:.2f}x"} for r in flip_loose.to_dict("records")],
+        "metrics": metrics, "groups": groups}

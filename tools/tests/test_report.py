@@ -1,8 +1,10 @@
 """report: every file the page names exists under report/, nothing external is referenced, every figure
 is written as SVG, PDF and PNG with its data, and the tables keep failed cells."""
 
+import collections
 import csv
 import io
+import json
 import os
 import re
 import unittest
@@ -121,6 +123,114 @@ class LatexEscapeTest(unittest.TestCase):
         from pbtools.tables import latex_escape
         self.assertEqual(latex_escape("a_b & 50% #1 {x} ~ ^ \\"),
                          r"a\_b \& 50\% \#1 \{x\} \textasciitilde{} \textasciicircum{} \textbackslash{}")
+
+
+class HostileNamesTest(unittest.TestCase):
+    """Names are text: a scene, technique, reason, warning or device holding markup shows as written
+    in the report and the history page (autoescaped templates) and in LaTeX (escaped), and adds no
+    element to either page."""
+
+    SCENE = 'cornell-box <script>alert("scene")</script> & co'
+    TECHNIQUE = "direct<b>bold</b>&amp;"
+    REASON = "<img src=x onerror=alert(1)> & failed"
+    DEVICE = "gpu <script>alert('device')</script>"
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = TempRuns()
+        cls.run_dir = cls.tmp.make("hostile", seed=3, images=False, scenes=["cornell-box"],
+                                   techniques=["direct", "broken"])
+        summary = os.path.join(cls.run_dir, "summary.csv")
+        with open(summary, newline="") as f:
+            rows = list(csv.reader(f))
+        for r in rows[1:]:
+            r[1] = cls.SCENE
+            if r[2] == "direct":
+                r[2] = cls.TECHNIQUE
+        with open(summary, "w", newline="") as f:
+            csv.writer(f).writerows(rows)
+        broken = os.path.join(cls.run_dir, "cells", "001-cornell-box-broken", "cell.json")
+        with open(broken) as f:
+            info = json.load(f)
+        info["reason"] = cls.REASON
+        info["warnings"] = [{"frame": 1, "message": "<i>warned</i>"}]
+        with open(broken, "w") as f:
+            json.dump(info, f)
+        run_json = os.path.join(cls.run_dir, "run.json")
+        with open(run_json) as f:
+            info = json.load(f)
+        info["device"] = cls.DEVICE
+        with open(run_json, "w") as f:
+            json.dump(info, f)
+        with redirect_stdout(io.StringIO()):
+            assert R.main([cls.run_dir]) == 0
+        with open(os.path.join(cls.run_dir, "report", "index.html"), encoding="utf-8") as f:
+            cls.html = f.read()
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def page(self, text):
+        parsed = _Text()
+        parsed.feed(text)
+        return parsed
+
+    def test_markup_in_names_is_shown_as_text(self):
+        parsed = self.page(self.html)
+        self.assertEqual(parsed.tags["script"], 0)
+        self.assertEqual(parsed.tags["i"], 0)
+        self.assertTrue(parsed.img_srcs)
+        self.assertTrue(all(src.startswith("figures/") for src in parsed.img_srcs))
+        # The page's own bold (best values) only: the technique's <b> is not an element.
+        self.assertNotIn("bold", [t for tag, t in parsed.inside if tag == "b"])
+        for text in (self.SCENE, self.TECHNIQUE, self.REASON, self.DEVICE, "<i>warned</i>"):
+            self.assertIn(text, parsed.texts, text)
+        self.assertIn("&lt;script&gt;", self.html)
+        self.assertIn("&amp;amp;", self.html)  # the literal "&amp;" in the name, escaped once
+
+    def test_latex_escapes_them(self):
+        path = os.path.join(self.run_dir, "report", "tables", "summary.tex")
+        with open(path, encoding="utf-8") as f:
+            tex = f.read()
+        self.assertIn(r"direct<b>bold</b>\&amp;", tex)
+        self.assertIn(r"\& co", tex)
+
+    def test_history_page_too(self):
+        from pbtools import history as H
+        file = self.tmp.path("history.jsonl")
+        with redirect_stdout(io.StringIO()):
+            self.assertEqual(H.main(["append", self.run_dir, "--file", file]), 0)
+            self.assertEqual(H.main(["plot", "--file", file, "--out", self.tmp.path("plots")]), 0)
+        with open(self.tmp.path("plots", "index.html"), encoding="utf-8") as f:
+            parsed = self.page(f.read())
+        self.assertEqual(parsed.tags["script"], 0)
+        self.assertIn(self.DEVICE, parsed.texts)
+
+
+class _Text(HTMLParser):
+    """Counts elements and collects every text node (entities decoded) and attribute value."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.tags, self.texts, self.inside, self.open = collections.Counter(), [], [], []
+        self.img_srcs = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags[tag] += 1
+        if tag == "img":
+            self.img_srcs.append(dict(attrs).get("src", ""))
+        self.open.append(tag)
+        self.texts += [v for _, v in attrs if v]
+
+    def handle_endtag(self, tag):
+        if self.open and self.open[-1] == tag:
+            self.open.pop()
+
+    def handle_data(self, data):
+        self.texts.append(data.strip())
+        if self.open:
+            self.inside.append((self.open[-1], data))
 
 
 if __name__ == "__main__":

@@ -2,12 +2,15 @@
 interrupted cells leave behind."""
 
 import csv
+import io
 import json
 import math
 import os
 import re
+import shutil
 import struct
 import unittest
+from contextlib import redirect_stderr, redirect_stdout
 
 from common import TempRuns
 
@@ -137,6 +140,122 @@ class ReaderTest(unittest.TestCase):
         os.makedirs(self.tmp.path("empty"))
         with self.assertRaises(RunError):
             Run(self.tmp.path("empty"))
+
+
+def write(path, text):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+
+
+class HandMadeRunTest(unittest.TestCase):
+    """What pandas makes of a run a failed or interrupted sweep leaves behind: columns the summary
+    lacks, empty and unparsable fields, a failed cell with no files, a frames.csv without cpu_ms, a
+    metrics.csv from before the reference column, an empty counters.csv; and names pandas would take
+    for missing values ("nan", "NA", "null") staying names."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = TempRuns()
+        cls.run_dir = root = cls.tmp.path("hand")
+        write(os.path.join(root, "run.json"), '{"git_commit": "abc", "device": "test"}')
+        write(os.path.join(root, "summary.csv"),
+              "cell,scene,technique,status,frames,frame_ms_median,flip_mean,param.photons,"
+              "param.variant,pass.splat.ms_median\n"
+              "c-ok,nan,NA,ok,3,2.5,,100000,,1.25\n"
+              "c-failed,nan,null,failed,0,,n/a,1e5,plain,\n"
+              "c-box,box,direct,ok,2,3.0,0.2,,,\n")
+        cells = os.path.join(root, "cells")
+        write(os.path.join(cells, "c-ok", "cell.json"), '{"status": "ok"}')
+        # No cpu_ms column; one splat time missing.
+        write(os.path.join(cells, "c-ok", "frames.csv"),
+              "frame,pass,gpu_ms\n2,splat,1.5\n0,splat,1.0\n1,splat,\n"
+              "0,frame,2.0\n1,frame,2.5\n2,frame,3.0\n")
+        # No reference column (a run from before it): scored against the full reference.
+        write(os.path.join(cells, "c-ok", "metrics.csv"),
+              "frame,path_class,flip,ssim\n0,combined,0.3,\n2,combined,0.1,0.9\n")
+        write(os.path.join(cells, "c-ok", "counters.csv"), "")
+        write(os.path.join(cells, "c-failed", "cell.json"),
+              '{"status": "failed", "reason": "plugin did not load", "failed_frame": null}')
+        write(os.path.join(cells, "c-box", "cell.json"), '{"status": "ok"}')
+        write(os.path.join(cells, "c-box", "frames.csv"),
+              "frame,pass,gpu_ms,cpu_ms\n0,frame,3.0,3.1\n")
+        write(os.path.join(cells, "c-box", "metrics.csv"), "frame,path_class,reference,flip\n")
+        cls.rd = Run(root)
+        cls.ok, cls.failed, cls.box = (cls.rd.cell(c) for c in ("c-ok", "c-failed", "c-box"))
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_names_stay_text(self):
+        self.assertEqual(self.rd.scenes(), ["nan", "box"])
+        self.assertEqual(self.rd.techniques(), ["NA", "null", "direct"])
+        self.assertEqual([c.status for c in self.rd.cells], ["ok", "failed", "ok"])
+
+    def test_params_keep_the_type_they_were_written_in(self):
+        self.assertEqual(self.ok.params, {"photons": 100000})
+        self.assertIsInstance(self.ok.params["photons"], int)
+        self.assertEqual(self.failed.params, {"photons": 100000.0, "variant": "plain"})
+        self.assertIsInstance(self.failed.params["photons"], float)
+        self.assertEqual(self.box.params, {})
+        self.assertEqual(self.rd.label(self.ok), "NA")  # one cell of its technique: nothing swept
+
+    def test_missing_empty_and_unparsable_fields_are_nan(self):
+        self.assertEqual(self.ok.value("frames"), 3.0)
+        for cell in (self.ok, self.failed):
+            self.assertTrue(math.isnan(cell.value("flip_mean")))  # empty, "n/a"
+            self.assertTrue(math.isnan(cell.value("ssim_mean")))  # no such column
+        self.assertEqual(self.box.value("flip_mean"), 0.2)
+        self.assertEqual(self.ok.pass_medians(), {"splat": 1.25})
+        self.assertEqual(self.failed.pass_medians(), {})
+        self.assertEqual(self.ok.text("frames"), "3")
+
+    def test_per_cell_files_with_missing_columns(self):
+        frames, ms = self.ok.pass_samples("splat")
+        # Sorted by frame; the empty time dropped.
+        self.assertEqual((list(frames), list(ms)), ([0, 2], [1.0, 1.5]))
+        self.assertEqual(len(self.ok.pass_samples("splat", "cpu")[0]), 0)  # the file has no cpu_ms
+        self.assertEqual(self.ok.metric_references(), ["full"])
+        self.assertEqual([list(a) for a in self.ok.metric_series("flip")], [[0, 2], [0.3, 0.1]])
+        self.assertEqual(self.ok.metric_mean("ssim"), 0.9)
+        self.assertTrue(math.isnan(self.ok.metric_mean("psnr")))
+        self.assertEqual(len(self.ok.counter_means()), 0)  # empty counters.csv
+        # The failed cell has no files at all: empty tables with the schema's columns.
+        self.assertEqual(self.failed.pass_names(), [])
+        self.assertEqual(list(self.failed.frames.columns), ["frame", "pass", "gpu_ms", "cpu_ms"])
+        self.assertIsNone(self.failed.primary_class())
+        self.assertEqual(self.failed.reason, "plugin did not load")
+        self.assertEqual(self.box.metric_classes(), [])  # header only
+
+    def test_tools_run_on_it(self):
+        from pbtools import compare, export, report
+        out = io.StringIO()
+        with redirect_stdout(out), redirect_stderr(io.StringIO()):
+            self.assertEqual(report.main([self.run_dir, "--out", self.tmp.path("hand-report")]), 0)
+            self.assertEqual(compare.main([self.run_dir, self.run_dir]), 0)
+            self.assertEqual(export.main([self.run_dir, "--format", "github-action-benchmark",
+                                          "--out", self.tmp.path("hand-export")]), 0)
+        with open(self.tmp.path("hand-report", "tables", "summary.csv"), newline="") as f:
+            rows = list(csv.DictReader(f))
+        self.assertEqual([(r["scene"], r["technique"], r["status"]) for r in rows],
+                         [("nan", "NA", "ok"), ("nan", "null", "failed"), ("box", "direct", "ok")])
+        self.assertEqual(rows[1]["reason"], "plugin did not load")
+
+    def test_a_row_longer_than_its_header_is_bad_input_naming_file_and_line(self):
+        bad = self.tmp.path("bad")
+        shutil.copytree(self.run_dir, bad)
+        path = os.path.join(bad, "cells", "c-box", "frames.csv")
+        write(path, "frame,pass,gpu_ms,cpu_ms\n0,frame,3.0,3.1\n1,frame,3.0,3.1,9\n")
+        with self.assertRaises(RunError) as e:
+            Run(bad).cell("c-box").frames
+        self.assertIn(path, str(e.exception))
+        self.assertIn("line 3", str(e.exception))
+        from pbtools import report
+        err = io.StringIO()
+        with redirect_stdout(io.StringIO()), redirect_stderr(err):
+            self.assertEqual(report.main([bad]), 2)
+        self.assertIn(path, err.getvalue())
 
 
 if __name__ == "__main__":

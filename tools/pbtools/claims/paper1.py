@@ -21,8 +21,9 @@ from collections import defaultdict
 from typing import Dict, List, Optional, Tuple
 
 import numpy as np
+import pandas as pd
 
-from .. import floors
+from .. import floors, measures
 from ..rundata import BOUNCE_MATCHED_REFERENCE, FULL_REFERENCE, Cell, Run, format_param
 
 TITLE = "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)"
@@ -66,28 +67,31 @@ def setting_label(s: Tuple[float, float]) -> str:
     return f"{format_param(int(s[0]) if s[0] == int(s[0]) else s[0])} paths, r {format_param(s[1])}"
 
 
-def group_series(cell: Cell, passes) -> Dict[int, float]:
-    """frame -> summed time of the named top-level passes that the cell has."""
-    total: Dict[int, float] = defaultdict(float)
-    for name in passes:
-        frames, ms = cell.pass_samples(name)
-        for f, v in zip(frames, ms):
-            total[int(f)] += float(v)
-    return dict(total)
+def group_series(cell: Cell, passes) -> pd.Series:
+    """frame -> summed time of the named top-level passes the cell has (Cell.pass_times' rule)."""
+    t = cell.pass_times()
+    return t[t["pass"].isin(passes)].groupby("frame")["ms"].sum()
 
 
-def frame_ratios(slow: Dict[int, float], fast: Dict[int, float]) -> np.ndarray:
-    common = sorted(set(slow) & set(fast))
-    return np.asarray([slow[f] / fast[f] for f in common if fast[f] > 0], dtype=float)
+def frame_ratios(slow: pd.Series, fast: pd.Series) -> np.ndarray:
+    """slow / fast on the frames both have (frame order), where fast took any time."""
+    slow, fast = slow.align(fast, join="inner")
+    keep = fast > 0
+    return (slow[keep] / fast[keep]).to_numpy(float)
+
+
+def counter_values(cell: Cell, name: str) -> pd.Series:
+    c = cell.counters
+    return c.loc[c["name"] == name, "value"].dropna()
 
 
 def counter_sum(cell: Cell, name: str) -> float:
-    return sum(float(r["value"]) for r in cell.counters_rows if r.get("name") == name)
+    return float(counter_values(cell, name).sum())
 
 
 def counter_max(cell: Cell, name: str) -> Optional[float]:
-    values = [float(r["value"]) for r in cell.counters_rows if r.get("name") == name]
-    return max(values) if values else None
+    values = counter_values(cell, name)
+    return float(values.max()) if len(values) else None
 
 
 def resolution(run: Run) -> str:
@@ -151,7 +155,7 @@ def claims(run: Run) -> str:
             read = counter_sum(c, "photons_read")
             if read <= 0:
                 continue
-            frames = max(1, len({r["frame"] for r in c.counters_rows}))
+            frames = max(1, c.counters["frame"].nunique())
             rej = counter_sum(c, "photons_rejected") / read * 100.0
             trivial = counter_sum(c, "trivial_accepts") / frames
             out.append(f"| {scene} | {setting_label(s)} | {k} | {read / frames:,.0f} | {rej:.2f}% | "
@@ -167,8 +171,8 @@ def claims(run: Run) -> str:
     def cv(c: Optional[Cell]) -> str:
         if c is None:
             return "–"
-        v = np.asarray(list(group_series(c, SPLAT_ESTIMATE + BUILD).values()), dtype=float)
-        return f"{v.std() / v.mean() * 100:.1f}%" if len(v) > 1 and v.mean() > 0 else "–"
+        v = measures.coefficient_of_variation(group_series(c, SPLAT_ESTIMATE + BUILD))
+        return f"{v * 100:.1f}%" if math.isfinite(v) else "–"
 
     for (scene, s), kinds in sorted(grid.items()):
         d, ct = kinds.get("directional"), kinds.get("cluster-trivial")
@@ -270,7 +274,7 @@ def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
         v, f = _score(c, "flip", cls, reference)
         if math.isfinite(v):
             scored.append((v, f, k))
-    scored.sort()
+    scored.sort(reverse=not measures.lower_is_better("flip"))
     if not scored:
         return "–"
     text = f"{scored[0][2]} {scored[0][0]:.3f}"
