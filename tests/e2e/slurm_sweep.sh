@@ -10,7 +10,7 @@ skip() {
 }
 for tool in munged slurmctld slurmd sbatch squeue scontrol sinfo; do
   command -v "$tool" > /dev/null ||
-    skip "$tool is not installed: scripts/setup.sh installs munge, slurmctld, slurmd and slurm-client"
+    skip "$tool is not installed (scripts/setup.sh installs the Debian packages slurm-wlm and munge)"
 done
 
 # munged wants its socket's folders searchable by everyone and writable by no one else.
@@ -104,6 +104,8 @@ expect_match "... one shard per cell by default" "3 cells in 3 shards" "$OUT"
 expect_match "... with the GPUs asked for" "^#SBATCH --gpus-per-task=1$" "$(cat "$WORK/dry/slurm/shards.sbatch")"
 expect_match "... and the array" "^#SBATCH --array=1-3$" "$(cat "$WORK/dry/slurm/shards.sbatch")"
 expect_exit 2 "more shards than cells is refused" -- "$PB" slurm "$cfg" --out "$WORK/dry" --shards 4
+expect_exit 2 "a folder an #SBATCH line cannot hold is refused" -- "$PB" slurm "$cfg" --out "$WORK/a b"
+[ ! -e "$WORK/a b" ] && pass "... before anything is written" || fail "$WORK/a b was created"
 
 sweep="$WORK/sweep"
 expect_exit 0 "photonbench slurm --submit submits the sweep" -- \

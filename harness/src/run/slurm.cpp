@@ -100,9 +100,10 @@ SlurmJobs write_slurm_jobs(const SlurmOptions& options, const RunPlan& plan) {
     throw InputError(fmt::format("{}: the config has no cells", options.config_file.string()));
   if (shards > cells)
     throw InputError(fmt::format("--shards {}: the config has only {} cells", shards, cells));
-  std::filesystem::create_directories(options.out_dir / "slurm");
-  const std::filesystem::path dir = std::filesystem::canonical(options.out_dir);
+  const std::filesystem::path dir =
+      std::filesystem::weakly_canonical(std::filesystem::absolute(options.out_dir));
   const std::string dir_text = sbatch_path(dir, "--out");
+  std::filesystem::create_directories(dir / "slurm");
   const std::string job = "pb-" + plan.config.name;
 
   // One shard's command line; the task index comes from Slurm.
