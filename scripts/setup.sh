@@ -12,6 +12,7 @@ packages=(
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
   clang-format     # scripts/check_format.sh
   chromium  # tests/e2e/report_html.sh opens the HTML report headless
+  slurm-wlm munge  # tests/e2e/slurm_sweep.sh starts a one-node Slurm (slurmctld, slurmd, sbatch)
 )
 missing=()
 for p in "${packages[@]}"; do

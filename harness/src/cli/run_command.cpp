@@ -23,10 +23,15 @@ void add_run(CLI::App& app, int& exit_code) {
   cmd->add_option("--plugin-dir", *plugin_dirs,
                   "also load technique plugins from this folder (repeatable)")
       ->check(CLI::ExistingDirectory);
+  auto shard = std::make_shared<std::string>();
+  cmd->add_option("--shard", *shard,
+                  "I/N: run only shard I of N, a deterministic subset of the cells balanced by "
+                  "their estimated cost; `merge` joins the N run folders");
   cmd->add_flag("--resume", options->resume, "continue the run in --out, skipping complete cells");
   cmd->add_flag("--validation", options->validation,
                 "Vulkan validation layers on; an error fails the cell");
-  cmd->callback([options, plugin_dirs, &exit_code] {
+  cmd->callback([options, plugin_dirs, shard, &exit_code] {
+    if (!shard->empty()) options->shard = pb::run::parse_shard(*shard);
     for (const auto& dir : *plugin_dirs)
       options->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     if (std::getenv("PB_VALIDATION")) options->validation = true;

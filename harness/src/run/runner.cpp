@@ -225,12 +225,23 @@ CellTally run_cells(const RunPlan& plan, const RunOptions& options,
 }  // namespace
 
 int run_benchmark(const RunOptions& options) {
-  const RunPlan plan = plan_run(options.config_file, options.overrides);
+  RunPlan plan = plan_run(options.config_file, options.overrides);
+  // A shard runs its own cells only; each cell's child rebuilds the whole plan and finds its cell.
+  const ShardSelection shard = select_shard(plan, options.shard);
+  plan.cells = shard.cells;
   const std::filesystem::path run_dir = open_run_dir(options, plan.config);
+  if (options.resume) check_resumed_shard(run_dir, options.shard);
   json run = describe_run(options.config_file, options.overrides, options.device, plan, run_dir);
+  if (options.shard.sharded()) run["shard"] = describe_shard(options.shard, shard);
   io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
-  std::fprintf(stderr, "photonbench: %zu cells -> %s\n", plan.cells.size(),
-               run_dir.string().c_str());
+  if (options.shard.sharded())
+    std::fprintf(stderr,
+                 "photonbench: shard %s, %zu of %zu cells (%.1f%% of the estimated work) -> %s\n",
+                 options.shard.text().c_str(), plan.cells.size(), shard.every.size(),
+                 100 * shard.share(), run_dir.string().c_str());
+  else
+    std::fprintf(stderr, "photonbench: %zu cells -> %s\n", plan.cells.size(),
+                 run_dir.string().c_str());
 
   render_needed_references(plan.config, plan.cells, *plan.plugins);
   const CellTally tally = run_cells(plan, options, run_dir);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "run/plan.h"
+#include "run/shard.h"
 
 namespace pb::run {
 
@@ -17,6 +18,7 @@ struct RunOptions {
   std::string device;
   bool resume = false;
   bool validation = false;
+  ShardSpec shard;  // --shard I/N: only that shard's cells (run/shard.h)
 };
 
 // Returns the process exit code: 0 all cells ok, 1 some cell failed. Bad input throws

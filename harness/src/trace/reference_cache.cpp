@@ -1,7 +1,12 @@
 // The content-addressed reference cache and the frame loop that fills it (reference.h).
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <bit>
+#include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <ctime>
@@ -86,6 +91,40 @@ std::optional<nlohmann::json> read_sidecar(const std::filesystem::path& file) {
     return std::nullopt;  // a damaged sidecar is a missing entry: render again
   }
 }
+
+// An exclusive lock on a file, held for the object's life and removed with it, so that the cache
+// holds only its entries. flock is released by the kernel when the process ends: a crashed holder
+// leaves a file but no lock. A waiter that wins the lock on a file its holder has just removed
+// (and that a newcomer may have created again) retries on the file now at the path.
+class FrameLock {
+ public:
+  explicit FrameLock(std::filesystem::path file) : file_(std::move(file)) {
+    for (;;) {
+      fd_ = ::open(file_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+      if (fd_ < 0)
+        throw Error(
+            fmt::format("cannot open the lock {}: {}", file_.string(), std::strerror(errno)));
+      while (::flock(fd_, LOCK_EX) != 0)
+        if (errno != EINTR)
+          throw Error(fmt::format("cannot lock {}: {}", file_.string(), std::strerror(errno)));
+      struct stat held, at_path;
+      if (::fstat(fd_, &held) == 0 && ::stat(file_.c_str(), &at_path) == 0 &&
+          held.st_ino == at_path.st_ino && held.st_dev == at_path.st_dev)
+        return;
+      ::close(fd_);
+    }
+  }
+  ~FrameLock() {
+    ::unlink(file_.c_str());  // while still held: no one else holds this file's lock
+    ::close(fd_);
+  }
+  FrameLock(const FrameLock&) = delete;
+  FrameLock& operator=(const FrameLock&) = delete;
+
+ private:
+  std::filesystem::path file_;
+  int fd_ = -1;
+};
 
 }  // namespace
 
@@ -199,16 +238,26 @@ std::optional<io::Image> ReferenceCache::get(const scene::Scene& scene,
 int ReferenceCache::render_missing(const scene::Scene& scene, const scene::FrameState& state,
                                    uint32_t class_mask, int width, int height,
                                    const ReferenceOptions& options, const ProgressFn& progress) {
-  uint32_t missing = 0;
-  for (PathClass c : all_path_classes())
-    if ((class_mask & class_bit(c)) && !has(scene, state, c, width, height, options))
-      missing |= class_bit(c);
-  if (!missing) return 0;
+  auto missing_classes = [&] {
+    uint32_t missing = 0;
+    for (PathClass c : all_path_classes())
+      if ((class_mask & class_bit(c)) && !has(scene, state, c, width, height, options))
+        missing |= class_bit(c);
+    return missing;
+  };
+  if (!missing_classes()) return 0;
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
   if (ec)
     throw Error(
         fmt::format("cannot create the reference cache {}: {}", dir_.string(), ec.message()));
+  // Processes sharing the cache (the shards of a sharded run) may want the same frame at once:
+  // one renders it under this lock while the others wait, then find its entries and reuse them,
+  // so no entry mixes the images of two renders and none is rendered twice.
+  const FrameLock lock(dir_ /
+                       (".lock-" + key(scene, state, PathClass::combined, width, height, options)));
+  const uint32_t missing = missing_classes();
+  if (!missing) return 0;
   EmbreeScene world(scene, state);
   ReferenceResult r = render_reference_classes(world, width, height, missing, options, progress);
   int written = 0;
