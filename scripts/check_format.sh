@@ -17,8 +17,8 @@ exclude='^$'
 if ((${#paths[@]} == 0)); then
   # The folders formatted so far. The rest of harness/, techniques/, tests/ and bench/ join this
   # list once they are formatted (clang-format -i), so that every file here stays formatted.
-  paths=(harness/src/config harness/src/io harness/src/run harness/src/cli bench
-    tests/unit/run_flow_test.cpp)
+  paths=(harness/src/config harness/src/io harness/src/run harness/src/cli harness/src/scene bench
+    tests/unit/run_flow_test.cpp tests/unit/scene_test.cpp tests/unit/config_test.cpp tests/fuzz)
   exclude='^harness/src/run/scoring\.(h|cpp)$|^harness/src/cli/reference_command\.cpp$'
 fi
 

@@ -27,7 +27,21 @@ expect_match() {
 
 json_field() { /usr/bin/python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(d.get(sys.argv[2]))" "$1" "$2"; }
 
+# A config for the bad-input tests: one small direct cell, no metric frames (no reference), plus
+# any extra lines. write_config FILE [LINE...]
+write_config() {
+  local file="$1"
+  shift
+  printf '%s\n' "name: t" "resolution: [64, 36]" "frames: {warmup: 0, count: 1, metrics_every: 0}" \
+    "techniques:" "  - technique: direct" "$@" > "$file"
+}
+
 finish() {
   echo "$passes passed, $failures failed"
   [ "$failures" -eq 0 ]
+}
+
+# expect_no_match NAME REGEX TEXT
+expect_no_match() {
+  if printf '%s\n' "$3" | grep -Eq -- "$2"; then fail "$1: /$2/ matched in: $3"; else pass "$1"; fi
 }

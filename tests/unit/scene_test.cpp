@@ -14,6 +14,7 @@
 #include "photonbench/error.h"
 #include "scene/obj_import.h"
 #include "scene/shapes.h"
+#include "trace/embree_scene.h"
 
 namespace pb::scene {
 namespace {
@@ -327,7 +328,7 @@ TEST(SceneErrors, OutOfRangeNamesFileLineColumnAndKey) {
                        "  red: {type: diffuse, albedo: [1.2, 0, 0]}\n"
                        "objects: [{shape: {type: quad}, material: red}]\n");
   EXPECT_NE(
-      message.find("bad.yaml:5:32: materials.red.albedo: component 0 (1.2) is out of range [0, 1]"),
+      message.find("bad.yaml:5:33: materials.red.albedo[0]: value 1.2 is out of range [0, 1]"),
       std::string::npos)
       << message;
 }
@@ -340,7 +341,7 @@ TEST(SceneErrors, MissingObjFileNamesFileLineColumnAndKey) {
   EXPECT_TRUE(std::regex_search(
       message,
       std::regex(
-          R"(bad\.yaml:6:30: objects\[0\]\.shape\.file: OBJ file not found: .*meshes/nothere\.obj)")))
+          R"(bad\.yaml:6:30: objects\[0\]\.shape\.file: .*/nothere\.obj: OBJ file not found)")))
       << message;
 }
 
@@ -537,6 +538,86 @@ TEST(FindScene, ResolvesNamesPathsAndSearchDirs) {
       EXPECT_NE(message.find(name), std::string::npos) << message;
   }
   EXPECT_THROW(find_scene("missing/dir/x.yaml", {}), InputError);
+}
+
+// The frame checks name the camera's or the light's place in the file and the frame; a frame with
+// a degenerate camera never reaches Embree, which would abort the process on its NaN rays.
+TEST(FrameChecks, NameTheTrackAndTheFrame) {
+  fs::path dir = fs::temp_directory_path() / ("pb_frame_checks_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  // The camera reaches its target at t = 1 s (frame 30), after the default animation (frames 0-1).
+  std::ofstream(dir / "late.yaml")
+      << "purpose: test\n"
+         "frames: 2\n"
+         "camera: {position: {keys: [[0, [0, 1, 3]], [1, [0, 1, 0]]]}, target: [0, 1, 0], "
+         "fov_deg: 45}\n"
+         "lights:\n"
+         "  - {type: spot, position: [0, 2, 0], target: {keys: [[0, [0, 0, 0]], [2, [0, 4, "
+         "0]]]}, intensity: 1}\n"
+         "materials: {white: {type: diffuse}}\n"
+         "objects: [{shape: {type: box}, material: white}]\n";
+  Scene scene = load_scene(dir / "late.yaml");
+  EXPECT_NO_THROW(check_frames(scene, 0, 29));
+  try {
+    check_frames(scene, 0, 40);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("late.yaml:3:9: camera: at frame 30 (t = 1 s) the "
+                                         "position (0, 1, 0) equals the target"),
+              std::string::npos)
+        << e.what();
+  }
+  // The spot light's target passes through the light at t = 1 s too; the camera is checked first,
+  // so move the camera's key away.
+  scene.camera.position.keys.values[1] = {0, 1, 1};
+  try {
+    check_frames(scene, 0, 40);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("late.yaml:5:5: lights[0]: at frame 30 (t = 1 s) the "
+                                         "target (0, 2, 0) is the light's own position"),
+              std::string::npos)
+        << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(FrameChecks, EmbreeSceneRefusesAFrameItCannotTrace) {
+  Scene scene;
+  scene.file = "probe.yaml";
+  scene.camera.where = "probe.yaml:3:9: camera";
+  scene.camera.position.constant = {0, 1, 3};
+  scene.camera.target.constant = {0, 0, 0};
+  Object box;
+  box.name = "box";
+  box.shape = std::make_shared<BoxShape>(glm::vec3(1));
+  box.mesh = box.shape->tessellate(0);
+  scene.objects.push_back(box);
+  scene.materials.push_back(Material{});
+  FrameState good = scene.at(0);
+  EXPECT_NO_THROW(trace::EmbreeScene(scene, good));
+
+  FrameState on_target = good;
+  on_target.camera.target = on_target.camera.position;
+  EXPECT_THROW(trace::EmbreeScene(scene, on_target), InputError);
+  FrameState along_up = good;
+  along_up.camera.target = along_up.camera.position + along_up.camera.up;
+  EXPECT_THROW(trace::EmbreeScene(scene, along_up), InputError);
+  FrameState huge = good;
+  huge.camera.position.x = 1e23f;
+  EXPECT_THROW(trace::EmbreeScene(scene, huge), InputError);
+  FrameState nan_transform = good;
+  nan_transform.object_to_world[0][3].x = std::nanf("");
+  EXPECT_THROW(trace::EmbreeScene(scene, nan_transform), InputError);
+  // update() checks each new frame as the constructor checks the first.
+  trace::EmbreeScene world(scene, good);
+  try {
+    world.update(on_target);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("probe.yaml:3:9: camera: at frame 0"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

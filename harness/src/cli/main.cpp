@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,11 @@ int main(int argc, char** argv) {
   } catch (const pb::InputError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    // Input is bounded where it is read (file sizes, node counts, sweeps, scene triangles), so
+    // this is the machine running out: say so rather than print "std::bad_alloc".
+    std::fprintf(stderr, "error: out of memory\n");
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -35,22 +35,26 @@ struct Args {
   int threads = 0;
 };
 
-// "a:b" (inclusive), "a" or "" (the scene's default animation).
+// "a:b" (inclusive), "a" or "" (the scene's default animation). Frame numbers are plain decimal
+// integers below config::kMaxFrames: "-1" is an error, not frame 4294967295.
 std::pair<uint32_t, uint32_t> parse_frames(const std::string& text, uint32_t default_frames) {
   if (text.empty()) return {0, default_frames > 0 ? default_frames - 1 : 0};
-  try {
-    size_t colon = text.find(':');
-    if (colon == std::string::npos) {
-      uint32_t f = uint32_t(std::stoul(text));
-      return {f, f};
-    }
-    uint32_t a = uint32_t(std::stoul(text.substr(0, colon))),
-             b = uint32_t(std::stoul(text.substr(colon + 1)));
-    if (b < a) throw pb::InputError("");
-    return {a, b};
-  } catch (const std::exception&) {
-    throw pb::InputError(fmt::format("--frames: '{}' is not FIRST:LAST or FRAME", text));
-  }
+  auto bad = [&] {
+    return pb::InputError(fmt::format("--frames: '{}' is not FIRST:LAST or FRAME (frames 0 to {})",
+                                      pb::config::quote(text), pb::config::kMaxFrames - 1));
+  };
+  auto frame = [&](const std::string& part) {
+    if (part.empty() || part.size() > 8 ||
+        part.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoul(part) >= pb::config::kMaxFrames)
+      throw bad();
+    return uint32_t(std::stoul(part));
+  };
+  size_t colon = text.find(':');
+  if (colon == std::string::npos) return {frame(text), frame(text)};
+  uint32_t a = frame(text.substr(0, colon)), b = frame(text.substr(colon + 1));
+  if (b < a) throw bad();
+  return {a, b};
 }
 
 std::pair<int, int> parse_resolution(const std::string& text) {
@@ -106,6 +110,7 @@ void add_reference(CLI::App& app, int& exit_code) {
     auto file = pb::scene::find_scene(args->scene, {});
     pb::scene::Scene scene = pb::scene::load_scene(file);
     auto [first, last] = parse_frames(args->frames, scene.default_frames);
+    pb::scene::check_frames(scene, first, last);  // before any frame renders
     auto [width, height] = parse_resolution(args->resolution);
     uint32_t mask = 0;
     if (args->classes.empty()) args->classes.push_back("combined");

@@ -1,5 +1,6 @@
-// `photonbench validate CONFIG`: everything `run` checks before running, and the cells it would
-// run.
+// `photonbench validate CONFIG`: everything `run` checks before running (the scenes loaded, their
+// cameras and lights checked at every frame), and the cells it would run. Exit 0: valid; 1: valid,
+// but some cells will fail (their plugin does not load); 2: bad input.
 #include <cstdio>
 #include <filesystem>
 
@@ -29,14 +30,23 @@ void add_validate(CLI::App& app, int& exit_code) {
     const auto& [config, plugins, cells] = plan;
     std::printf("%s: valid, %zu cells (config hash %s)\n", args->config.c_str(), cells.size(),
                 config.hash.c_str());
+    size_t will_fail = 0;
     for (const auto& cell : cells) {
       std::printf("  %s", cell.id.c_str());
       for (const auto& [k, v] : cell.params) std::printf(" %s=%s", k.c_str(), v.c_str());
       const pb::run::Plugin* plugin = plugins->find(cell.technique);
-      if (plugin && !plugin->loaded()) std::printf("  [will fail: %s]", plugin->load_error.c_str());
+      if (plugin && !plugin->loaded()) {
+        std::printf("  [will fail: %s]", plugin->load_error.c_str());
+        ++will_fail;
+      }
       std::printf("\n");
     }
-    exit_code = 0;
+    // A plugin that does not load is not bad input (its cells fail alone, exit 1 from `run`), but
+    // a config that would fail is not one to start: validate says so with run's exit code.
+    if (will_fail)
+      std::fprintf(stderr, "%s: %zu of %zu cells will fail (their plugins do not load)\n",
+                   args->config.c_str(), will_fail, cells.size());
+    exit_code = will_fail ? 1 : 0;
   });
 }
 

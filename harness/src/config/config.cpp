@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <sstream>
 
 #include "photonbench/error.h"
@@ -10,38 +11,61 @@ namespace pb::config {
 
 namespace {
 
-// Applies one "key.path=value" override. Numeric path parts index lists; missing mapping keys are
-// created so any key can be set, and validation afterwards treats the result as if it had been
-// written in the file.
-void apply_override(YAML::Node& root, const std::string& assignment) {
+bool is_name_char(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+         c == '_' || c == '-';
+}
+
+}  // namespace
+
+std::string folder_safe_name(const std::string& text) {
+  std::string out;
+  for (char c : text.substr(0, kMaxNameLength)) out += is_name_char(c) ? c : '-';
+  if (out.empty() || out[0] == '.') out.insert(out.begin(), 'x');
+  return out.substr(0, kMaxNameLength);
+}
+
+// Numeric path parts index lists; missing mapping keys are created so any key can be set, and
+// validation afterwards treats the result as if it had been written in the file (YamlView says
+// where it came from).
+std::string apply_override(YAML::Node& root, const std::string& assignment) {
   auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
-    throw InputError(fmt::format("--set {}: expected key.path=value", assignment));
+    throw InputError(fmt::format("--set {}: expected key.path=value", quote(assignment, 80)));
   std::string path = assignment.substr(0, eq);
   // "key+=value" appends to a list (created if absent): --plugin-dir is plugin_dirs+=DIR.
-  bool append = !path.empty() && path.back() == '+';
+  bool append = path.back() == '+';
   if (append) path.pop_back();
+  auto fail = [&](const std::string& message) -> InputError {
+    return InputError(fmt::format("--set {}: {}", quote(assignment, 80), message));
+  };
   YAML::Node value;
   try {
     value = YAML::Load(assignment.substr(eq + 1));
   } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("--set {}: the value is not valid YAML: {}", assignment, e.msg));
+    throw fail(fmt::format("the value is not valid YAML: {}", e.msg));
   }
   std::vector<std::string> parts;
   std::istringstream stream(path);
   for (std::string part; std::getline(stream, part, '.');) parts.push_back(part);
+  if (parts.empty() || path.back() == '.' ||
+      std::find(parts.begin(), parts.end(), "") != parts.end())
+    throw fail("expected key.path=value, with no empty part in the path");
+  std::string key_path;  // as YamlView writes it
   YAML::Node node;
   node.reset(root);
   for (size_t i = 0; i < parts.size(); ++i) {
     const std::string& part = parts[i];
-    bool is_index = !part.empty() && part.find_first_not_of("0123456789") == std::string::npos;
+    const std::string parent = fmt::format("{}", fmt::join(parts.begin(), parts.begin() + i, "."));
+    bool is_index = part.find_first_not_of("0123456789") == std::string::npos;
     bool last = i + 1 == parts.size();
     if (is_index && node.IsSequence()) {
-      size_t index = std::stoul(part);
+      // Compared as text first: an index of 30 digits is out of range, not an exception.
+      size_t index = part.size() <= 9 ? size_t(std::stoul(part)) : ~size_t(0);
       if (index >= node.size())
-        throw InputError(fmt::format("--set {}: '{}' has {} elements, no element {}", assignment,
-                                     fmt::join(parts.begin(), parts.begin() + i, "."), node.size(),
-                                     index));
+        throw fail(
+            fmt::format("'{}' has {} elements, no element {}", parent, node.size(), quote(part)));
+      key_path += fmt::format("[{}]", index);
       if (last) {
         node[index] = value;
       } else {
@@ -49,16 +73,15 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
         node.reset(child);
       }
     } else {
-      if (!node.IsMap() && !node.IsNull())
-        throw InputError(fmt::format("--set {}: '{}' is not a mapping", assignment,
-                                     fmt::join(parts.begin(), parts.begin() + i, ".")));
+      if (!node.IsMap() && !node.IsNull()) throw fail(fmt::format("'{}' is not a mapping", parent));
+      key_path += (key_path.empty() ? "" : ".") + quote(part, 60);
       if (last && append) {
         if (!node[part].IsDefined() || node[part].IsNull())
           node[part] = YAML::Node(YAML::NodeType::Sequence);
         if (!node[part].IsSequence())
-          throw InputError(
-              fmt::format("--set {}: '{}' is not a list to append to", assignment, path));
+          throw fail(fmt::format("'{}' is not a list to append to", path));
         YAML::Node list = node[part];
+        key_path += fmt::format("[{}]", list.size());
         list.push_back(value);
       } else if (last) {
         node[part] = value;
@@ -70,9 +93,8 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
       }
     }
   }
+  return key_path;
 }
-
-}  // namespace
 
 std::string stable_hash(const std::string& text) {
   uint64_t hash = 1469598103934665603ull;
@@ -84,18 +106,39 @@ std::string stable_hash(const std::string& text) {
 }
 
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+  return parse_config(read_text_file(file, kMaxYamlBytes, "config file"), file, overrides);
+}
+
+Config parse_config(const std::string& text, const std::filesystem::path& file,
+                    const std::vector<std::string>& overrides) {
   Config config;
   config.file = file;
-  YamlView root = YamlView::load_file(file);
+  YamlView root = YamlView::parse(text, file.string());
   YAML::Node tree = root.node();
+  if (tree.IsNull() || !tree.IsDefined())
+    root.fail(
+        "the file is empty; a config is a mapping of keys (name, resolution, frames, "
+        "scenes, techniques, ...)");
   if (!tree.IsMap())
     root.fail("a config is a mapping of keys (name, resolution, frames, scenes, techniques, ...)");
-  for (const auto& assignment : overrides) apply_override(tree, assignment);
-  root = YamlView(tree, std::make_shared<const std::string>(file.string()), "");
+  YamlSource source{file.string(), {}};
+  for (const auto& assignment : overrides)
+    source.overrides.push_back({apply_override(tree, assignment), assignment});
+  // The --set values are checked as the file's text was: no alias bomb, no duplicate key.
+  if (!overrides.empty()) check_yaml_tree(tree, file.string() + " (after --set)");
+  root = YamlView(tree, std::make_shared<const YamlSource>(std::move(source)), "");
 
   root.allow_keys({"name", "resolution", "frames", "seed", "scenes", "techniques", "metrics",
                    "reference", "limits", "plugin_dirs", "testing"});
-  config.name = root.string_or("name", file.stem().string());
+  config.name = folder_safe_name(file.stem().string());
+  if (auto name = root.get("name")) {
+    config.name = name->as_string();
+    if (config.name != folder_safe_name(config.name))
+      name->fail(fmt::format(
+          "'{}' is not a folder name: use at most {} letters, digits, '.', '_' and '-', starting "
+          "with a letter or digit (it names the run folder)",
+          quote(config.name), kMaxNameLength));
+  }
   if (auto resolution = root.get("resolution")) {
     if (!resolution->is_sequence() || resolution->size() != 2)
       resolution->fail("expected [width, height]");
@@ -104,10 +147,12 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   }
   if (auto frames = root.get("frames")) {
     frames->allow_keys({"warmup", "count", "metrics_every"});
-    config.frames.warmup = uint32_t(frames->int_or("warmup", config.frames.warmup, 0, 100000));
-    config.frames.count = uint32_t(frames->int_or("count", config.frames.count, 1, 1000000));
-    config.frames.metrics_every =
-        uint32_t(frames->int_or("metrics_every", config.frames.metrics_every, 0, 1000000));
+    config.frames.warmup =
+        uint32_t(frames->int_or("warmup", config.frames.warmup, 0, kMaxWarmupFrames));
+    config.frames.count =
+        uint32_t(frames->int_or("count", config.frames.count, 1, kMaxMeasuredFrames));
+    config.frames.metrics_every = uint32_t(
+        frames->int_or("metrics_every", config.frames.metrics_every, 0, kMaxMeasuredFrames));
   }
   config.seed = uint64_t(root.int_or("seed", 1, 0, int64_t(1) << 53));
 

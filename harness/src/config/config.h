@@ -11,6 +11,16 @@
 
 namespace pb::config {
 
+// A run plays at most kMaxWarmupFrames + kMaxMeasuredFrames frames: every frame number a run, a
+// scene's default animation or `reference --frames` names is below kMaxFrames.
+inline constexpr uint32_t kMaxWarmupFrames = 100000;
+inline constexpr uint32_t kMaxMeasuredFrames = 1000000;
+inline constexpr uint32_t kMaxFrames = kMaxWarmupFrames + kMaxMeasuredFrames;
+
+// A config's `name` names its run folder (results/<name>-<time>): letters, digits, '.', '_' and
+// '-', starting with a letter or digit, at most kMaxNameLength characters.
+inline constexpr size_t kMaxNameLength = 100;
+
 struct FrameSettings {
   uint32_t warmup = 4;
   uint32_t count = 32;
@@ -77,6 +87,18 @@ struct Config {
 // the harness owns. Scene names are checked by run/plan.h, which resolves them. Throws
 // pb::InputError.
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides);
+// The same from the text of `file` (relative plugin_dirs are resolved against its folder).
+Config parse_config(const std::string& text, const std::filesystem::path& file,
+                    const std::vector<std::string>& overrides);
+
+// Applies one --set "key.path=value" (or "key+=value", appending to a list) to `root`: numeric
+// parts index lists, missing mapping keys are created. Returns the key path it set, as YamlView
+// names it ("techniques[0].params"). Throws pb::InputError naming the assignment.
+std::string apply_override(YAML::Node& root, const std::string& assignment);
+
+// `text` as a folder name: every character outside [A-Za-z0-9._-] becomes '-', at most
+// kMaxNameLength characters, never empty or starting with '.'.
+std::string folder_safe_name(const std::string& text);
 
 // 64-bit FNV-1a, as 16 hex digits: stable across platforms and runs (std::hash is neither).
 std::string stable_hash(const std::string& text);

@@ -12,10 +12,25 @@
 namespace pb::io {
 
 Image read_image(const std::filesystem::path& file) {
+  // OpenImageIO reads a device as a stream that never ends (/dev/zero), so only files are opened.
+  std::error_code ec;
+  auto status = std::filesystem::status(file, ec);
+  if (!std::filesystem::exists(status))
+    throw InputError(fmt::format("{}: image file not found", file.string()));
+  if (!std::filesystem::is_regular_file(status))
+    throw InputError(fmt::format("{}: not a regular file (a folder, device or pipe), not an image",
+                                 file.string()));
   auto in = OIIO::ImageInput::open(file.string());
   if (!in)
     throw InputError(fmt::format("{}: cannot read image: {}", file.string(), OIIO::geterror()));
   const OIIO::ImageSpec& spec = in->spec();
+  // A header may claim any size; a scored image is at most a config's resolution (8192 x 8192).
+  if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxImageSide ||
+      spec.height > kMaxImageSide || spec.nchannels <= 0 || spec.nchannels > 4)
+    throw InputError(fmt::format(
+        "{}: a {} x {} image of {} channels; images are 1 x 1 to {} x {} "
+        "with 1 to 4 channels",
+        file.string(), spec.width, spec.height, spec.nchannels, kMaxImageSide, kMaxImageSide));
   Image image(spec.width, spec.height, spec.nchannels);
   image.linear = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
                  spec.format.basetype == OIIO::TypeDesc::HALF ||

@@ -24,8 +24,12 @@ struct Image {
   size_t pixel_count() const { return size_t(width) * height; }
 };
 
+// The largest side of an image read_image accepts (the largest config resolution is 8192).
+inline constexpr int kMaxImageSide = 16384;
+
 // Reads any format OpenImageIO knows; 8-bit files come back with linear = false and values / 255,
-// float files with linear = true. Throws pb::InputError naming the file.
+// float files with linear = true. Throws pb::InputError naming the file: not a regular file, not
+// an image, sides beyond kMaxImageSide or more than 4 channels.
 Image read_image(const std::filesystem::path& file);
 
 // Writes by extension: .exr stores the float values as they are (32-bit float); .png quantises

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <optional>
+#include <set>
 #include <sstream>
+#include <unordered_set>
 
 #include "photonbench/error.h"
 #include "scene/scene.h"
@@ -32,7 +34,8 @@ std::string check_param(const pb_param_spec& spec, const config::YamlView& value
       for (const auto& c : choices)
         if (c == text) return text;
       std::string hint = config::closest_name(text, choices);
-      value.fail(fmt::format("'{}' is not one of: {}{}", text, fmt::join(choices, ", "),
+      value.fail(fmt::format("'{}' is not one of: {}{}", config::quote(text),
+                             fmt::join(choices, ", "),
                              hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint)));
     }
   }
@@ -45,17 +48,24 @@ const pb_param_spec* find_spec(const pb_technique_descriptor& d, const std::stri
   return nullptr;
 }
 
-// Every combination times every value of one swept key (a scalar is a one-value list). A scene's
-// value may make combinations equal; expand_cells keeps one cell of each.
+// Every combination times every value of one swept key (a scalar is a one-value list), each value
+// checked once. A scene's value may make combinations equal; expand_cells keeps one cell of each.
 std::vector<ParamMap> sweep(const std::vector<ParamMap>& combos, const std::string& key,
                             const pb_param_spec& spec, const config::YamlView& value) {
   std::vector<config::YamlView> values = value.elements();
   if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
+  if (combos.size() > kMaxCells / values.size())
+    value.fail(fmt::format("this sweep makes {} x {} = {} cells, more than the {} a run may have",
+                           combos.size(), values.size(), double(combos.size()) * values.size(),
+                           kMaxCells));
+  std::vector<std::string> texts;
+  for (const config::YamlView& v : values) texts.push_back(check_param(spec, v));
   std::vector<ParamMap> expanded;
+  expanded.reserve(combos.size() * texts.size());
   for (const auto& combo : combos)
-    for (const config::YamlView& v : values) {
+    for (const std::string& text : texts) {
       ParamMap next = combo;
-      next[key] = check_param(spec, v);
+      next[key] = text;
       expanded.push_back(std::move(next));
     }
   return expanded;
@@ -150,9 +160,13 @@ RunPlan plan_run(const std::filesystem::path& config_file,
 
 std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins) {
   std::vector<std::filesystem::path> scene_files;
+  std::set<std::filesystem::path> checked;
+  const uint32_t last_frame = config.frames.warmup + config.frames.count - 1;
   for (const config::SceneEntry& scene : config.scenes) {
     try {
       scene_files.push_back(scene::find_scene(scene.scene, config.scene_dirs));
+      if (checked.insert(scene_files.back()).second)
+        scene::check_frames(scene::load_scene(scene_files.back()), 0, last_frame);
     } catch (const InputError& e) {
       scene.name_node.fail(e.what());
     }
@@ -162,16 +176,22 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
     combos.push_back(technique_combos(entry, plugins));
 
   std::vector<Cell> cells;
+  std::unordered_set<std::string> ids;
   for (size_t s = 0; s < config.scenes.size(); ++s)
-    for (size_t t = 0; t < config.techniques.size(); ++t)
-      for (const ParamMap& params :
-           with_scene_params(config.scenes[s], config, t, combos[t], plugins)) {
+    for (size_t t = 0; t < config.techniques.size(); ++t) {
+      std::vector<ParamMap> scene_combos =
+          with_scene_params(config.scenes[s], config, t, combos[t], plugins);
+      if (cells.size() + scene_combos.size() > kMaxCells)
+        config.scenes[s].node.fail(fmt::format(
+            "with technique '{}' the config expands to {} cells or more, more than the {} a run "
+            "may have",
+            config.techniques[t].technique, cells.size() + scene_combos.size(), kMaxCells));
+      for (const ParamMap& params : scene_combos) {
         Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
         // Equal values (a scene's override of a swept parameter) make one cell.
-        bool duplicate = false;
-        for (const Cell& c : cells) duplicate |= c.id == cell.id;
-        if (!duplicate) cells.push_back(std::move(cell));
+        if (ids.insert(cell.id).second) cells.push_back(std::move(cell));
       }
+    }
   return cells;
 }
 

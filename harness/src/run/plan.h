@@ -25,6 +25,10 @@ struct Cell {
   std::map<std::string, std::string> params;  // every schema parameter, defaults filled in
 };
 
+// A run has at most this many cells: a sweep beyond it is a slip of the keyboard or of a script
+// (it would take hours to plan and months to run), and is an error naming the key that crossed it.
+inline constexpr size_t kMaxCells = 10000;
+
 struct RunPlan {
   config::Config config;
   std::unique_ptr<PluginRegistry> plugins;
@@ -39,9 +43,11 @@ struct RunPlan {
 RunPlan plan_run(const std::filesystem::path& config_file,
                  const std::vector<std::string>& overrides);
 
-// Resolves each scene name and expands the sweeps, checking each technique and parameter against
-// its plugin's schema. Throws pb::InputError for a scene that is not found, an unknown technique, a
-// plugin built for another API version, an unknown parameter or a value of the wrong type or range.
+// Resolves each scene name, loads the scene (every error in it is bad input, at the config's scene
+// entry) and checks its camera and lights at every frame the run plays, then expands the sweeps,
+// checking each technique and parameter against its plugin's schema. Throws pb::InputError for a
+// scene that is not found or does not load, an unknown technique, a plugin built for another API
+// version, an unknown parameter, a value of the wrong type or range, or more than kMaxCells cells.
 // A plugin that exists but fails to load is not an input error: its cells are returned with an
 // empty parameter map, to fail when they run.
 std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins);

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "photonbench/error.h"
+
 namespace pb::run {
 
 std::filesystem::path PluginRegistry::build_plugin_dir() {
@@ -25,7 +27,17 @@ PluginRegistry::PluginRegistry(const std::vector<std::filesystem::path>& extra_d
   for (const auto& dir : dirs_) {
     std::error_code ec;
     for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
-      if (entry.path().extension() == ".so") files_[entry.path().stem().string()] = entry.path();
+      if (entry.path().extension() != ".so") continue;
+      const std::string name = entry.path().stem().string();
+      auto [it, added] = files_.try_emplace(name, entry.path());
+      // One name, one technique (as Falcor refuses a second registration of a render pass): a
+      // module that silently replaced a built-in would be measured under the built-in's name. The
+      // same folder named twice finds the same file, which is no conflict.
+      if (!added && !std::filesystem::equivalent(it->second, entry.path(), ec))
+        throw InputError(fmt::format(
+            "two technique plugins are named '{}': {} and {}; remove or rename one (a plugin "
+            "folder cannot replace a technique of the same name)",
+            name, it->second.string(), entry.path().string()));
     }
   }
 }

@@ -27,8 +27,9 @@ struct Plugin {
 
 class PluginRegistry {
  public:
-  // The build's plugin directory comes first, then `extra_dirs` in order; a later directory's
-  // plugin of the same name replaces an earlier one (so a config can test a modified technique).
+  // The build's plugin directory comes first, then `extra_dirs` in order. Two plugin files of one
+  // name (a --plugin-dir holding a direct.so) are pb::InputError naming both files: a technique's
+  // name identifies what was measured.
   explicit PluginRegistry(const std::vector<std::filesystem::path>& extra_dirs);
   ~PluginRegistry();
   PluginRegistry(const PluginRegistry&) = delete;

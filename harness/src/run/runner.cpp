@@ -1,12 +1,17 @@
 #include "run/runner.h"
 
+#include <fcntl.h>
 #include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <sys/file.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -155,35 +160,108 @@ void write_summary(const std::filesystem::path& run_dir) {
 
 namespace {
 
+// Held for the life of a run: a second `run` or `--resume` into the same folder while this one
+// runs is refused, instead of both recording every cell failed. flock(2) locks go with the
+// process however it ends, so a killed run leaves no stale lock; O_CLOEXEC keeps the cells' child
+// processes from holding it.
+class RunDirLock {
+ public:
+  explicit RunDirLock(const std::filesystem::path& run_dir) {
+    const std::filesystem::path file = run_dir / ".lock";
+    fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0)
+      throw InputError(fmt::format("--out {}: cannot create {}: {}", run_dir.string(),
+                                   file.filename().string(), std::strerror(errno)));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      char holder[32] = {};
+      ssize_t n = ::pread(fd_, holder, sizeof(holder) - 1, 0);
+      ::close(fd_);
+      throw InputError(fmt::format(
+          "{} is in use by another photonbench run{}; wait for it to end, or use another --out",
+          run_dir.string(), n > 0 ? fmt::format(" (pid {})", std::string(holder, size_t(n))) : ""));
+    }
+    // The pid only improves the message above; failing to write it changes nothing.
+    const std::string pid = std::to_string(::getpid());
+    if (::ftruncate(fd_, 0) == 0) (void)!::pwrite(fd_, pid.data(), pid.size(), 0);
+  }
+  ~RunDirLock() { ::close(fd_); }
+  RunDirLock(const RunDirLock&) = delete;
+  RunDirLock& operator=(const RunDirLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+struct RunDir {
+  std::filesystem::path path;
+  std::unique_ptr<RunDirLock> lock;
+};
+
 // The run folder: a new one (results/<name>-<time> unless --out names it), or with --resume the
-// folder of an interrupted run of the same config. The invocation is written into it, for each
-// cell's child process and for a later --resume.
-std::filesystem::path open_run_dir(const RunOptions& options, const config::Config& config) {
-  std::filesystem::path run_dir = options.out_dir;
+// folder of an interrupted run of the same config, locked for this run. The invocation is written
+// into it, for each cell's child process and for a later --resume.
+RunDir open_run_dir(const RunOptions& options, const config::Config& config) {
+  namespace fs = std::filesystem;
+  fs::path run_dir = options.out_dir;
+  if (options.resume && run_dir.empty())
+    throw InputError("--resume needs --out DIR, the run folder to continue");
+  if (run_dir.empty()) {
+    auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+    run_dir =
+        fs::path("results") / fmt::format("{}-{:%Y%m%d-%H%M%S}", config.name, fmt::localtime(now));
+  }
+  std::error_code ec;
+  if (fs::exists(run_dir, ec) && !fs::is_directory(run_dir, ec))
+    throw InputError(fmt::format("--out {}: exists and is not a folder", run_dir.string()));
+  if (options.resume && !fs::exists(run_dir / "invocation.json", ec))
+    throw InputError(
+        fmt::format("--resume: {} is not a photonbench run folder (no "
+                    "invocation.json); run without --resume to start one",
+                    run_dir.string()));
+  fs::create_directories(run_dir / "cells", ec);
+  if (ec)
+    throw InputError(
+        fmt::format("--out {}: cannot create the run folder: {}", run_dir.string(), ec.message()));
+  run_dir = fs::canonical(run_dir, ec);
+  if (ec) throw InputError(fmt::format("--out {}: {}", options.out_dir.string(), ec.message()));
+  RunDir result{run_dir, std::make_unique<RunDirLock>(run_dir)};
   if (options.resume) {
-    if (run_dir.empty()) throw InputError("--resume needs --out DIR, the run folder to continue");
-    Invocation previous = read_invocation(run_dir);
+    Invocation previous;
+    try {
+      previous = read_invocation(run_dir);
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(
+          fmt::format("--resume: {}/invocation.json is damaged: {}", run_dir.string(), e.what()));
+    }
     if (previous.config_hash != config.hash)
       throw InputError(
           fmt::format("--resume: {} was run with a different config (hash {}, now {}); "
                       "resume with the same config and --set values",
                       run_dir.string(), previous.config_hash, config.hash));
-  } else {
-    if (run_dir.empty()) {
-      auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-      run_dir = std::filesystem::path("results") /
-                fmt::format("{}-{:%Y%m%d-%H%M%S}", config.name, fmt::localtime(now));
-    }
-    if (std::filesystem::exists(run_dir / "run.json"))
-      throw InputError(
-          fmt::format("{} already holds a run; use --resume to continue it, or another --out",
-                      run_dir.string()));
+  } else if (fs::exists(run_dir / "run.json", ec) || fs::exists(run_dir / "invocation.json", ec)) {
+    throw InputError(fmt::format(
+        "{} already holds a run; use --resume to continue it, or another --out", run_dir.string()));
   }
-  std::filesystem::create_directories(run_dir / "cells");
-  run_dir = std::filesystem::canonical(run_dir);
-  write_invocation(
-      run_dir, {std::filesystem::absolute(options.config_file), options.overrides, config.hash});
-  return run_dir;
+  try {
+    write_invocation(run_dir, {fs::absolute(options.config_file), options.overrides, config.hash});
+  } catch (const std::exception& e) {
+    throw InputError(
+        fmt::format("--out {}: cannot write to the run folder: {}", run_dir.string(), e.what()));
+  }
+  return result;
+}
+
+// With --resume, a cell that failed is run again: its folder and log move to
+// failed-attempts/<cell>/ (replacing an older attempt's), so the failure stays readable.
+void set_failed_attempt_aside(const std::filesystem::path& run_dir, const Cell& cell) {
+  namespace fs = std::filesystem;
+  const fs::path aside = run_dir / "failed-attempts" / cell.id;
+  fs::remove_all(aside);
+  fs::create_directories(aside.parent_path());
+  fs::rename(cell_dir(run_dir, cell.id), aside);
+  const fs::path log = run_dir / "logs" / (cell.id + ".log");
+  std::error_code ec;
+  if (fs::exists(log, ec)) fs::rename(log, aside / "cell.log", ec);
 }
 
 struct CellTally {
@@ -202,10 +280,13 @@ CellTally run_cells(const RunPlan& plan, const RunOptions& options,
     const Cell& cell = plan.cells[i];
     const std::filesystem::path done = cell_dir(run_dir, cell.id) / "cell.json";
     if (options.resume && std::filesystem::exists(done)) {
-      tally.failed += json::parse(io::read_text(done))["status"] != "ok";
-      ++tally.skipped;
-      progress.finish(i, cell.id, "complete already, skipped");
-      continue;
+      const json previous = json::parse(io::read_text(done), nullptr, false);
+      if (!previous.is_discarded() && previous.value("status", "") == "ok") {
+        ++tally.skipped;
+        progress.finish(i, cell.id, "complete already, skipped");
+        continue;
+      }
+      set_failed_attempt_aside(run_dir, cell);
     }
     const ChildOutcome outcome = run_cell_process(run_dir, cell, process, progress, i);
     if (!wrote_record(run_dir, cell, outcome))
@@ -229,7 +310,8 @@ int run_benchmark(const RunOptions& options) {
   // A shard runs its own cells only; each cell's child rebuilds the whole plan and finds its cell.
   const ShardSelection shard = select_shard(plan, options.shard);
   plan.cells = shard.cells;
-  const std::filesystem::path run_dir = open_run_dir(options, plan.config);
+  const RunDir opened = open_run_dir(options, plan.config);
+  const std::filesystem::path& run_dir = opened.path;
   if (options.resume) check_resumed_shard(run_dir, options.shard);
   json run = describe_run(options.config_file, options.overrides, options.device, plan, run_dir);
   if (options.shard.sharded()) run["shard"] = describe_shard(options.shard, shard);

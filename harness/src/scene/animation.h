@@ -1,9 +1,10 @@
-// Animation tracks: keyframes with step, linear or Catmull-Rom interpolation, or an orbit. Every track
-// is a pure function of time, so a frame is reproducible on its own (time = frame / fps).
+// Animation tracks: keyframes with step, linear or Catmull-Rom interpolation, or an orbit. Every
+// track is a pure function of time, so a frame is reproducible on its own (time = frame / fps).
 #pragma once
 
 #include <glm/glm.hpp>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace pb::scene {
@@ -21,8 +22,8 @@ struct Keyframes {
   T at(float time) const;
 };
 
-// A circle around `center` in the plane at `center.y + height`, `period` seconds per turn, starting at
-// `phase_deg` (0 = +x axis), counter-clockwise seen from above.
+// A circle around `center` in the plane at `center.y + height`, `period` seconds per turn,
+// starting at `phase_deg` (0 = +x axis), counter-clockwise seen from above.
 struct Orbit {
   glm::vec3 center{0.0f};
   float radius = 1.f;
@@ -43,9 +44,9 @@ struct PositionTrack {
 
 struct TransformTrack {
   PositionTrack translation;
-  glm::vec3 rotation_deg{0.0f};          // XYZ Euler, constant part
-  Keyframes<glm::vec3> rotation_keys;     // XYZ Euler degrees over time
-  glm::vec3 spin_deg_per_s{0.0f};        // constant angular velocity, added to the rotation
+  glm::vec3 rotation_deg{0.0f};        // XYZ Euler, constant part
+  Keyframes<glm::vec3> rotation_keys;  // XYZ Euler degrees over time
+  glm::vec3 spin_deg_per_s{0.0f};      // constant angular velocity, added to the rotation
   glm::vec3 scale{1.0f};
   Keyframes<glm::vec3> scale_keys;
   glm::mat4 at(float time) const;
@@ -59,6 +60,7 @@ struct CameraTrack {
   float fov_y_deg = 45.f;
   Keyframes<float> fov_keys;
   float near_plane = 0.01f, far_plane = 100.f;
+  std::string where;  // "file:line:col: camera", for errors about the camera at some frame
 };
 
 }  // namespace pb::scene

@@ -3,11 +3,14 @@
 #include <fmt/format.h>
 #include <tiny_obj_loader.h>
 
-#include <fstream>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <map>
 #include <regex>
 #include <sstream>
 
+#include "config/yaml_view.h"
 #include "photonbench/error.h"
 
 namespace pb::scene {
@@ -48,15 +51,41 @@ size_t find_statement(const std::vector<std::string>& lines, const std::string& 
   throw InputError(fmt::format("{}: {}", file.string(), message));
 }
 
+// A statement's arguments as numbers: `count_min`..`count_max` of them, each finite and inside
+// [lo, hi]; otherwise an error naming the file and line. tinyobjloader reads "nan" or "1e999" as
+// some number without a word, so the values a scene uses are checked here, on the text.
+void check_numbers(const std::filesystem::path& file, size_t line,
+                   const std::vector<std::string>& t, size_t count_min, size_t count_max, double lo,
+                   double hi) {
+  if (t.size() - 1 < count_min || t.size() - 1 > count_max)
+    fail_at(file, line,
+            fmt::format("'{}' takes {} numbers, got {}", t[0],
+                        count_min == count_max ? fmt::format("{}", count_min)
+                                               : fmt::format("{} to {}", count_min, count_max),
+                        t.size() - 1));
+  for (size_t k = 1; k < t.size(); ++k) {
+    char* end = nullptr;
+    errno = 0;
+    double value = std::strtod(t[k].c_str(), &end);
+    if (end == t[k].c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(value))
+      fail_at(file, line,
+              fmt::format("'{}': '{}' is not a finite number", t[0], config::quote(t[k])));
+    if (value < lo || value > hi)
+      fail_at(file, line, fmt::format("'{}': {} is out of range [{}, {}]", t[0], value, lo, hi));
+  }
+}
+
 // tinyobjloader only reports out-of-range indices at the end of the file (and reads out of bounds
-// while triangulating polygons before that), so check them first, naming the face's line.
-void check_face_indices(const std::filesystem::path& file, const std::vector<std::string>& lines) {
+// while triangulating polygons before that), so check them first, naming the face's line; and
+// check the coordinates it would read.
+void check_obj_text(const std::filesystem::path& file, const std::vector<std::string>& lines) {
   int64_t vertices = 0, normals = 0;
-  for (const auto& line : lines) {
-    auto t = tokens(line);
+  for (size_t i = 0; i < lines.size(); ++i) {
+    auto t = tokens(lines[i]);
     if (t.empty()) continue;
-    if (t[0] == "v") ++vertices;
-    if (t[0] == "vn") ++normals;
+    // v x y z [w] or v x y z r g b (vertex colours); vn x y z.
+    if (t[0] == "v") ++vertices, check_numbers(file, i + 1, t, 3, 6, -kMaxMagnitude, kMaxMagnitude);
+    if (t[0] == "vn") ++normals, check_numbers(file, i + 1, t, 3, 3, -kMaxMagnitude, kMaxMagnitude);
   }
   for (size_t i = 0; i < lines.size(); ++i) {
     auto t = tokens(lines[i]);
@@ -67,13 +96,17 @@ void check_face_indices(const std::filesystem::path& file, const std::vector<std
       std::stringstream corner(t[k]);
       for (std::string p; std::getline(corner, p, '/');) parts.push_back(p);
       auto check = [&](size_t slot, int64_t count, const char* what) {
-        if (slot >= parts.size() || parts[slot].empty()) return;
-        int64_t index = 0;
-        try {
-          index = std::stoll(parts[slot]);
-        } catch (const std::exception&) {
-          fail_at(file, i + 1, fmt::format("bad {} index '{}' in face", what, parts[slot]));
+        if (slot >= parts.size() || parts[slot].empty()) {
+          if (slot == 0) fail_at(file, i + 1, "a face corner needs a vertex index");
+          return;
         }
+        const std::string& text = parts[slot];
+        const bool digits =
+            text.find_first_not_of("0123456789", text[0] == '-' ? 1 : 0) == std::string::npos &&
+            text.size() > (text[0] == '-' ? 1u : 0u);
+        if (!digits || text.size() > 12)
+          fail_at(file, i + 1, fmt::format("bad {} index '{}' in face", what, config::quote(text)));
+        int64_t index = std::stoll(text);
         if (index == 0 || index > count || -index > count)
           fail_at(file, i + 1,
                   fmt::format("face refers to {} {} but the file has only {}", what, index, count));
@@ -83,6 +116,56 @@ void check_face_indices(const std::filesystem::path& file, const std::vector<std
     }
   }
 }
+
+// An MTL file's lines, for naming the line of a bad value.
+struct MtlText {
+  std::filesystem::path file;
+  std::vector<std::string> lines;
+};
+
+// Checks the statements material_from_mtl reads, in every material of an MTL file.
+void check_mtl_text(const MtlText& mtl) {
+  for (size_t i = 0; i < mtl.lines.size(); ++i) {
+    auto t = tokens(mtl.lines[i]);
+    if (t.empty()) continue;
+    const size_t line = i + 1;
+    if (t[0] == "Kd" || t[0] == "Ks")  // reflectances: more than 1 would create energy
+      check_numbers(mtl.file, line, t, 1, 3, 0, 1);
+    else if (t[0] == "Ke")
+      check_numbers(mtl.file, line, t, 1, 3, 0, kMaxMagnitude);
+    else if (t[0] == "Ni")  // <= 1 means "not set" (1.5); above 4 is no real dielectric
+      check_numbers(mtl.file, line, t, 1, 1, 0, 4);
+    else if (t[0] == "d" || t[0] == "Tr")
+      check_numbers(mtl.file, line, t, 1, 1, 0, 1);
+    else if (t[0] == "illum")
+      check_numbers(mtl.file, line, t, 1, 1, 0, 10);
+  }
+}
+
+// Reads MTL files through `source`, keeping their text; tinyobjloader's own reader opens any path
+// with an ifstream (a directory reads as empty, /dev/zero never ends).
+class MtlReader final : public tinyobj::MaterialReader {
+ public:
+  MtlReader(const std::filesystem::path& obj_file, const MtlSource& source)
+      : directory_(obj_file.parent_path()), source_(source) {}
+  bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
+                  std::map<std::string, int>* index, std::string* warn, std::string* err) override {
+    std::optional<std::string> text = source_(name);
+    if (!text) {
+      // The warning tinyobjloader's reader gives; load_obj turns it into an error at `mtllib`.
+      *warn += "Material file [ " + name + " ] not found\n";
+      return false;
+    }
+    check_mtl_text({directory_ / name, split_lines(*text)});
+    std::istringstream in(*text);
+    tinyobj::LoadMtl(index, materials, &in, warn, err);
+    return true;
+  }
+
+ private:
+  std::filesystem::path directory_;
+  const MtlSource& source_;
+};
 
 }  // namespace
 
@@ -109,23 +192,27 @@ Material material_from_mtl(const MtlValues& mtl) {
 }
 
 ObjModel load_obj(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) fail_at(file, 0, "cannot open OBJ file");
-  std::stringstream text;
-  text << in.rdbuf();
-  const auto lines = split_lines(text.str());
-  check_face_indices(file, lines);
+  const std::filesystem::path directory = file.parent_path();
+  return parse_obj(config::read_text_file(file, kMaxObjBytes, "OBJ file"), file,
+                   [&](const std::string& name) -> std::optional<std::string> {
+                     std::error_code ec;
+                     if (!std::filesystem::exists(directory / name, ec)) return std::nullopt;
+                     return config::read_text_file(directory / name, config::kMaxYamlBytes,
+                                                   "MTL file");
+                   });
+}
+
+ObjModel parse_obj(const std::string& obj_text, const std::filesystem::path& file,
+                   const MtlSource& read_mtl) {
+  const auto lines = split_lines(obj_text);
+  check_obj_text(file, lines);
 
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> mtl;
   std::string warn, err;
-  // (Built in one expression: GCC 12's -Wrestrict misfires on assigning a literal to a string
-  // here.)
-  const std::string base =
-      (file.has_parent_path() ? file.parent_path() : std::filesystem::path(".")).string() + "/";
-  tinyobj::MaterialFileReader reader(base);
-  std::istringstream stream(text.str());
+  MtlReader reader(file, read_mtl);
+  std::istringstream stream(obj_text);
   bool ok = tinyobj::LoadObj(&attrib, &shapes, &mtl, &warn, &err, &stream, &reader, true, false);
   if (!ok || !err.empty()) {
     std::smatch m;
@@ -156,29 +243,49 @@ ObjModel load_obj(const std::filesystem::path& file) {
     v.ni = float(t.ior);
     v.dissolve = float(t.dissolve);
     v.illum = t.illum;
-    for (int c = 0; c < 3; ++c)
-      if (v.kd[c] < 0 || v.kd[c] > 1)
-        fail_at(file, 0,
-                fmt::format("material '{}': Kd {} is outside [0, 1] (it would create energy)",
-                            t.name, v.kd[c]));
+    // check_mtl_text read the statements; this catches what tinyobjloader made of them otherwise.
+    auto in_range = [](const glm::vec3& x, float hi) {
+      return glm::all(glm::greaterThanEqual(x, glm::vec3(0))) &&
+             glm::all(glm::lessThanEqual(x, glm::vec3(hi)));
+    };
+    if (!in_range(v.kd, 1) || !in_range(v.ks, 1) || !in_range(v.ke, float(kMaxMagnitude)) ||
+        !(v.ni >= 0 && v.ni <= 4) || !(v.dissolve >= 0 && v.dissolve <= 1))
+      fail_at(file, 0,
+              fmt::format("material '{}': a value is out of range (Kd and Ks in [0, 1], Ke in "
+                          "[0, {}], Ni in [0, 4], d in [0, 1])",
+                          config::quote(t.name), kMaxMagnitude));
     model.materials.push_back(material_from_mtl(v));
   }
 
   // One part per material, vertices shared within a part where position and normal indices agree.
   std::map<int, size_t> part_of_material;
   std::vector<std::map<std::pair<int, int>, uint32_t>> shared;
+  // check_obj_text checked the indices on the text; these checks hold whatever tinyobjloader read.
+  const size_t vertex_count = attrib.vertices.size() / 3, normal_count = attrib.normals.size() / 3;
   auto position = [&](int i) {
+    if (i < 0 || size_t(i) >= vertex_count)
+      fail_at(file, 0, "a face's vertex index is out of range");
     return glm::vec3(float(attrib.vertices[3 * i]), float(attrib.vertices[3 * i + 1]),
                      float(attrib.vertices[3 * i + 2]));
   };
+  size_t faces = 0;
   for (const auto& shape : shapes) {
     size_t offset = 0;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
       size_t count = shape.mesh.num_face_vertices[f];
+      if (offset + count > shape.mesh.indices.size()) fail_at(file, 0, "a face is cut short");
       const tinyobj::index_t* idx = &shape.mesh.indices[offset];
       offset += count;
+      ++faces;
       if (count != 3) continue;  // triangulation left a degenerate polygon
+      glm::vec3 p[3] = {position(idx[0].vertex_index), position(idx[1].vertex_index),
+                        position(idx[2].vertex_index)};
+      glm::vec3 face = glm::cross(p[1] - p[0], p[2] - p[0]);
+      float area2 = glm::length(face);
+      if (!(area2 > 0)) continue;  // zero-area triangles add nothing and have no normal
+      face /= area2;
       int material = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
+      if (material >= int(model.materials.size())) material = -1;
       auto [it, added] = part_of_material.try_emplace(material, model.parts.size());
       if (added) {
         model.parts.push_back(ObjPart{material, {}});
@@ -186,17 +293,11 @@ ObjModel load_obj(const std::filesystem::path& file) {
       }
       Mesh& mesh = model.parts[it->second].mesh;
       auto& cache = shared[it->second];
-      glm::vec3 p[3] = {position(idx[0].vertex_index), position(idx[1].vertex_index),
-                        position(idx[2].vertex_index)};
-      glm::vec3 face = glm::cross(p[1] - p[0], p[2] - p[0]);
-      float area2 = glm::length(face);
-      if (!(area2 > 0)) continue;  // zero-area triangles add nothing and have no normal
-      face /= area2;
       glm::uvec3 tri;
       for (int k = 0; k < 3; ++k) {
         int ni = idx[k].normal_index;
         glm::vec3 n(0.0f);
-        if (ni >= 0)
+        if (ni >= 0 && size_t(ni) < normal_count)
           n = {float(attrib.normals[3 * ni]), float(attrib.normals[3 * ni + 1]),
                float(attrib.normals[3 * ni + 2])};
         bool smooth = glm::length(n) > 0;
@@ -217,7 +318,11 @@ ObjModel load_obj(const std::filesystem::path& file) {
       mesh.triangles.push_back(tri);
     }
   }
-  if (model.parts.empty()) fail_at(file, 0, "the OBJ file has no faces");
+  if (faces == 0) fail_at(file, 0, "the OBJ file has no faces");
+  if (model.parts.empty())
+    fail_at(file, 0,
+            fmt::format("all {} faces of the OBJ file have zero area: there is nothing to render",
+                        faces));
   return model;
 }
 

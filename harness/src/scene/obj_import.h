@@ -3,6 +3,8 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,9 +23,16 @@ struct ObjModel {
 };
 
 // Throws pb::InputError "<obj file>:<line>: what is wrong" (the line when it is known): a missing
-// or unreadable file, a malformed face, a face index out of range, a missing MTL file, an unknown
-// `usemtl`.
+// or unreadable file, a malformed face, a face index out of range, a coordinate that is not a
+// finite number within scene::kMaxMagnitude, a missing MTL file, an unknown `usemtl`, an MTL value
+// out of its range ("<mtl file>:<line>"), a file whose faces all have zero area.
 ObjModel load_obj(const std::filesystem::path& file);
+
+// The same from an OBJ file's text; `read_mtl(name)` gives the text of the file an `mtllib` names,
+// or nullopt when there is no such file.
+using MtlSource = std::function<std::optional<std::string>(const std::string& name)>;
+ObjModel parse_obj(const std::string& text, const std::filesystem::path& file,
+                   const MtlSource& read_mtl);
 
 // MTL -> Material (the MTL spec's illumination models, Wavefront "MTL material format" / Ramsey
 // 1995):

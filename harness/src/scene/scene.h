@@ -1,10 +1,10 @@
-// The scene: what a YAML file under scenes/ describes, in physical units, with every shape already
-// tessellated to triangles (one mechanism for Embree, the GPU and the reference renderer alike), and the
-// animation that turns a frame number into a FrameState. time = frame / fps, so any frame is reproducible
-// on its own without playing the frames before it.
+// The scene: what a YAML file under scenes/ describes, in physical units, with every shape
+// already tessellated to triangles (one mechanism for Embree, the GPU and the reference renderer
+// alike), and the animation that turns a frame number into a FrameState. time = frame / fps, so
+// any frame is reproducible on its own without playing the frames before it.
 //
-// Units: lengths in metres (scene units), angles in degrees in files and radians here, light quantities
-// in watts (see Light). Right-handed, y up; the camera looks down -z in its own frame.
+// Units: lengths in metres (scene units), angles in degrees in files and radians here, light
+// quantities in watts (see Light). Right-handed, y up; the camera looks down -z in its own frame.
 #pragma once
 
 #include <filesystem>
@@ -17,6 +17,16 @@
 #include "scene/animation.h"
 
 namespace pb::scene {
+
+// Every number in a scene file (and in an OBJ or MTL file it names) lies in [-kMaxMagnitude,
+// kMaxMagnitude] unless its key documents a narrower range (scenes/README.md): coordinates and
+// lengths in metres, times in seconds, angles in degrees, light quantities. A scene therefore
+// stays far inside what Embree traces (|x| <= 1.8e18, finite) even after its transforms compose.
+inline constexpr double kMaxMagnitude = 1e6;
+// A scene tessellates to at most this many triangles (the shipped ones stay below 60000).
+inline constexpr size_t kMaxSceneTriangles = size_t(1) << 24;
+// Scene, config and MTL files are YAML-sized (config::kMaxYamlBytes); an OBJ file is at most this.
+inline constexpr size_t kMaxObjBytes = size_t(256) << 20;
 
 enum class MaterialType {
   diffuse,           // Lambertian, `albedo`
@@ -35,7 +45,9 @@ struct Material {
   glm::vec3 emission{0.0f};  // radiance, W/(m^2 sr)
   float ior = 1.5f;          // inside / outside
   float roughness = 0.1f;    // GGX alpha
-  bool is_specular() const { return type == MaterialType::mirror || type == MaterialType::dielectric; }
+  bool is_specular() const {
+    return type == MaterialType::mirror || type == MaterialType::dielectric;
+  }
 };
 
 enum class LightType { point, spot, directional, quad };
@@ -48,8 +60,8 @@ struct Light {
   std::string name;
   LightType type = LightType::point;
   glm::vec3 radiant{1.0f};
-  glm::vec3 position{0.0f};            // point, spot; quad: one corner
-  glm::vec3 direction{0, -1, 0};       // spot axis, directional propagation direction (unit)
+  glm::vec3 position{0.0f};               // point, spot; quad: one corner
+  glm::vec3 direction{0, -1, 0};          // spot axis, directional propagation direction (unit)
   float spot_inner = glm::radians(30.f);  // full intensity inside this half-angle (radians)
   float spot_outer = glm::radians(40.f);  // zero outside this half-angle, smooth between
   glm::vec3 edge_u{1, 0, 0}, edge_v{0, 0, 1};  // quad: position + s edge_u + t edge_v, s,t in [0,1]
@@ -57,12 +69,14 @@ struct Light {
   float area() const { return glm::length(glm::cross(edge_u, edge_v)); }
 };
 
-// A light and how it moves: its position (point, spot; a quad's corner, moving its whole rectangle) and,
-// for spot and directional lights, an optional aim point that sets `direction` each frame.
+// A light and how it moves: its position (point, spot; a quad's corner, moving its whole
+// rectangle) and, for spot and directional lights, an optional aim point that sets `direction`
+// each frame.
 struct LightTrack {
   Light light;
   PositionTrack position;
   std::optional<PositionTrack> target;
+  std::string where;  // "file:line:col: lights[i]", for errors about the light at some frame
   Light at(float time) const;
 };
 
@@ -84,9 +98,9 @@ struct Mesh {
   size_t triangle_count() const { return triangles.size(); }
 };
 
-// A shape knows how to tessellate itself, and may change over time (the pool's water surface): then
-// `animated()` is true and `tessellate(t)` gives the surface at time t. Rigid motion is the object's
-// transform track instead, so a moving rigid object is never re-tessellated.
+// A shape knows how to tessellate itself, and may change over time (the pool's water surface):
+// then `animated()` is true and `tessellate(t)` gives the surface at time t. Rigid motion is the
+// object's transform track instead, so a moving rigid object is never re-tessellated.
 class Shape {
  public:
   virtual ~Shape() = default;
@@ -98,8 +112,8 @@ class Shape {
 struct Object {
   std::string name;
   std::shared_ptr<const Shape> shape;
-  Mesh mesh;  // shape->tessellate(0)
-  uint32_t material = 0;  // index into Scene::materials
+  Mesh mesh;                 // shape->tessellate(0)
+  uint32_t material = 0;     // index into Scene::materials
   TransformTrack transform;  // object -> world over time
   bool moves() const { return transform.animated() || shape->animated(); }
 };
@@ -111,15 +125,16 @@ struct FrameState {
   Camera camera;
   std::vector<Light> lights;
   std::vector<glm::mat4> object_to_world;  // one per Scene::objects
-  std::vector<uint32_t> deformed_objects;  // indices of objects whose mesh changed shape at this time
+  std::vector<uint32_t>
+      deformed_objects;  // indices of objects whose mesh changed shape at this time
 };
 
 struct Scene {
-  std::string name;                 // file stem, e.g. "cornell-box"
-  std::filesystem::path file;       // where it was loaded from
-  std::string purpose;              // what the experiment needs it for (the file's `purpose` key)
+  std::string name;            // file stem, e.g. "cornell-box"
+  std::filesystem::path file;  // where it was loaded from
+  std::string purpose;         // what the experiment needs it for (the file's `purpose` key)
   float fps = 30.f;
-  uint32_t default_frames = 32;     // the length of its default animation
+  uint32_t default_frames = 32;  // the length of its default animation
   CameraTrack camera;
   std::vector<LightTrack> lights;
   std::vector<Material> materials;
@@ -132,8 +147,21 @@ struct Scene {
   std::pair<glm::vec3, glm::vec3> bounds() const;
 };
 
-// Loads a scene file; every error is a pb::InputError naming file:line:col and key.
+// Loads a scene file; every error is a pb::InputError naming file:line:col and key. The camera and
+// the lights are checked at every frame of the default animation (check_frames).
 Scene load_scene(const std::filesystem::path& file);
+// The same from the text of `file` (OBJ files are found relative to its folder).
+Scene parse_scene(const std::string& text, const std::filesystem::path& file);
+
+// Throws pb::InputError "<file:line:col>: camera: at frame N (t = T s): ..." when the camera or a
+// light cannot be rendered at a frame: the camera on its target or looking along `up`, a spot or
+// directional light aimed at its own position. Such a frame has no view (NaN rays: Embree aborts
+// on them, the rasteriser draws nothing). Checks frames first..last (inclusive), evaluating only
+// the camera's and the lights' tracks.
+void check_frames(const Scene& scene, uint32_t first, uint32_t last);
+// The same for one resolved frame, and every value in it finite: the check the ray tracer makes
+// before it traces a frame (trace::EmbreeScene), whoever built the state.
+void check_frame_state(const Scene& scene, const FrameState& state);
 
 // Finds a scene by name (searching scenes/ of the source tree and `search_dirs`) or by path.
 std::filesystem::path find_scene(const std::string& name_or_path,

@@ -1,6 +1,7 @@
 // Reading a scene file (the format is documented at the top of scenes/README.md). Every mapping
 // declares its keys, so a misspelt key is an error naming file:line:col and the key path rather
-// than a silently ignored setting; every number is range-checked where it is read.
+// than a silently ignored setting; every number is range-checked where it is read, within
+// kMaxMagnitude unless its key has a narrower range.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <map>
 #include <set>
 
+#include "config/config.h"
 #include "config/yaml_view.h"
 #include "photonbench/error.h"
 #include "scene/obj_import.h"
@@ -22,36 +24,22 @@ using config::YamlView;
 
 namespace {
 
-constexpr double kHuge = 1e6;  // sanity bound for lengths and light quantities
+constexpr double kHuge = kMaxMagnitude;
+// The smallest length a size, radius or wavelength may have: far above float's resolution at the
+// coordinates a scene uses, so no shape collapses to zero-area triangles.
+constexpr double kTiny = 1e-6;
 
 float number(const YamlView& v, double lo, double hi) { return float(v.as_number(lo, hi)); }
 
-glm::vec3 vec3_in(const YamlView& v, float lo, float hi) {
-  glm::vec3 x = v.as_vec3();
-  for (int c = 0; c < 3; ++c)
-    if (x[c] < lo || x[c] > hi)
-      v.fail(fmt::format("component {} ({}) is out of range [{}, {}]", c, x[c], lo, hi));
-  return x;
-}
+// A coordinate or offset: [x, y, z] within kMaxMagnitude.
+glm::vec3 coordinates(const YamlView& v) { return v.as_vec3(-kHuge, kHuge); }
 
-glm::vec2 positive_vec2(const YamlView& v) {
-  glm::vec2 x = v.as_vec2();
-  for (int c = 0; c < 2; ++c)
-    if (!(x[c] > 0) || x[c] > kHuge)
-      v.fail(fmt::format("component {} ({}) must be in (0, {}]", c, x[c], kHuge));
-  return x;
-}
+glm::vec2 positive_vec2(const YamlView& v) { return v.as_vec2(kTiny, kHuge); }
 
-glm::vec3 positive_vec3(const YamlView& v) {
-  glm::vec3 x = v.as_vec3();
-  for (int c = 0; c < 3; ++c)
-    if (!(x[c] > 0) || x[c] > kHuge)
-      v.fail(fmt::format("component {} ({}) must be in (0, {}]", c, x[c], kHuge));
-  return x;
-}
+glm::vec3 positive_vec3(const YamlView& v) { return v.as_vec3(kTiny, kHuge); }
 
 glm::vec3 unit_direction(const YamlView& v) {
-  glm::vec3 d = v.as_vec3();
+  glm::vec3 d = coordinates(v);
   if (!(glm::length(d) > 1e-8f)) v.fail("a direction must not be the zero vector");
   return glm::normalize(d);
 }
@@ -99,7 +87,7 @@ bool is_track(const YamlView& v) { return v.is_map(); }
 Orbit read_orbit(const YamlView& v) {
   v.allow_keys({"center", "radius", "height", "period", "phase_deg"});
   Orbit o;
-  if (auto c = v.get("center")) o.center = c->as_vec3();
+  if (auto c = v.get("center")) o.center = coordinates(*c);
   o.radius = float(v.number_or("radius", 1.0, 0.0, kHuge));
   o.height = float(v.number_or("height", 0.0, -kHuge, kHuge));
   YamlView period = v["period"];
@@ -114,7 +102,7 @@ Orbit read_orbit(const YamlView& v) {
 PositionTrack read_position(const YamlView& v) {
   PositionTrack p;
   if (!is_track(v)) {
-    p.constant = v.as_vec3();
+    p.constant = coordinates(v);
     return p;
   }
   v.allow_keys({"keys", "interpolation", "loop", "orbit"});
@@ -124,13 +112,14 @@ PositionTrack read_position(const YamlView& v) {
     p.orbit = read_orbit(*orbit);
     return p;
   }
-  p.keys = read_keys<glm::vec3>(v, [](const YamlView& x) { return x.as_vec3(); });
+  p.keys = read_keys<glm::vec3>(v, coordinates);
   return p;
 }
 
 CameraTrack read_camera(const YamlView& v) {
   v.allow_keys({"position", "target", "up", "fov_deg", "near", "far"});
   CameraTrack c;
+  c.where = fmt::format("{}: {}", v.location(), v.key_path());
   c.position = read_position(v["position"]);
   c.target = read_position(v["target"]);
   if (auto up = v.get("up")) c.up = unit_direction(*up);
@@ -153,10 +142,11 @@ CameraTrack read_camera(const YamlView& v) {
 LightTrack read_light(const YamlView& v, size_t index) {
   if (!v.is_map()) v.fail("expected a light mapping with a 'type'");
   LightTrack track;
+  track.where = fmt::format("{}: {}", v.location(), v.key_path());
   Light& light = track.light;
   std::string type = v["type"].as_enum({"point", "spot", "directional", "quad"});
   light.name = v.string_or("name", fmt::format("light{}", index));
-  glm::vec3 color = v.has("color") ? vec3_in(v["color"], 0, 1e3f) : glm::vec3(1.0f);
+  glm::vec3 color = v.has("color") ? v["color"].as_vec3(0, 1e3) : glm::vec3(1.0f);
   // Exactly one of the quantities named in `choices` must be given.
   auto quantity = [&](std::initializer_list<const char*> choices) -> std::pair<std::string, float> {
     std::vector<const char*> given;
@@ -208,8 +198,8 @@ LightTrack read_light(const YamlView& v, size_t index) {
     v.allow_keys({"name", "type", "color", "position", "edge_u", "edge_v", "radiance", "power"});
     light.type = LightType::quad;
     track.position = read_position(v["position"]);
-    light.edge_u = v["edge_u"].as_vec3();
-    light.edge_v = v["edge_v"].as_vec3();
+    light.edge_u = coordinates(v["edge_u"]);
+    light.edge_v = coordinates(v["edge_v"]);
     if (!(light.area() > 1e-10f)) v["edge_v"].fail("edge_u and edge_v must span a non-zero area");
     auto [key, value] = quantity({"radiance", "power"});
     // A one-sided Lambertian emitter of radiance L and area A emits pi L A watts.
@@ -227,10 +217,10 @@ Material read_material(const std::string& name, const YamlView& v) {
   std::string type = v["type"].as_enum(
       {"diffuse", "mirror", "dielectric", "rough_conductor", "rough_dielectric", "emissive"});
   auto albedo = [&] {
-    if (auto a = v.get("albedo")) m.albedo = vec3_in(*a, 0, 1);
+    if (auto a = v.get("albedo")) m.albedo = a->as_vec3(0, 1);
   };
   auto specular = [&] {
-    if (auto s = v.get("specular")) m.specular = vec3_in(*s, 0, 1);
+    if (auto s = v.get("specular")) m.specular = s->as_vec3(0, 1);
   };
   auto ior = [&] { m.ior = float(v.number_or("ior", 1.5, 1.0, 4.0)); };
   auto roughness = [&] { m.roughness = float(v.number_or("roughness", 0.1, 1e-3, 1.0)); };
@@ -259,7 +249,7 @@ Material read_material(const std::string& name, const YamlView& v) {
   } else {
     v.allow_keys({"type", "emission", "albedo"});
     m.type = MaterialType::emissive;
-    m.emission = vec3_in(v["emission"], 0, float(kHuge));
+    m.emission = v["emission"].as_vec3(0, kHuge);
     albedo();
   }
   return m;
@@ -279,24 +269,24 @@ std::shared_ptr<const Shape> read_shape(const YamlView& v) {
   }
   if (type == "sphere") {
     v.allow_keys({"type", "radius", "segments"});
-    return std::make_shared<SphereShape>(float(v.number_or("radius", 0.5, 1e-6, kHuge)),
+    return std::make_shared<SphereShape>(float(v.number_or("radius", 0.5, kTiny, kHuge)),
                                          uint32_t(v.int_or("segments", 32, 3, 1024)));
   }
   if (type == "cylinder") {
     v.allow_keys({"type", "radius", "height", "segments", "caps", "inner_radius"});
-    float radius = float(v.number_or("radius", 0.5, 1e-6, kHuge));
+    float radius = float(v.number_or("radius", 0.5, kTiny, kHuge));
     float inner = float(v.number_or("inner_radius", 0.0, 0.0, kHuge));
     if (inner >= radius)
       v["inner_radius"].fail(
           fmt::format("inner_radius ({}) must be below radius ({})", inner, radius));
-    return std::make_shared<CylinderShape>(radius, float(v.number_or("height", 1.0, 1e-6, kHuge)),
+    return std::make_shared<CylinderShape>(radius, float(v.number_or("height", 1.0, kTiny, kHuge)),
                                            uint32_t(v.int_or("segments", 32, 3, 4096)),
                                            v.bool_or("caps", true), inner);
   }
   if (type == "torus") {
     v.allow_keys({"type", "major_radius", "minor_radius", "segments"});
-    float major = float(v.number_or("major_radius", 0.5, 1e-6, kHuge));
-    float minor = float(v.number_or("minor_radius", 0.1, 1e-6, kHuge));
+    float major = float(v.number_or("major_radius", 0.5, kTiny, kHuge));
+    float minor = float(v.number_or("minor_radius", 0.1, kTiny, kHuge));
     if (minor >= major)
       v["minor_radius"].fail(
           fmt::format("minor_radius ({}) must be below major_radius ({})", minor, major));
@@ -319,7 +309,7 @@ std::shared_ptr<const Shape> read_shape(const YamlView& v) {
         wave.wavelength = number(w["wavelength"], 1e-4, kHuge);
         wave.speed = float(w.number_or("speed", 0.0, -kHuge, kHuge));
         if (auto d = w.get("direction")) {
-          glm::vec2 dir = d->as_vec2();
+          glm::vec2 dir = d->as_vec2(-kHuge, kHuge);
           if (!(glm::length(dir) > 1e-8f)) d->fail("a direction must not be the zero vector");
           wave.direction = glm::normalize(dir);
         }
@@ -339,13 +329,12 @@ TransformTrack read_transform(const YamlView& v) {
   if (auto rotate = v.get("rotate_deg")) {
     if (is_track(*rotate)) {
       rotate->allow_keys({"keys", "interpolation", "loop"});
-      t.rotation_keys =
-          read_keys<glm::vec3>(*rotate, [](const YamlView& x) { return x.as_vec3(); });
+      t.rotation_keys = read_keys<glm::vec3>(*rotate, coordinates);
     } else {
-      t.rotation_deg = rotate->as_vec3();
+      t.rotation_deg = coordinates(*rotate);
     }
   }
-  if (auto spin = v.get("spin_deg_per_s")) t.spin_deg_per_s = spin->as_vec3();
+  if (auto spin = v.get("spin_deg_per_s")) t.spin_deg_per_s = coordinates(*spin);
   if (auto scale = v.get("scale")) {
     if (is_track(*scale)) {
       scale->allow_keys({"keys", "interpolation", "loop"});
@@ -385,14 +374,23 @@ std::vector<fs::path> scene_dirs(const std::vector<fs::path>& search_dirs) {
 }  // namespace
 
 Scene load_scene(const fs::path& file) {
-  YamlView root = YamlView::load_file(file);
+  return parse_scene(config::read_text_file(file, config::kMaxYamlBytes, "scene file"), file);
+}
+
+Scene parse_scene(const std::string& text, const fs::path& file) {
+  YamlView root = YamlView::parse(text, file.string());
+  const char* keys = "purpose, fps, frames, camera, lights, materials, objects";
+  if (root.node().IsNull() || !root.node().IsDefined())
+    root.fail(fmt::format("the file is empty; a scene is a mapping of keys ({})", keys));
+  if (!root.is_map())
+    root.fail(fmt::format("not a scene file: a scene is a mapping of keys ({})", keys));
   root.allow_keys({"purpose", "fps", "frames", "camera", "lights", "materials", "objects"});
   Scene scene;
   scene.name = file.stem().string();
   scene.file = file;
   scene.purpose = root["purpose"].as_string();
   scene.fps = float(root.number_or("fps", 30.0, 1e-3, 1e4));
-  scene.default_frames = uint32_t(root.int_or("frames", 32, 1, 1000000));
+  scene.default_frames = uint32_t(root.int_or("frames", 32, 1, config::kMaxMeasuredFrames));
   scene.camera = read_camera(root["camera"]);
 
   std::map<std::string, uint32_t> material_index;
@@ -421,6 +419,7 @@ Scene load_scene(const fs::path& file) {
     objects.fail("expected a non-empty list of objects");
   std::set<std::string> object_names;
   const fs::path directory = file.parent_path();
+  size_t triangles = 0;
   for (const auto& spec : objects.elements()) {
     if (!spec.is_map()) spec.fail("expected an object mapping with a 'shape'");
     spec.allow_keys({"name", "shape", "material", "transform"});
@@ -441,6 +440,14 @@ Scene load_scene(const fs::path& file) {
       object.name = std::move(object_name);
       object.shape = std::move(shape);
       object.mesh = object.shape->tessellate(0);
+      if (object.mesh.triangles.empty())
+        shape_spec.fail(fmt::format("object '{}' has no triangles", object.name));
+      triangles += object.mesh.triangle_count();
+      if (triangles > kMaxSceneTriangles)
+        shape_spec.fail(
+            fmt::format("the scene reaches {} triangles here, more than the {} a scene "
+                        "may have (fewer segments or a coarser resolution?)",
+                        triangles, kMaxSceneTriangles));
       object.material = material;
       object.transform = transform;
       scene.objects.push_back(std::move(object));
@@ -450,8 +457,6 @@ Scene load_scene(const fs::path& file) {
       shape_spec.allow_keys({"type", "file"});
       YamlView file_key = shape_spec["file"];
       fs::path obj_path = directory / file_key.as_string();
-      if (!fs::is_regular_file(obj_path))
-        file_key.fail(fmt::format("OBJ file not found: {}", obj_path.string()));
       ObjModel model;
       try {
         model = load_obj(obj_path);
@@ -490,8 +495,24 @@ Scene load_scene(const fs::path& file) {
       add(name, shape, find_material(material_key, material_key.as_string(), material_index));
     }
   }
+  check_frames(scene, 0, scene.default_frames - 1);
   return scene;
 }
+
+namespace {
+
+// A file that parses as a mapping with the keys every scene has: configs and other YAML files
+// beside the scenes are not offered as scene names.
+bool looks_like_scene(const fs::path& file) {
+  try {
+    YamlView root = YamlView::load_file(file);
+    return root.is_map() && root.has("camera") && root.has("objects");
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
+}  // namespace
 
 std::vector<std::string> list_scenes(const std::vector<fs::path>& search_dirs) {
   std::set<std::string> names;
@@ -500,7 +521,8 @@ std::vector<std::string> list_scenes(const std::vector<fs::path>& search_dirs) {
     if (!fs::is_directory(dir, ec)) continue;
     for (const auto& entry : fs::directory_iterator(dir, ec)) {
       auto ext = entry.path().extension();
-      if (entry.is_regular_file() && (ext == ".yaml" || ext == ".yml"))
+      if (entry.is_regular_file(ec) && (ext == ".yaml" || ext == ".yml") &&
+          looks_like_scene(entry.path()))
         names.insert(entry.path().stem().string());
     }
   }
@@ -508,12 +530,23 @@ std::vector<std::string> list_scenes(const std::vector<fs::path>& search_dirs) {
 }
 
 fs::path find_scene(const std::string& name_or_path, const std::vector<fs::path>& search_dirs) {
+  if (name_or_path.empty() || name_or_path.find('\0') != std::string::npos)
+    throw InputError(fmt::format("'{}' is not a scene name or path", config::quote(name_or_path)));
   fs::path given(name_or_path);
   bool is_path = name_or_path.find('/') != std::string::npos || given.extension() == ".yaml" ||
                  given.extension() == ".yml";
   if (is_path) {
-    if (fs::is_regular_file(given)) return given;
-    throw InputError(fmt::format("{}: scene file not found", name_or_path));
+    std::error_code ec;
+    auto status = fs::status(given, ec);
+    if (fs::is_regular_file(status)) return given;
+    if (fs::is_directory(status))
+      throw InputError(
+          fmt::format("{}: is a directory, not a scene file", config::quote(name_or_path, 200)));
+    if (fs::exists(status))
+      throw InputError(
+          fmt::format("{}: is not a regular file (a device or a pipe), not a scene file",
+                      config::quote(name_or_path, 200)));
+    throw InputError(fmt::format("{}: scene file not found", config::quote(name_or_path, 200)));
   }
   auto dirs = scene_dirs(search_dirs);
   for (const auto& dir : dirs)
@@ -523,10 +556,14 @@ fs::path find_scene(const std::string& name_or_path, const std::vector<fs::path>
     }
   auto names = list_scenes(search_dirs);
   std::string all, searched;
-  for (const auto& n : names) all += (all.empty() ? "" : ", ") + n;
+  constexpr size_t kListed = 30;  // a folder of a thousand scenes makes no useful message
+  for (size_t i = 0; i < std::min(names.size(), kListed); ++i)
+    all += (all.empty() ? "" : ", ") + names[i];
+  if (names.size() > kListed) all += fmt::format(" and {} more", names.size() - kListed);
   for (const auto& d : dirs) searched += (searched.empty() ? "" : ", ") + d.string();
   std::string hint = config::closest_name(name_or_path, names);
-  throw InputError(fmt::format("unknown scene '{}'{} (searched {}; available: {})", name_or_path,
+  throw InputError(fmt::format("unknown scene '{}'{} (searched {}; available: {})",
+                               config::quote(name_or_path),
                                hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
                                searched, all.empty() ? "none" : all));
 }

@@ -67,6 +67,9 @@ RTCDevice EmbreeScene::device() {
 EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& state,
                          EmbreeOptions options)
     : scene_(scene), state_(state), options_(options) {
+  // Embree aborts the process on a ray it cannot trace (NaN or huge coordinates): a frame whose
+  // camera or lights are degenerate is bad input, named where the scene file sets it.
+  scene::check_frame_state(scene, state);
   RTCDevice dev = device();
   top_ = rtcNewScene(dev);
   rtcSetSceneFlags(top_, RTC_SCENE_FLAG_DYNAMIC);
@@ -105,8 +108,11 @@ EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& sta
       place_object(i, to_world);  // writes the world-space vertices
     } else {
       data.scene = rtcNewScene(dev);
+      // REFIT is a geometry's build quality only (for a scene Embree reports "invalid build
+      // quality" and keeps its default, MEDIUM): a deforming object's scene stays MEDIUM, and its
+      // geometry refits.
       rtcSetSceneBuildQuality(data.scene,
-                              deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+                              deforms ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH);
       if (deforms) rtcSetSceneFlags(data.scene, RTC_SCENE_FLAG_DYNAMIC);
       set_vertices(data, mesh);
       rtcAttachGeometry(data.scene, data.geometry);
@@ -198,6 +204,7 @@ void EmbreeScene::place_lights() {
 }
 
 void EmbreeScene::update(const scene::FrameState& state) {
+  scene::check_frame_state(scene_, state);
   if (state.lights.size() != state_.lights.size())
     throw Error("EmbreeScene::update: the number of lights changed");
   for (uint32_t i = 0; i < objects_.size(); ++i) {
