@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <regex>
 #include <sstream>
 
 #include "config/key_table.h"
@@ -110,6 +111,11 @@ namespace {
 
 using nlohmann::json;
 
+// What folder_safe_name leaves as it is: at most kMaxNameLength of [A-Za-z0-9._-], not starting
+// with '.'.
+const std::string kNamePattern =
+    fmt::format("^[A-Za-z0-9_-][A-Za-z0-9._-]{{0,{}}}$", kMaxNameLength - 1);
+
 // The config format, one table per mapping (key_table.h): the reader below takes every key name,
 // range and default from these rows, and `photonbench schema config` prints them.
 const KeyTable kFramesTable{
@@ -173,7 +179,7 @@ const KeyTable kSceneEntryTable{
 const KeyTable kConfigTable{
     "config",
     "A photonbench benchmark config: scenes x techniques x parameter sweeps.",
-    {{"name", string_type(), false, nullptr,
+    {{"name", string_type(kNamePattern), false, nullptr,
       "names the run folder: letters, digits, '.', '_' and '-' (default: the file's name)"},
      {"resolution", tuple_type({integer_type(16, 8192), integer_type(16, 8192)}), false,
       json::array({640, 360}), "[width, height] in pixels"},
@@ -228,7 +234,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   config.name = folder_safe_name(file.stem().string());
   if (auto name = root.get("name")) {
     config.name = name->as_string();
-    if (config.name != folder_safe_name(config.name))
+    if (!std::regex_match(config.name, std::regex(kNamePattern)))
       name->fail(fmt::format(
           "'{}' is not a folder name: use at most {} letters, digits, '.', '_' and '-', starting "
           "with a letter or digit (it names the run folder)",

@@ -11,7 +11,11 @@ namespace pb::config {
 
 using nlohmann::json;
 
-ValueType string_type() { return {}; }
+ValueType string_type(std::string pattern) {
+  ValueType t;
+  t.pattern = std::move(pattern);
+  return t;
+}
 
 ValueType number_type(double min, double max) {
   ValueType t;
@@ -147,7 +151,8 @@ json ValueType::schema() const {
   };
   switch (kind) {
     case Kind::string:
-      return {{"type", "string"}};
+      if (pattern.empty()) return {{"type", "string"}};
+      return {{"type", "string"}, {"pattern", pattern}};
     case Kind::number:
       return numeric(false);
     case Kind::integer:

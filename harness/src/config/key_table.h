@@ -44,6 +44,7 @@ struct ValueType {
   bool integral = false;             // vector: integer components
   bool scalar_is_list = false;       // list: one element may stand for the list
   std::vector<std::string> choices;  // choice
+  std::string pattern;  // string: a regular expression (ECMAScript) the whole value matches
   // list: {element}; tuple: the elements; map_of: {value}; any_of: the alternatives
   std::vector<ValueType> parts;
   const KeyTable* table = nullptr;  // table
@@ -59,7 +60,7 @@ struct ValueType {
   nlohmann::json schema() const;
 };
 
-ValueType string_type();
+ValueType string_type(std::string pattern = "");
 ValueType number_type(double min, double max);
 ValueType integer_type(int64_t min, int64_t max);
 ValueType boolean_type();
