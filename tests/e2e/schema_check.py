@@ -1,7 +1,8 @@
 """Validates YAML files against a JSON Schema with python3-jsonschema (draft 2020-12).
 
 usage: schema_check.py SCHEMA.json FILE...
-Prints "FILE: ok" or each error with its key path; exits 0 when every file is valid, 1 otherwise.
+Prints "FILE: ok" or each error with its key path; exits 0 when every file is valid, 1 when one is
+not (or is not YAML), 3 when the schema or the checker itself is broken.
 The YAML is read as photonbench's reader (yaml-cpp) reads it: 1e23 is a number (PyYAML's YAML 1.1
 resolver wants a dot in it), and a key written twice is an error (PyYAML keeps the last one).
 """
@@ -54,4 +55,8 @@ def main():
     sys.exit(1 if invalid else 0)
 
 
-main()
+try:
+    main()
+except Exception as e:  # a broken schema or checker is not a rejected file: exit 3, not 1
+    print(f"schema_check: {type(e).__name__}: {e}")
+    sys.exit(3)
