@@ -10,6 +10,7 @@ packages=(
   libcli11-dev libfmt-dev libspdlog-dev libtinyobjloader-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
+  python3-jsonschema  # tests/e2e/schema.sh checks configs and scenes against `photonbench schema`
   clang-format     # scripts/check_format.sh
   chromium  # tests/e2e/report_html.sh opens the HTML report headless
   slurm-wlm munge  # tests/e2e/slurm_sweep.sh starts a one-node Slurm (slurmctld, slurmd, sbatch)

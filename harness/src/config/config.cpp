@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <regex>
 #include <sstream>
 
+#include "config/key_table.h"
 #include "photonbench/error.h"
 
 namespace pb::config {
@@ -105,6 +107,106 @@ std::string stable_hash(const std::string& text) {
   return fmt::format("{:016x}", hash);
 }
 
+namespace {
+
+using nlohmann::json;
+
+// What folder_safe_name leaves as it is: at most kMaxNameLength of [A-Za-z0-9._-], not starting
+// with '.'.
+const std::string kNamePattern =
+    fmt::format("^[A-Za-z0-9_-][A-Za-z0-9._-]{{0,{}}}$", kMaxNameLength - 1);
+
+// The config format, one table per mapping (key_table.h): the reader below takes every key name,
+// range and default from these rows, and `photonbench schema config` prints them.
+const KeyTable kFramesTable{
+    "config.frames",
+    "How many frames each cell plays and scores.",
+    {{"warmup", integer_type(0, kMaxWarmupFrames), false, 4,
+      "frames played before timing starts (not recorded)"},
+     {"count", integer_type(1, kMaxMeasuredFrames), false, 32, "measured frames"},
+     {"metrics_every", integer_type(0, kMaxMeasuredFrames), false, 8,
+      "score every Nth measured frame against its reference (0: never)"}}};
+
+const KeyTable kReferenceTable{
+    "config.reference",
+    "How references are rendered. A frame's render stops at the first stop rule reached (0 "
+    "turns a rule off); naming any of rel_error, max_seconds and samples uses those alone.",
+    {{"rel_error", number_type(0, 1), false, 0.05,
+      "stop at this estimated relative RMS error of the mean"},
+     {"max_seconds", number_type(0, 1e7), false, 600, "stop after this many seconds per frame"},
+     {"samples", integer_type(0, 1 << 24), false, 0,
+      "stop after this many iterations (0: off, else at least 2)"},
+     {"max_bounces", integer_type(0, 64), false, 0,
+      "scattering vertices on a full path (0: untruncated)"},
+     {"bounce_matched", boolean_type(), false, false,
+      "also score techniques with a max_bounces parameter against a reference truncated like "
+      "them"},
+     {"cache_dir", string_type(), false, "results/reference-cache",
+      "where rendered references are kept (shared by runs)"}}};
+
+const KeyTable kLimitsTable{"config.limits",
+                            "Limits on one cell.",
+                            {{"cell_seconds", number_type(0.1, 1e7), false, 1800,
+                              "a cell running longer is killed and recorded failed"}}};
+
+const KeyTable kTestingTable{
+    "config.testing",
+    "Testing hooks: never set in real benchmarks.",
+    {{"slow_pass", string_type(), false, "", "a pass made slower, to show a regression flagged"},
+     {"slow_factor", number_type(1, 100), false, 1.0, "how much slower slow_pass runs"}}};
+
+// The parameters of techniques: what the loaded plugins declare (run/plan.cpp checks them), so
+// `photonbench schema` replaces these two definitions with the plugins' parameter schemas.
+const KeyTable kSceneParamsTable{
+    "config.scene_params",
+    "parameters replacing (or sweeping) those of the same name of every technique of the config, "
+    "for this scene's cells",
+    {}};
+const KeyTable kTechniqueTable{
+    "config.technique",
+    "A technique plugin and its parameters; a list of values sweeps a parameter.",
+    {{"technique", string_type(), true, nullptr, "the plugin's name (photonbench list)"},
+     {"params", table_type(kSceneParamsTable), false, nullptr,
+      "parameter values, each one value or a list to sweep"}}};
+
+const KeyTable kSceneEntryTable{
+    "config.scene",
+    "A scene with parameters of its own.",
+    {{"scene", string_type(), true, nullptr, "a scene name (photonbench list) or a path"},
+     {"params", table_type(kSceneParamsTable), false, nullptr,
+      "technique parameters for this scene's cells (photon radii are in scene units)"}}};
+
+const KeyTable kConfigTable{
+    "config",
+    "A photonbench benchmark config: scenes x techniques x parameter sweeps.",
+    {{"name", string_type(kNamePattern), false, nullptr,
+      "names the run folder: letters, digits, '.', '_' and '-' (default: the file's name)"},
+     {"resolution", tuple_type({integer_type(16, 8192), integer_type(16, 8192)}), false,
+      json::array({640, 360}), "[width, height] in pixels"},
+     {"frames", table_type(kFramesTable), false, nullptr, ""},
+     {"seed", integer_type(0, int64_t(1) << 53), false, 1, "seeds every technique and reference"},
+     {"scenes", list_type(any_of_type({string_type(), table_type(kSceneEntryTable)}), 1, true),
+      true, nullptr, "scene names or paths, or {scene, params}"},
+     {"techniques", list_type(table_type(kTechniqueTable), 1, false), true, nullptr, ""},
+     {"metrics", list_type(choice_type({"flip", "ssim", "psnr", "rmse", "mae", "relmse"}), 0, true),
+      false, json::array({"flip", "ssim", "psnr"}), "the image metrics scored"},
+     {"reference", table_type(kReferenceTable), false, nullptr, ""},
+     {"limits", table_type(kLimitsTable), false, nullptr, ""},
+     {"plugin_dirs", list_type(string_type(), 0, true), false, nullptr,
+      "more folders to load technique plugins from (relative to the config's folder)"},
+     {"testing", table_type(kTestingTable), false, nullptr, ""}}};
+
+// The mapping at `key`, or an empty one when it is absent: its keys take the table's defaults
+// (and no error can arise in it, so it needs no position).
+YamlView section(const YamlView& root, std::string_view key) {
+  if (auto found = root.get(key)) return *found;
+  return YamlView::parse("", root.source());
+}
+
+}  // namespace
+
+const KeyTable& config_table() { return kConfigTable; }
+
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
   return parse_config(read_text_file(file, kMaxYamlBytes, "config file"), file, overrides);
 }
@@ -128,33 +230,31 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   if (!overrides.empty()) check_yaml_tree(tree, file.string() + " (after --set)");
   root = YamlView(tree, std::make_shared<const YamlSource>(std::move(source)), "");
 
-  root.allow_keys({"name", "resolution", "frames", "seed", "scenes", "techniques", "metrics",
-                   "reference", "limits", "plugin_dirs", "testing"});
+  kConfigTable.allow(root);
   config.name = folder_safe_name(file.stem().string());
   if (auto name = root.get("name")) {
     config.name = name->as_string();
-    if (config.name != folder_safe_name(config.name))
+    if (!std::regex_match(config.name, std::regex(kNamePattern)))
       name->fail(fmt::format(
           "'{}' is not a folder name: use at most {} letters, digits, '.', '_' and '-', starting "
           "with a letter or digit (it names the run folder)",
           quote(config.name), kMaxNameLength));
   }
+  const Key& resolution_key = kConfigTable.key("resolution");
+  config.width = resolution_key.default_value[0].get<uint32_t>();
+  config.height = resolution_key.default_value[1].get<uint32_t>();
   if (auto resolution = root.get("resolution")) {
     if (!resolution->is_sequence() || resolution->size() != 2)
       resolution->fail("expected [width, height]");
-    config.width = uint32_t((*resolution)[size_t(0)].as_int(16, 8192));
-    config.height = uint32_t((*resolution)[size_t(1)].as_int(16, 8192));
+    config.width = uint32_t(resolution_key.type.parts[0].integer((*resolution)[size_t(0)]));
+    config.height = uint32_t(resolution_key.type.parts[1].integer((*resolution)[size_t(1)]));
   }
-  if (auto frames = root.get("frames")) {
-    frames->allow_keys({"warmup", "count", "metrics_every"});
-    config.frames.warmup =
-        uint32_t(frames->int_or("warmup", config.frames.warmup, 0, kMaxWarmupFrames));
-    config.frames.count =
-        uint32_t(frames->int_or("count", config.frames.count, 1, kMaxMeasuredFrames));
-    config.frames.metrics_every = uint32_t(
-        frames->int_or("metrics_every", config.frames.metrics_every, 0, kMaxMeasuredFrames));
-  }
-  config.seed = uint64_t(root.int_or("seed", 1, 0, int64_t(1) << 53));
+  const YamlView frames = section(root, "frames");
+  kFramesTable.allow(frames);
+  config.frames.warmup = uint32_t(kFramesTable.integer(frames, "warmup"));
+  config.frames.count = uint32_t(kFramesTable.integer(frames, "count"));
+  config.frames.metrics_every = uint32_t(kFramesTable.integer(frames, "metrics_every"));
+  config.seed = uint64_t(kConfigTable.integer(root, "seed"));
 
   YamlView scenes = root["scenes"];
   if (scenes.elements().empty()) scenes.fail("at least one scene is needed");
@@ -163,7 +263,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
     // A scene is a name, or {scene: NAME, params: {...}} whose parameters replace the techniques'
     // own for this scene's cells (photon radii are in scene units: Paper I's Table 2 sets them per
     // scene).
-    if (scene.is_map()) scene.allow_keys({"scene", "params"});
+    if (scene.is_map()) kSceneEntryTable.allow(scene);
     // (Constructed, never assigned: assigning a YAML::Node rebinds the node inside the tree.)
     const YamlView name_node = scene.is_map() ? scene["scene"] : scene;
     config.scenes.push_back({name_node.as_string(), scene, name_node});
@@ -173,41 +273,44 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   if (!techniques.is_sequence() || techniques.size() == 0)
     techniques.fail("expected a list of {technique: NAME, params: {...}}");
   for (const YamlView& entry : techniques.elements()) {
-    entry.allow_keys({"technique", "params"});
+    kTechniqueTable.allow(entry);
     config.techniques.push_back({entry["technique"].as_string(), entry});
   }
 
-  config.metrics = {"flip", "ssim", "psnr"};
+  const Key& metrics_key = kConfigTable.key("metrics");
+  config.metrics = metrics_key.default_value.get<std::vector<std::string>>();
   if (auto metrics = root.get("metrics")) {
     config.metrics.clear();
     for (const YamlView& m : metrics->elements())
-      config.metrics.push_back(m.as_enum({"flip", "ssim", "psnr", "rmse", "mae", "relmse"}));
+      config.metrics.push_back(metrics_key.type.parts[0].choice(m));
   }
-  config.reference.cache_dir = "results/reference-cache";
-  if (auto reference = root.get("reference")) {
-    reference->allow_keys(
-        {"rel_error", "max_seconds", "samples", "max_bounces", "bounce_matched", "cache_dir"});
+  {
+    const YamlView reference = section(root, "reference");
+    kReferenceTable.allow(reference);
     ReferenceSettings& r = config.reference;
     // Naming any stop rule replaces the default rules: {samples: 1024} means exactly 1024.
-    if (reference->has("rel_error") || reference->has("max_seconds") || reference->has("samples"))
-      r.rel_error = 0, r.max_seconds = 0, r.samples = 0;
-    r.rel_error = reference->number_or("rel_error", r.rel_error, 0, 1);
-    r.max_seconds = reference->number_or("max_seconds", r.max_seconds, 0, 1e7);
-    r.samples = uint32_t(reference->int_or("samples", r.samples, 0, 1 << 24));
+    if (reference.has("rel_error") || reference.has("max_seconds") || reference.has("samples")) {
+      r.rel_error = kReferenceTable.number_or(reference, "rel_error", 0);
+      r.max_seconds = kReferenceTable.number_or(reference, "max_seconds", 0);
+      r.samples =
+          reference.has("samples") ? uint32_t(kReferenceTable.integer(reference, "samples")) : 0;
+    } else {
+      r.rel_error = kReferenceTable.number(reference, "rel_error");
+      r.max_seconds = kReferenceTable.number(reference, "max_seconds");
+      r.samples = uint32_t(kReferenceTable.integer(reference, "samples"));
+    }
     if (r.samples == 1)  // one iteration has no variance and an empty odd half
-      (*reference)["samples"].fail("0 (off) or at least 2 iterations");
-    r.max_bounces = uint32_t(reference->int_or("max_bounces", r.max_bounces, 0, 64));
+      reference["samples"].fail("0 (off) or at least 2 iterations");
+    r.max_bounces = uint32_t(kReferenceTable.integer(reference, "max_bounces"));
     if (!(r.rel_error > 0) && !(r.max_seconds > 0) && r.samples == 0)
-      reference->fail(
+      reference.fail(
           "rel_error, max_seconds and samples are all 0: no rule would stop a reference");
-    r.bounce_matched = reference->bool_or("bounce_matched", r.bounce_matched);
-    r.cache_dir = reference->string_or("cache_dir", r.cache_dir.string());
+    r.bounce_matched = kReferenceTable.boolean(reference, "bounce_matched");
+    r.cache_dir = kReferenceTable.string(reference, "cache_dir");
   }
-  if (auto limits = root.get("limits")) {
-    limits->allow_keys({"cell_seconds"});
-    config.limits.cell_seconds =
-        limits->number_or("cell_seconds", config.limits.cell_seconds, 0.1, 1e7);
-  }
+  const YamlView limits = section(root, "limits");
+  kLimitsTable.allow(limits);
+  config.limits.cell_seconds = kLimitsTable.number(limits, "cell_seconds");
   if (auto dirs = root.get("plugin_dirs")) {
     for (const YamlView& d : dirs->elements()) {
       std::filesystem::path dir = d.as_string();
@@ -217,11 +320,10 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
       config.plugin_dirs.push_back(dir);
     }
   }
-  if (auto testing = root.get("testing")) {
-    testing->allow_keys({"slow_pass", "slow_factor"});
-    config.testing.slow_pass = testing->string_or("slow_pass", "");
-    config.testing.slow_factor = testing->number_or("slow_factor", 1.0, 1.0, 100.0);
-  }
+  const YamlView testing = section(root, "testing");
+  kTestingTable.allow(testing);
+  config.testing.slow_pass = kTestingTable.string(testing, "slow_pass");
+  config.testing.slow_factor = kTestingTable.number(testing, "slow_factor");
 
   config.resolved = tree;
   YAML::Emitter emitter;

@@ -11,6 +11,7 @@
 #include <set>
 
 #include "config/config.h"
+#include "config/key_table.h"
 #include "config/yaml_view.h"
 #include "photonbench/error.h"
 #include "scene/obj_import.h"
@@ -20,7 +21,11 @@
 namespace pb::scene {
 
 namespace fs = std::filesystem;
+using config::Key;
+using config::KeyTable;
+using config::ValueType;
 using config::YamlView;
+using nlohmann::json;
 
 namespace {
 
@@ -29,14 +34,203 @@ constexpr double kHuge = kMaxMagnitude;
 // coordinates a scene uses, so no shape collapses to zero-area triangles.
 constexpr double kTiny = 1e-6;
 
-float number(const YamlView& v, double lo, double hi) { return float(v.as_number(lo, hi)); }
+// The scene format, one table per mapping (config/key_table.h): the readers below take every key
+// name, range and default from these rows, and `photonbench schema scene` prints them. Lights,
+// materials and shapes are tagged by `type`, one table per variant.
+const ValueType kAnyNumber = config::number_type(-kHuge, kHuge);
+const ValueType kCoordinates = config::vec3_type(-kHuge, kHuge);  // a point, offset or direction
+const ValueType kPositiveVec2 = config::vec2_type(kTiny, kHuge);
+const ValueType kPositiveVec3 = config::vec3_type(kTiny, kHuge);
+const ValueType kFov = config::number_type(1, 179);
+const ValueType kInterpolation = config::choice_type({"step", "linear", "catmull-rom"});
 
-// A coordinate or offset: [x, y, z] within kMaxMagnitude.
-glm::vec3 coordinates(const YamlView& v) { return v.as_vec3(-kHuge, kHuge); }
+// {keys: [[t, value], ...], interpolation, loop}: a value animated by keyframes.
+KeyTable keyframes_table(std::string name, const ValueType& value) {
+  return {std::move(name),
+          "A value keyframed over time.",
+          {{"keys", config::list_type(config::tuple_type({kAnyNumber, value}), 1, false), true,
+            nullptr, "[time_s, value] pairs, times strictly increasing"},
+           {"interpolation", kInterpolation, false, "linear", "between keys"},
+           {"loop", config::boolean_type(), false, false, "repeat the keys (needs two or more)"}}};
+}
 
-glm::vec2 positive_vec2(const YamlView& v) { return v.as_vec2(kTiny, kHuge); }
+const KeyTable kPositionKeys = keyframes_table("scene.position_keys", kCoordinates);
+const KeyTable kRotationKeys = keyframes_table("scene.rotation_keys", kCoordinates);
+const KeyTable kScaleKeys = keyframes_table("scene.scale_keys", kPositiveVec3);
+const KeyTable kFovKeys = keyframes_table("scene.fov_keys", kFov);
 
-glm::vec3 positive_vec3(const YamlView& v) { return v.as_vec3(kTiny, kHuge); }
+const KeyTable kOrbitTable{
+    "scene.orbit",
+    "A circle in the plane at center.y + height, counter-clockwise seen from above.",
+    {{"center", kCoordinates, false, 0, ""},
+     {"radius", config::number_type(0, kHuge), false, 1, ""},
+     {"height", kAnyNumber, false, 0, "above the center"},
+     {"period", kAnyNumber, true, nullptr,
+      "seconds per turn, not zero (a negative one turns clockwise)"},
+     {"phase_deg", kAnyNumber, false, 0, "where it starts (0: the +x axis)"}}};
+const KeyTable kOrbitingTable{"scene.orbiting",
+                              "A position on an orbit.",
+                              {{"orbit", config::table_type(kOrbitTable), true}}};
+
+// [x, y, z], or keyframes, or an orbit.
+const ValueType kPosition = config::any_of_type(
+    {kCoordinates, config::table_type(kPositionKeys), config::table_type(kOrbitingTable)});
+
+const KeyTable kCameraTable{
+    "scene.camera",
+    "The camera, looking from position at target.",
+    {{"position", kPosition, true},
+     {"target", kPosition, true},
+     {"up", kCoordinates, false, json::array({0, 1, 0}), "not the zero vector"},
+     {"fov_deg", config::any_of_type({kFov, config::table_type(kFovKeys)}), true, nullptr,
+      "vertical field of view"},
+     {"near", config::number_type(1e-6, kHuge), false, 0.01, ""},
+     {"far", config::number_type(1e-6, kHuge), false, 100, "beyond near"}}};
+
+// One variant of a tagged mapping ("scene.light.spot"): its `type` tag, then its own keys.
+KeyTable variant_table(const std::string& family, const std::string& type, std::string doc,
+                       std::vector<Key> own) {
+  own.insert(own.begin(), Key{"type", config::choice_type({type}), true});
+  return {fmt::format("scene.{}.{}", family, type), std::move(doc), std::move(own)};
+}
+
+// The keys every light has, then its own.
+KeyTable light_table(const std::string& type, std::string doc, std::vector<Key> own) {
+  std::vector<Key> keys = {
+      {"name", config::string_type(), false, nullptr, "unique (default: light<index>)"},
+      {"color", config::vec3_type(0, 1e3), false, 1, "multiplies the light's quantity"}};
+  keys.insert(keys.end(), own.begin(), own.end());
+  return variant_table("light", type, std::move(doc), std::move(keys));
+}
+
+const ValueType kRadiant = config::number_type(0, kHuge);
+const std::vector<KeyTable> kLightTables = {
+    light_table("point", "A point light.",
+                {{"position", kPosition, true},
+                 {"intensity", kRadiant, false, nullptr, "W/sr, or power"},
+                 {"power", kRadiant, false, nullptr, "W (4 pi intensity), or intensity"}}),
+    light_table("spot", "A spot light, aimed at target or along direction.",
+                {{"position", kPosition, true},
+                 {"target", kPosition, false, nullptr, "or direction"},
+                 {"direction", kCoordinates, false, nullptr, "or target"},
+                 {"intensity", kRadiant, true, nullptr, "W/sr"},
+                 {"inner_deg", config::number_type(0, 89), false, 30,
+                  "full intensity inside this half-angle"},
+                 {"outer_deg", config::number_type(0.1, 89.9), false, nullptr,
+                  "zero outside this half-angle (default: max(40, inner_deg))"}}),
+    light_table("directional", "A directional light: direction, or position and target.",
+                {{"direction", kCoordinates, false, nullptr, "or position and target"},
+                 {"position", kPosition, false, nullptr, ""},
+                 {"target", kPosition, false, nullptr, ""},
+                 {"irradiance", kRadiant, true, nullptr, "W/m^2"}}),
+    light_table("quad", "A one-sided parallelogram emitter at position spanned by edge_u, edge_v.",
+                {{"position", kPosition, true},
+                 {"edge_u", kCoordinates, true},
+                 {"edge_v", kCoordinates, true},
+                 {"radiance", kRadiant, false, nullptr, "W/(m^2 sr), or power"},
+                 {"power", kRadiant, false, nullptr, "W (pi radiance area), or radiance"}})};
+
+const ValueType kAlbedo = config::vec3_type(0, 1);
+const ValueType kIor = config::number_type(1, 4);
+const ValueType kRoughness = config::number_type(1e-3, 1);
+const std::vector<KeyTable> kMaterialTables = {
+    variant_table("material", "diffuse", "Lambertian.", {{"albedo", kAlbedo, false, 0.8, ""}}),
+    variant_table("material", "mirror", "A perfect mirror.",
+                  {{"specular", kAlbedo, false, 1, "tint"}}),
+    variant_table("material", "dielectric", "Smooth glass.",
+                  {{"ior", kIor, false, 1.5, "inside / outside"}}),
+    variant_table("material", "rough_conductor", "GGX microfacet metal.",
+                  {{"specular", kAlbedo, false, 1, "F0"},
+                   {"roughness", kRoughness, false, 0.1, "GGX alpha"}}),
+    variant_table("material", "rough_dielectric", "GGX microfacet glass.",
+                  {{"ior", kIor, false, 1.5, "inside / outside"},
+                   {"roughness", kRoughness, false, 0.1, "GGX alpha"}}),
+    variant_table("material", "emissive", "A diffuse emitter with a Lambertian albedo.",
+                  {{"emission", config::vec3_type(0, kHuge), true, nullptr, "W/(m^2 sr)"},
+                   {"albedo", kAlbedo, false, 0.8, ""}})};
+
+const KeyTable kWaveTable{"scene.wave",
+                          "One travelling sine wave of a height field.",
+                          {{"amplitude", config::number_type(0, kHuge), true},
+                           {"wavelength", config::number_type(1e-4, kHuge), true},
+                           {"speed", kAnyNumber, false, 0, "units per second"},
+                           {"direction", config::vec2_type(-kHuge, kHuge), false,
+                            json::array({1, 0}), "[x, z], not the zero vector"},
+                           {"phase_deg", kAnyNumber, false, 0, ""}}};
+
+const ValueType kRadius = config::number_type(kTiny, kHuge);
+const std::vector<KeyTable> kShapeTables = {
+    variant_table("shape", "quad", "A unit quad in the xz plane, facing +y.",
+                  {{"size", kPositiveVec2, false, 1, ""}}),
+    variant_table("shape", "box", "A box centred on the origin.",
+                  {{"size", kPositiveVec3, false, 1, ""}}),
+    variant_table("shape", "sphere", "A UV sphere.",
+                  {{"radius", kRadius, false, 0.5, ""},
+                   {"segments", config::integer_type(3, 1024), false, 32, ""}}),
+    variant_table("shape", "cylinder", "A cylinder along y, optionally a tube.",
+                  {{"radius", kRadius, false, 0.5, ""},
+                   {"height", kRadius, false, 1, ""},
+                   {"segments", config::integer_type(3, 4096), false, 32, ""},
+                   {"caps", config::boolean_type(), false, true, ""},
+                   {"inner_radius", config::number_type(0, kHuge), false, 0,
+                    "below radius; above 0 makes a tube"}}),
+    variant_table("shape", "torus", "A torus around y.",
+                  {{"major_radius", kRadius, false, 0.5, ""},
+                   {"minor_radius", kRadius, false, 0.1, "below major_radius"},
+                   {"segments", config::counts2_type(3, 1024), false, json::array({48, 24}),
+                    "[around, across], or one n for [n, n/2]"}}),
+    variant_table("shape", "height_field", "A grid over the xz rectangle displaced by waves.",
+                  {{"size", kPositiveVec2, false, 1, ""},
+                   {"resolution", config::counts2_type(1, 2048), false, 64, "cells"},
+                   {"waves", config::list_type(config::table_type(kWaveTable), 0, false), false,
+                    nullptr, ""}}),
+    variant_table("shape", "obj", "A Wavefront OBJ file (its MTL materials come with it).",
+                  {{"file", config::string_type(), true, nullptr, "relative to the scene"}})};
+
+std::vector<const KeyTable*> pointers(const std::vector<KeyTable>& tables) {
+  std::vector<const KeyTable*> out;
+  for (const auto& t : tables) out.push_back(&t);
+  return out;
+}
+const std::vector<const KeyTable*> kLights = pointers(kLightTables);
+const std::vector<const KeyTable*> kMaterials = pointers(kMaterialTables);
+const std::vector<const KeyTable*> kShapes = pointers(kShapeTables);
+
+const KeyTable kTransformTable{
+    "scene.transform",
+    "Scale, then rotate (XYZ Euler), then translate.",
+    {{"translate", kPosition, false, nullptr, ""},
+     {"rotate_deg", config::any_of_type({kCoordinates, config::table_type(kRotationKeys)}), false,
+      0, "XYZ Euler degrees"},
+     {"spin_deg_per_s", kCoordinates, false, 0, "added to the rotation"},
+     {"scale", config::any_of_type({kPositiveVec3, config::table_type(kScaleKeys)}), false, 1,
+      ""}}};
+
+const KeyTable kObjectTable{
+    "scene.object",
+    "A shape with a material and a transform.",
+    {{"name", config::string_type(), false, nullptr, "unique (default: <shape type><index>)"},
+     {"shape", config::variants_type(kShapes), true},
+     {"material", config::string_type(), false, nullptr,
+      "a name under materials; required unless the shape is an obj with its own"},
+     {"transform", config::table_type(kTransformTable), false}}};
+
+const KeyTable kSceneTable{
+    "scene",
+    "A photonbench scene file (scenes/README.md).",
+    {{"purpose", config::string_type(), true, nullptr, "what the scene tests"},
+     {"fps", config::number_type(1e-3, 1e4), false, 30, "time = frame / fps"},
+     {"frames", config::integer_type(1, config::kMaxMeasuredFrames), false, 32,
+      "the length of its default animation"},
+     {"camera", config::table_type(kCameraTable), true},
+     {"lights", config::list_type(config::variants_type(kLights), 0, false), false},
+     {"materials", config::map_of_type(config::variants_type(kMaterials)), false, nullptr,
+      "by name"},
+     {"objects", config::list_type(config::table_type(kObjectTable), 1, false), true}}};
+
+float number(const YamlView& v, const ValueType& type) { return float(type.number(v)); }
+
+glm::vec3 coordinates(const YamlView& v) { return kCoordinates.vec3(v); }
 
 glm::vec3 unit_direction(const YamlView& v) {
   glm::vec3 d = coordinates(v);
@@ -44,19 +238,9 @@ glm::vec3 unit_direction(const YamlView& v) {
   return glm::normalize(d);
 }
 
-// `n` or `[a, b]` as two integer counts.
-glm::uvec2 counts2(const YamlView& v, int64_t lo, int64_t hi, bool second_half) {
-  if (v.is_sequence()) {
-    if (v.size() != 2) v.fail("expected [a, b] or one integer");
-    return {uint32_t(v[size_t(0)].as_int(lo, hi)), uint32_t(v[size_t(1)].as_int(lo, hi))};
-  }
-  auto n = uint32_t(v.as_int(lo, hi));
-  return {n, second_half ? std::max<uint32_t>(uint32_t(lo), n / 2) : n};
-}
-
 // {keys: [[t, value], ...], interpolation: step|linear|catmull-rom, loop: bool}
 template <class T, class ReadValue>
-Keyframes<T> read_keys(const YamlView& track, ReadValue read_value) {
+Keyframes<T> read_keys(const KeyTable& table, const YamlView& track, ReadValue read_value) {
   Keyframes<T> out;
   YamlView keys = track["keys"];
   if (!keys.is_sequence() || keys.size() == 0)
@@ -64,20 +248,18 @@ Keyframes<T> read_keys(const YamlView& track, ReadValue read_value) {
   for (const auto& key : keys.elements()) {
     if (!key.is_sequence() || key.size() != 2) key.fail("expected a key [time_s, value]");
     YamlView time = key[size_t(0)];
-    float t = number(time, -kHuge, kHuge);
+    float t = number(time, kAnyNumber);
     if (!out.times.empty() && !(t > out.times.back()))
       time.fail(fmt::format("key times must be strictly increasing (previous key at {} s)",
                             out.times.back()));
     out.times.push_back(t);
     out.values.push_back(read_value(key[size_t(1)]));
   }
-  if (auto interpolation = track.get("interpolation")) {
-    std::string name = interpolation->as_enum({"step", "linear", "catmull-rom"});
-    out.interpolation = name == "step"     ? Interpolation::step
-                        : name == "linear" ? Interpolation::linear
-                                           : Interpolation::catmull_rom;
-  }
-  out.loop = track.bool_or("loop", false);
+  std::string name = table.string(track, "interpolation");
+  out.interpolation = name == "step"     ? Interpolation::step
+                      : name == "linear" ? Interpolation::linear
+                                         : Interpolation::catmull_rom;
+  out.loop = table.boolean(track, "loop");
   if (out.loop && out.times.size() < 2) track["loop"].fail("a loop needs at least two keys");
   return out;
 }
@@ -85,16 +267,16 @@ Keyframes<T> read_keys(const YamlView& track, ReadValue read_value) {
 bool is_track(const YamlView& v) { return v.is_map(); }
 
 Orbit read_orbit(const YamlView& v) {
-  v.allow_keys({"center", "radius", "height", "period", "phase_deg"});
+  const KeyTable& table = kOrbitTable;
+  table.allow(v);
   Orbit o;
-  if (auto c = v.get("center")) o.center = coordinates(*c);
-  o.radius = float(v.number_or("radius", 1.0, 0.0, kHuge));
-  o.height = float(v.number_or("height", 0.0, -kHuge, kHuge));
-  YamlView period = v["period"];
-  o.period = number(period, -kHuge, kHuge);
+  o.center = table.vec3(v, "center");
+  o.radius = float(table.number(v, "radius"));
+  o.height = float(table.number(v, "height"));
+  o.period = float(table.number(v, "period"));
   if (std::abs(o.period) < 1e-6f)
-    period.fail("the period must not be zero (a negative one turns clockwise)");
-  o.phase = glm::radians(float(v.number_or("phase_deg", 0.0, -kHuge, kHuge)));
+    v["period"].fail("the period must not be zero (a negative one turns clockwise)");
+  o.phase = glm::radians(float(table.number(v, "phase_deg")));
   return o;
 }
 
@@ -105,34 +287,38 @@ PositionTrack read_position(const YamlView& v) {
     p.constant = coordinates(v);
     return p;
   }
-  v.allow_keys({"keys", "interpolation", "loop", "orbit"});
+  // One mapping of either table's keys, so a misspelt key suggests from both.
+  std::vector<std::string> keys = kPositionKeys.names();
+  keys.push_back("orbit");
+  v.allow_keys(keys);
   if (auto orbit = v.get("orbit")) {
     for (auto other : {"keys", "interpolation", "loop"})
       if (v.has(other)) v[other].fail("an orbit takes no keyframe settings");
     p.orbit = read_orbit(*orbit);
     return p;
   }
-  p.keys = read_keys<glm::vec3>(v, coordinates);
+  p.keys = read_keys<glm::vec3>(kPositionKeys, v, coordinates);
   return p;
 }
 
 CameraTrack read_camera(const YamlView& v) {
-  v.allow_keys({"position", "target", "up", "fov_deg", "near", "far"});
+  const KeyTable& table = kCameraTable;
+  table.allow(v);
   CameraTrack c;
   c.where = fmt::format("{}: {}", v.location(), v.key_path());
   c.position = read_position(v["position"]);
   c.target = read_position(v["target"]);
-  if (auto up = v.get("up")) c.up = unit_direction(*up);
+  c.up = v.has("up") ? unit_direction(v["up"]) : table.vec3(v, "up");
   YamlView fov = v["fov_deg"];
   if (is_track(fov)) {
-    fov.allow_keys({"keys", "interpolation", "loop"});
-    c.fov_keys = read_keys<float>(fov, [](const YamlView& x) { return number(x, 1, 179); });
+    kFovKeys.allow(fov);
+    c.fov_keys = read_keys<float>(kFovKeys, fov, [](const YamlView& x) { return number(x, kFov); });
     c.fov_y_deg = c.fov_keys.values.front();
   } else {
-    c.fov_y_deg = number(fov, 1, 179);
+    c.fov_y_deg = number(fov, kFov);
   }
-  c.near_plane = float(v.number_or("near", 0.01, 1e-6, kHuge));
-  c.far_plane = float(v.number_or("far", 100.0, 1e-6, kHuge));
+  c.near_plane = float(table.number(v, "near"));
+  c.far_plane = float(table.number(v, "far"));
   if (!(c.far_plane > c.near_plane))
     (v.has("far") ? v["far"] : v)
         .fail(fmt::format("far ({}) must exceed near ({})", c.far_plane, c.near_plane));
@@ -144,9 +330,10 @@ LightTrack read_light(const YamlView& v, size_t index) {
   LightTrack track;
   track.where = fmt::format("{}: {}", v.location(), v.key_path());
   Light& light = track.light;
-  std::string type = v["type"].as_enum({"point", "spot", "directional", "quad"});
-  light.name = v.string_or("name", fmt::format("light{}", index));
-  glm::vec3 color = v.has("color") ? v["color"].as_vec3(0, 1e3) : glm::vec3(1.0f);
+  const KeyTable& table = config::select_variant(v, kLights);
+  const std::string type = table.tag();
+  light.name = v.has("name") ? table.string(v, "name") : fmt::format("light{}", index);
+  glm::vec3 color = table.vec3(v, "color");
   // Exactly one of the quantities named in `choices` must be given.
   auto quantity = [&](std::initializer_list<const char*> choices) -> std::pair<std::string, float> {
     std::vector<const char*> given;
@@ -155,18 +342,15 @@ LightTrack read_light(const YamlView& v, size_t index) {
     std::string names;
     for (auto c : choices) names += (names.empty() ? "'" : " or '") + std::string(c) + "'";
     if (given.size() != 1) v.fail(fmt::format("a {} light needs exactly one of {}", type, names));
-    return {given[0], number(v[given[0]], 0, kHuge)};
+    return {given[0], number(v[given[0]], table.key(given[0]).type)};
   };
   if (type == "point") {
-    v.allow_keys({"name", "type", "color", "position", "intensity", "power"});
     light.type = LightType::point;
     track.position = read_position(v["position"]);
     auto [key, value] = quantity({"intensity", "power"});
     // A point light's power is 4 pi I (it radiates I W/sr into every direction).
     light.radiant = color * (key == "power" ? value / (4 * glm::pi<float>()) : value);
   } else if (type == "spot") {
-    v.allow_keys({"name", "type", "color", "position", "target", "direction", "intensity",
-                  "inner_deg", "outer_deg"});
     light.type = LightType::spot;
     track.position = read_position(v["position"]);
     if (v.has("target") && v.has("direction"))
@@ -174,14 +358,13 @@ LightTrack read_light(const YamlView& v, size_t index) {
     if (auto target = v.get("target")) track.target = read_position(*target);
     if (auto direction = v.get("direction")) light.direction = unit_direction(*direction);
     light.radiant = color * quantity({"intensity"}).second;
-    float inner = float(v.number_or("inner_deg", 30.0, 0.0, 89.0));
-    float outer = float(v.number_or("outer_deg", std::max(40.0f, inner), 0.1, 89.9));
+    float inner = float(table.number(v, "inner_deg"));
+    float outer = float(table.number_or(v, "outer_deg", std::max(40.0f, inner)));
     if (inner > outer)
       v["inner_deg"].fail(fmt::format("inner_deg ({}) exceeds outer_deg ({})", inner, outer));
     light.spot_inner = glm::radians(inner);
     light.spot_outer = glm::radians(outer);
   } else if (type == "directional") {
-    v.allow_keys({"name", "type", "color", "direction", "position", "target", "irradiance"});
     light.type = LightType::directional;
     if (v.has("direction") == v.has("target"))
       v.fail("a directional light needs either 'direction' or 'position' and 'target'");
@@ -195,11 +378,10 @@ LightTrack read_light(const YamlView& v, size_t index) {
     }
     light.radiant = color * quantity({"irradiance"}).second;
   } else {  // quad
-    v.allow_keys({"name", "type", "color", "position", "edge_u", "edge_v", "radiance", "power"});
     light.type = LightType::quad;
     track.position = read_position(v["position"]);
-    light.edge_u = coordinates(v["edge_u"]);
-    light.edge_v = coordinates(v["edge_v"]);
+    light.edge_u = table.vec3(v, "edge_u");
+    light.edge_v = table.vec3(v, "edge_v");
     if (!(light.area() > 1e-10f)) v["edge_v"].fail("edge_u and edge_v must span a non-zero area");
     auto [key, value] = quantity({"radiance", "power"});
     // A one-sided Lambertian emitter of radiance L and area A emits pi L A watts.
@@ -214,106 +396,83 @@ Material read_material(const std::string& name, const YamlView& v) {
   if (!v.is_map()) v.fail("expected a material mapping with a 'type'");
   Material m;
   m.name = name;
-  std::string type = v["type"].as_enum(
-      {"diffuse", "mirror", "dielectric", "rough_conductor", "rough_dielectric", "emissive"});
-  auto albedo = [&] {
-    if (auto a = v.get("albedo")) m.albedo = a->as_vec3(0, 1);
+  const KeyTable& table = config::select_variant(v, kMaterials);
+  const std::string type = table.tag();
+  // The variant's own keys, with the table's defaults; one it lacks keeps Material's value.
+  const std::vector<std::string> keys = table.names();
+  auto has = [&](const char* key) {
+    return std::find(keys.begin(), keys.end(), key) != keys.end();
   };
-  auto specular = [&] {
-    if (auto s = v.get("specular")) m.specular = s->as_vec3(0, 1);
-  };
-  auto ior = [&] { m.ior = float(v.number_or("ior", 1.5, 1.0, 4.0)); };
-  auto roughness = [&] { m.roughness = float(v.number_or("roughness", 0.1, 1e-3, 1.0)); };
-  if (type == "diffuse") {
-    v.allow_keys({"type", "albedo"});
-    m.type = MaterialType::diffuse;
-    albedo();
-  } else if (type == "mirror") {
-    v.allow_keys({"type", "specular"});
-    m.type = MaterialType::mirror;
-    specular();
-  } else if (type == "dielectric") {
-    v.allow_keys({"type", "ior"});
-    m.type = MaterialType::dielectric;
-    ior();
-  } else if (type == "rough_conductor") {
-    v.allow_keys({"type", "specular", "roughness"});
-    m.type = MaterialType::rough_conductor;
-    specular();
-    roughness();
-  } else if (type == "rough_dielectric") {
-    v.allow_keys({"type", "ior", "roughness"});
-    m.type = MaterialType::rough_dielectric;
-    ior();
-    roughness();
-  } else {
-    v.allow_keys({"type", "emission", "albedo"});
-    m.type = MaterialType::emissive;
-    m.emission = v["emission"].as_vec3(0, kHuge);
-    albedo();
-  }
+  if (has("albedo")) m.albedo = table.vec3(v, "albedo");
+  if (has("specular")) m.specular = table.vec3(v, "specular");
+  if (has("emission")) m.emission = table.vec3(v, "emission");
+  if (has("ior")) m.ior = float(table.number(v, "ior"));
+  if (has("roughness")) m.roughness = float(table.number(v, "roughness"));
+  m.type = type == "diffuse"            ? MaterialType::diffuse
+           : type == "mirror"           ? MaterialType::mirror
+           : type == "dielectric"       ? MaterialType::dielectric
+           : type == "rough_conductor"  ? MaterialType::rough_conductor
+           : type == "rough_dielectric" ? MaterialType::rough_dielectric
+                                        : MaterialType::emissive;
   return m;
 }
 
 std::shared_ptr<const Shape> read_shape(const YamlView& v) {
   if (!v.is_map()) v.fail("expected a shape mapping with a 'type'");
-  std::string type =
-      v["type"].as_enum({"quad", "box", "sphere", "cylinder", "torus", "height_field", "obj"});
-  if (type == "quad") {
-    v.allow_keys({"type", "size"});
-    return std::make_shared<QuadShape>(v.has("size") ? positive_vec2(v["size"]) : glm::vec2(1.0f));
-  }
-  if (type == "box") {
-    v.allow_keys({"type", "size"});
-    return std::make_shared<BoxShape>(v.has("size") ? positive_vec3(v["size"]) : glm::vec3(1.0f));
-  }
-  if (type == "sphere") {
-    v.allow_keys({"type", "radius", "segments"});
-    return std::make_shared<SphereShape>(float(v.number_or("radius", 0.5, kTiny, kHuge)),
-                                         uint32_t(v.int_or("segments", 32, 3, 1024)));
-  }
+  const KeyTable& table = config::select_variant(v, kShapes);
+  const std::string type = table.tag();
+  if (type == "quad") return std::make_shared<QuadShape>(table.vec2(v, "size"));
+  if (type == "box") return std::make_shared<BoxShape>(table.vec3(v, "size"));
+  if (type == "sphere")
+    return std::make_shared<SphereShape>(float(table.number(v, "radius")),
+                                         uint32_t(table.integer(v, "segments")));
   if (type == "cylinder") {
-    v.allow_keys({"type", "radius", "height", "segments", "caps", "inner_radius"});
-    float radius = float(v.number_or("radius", 0.5, kTiny, kHuge));
-    float inner = float(v.number_or("inner_radius", 0.0, 0.0, kHuge));
+    float radius = float(table.number(v, "radius"));
+    float inner = float(table.number(v, "inner_radius"));
     if (inner >= radius)
       v["inner_radius"].fail(
           fmt::format("inner_radius ({}) must be below radius ({})", inner, radius));
-    return std::make_shared<CylinderShape>(radius, float(v.number_or("height", 1.0, kTiny, kHuge)),
-                                           uint32_t(v.int_or("segments", 32, 3, 4096)),
-                                           v.bool_or("caps", true), inner);
+    return std::make_shared<CylinderShape>(radius, float(table.number(v, "height")),
+                                           uint32_t(table.integer(v, "segments")),
+                                           table.boolean(v, "caps"), inner);
   }
   if (type == "torus") {
-    v.allow_keys({"type", "major_radius", "minor_radius", "segments"});
-    float major = float(v.number_or("major_radius", 0.5, kTiny, kHuge));
-    float minor = float(v.number_or("minor_radius", 0.1, kTiny, kHuge));
+    float major = float(table.number(v, "major_radius"));
+    float minor = float(table.number(v, "minor_radius"));
     if (minor >= major)
       v["minor_radius"].fail(
           fmt::format("minor_radius ({}) must be below major_radius ({})", minor, major));
-    glm::uvec2 segments =
-        v.has("segments") ? counts2(v["segments"], 3, 1024, true) : glm::uvec2(48, 24);
+    const Key& segments_key = table.key("segments");
+    glm::uvec2 segments = glm::uvec2(segments_key.default_value[0].get<uint32_t>(),
+                                     segments_key.default_value[1].get<uint32_t>());
+    if (auto given = v.get("segments")) {
+      segments = segments_key.type.counts2(*given);
+      // One count n means n around and n / 2 across (a torus is twice as long around).
+      if (!given->is_sequence())
+        segments.y = std::max(uint32_t(segments_key.type.min), segments.x / 2);
+    }
     return std::make_shared<TorusShape>(major, minor, segments.x, segments.y);
   }
   if (type == "height_field") {
-    v.allow_keys({"type", "size", "resolution", "waves"});
-    glm::vec2 size = v.has("size") ? positive_vec2(v["size"]) : glm::vec2(1.0f);
-    glm::uvec2 resolution =
-        v.has("resolution") ? counts2(v["resolution"], 1, 2048, false) : glm::uvec2(64);
+    glm::vec2 size = table.vec2(v, "size");
+    const Key& resolution_key = table.key("resolution");
+    glm::uvec2 resolution = glm::uvec2(resolution_key.default_value.get<uint32_t>());
+    if (auto given = v.get("resolution")) resolution = resolution_key.type.counts2(*given);
     std::vector<Wave> waves;
     if (auto list = v.get("waves")) {
       if (!list->is_sequence()) list->fail("expected a list of waves");
       for (const auto& w : list->elements()) {
-        w.allow_keys({"amplitude", "wavelength", "speed", "direction", "phase_deg"});
+        const KeyTable& wave_table = kWaveTable;
+        wave_table.allow(w);
         Wave wave;
-        wave.amplitude = number(w["amplitude"], 0, kHuge);
-        wave.wavelength = number(w["wavelength"], 1e-4, kHuge);
-        wave.speed = float(w.number_or("speed", 0.0, -kHuge, kHuge));
-        if (auto d = w.get("direction")) {
-          glm::vec2 dir = d->as_vec2(-kHuge, kHuge);
-          if (!(glm::length(dir) > 1e-8f)) d->fail("a direction must not be the zero vector");
-          wave.direction = glm::normalize(dir);
-        }
-        wave.phase = glm::radians(float(w.number_or("phase_deg", 0.0, -kHuge, kHuge)));
+        wave.amplitude = float(wave_table.number(w, "amplitude"));
+        wave.wavelength = float(wave_table.number(w, "wavelength"));
+        wave.speed = float(wave_table.number(w, "speed"));
+        glm::vec2 dir = wave_table.vec2(w, "direction");
+        if (!(glm::length(dir) > 1e-8f))
+          w["direction"].fail("a direction must not be the zero vector");
+        wave.direction = glm::normalize(dir);
+        wave.phase = glm::radians(float(wave_table.number(w, "phase_deg")));
         waves.push_back(wave);
       }
     }
@@ -323,26 +482,26 @@ std::shared_ptr<const Shape> read_shape(const YamlView& v) {
 }
 
 TransformTrack read_transform(const YamlView& v) {
-  v.allow_keys({"translate", "rotate_deg", "spin_deg_per_s", "scale"});
+  const KeyTable& table = kTransformTable;
+  table.allow(v);
   TransformTrack t;
   if (auto translate = v.get("translate")) t.translation = read_position(*translate);
-  if (auto rotate = v.get("rotate_deg")) {
-    if (is_track(*rotate)) {
-      rotate->allow_keys({"keys", "interpolation", "loop"});
-      t.rotation_keys = read_keys<glm::vec3>(*rotate, coordinates);
+  // A constant or keyframes: the table row's alternatives, in that order.
+  auto constant_or_keys = [&](const char* key, glm::vec3& constant, Keyframes<glm::vec3>& keys) {
+    const ValueType& type = table.key(key).type;
+    const YamlView value = v[key];
+    if (is_track(value)) {
+      const KeyTable& keys_table = *type.parts[1].table;
+      keys_table.allow(value);
+      keys = read_keys<glm::vec3>(keys_table, value,
+                                  [&](const YamlView& x) { return type.parts[0].vec3(x); });
     } else {
-      t.rotation_deg = coordinates(*rotate);
+      constant = type.parts[0].vec3(value);
     }
-  }
-  if (auto spin = v.get("spin_deg_per_s")) t.spin_deg_per_s = coordinates(*spin);
-  if (auto scale = v.get("scale")) {
-    if (is_track(*scale)) {
-      scale->allow_keys({"keys", "interpolation", "loop"});
-      t.scale_keys = read_keys<glm::vec3>(*scale, positive_vec3);
-    } else {
-      t.scale = positive_vec3(*scale);
-    }
-  }
+  };
+  if (v.has("rotate_deg")) constant_or_keys("rotate_deg", t.rotation_deg, t.rotation_keys);
+  t.spin_deg_per_s = table.vec3(v, "spin_deg_per_s");
+  if (v.has("scale")) constant_or_keys("scale", t.scale, t.scale_keys);
   return t;
 }
 
@@ -373,6 +532,8 @@ std::vector<fs::path> scene_dirs(const std::vector<fs::path>& search_dirs) {
 
 }  // namespace
 
+const KeyTable& scene_table() { return kSceneTable; }
+
 Scene load_scene(const fs::path& file) {
   return parse_scene(config::read_text_file(file, config::kMaxYamlBytes, "scene file"), file);
 }
@@ -384,13 +545,13 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
     root.fail(fmt::format("the file is empty; a scene is a mapping of keys ({})", keys));
   if (!root.is_map())
     root.fail(fmt::format("not a scene file: a scene is a mapping of keys ({})", keys));
-  root.allow_keys({"purpose", "fps", "frames", "camera", "lights", "materials", "objects"});
+  kSceneTable.allow(root);
   Scene scene;
   scene.name = file.stem().string();
   scene.file = file;
-  scene.purpose = root["purpose"].as_string();
-  scene.fps = float(root.number_or("fps", 30.0, 1e-3, 1e4));
-  scene.default_frames = uint32_t(root.int_or("frames", 32, 1, config::kMaxMeasuredFrames));
+  scene.purpose = kSceneTable.string(root, "purpose");
+  scene.fps = float(kSceneTable.number(root, "fps"));
+  scene.default_frames = uint32_t(kSceneTable.integer(root, "frames"));
   scene.camera = read_camera(root["camera"]);
 
   std::map<std::string, uint32_t> material_index;
@@ -422,7 +583,7 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
   size_t triangles = 0;
   for (const auto& spec : objects.elements()) {
     if (!spec.is_map()) spec.fail("expected an object mapping with a 'shape'");
-    spec.allow_keys({"name", "shape", "material", "transform"});
+    kObjectTable.allow(spec);
     YamlView shape_spec = spec["shape"];
     std::string default_name =
         (shape_spec.is_map() && shape_spec.has("type") ? shape_spec["type"].as_string()
@@ -454,7 +615,7 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
     };
 
     if (shape_spec.is_map() && shape_spec.has("type") && shape_spec["type"].as_string() == "obj") {
-      shape_spec.allow_keys({"type", "file"});
+      kShapes.back()->allow(shape_spec);  // the obj variant
       YamlView file_key = shape_spec["file"];
       fs::path obj_path = directory / file_key.as_string();
       ObjModel model;
