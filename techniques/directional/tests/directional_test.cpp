@@ -156,6 +156,29 @@ TEST(Directional, TraversalsAreTruncatedExactlyPastTheBudget) {
   fs::remove_all(dir);
 }
 
+// At 1280x720 the frame has several roots (256-pixel root tiles), so the top pass's root loop
+// itself runs out of a budget of one step. Every invocation then stops at the budget: the most
+// steps any pass took is 1. (The root loop used to decrement without a `budget > 0` check: there
+// the budget wrapped and the top pass ran 504 steps, unguarded and uncounted.)
+TEST(Directional, RootLoopStopsAtTheBudget) {
+  fs::path dir = work_dir("roots");
+  std::string yaml =
+      "name: directional-test\nresolution: [1280, 720]\nseed: 1\nscenes: [cornell-box]\n"
+      "limits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 0}\n"
+      "techniques:\n  - {technique: directional, params: {photons: 1, radius: 0.6, "
+      "max_bounces: 2, profile: true, loop_budget: 1}}\n";
+  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  auto found = cells_with_prefix(dir, "cornell-box__directional__");
+  ASSERT_EQ(found.size(), 1u);
+  expect_ok(found[0]);
+  auto sums = counters(found[0]);
+  ASSERT_GT(sums.count("profile_top_steps_max"), 0u) << "no profile of the top pass";
+  for (const auto& [name, value] : sums)
+    if (name.ends_with("_steps_max")) EXPECT_LE(value, 1) << name << " past a budget of 1";
+  EXPECT_GE(sums["truncated_traversals"], 1) << "a budget of 1 truncates the walk";
+  fs::remove_all(dir);
+}
+
 // The light's green is 1e-5 of its red and every surface is the same grey, so every bucket, and
 // every pixel, has green / red = 1e-5. The old scale (4e9 / the total red flux) gave each photon
 // 1e-5 x 4e9 / 1.1e5 = 0.4 units of green, rounded to 0: the image had no green at all (the same
