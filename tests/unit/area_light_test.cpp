@@ -173,6 +173,7 @@ TEST(AreaLight, NextEventAloneBsdfAloneAndMisAgreeWithinTheirVariances) {
                                              LightStrategies::bsdf_only};
       for (int k = 0; k < 3; ++k) {
         ReferenceOptions o;
+        o.estimator = Estimator::pt;  // the strategies are path tracing's
         o.samples = 1000;
         o.light_strategies = strategies[k];
         by[k] = average(render_receiver(0.1f, d, r, offset, o));

@@ -141,7 +141,8 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
   }
   config.reference.cache_dir = "results/reference-cache";
   if (auto reference = root.get("reference")) {
-    reference->allow_keys({"rel_error", "max_seconds", "samples", "max_bounces", "cache_dir"});
+    reference->allow_keys(
+        {"rel_error", "max_seconds", "samples", "max_bounces", "estimator", "cache_dir"});
     ReferenceSettings& r = config.reference;
     // Naming any stop rule replaces the default rules: {samples: 1024} means exactly 1024.
     if (reference->has("rel_error") || reference->has("max_seconds") || reference->has("samples"))
@@ -152,6 +153,7 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
     if (r.samples == 1)  // one iteration has no variance and an empty odd half
       (*reference)["samples"].fail("0 (off) or at least 2 iterations");
     r.max_bounces = uint32_t(reference->int_or("max_bounces", r.max_bounces, 0, 64));
+    if (auto e = reference->get("estimator")) r.estimator = e->as_enum({"auto", "bdpt", "pt"});
     if (!(r.rel_error > 0) && !(r.max_seconds > 0) && r.samples == 0)
       reference->fail("rel_error, max_seconds and samples are all 0: no rule would stop a reference");
     r.cache_dir = reference->string_or("cache_dir", r.cache_dir.string());

@@ -30,6 +30,7 @@ struct ReferenceSettings {
   double max_seconds = 600;   // per frame, a safety net for a target a scene cannot reach
   uint32_t samples = 0;       // iterations (camera samples per pixel); 0 or at least 2
   uint32_t max_bounces = 0;   // scattering vertices on a full path; 0: untruncated
+  std::string estimator = "auto";  // auto | bdpt | pt (trace::Estimator)
   std::filesystem::path cache_dir;  // default: results/reference-cache
 };
 
