@@ -129,14 +129,14 @@ TEST(AutomaticEstimator, PicksPerSceneAndRendersAsThePickedOne) {
     EmbreeScene world(scene, scene.at(4));
     ReferenceOptions o;
     o.rel_error = 0.2f;
-    o.samples = 64;
+    o.samples = 256;
     uint32_t mask = class_bit(PathClass::combined) | class_bit(PathClass::indirect);
-    ReferenceResult chosen = render_reference_classes(world, 96, 54, mask, o);
+    ReferenceResult chosen = render_reference_classes(world, 240, 135, mask, o);
     EXPECT_TRUE(chosen.pilot.ran);
     EXPECT_EQ(chosen.estimator, expected) << name;
     EXPECT_EQ(chosen.classes[int(PathClass::combined)].estimator, expected);
     o.estimator = expected;
-    ReferenceResult plain = render_reference_classes(world, 96, 54, mask, o);
+    ReferenceResult plain = render_reference_classes(world, 240, 135, mask, o);
     EXPECT_FALSE(plain.pilot.ran);
     EXPECT_EQ(chosen.image(PathClass::combined).pixels, plain.image(PathClass::combined).pixels);
     EXPECT_EQ(chosen.samples, plain.samples);

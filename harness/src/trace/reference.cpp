@@ -538,6 +538,9 @@ class Pilot {
   std::array<uint32_t, 4> iterations_{};
 };
 
+// The pilot's grid: every stride-th pixel in x and y, about 2000 pixels.
+int pilot_stride(size_t pixels) { return std::max(1, int(std::sqrt(double(pixels) / 2000.0))); }
+
 // The path-tracing pass over every pixel of the grid of `stride` (every pixel: stride 1).
 void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
                        const ReferenceOptions& options, uint32_t wanted, uint32_t budget,
@@ -560,7 +563,7 @@ void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const R
   });
 }
 
-// Estimator::automatic (reference.h): the pilot on a grid of about 3000 pixels, then the choice.
+// Estimator::automatic (reference.h): the pilot on a grid of about 2000 pixels, then the choice.
 // Each estimator runs kPilotIterations there, photon mapping with a 32nd of the photons and its
 // variance scaled back by that factor (a density estimate's variance goes as 1 / photons at a given
 // radius).
@@ -570,30 +573,35 @@ Estimator choose_estimator(const EmbreeScene& world, const LightSet& lights, con
                            tbb::task_arena& arena, tbb::combinable<uint64_t>& ray_count,
                            const std::function<uint64_t()>& total_rays,
                            std::vector<glm::vec3>& frame, PilotReport& report) {
+  auto t0 = std::chrono::steady_clock::now();
   size_t pixels = size_t(rig.width) * rig.height;
-  int stride = std::max(1, int(std::sqrt(double(pixels) / 3000.0)));
+  int stride = pilot_stride(pixels);
   double scale = double(stride) * stride;  // full-image rays per grid ray
   Pilot pilot(rig.width, rig.height, stride, classes);
   uint32_t seed = hash_combine(options.seed, 0x9170u);
   std::vector<glm::vec3> splat_frame(frame.size());
-  for (uint32_t it = 0; it < kPilotIterations; ++it) {
-    uint64_t before = total_rays();
-    path_tracing_pass(world, lights, rig, options, wanted, budget, hash_combine(seed, it), stride,
-                      arena, ray_count, frame);
-    report.pt_rays += scale * double(total_rays() - before) / kPilotIterations;
-    pilot.add(Pilot::path_tracing, frame);
-    uint64_t rays =
-        bdpt.run(hash_combine(seed, it, 1u), arena, ray_count, frame, stride, &splat_frame);
-    report.bdpt_rays += scale * double(rays) / kPilotIterations;
-    pilot.add(Pilot::bidirectional, frame);
-    pilot.add(Pilot::splats, splat_frame);
-  }
+  double pt_rays = 0, bdpt_rays = 0;
+  uint32_t done = 0;
+  auto run_unbiased = [&](uint32_t until) {
+    for (; done < until; ++done) {
+      uint64_t before = total_rays();
+      path_tracing_pass(world, lights, rig, options, wanted, budget, hash_combine(seed, done),
+                        stride, arena, ray_count, frame);
+      pt_rays += scale * double(total_rays() - before);
+      pilot.add(Pilot::path_tracing, frame);
+      uint64_t rays =
+          bdpt.run(hash_combine(seed, done, 1u), arena, ray_count, frame, stride, &splat_frame);
+      bdpt_rays += scale * double(rays);
+      pilot.add(Pilot::bidirectional, frame);
+      pilot.add(Pilot::splats, splat_frame);
+    }
+  };
   double photon_scale = 0;
-  if (photons) {
+  if (photons) {  // photon mapping's variance is not heavy-tailed: a shorter pilot suffices
     uint32_t paths = std::max(1000u, options.sppm_photons / 32);
     photon_scale = double(paths) / double(std::max(1u, options.sppm_photons));
     double radius_scale2 = 1;
-    for (uint32_t it = 0; it < kPilotIterations; ++it) {
+    for (uint32_t it = 0; it < kPilotPhotonIterations; ++it) {
       if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
       std::fill(frame.begin(), frame.end(), glm::vec3(0.f));
       uint64_t before = total_rays(), photon_before = photons->photon_rays;
@@ -602,25 +610,34 @@ Estimator choose_estimator(const EmbreeScene& world, const LightSet& lights, con
       uint64_t photon = photons->photon_rays - photon_before;
       uint64_t camera = total_rays() - before - photon;
       report.photon_rays +=
-          (scale * double(camera) + double(photon) / photon_scale) / kPilotIterations;
+          (scale * double(camera) + double(photon) / photon_scale) / kPilotPhotonIterations;
       pilot.add(Pilot::photons, frame);
     }
   }
+  double target2 = double(options.rel_error) * options.rel_error;
+  auto predict = [&] {
+    report.pt_rays = pt_rays / done, report.bdpt_rays = bdpt_rays / done;
+    report.pt_error2 = pilot.error2(false, photon_scale);
+    report.bdpt_error2 = pilot.error2(true, photon_scale);
+    double pt_iteration = report.pt_rays + report.photon_rays;
+    double bdpt_iteration = kBdptRayCost * report.bdpt_rays + report.photon_rays;
+    if (options.rel_error > 0) {  // iterations to the target (error^2 falls as 1 / n) x cost
+      double least = std::max(2u, options.min_samples);
+      report.pt_cost = std::max(least, report.pt_error2 / target2) * pt_iteration;
+      report.bdpt_cost = std::max(least, report.bdpt_error2 / target2) * bdpt_iteration;
+    } else {  // error^2 x cost per iteration: the cost of any given error
+      report.pt_cost = report.pt_error2 * pt_iteration;
+      report.bdpt_cost = report.bdpt_error2 * bdpt_iteration;
+    }
+  };
+  run_unbiased(kPilotIterations);
+  predict();
   report.ran = true;
-  report.pt_error2 = pilot.error2(false, photon_scale);
-  report.bdpt_error2 = pilot.error2(true, photon_scale);
-  double pt_iteration = report.pt_rays + report.photon_rays;
-  double bdpt_iteration = kBdptRayCost * report.bdpt_rays + report.photon_rays;
-  if (options.rel_error > 0) {  // iterations to the target (error^2 falls as 1 / n) x their cost
-    double target2 = double(options.rel_error) * options.rel_error;
-    double least = std::max(2u, options.min_samples);
-    report.pt_cost = std::max(least, report.pt_error2 / target2) * pt_iteration;
-    report.bdpt_cost = std::max(least, report.bdpt_error2 / target2) * bdpt_iteration;
-  } else {  // error^2 x cost per iteration: the cost of any given error
-    report.pt_cost = report.pt_error2 * pt_iteration;
-    report.bdpt_cost = report.bdpt_error2 * bdpt_iteration;
-  }
-  return report.bdpt_cost < report.pt_cost ? Estimator::bdpt : Estimator::pt;
+  report.iterations = done;
+  report.seconds = seconds_since(t0);
+  // Within 10%, the pilot's noise decides more than the estimators do; path tracing, the anchor,
+  // is the cheaper per iteration and keeps the tie.
+  return report.bdpt_cost * kPilotMargin < report.pt_cost ? Estimator::bdpt : Estimator::pt;
 }
 
 }  // namespace
@@ -696,19 +713,22 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     ray_count.combine_each([&](uint64_t r) { rays += r; });
     return rays;
   };
-  // The automatic choice pilots when the render will be long enough to pay for it; a render of a
-  // few iterations is bidirectional.
+  // The automatic choice pilots where the pilot costs a small part of the render: an image of at
+  // least 9 times the pilot's pixels (its 32 iterations then cost about 4 of the render's, or 3
+  // with photon mapping's shorter pilot), and a render not limited to a few iterations. Smaller
+  // renders are bidirectional.
   Estimator estimator = options.estimator;
   std::unique_ptr<BdptPass> bdpt;
   if (estimator != Estimator::pt)
     bdpt = std::make_unique<BdptPass>(world, lights, rig, wanted, budget, options.mis_heuristic);
   PilotReport report;
   if (estimator == Estimator::automatic) {
+    bool worth = (options.samples == 0 || options.samples >= 8 * kPilotIterations) &&
+                 pilot_stride(pixels) >= 3;
     estimator =
-        options.samples == 0 || options.samples >= 32
-            ? choose_estimator(world, lights, rig, options, wanted, budget, acc->classes(), *bdpt,
-                               photons.get(), *arena, ray_count, total_rays, frame, report)
-            : Estimator::bdpt;
+        worth ? choose_estimator(world, lights, rig, options, wanted, budget, acc->classes(), *bdpt,
+                                 photons.get(), *arena, ray_count, total_rays, frame, report)
+              : Estimator::bdpt;
   }
 
   double rel_error = 0, radius_scale2 = 1;

@@ -2,9 +2,11 @@
 // techniques on exactly what they estimate.
 //
 // Two estimators share the work, each on its own part of path space, so the sum converges to the
-// full solution with nothing counted twice:
-//   * path tracing with next-event estimation and MIS (power heuristic, Veach 1997 ch. 9) for every
-//     path whose vertex next to the light is diffuse, or that has no diffuse vertex at all;
+// full solution with nothing counted twice (the design and its measurements: README.md here):
+//   * an unbiased estimator for every path whose vertex next to the light is diffuse, or that has
+//     no diffuse vertex at all: path tracing with next-event estimation and MIS (power heuristic,
+//     Veach 1997 ch. 9), or bidirectional path tracing with MIS (Veach 1997 ch. 10, bdpt.h), chosen
+//     per render by a pilot (Estimator);
 //   * progressive photon mapping in its probabilistic form (Knaus & Zwicker 2011: every iteration
 //     an independent photon-map estimate, the radius shrinking from one iteration to the next) for
 //     every path with a diffuse vertex whose vertex next to the light is specular (L S ... ): the
@@ -107,19 +109,25 @@ enum class MisHeuristic : uint8_t { power, uniform };
 
 // The unbiased estimator for the part of path space photon mapping does not own: path tracing with
 // next-event estimation (the anchor), bidirectional path tracing with MIS (bdpt.h), or automatic:
-// a pilot picks one of them per render. On a grid of about 3000 of the pixels it runs each of them
-// and photon mapping (with a 32nd of the photons) for kPilotIterations iterations; from the
-// per-iteration variances measured there, scaled to a full iteration (photon mapping's share
-// included, the same for both), and from the rays each would trace per iteration of the whole
-// image, it predicts the cost of reaching the error target with either, and renders with the
-// cheaper. Equal pilots for both, and not too short: a small bright region that path tracing
-// finds by chance makes its sample variance grow with the samples for a long while. Rays rather
-// than seconds, so that a seed gives one image; a ray of bidirectional path tracing counts
+// a pilot picks one of them per render (of an image of 18000 pixels or more; smaller ones are
+// bidirectional, since the pilot would cost too much of them). On a grid of about 2000 of the
+// pixels it runs both for kPilotIterations iterations, and photon mapping (with a 32nd of the
+// photons) for kPilotPhotonIterations. From the per-iteration variances measured there, scaled to
+// a full iteration (photon mapping's share included, the same for both), and from the rays each
+// would trace per iteration of the whole image, it predicts the cost of reaching the error target
+// with either, and renders with the cheaper (bidirectional path tracing only when cheaper by
+// kPilotMargin). Equal pilots for both, and not too short: a small bright region that path
+// tracing finds by chance makes its sample variance grow with the samples for a long while (8
+// iterations picked path tracing on cornell-box, whose hotspot makes it 8x slower there). Rays
+// rather than seconds, so that a seed gives one image; a ray of bidirectional path tracing counts
 // kBdptRayCost of path tracing's.
 enum class Estimator : uint8_t { pt, bdpt, automatic };
 std::string_view estimator_name(Estimator e);  // "pt", "bdpt", "auto"
 std::optional<Estimator> parse_estimator(std::string_view name);
 inline constexpr uint32_t kPilotIterations = 32;
+inline constexpr uint32_t kPilotPhotonIterations = 8;
+// Bidirectional path tracing is chosen when predicted cheaper by more than this factor.
+inline constexpr double kPilotMargin = 1.1;
 // Bidirectional path tracing's time per ray over path tracing's, measured (bench_reference: on
 // cornell-box and pillars its Mrays/s are 0.74 and 0.76 of path tracing's: vertex bookkeeping and
 // MIS weights around the same Embree queries).
@@ -133,6 +141,8 @@ struct PilotReport {
   double pt_error2 = 0, bdpt_error2 = 0;
   double pt_rays = 0, bdpt_rays = 0, photon_rays = 0;
   double pt_cost = 0, bdpt_cost = 0;
+  double seconds = 0;       // the pilot's own time
+  uint32_t iterations = 0;  // of each unbiased estimator on the grid
 };
 
 // One iteration renders one camera sample per pixel with the unbiased estimator and, where photon

@@ -254,7 +254,8 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
       side["pilot"] = {{"pt_error2", r.pilot.pt_error2},     {"bdpt_error2", r.pilot.bdpt_error2},
                        {"pt_rays", r.pilot.pt_rays},         {"bdpt_rays", r.pilot.bdpt_rays},
                        {"photon_rays", r.pilot.photon_rays}, {"pt_cost", r.pilot.pt_cost},
-                       {"bdpt_cost", r.pilot.bdpt_cost}};
+                       {"bdpt_cost", r.pilot.bdpt_cost},     {"seconds", r.pilot.seconds},
+                       {"iterations", r.pilot.iterations}};
     write_atomic(dir_ / (k + ".json"), side.dump(2) + "\n");  // last: marks the entry complete
     ++written;
   }
