@@ -105,8 +105,10 @@ EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& sta
       place_object(i, to_world);  // writes the world-space vertices
     } else {
       data.scene = rtcNewScene(dev);
+      // REFIT is a geometry's build quality (set above); a scene takes LOW, MEDIUM or HIGH, and
+      // Embree rejected REFIT here ("invalid build quality"), leaving its default, MEDIUM.
       rtcSetSceneBuildQuality(data.scene,
-                              deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);
+                              deforms ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH);
       if (deforms) rtcSetSceneFlags(data.scene, RTC_SCENE_FLAG_DYNAMIC);
       set_vertices(data, mesh);
       rtcAttachGeometry(data.scene, data.geometry);
