@@ -538,9 +538,10 @@ class Pilot {
   std::array<uint32_t, 4> iterations_{};
 };
 
-// The pilot's grid: every stride-th pixel in x and y, about 1000 pixels (2000 cost ring and pool
-// 10-20% of a render to quick.yaml's target, measured with bench_reference).
-int pilot_stride(size_t pixels) { return std::max(1, int(std::sqrt(double(pixels) / 1000.0))); }
+// The pilot's grid: every stride-th pixel in x and y, about 2000 pixels. (1000, which would halve
+// the pilot's cost on short renders, picked path tracing on cornell-box in both rounds of
+// bench_reference at 320x180: too few pixels see its hotspot's paths.)
+int pilot_stride(size_t pixels) { return std::max(1, int(std::sqrt(double(pixels) / 2000.0))); }
 
 // The path-tracing pass over every pixel of the grid of `stride` (every pixel: stride 1).
 void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
@@ -564,7 +565,7 @@ void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const R
   });
 }
 
-// Estimator::automatic (reference.h): the pilot on a grid of about 1000 pixels, then the choice.
+// Estimator::automatic (reference.h): the pilot on a grid of about 2000 pixels, then the choice.
 // Each estimator runs kPilotIterations there, photon mapping with a 32nd of the photons and its
 // variance scaled back by that factor (a density estimate's variance goes as 1 / photons at a given
 // radius).

@@ -109,8 +109,8 @@ enum class MisHeuristic : uint8_t { power, uniform };
 
 // The unbiased estimator for the part of path space photon mapping does not own: path tracing with
 // next-event estimation (the anchor), bidirectional path tracing with MIS (bdpt.h), or automatic:
-// a pilot picks one of them per render (of an image of 9000 pixels or more; smaller ones are
-// bidirectional, since the pilot would cost too much of them). On a grid of about 1000 of the
+// a pilot picks one of them per render (of an image of 18000 pixels or more; smaller ones are
+// bidirectional, since the pilot would cost too much of them). On a grid of about 2000 of the
 // pixels it runs both for kPilotIterations iterations, and photon mapping (with a 32nd of the
 // photons) for kPilotPhotonIterations. From the per-iteration variances measured there, scaled to
 // a full iteration (photon mapping's share included, the same for both), and from the rays each
