@@ -28,6 +28,7 @@ struct Args {
   double max_seconds = pb::config::ReferenceSettings{}.max_seconds;
   uint32_t samples = pb::config::ReferenceSettings{}.samples;
   uint32_t max_bounces = 0;
+  std::string estimator = pb::config::ReferenceSettings{}.estimator;
   uint32_t photons = 200000;
   std::string resolution = "640x360";
   std::string cache = "results/reference-cache";
@@ -92,6 +93,12 @@ void add_reference(CLI::App& app, int& exit_code) {
   cmd->add_option("--max-bounces", args->max_bounces,
                   "scattering vertices on a full path between camera and light (0: untruncated)")
       ->check(CLI::Range(0u, pb::trace::kUntruncatedBounces));
+  cmd->add_option(
+         "--estimator", args->estimator,
+         "auto (a pilot picks the cheaper of the two per frame, the default), bdpt "
+         "(bidirectional path tracing) or pt (path tracing with next-event estimation, the "
+         "anchor); photon mapping adds the caustic-type paths to each")
+      ->check(CLI::IsMember({"auto", "bdpt", "pt"}));
   cmd->add_option("--photons", args->photons, "photon paths per photon-mapping iteration")
       ->check(CLI::Range(1u, 1u << 26));
   cmd->add_option("--resolution", args->resolution, "WIDTHxHEIGHT");
@@ -128,6 +135,7 @@ void add_reference(CLI::App& app, int& exit_code) {
     options.max_seconds = args->max_seconds;
     options.samples = args->samples;
     options.max_bounces = args->max_bounces;
+    options.estimator = *pb::trace::parse_estimator(args->estimator);
     options.sppm_photons = args->photons;
     options.seed = args->seed;
     options.threads = args->threads;

@@ -138,6 +138,8 @@ const KeyTable kReferenceTable{
       "stop after this many iterations (0: off, else at least 2)"},
      {"max_bounces", integer_type(0, 64), false, 0,
       "scattering vertices on a full path (0: untruncated)"},
+     {"estimator", choice_type({"auto", "bdpt", "pt"}), false, "auto",
+      "the unbiased estimator: bidirectional path tracing, path tracing, or a pilot's choice"},
      {"bounce_matched", boolean_type(), false, false,
       "also score techniques with a max_bounces parameter against a reference truncated like "
       "them"},
@@ -302,6 +304,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
     if (r.samples == 1)  // one iteration has no variance and an empty odd half
       reference["samples"].fail("0 (off) or at least 2 iterations");
     r.max_bounces = uint32_t(kReferenceTable.integer(reference, "max_bounces"));
+    r.estimator = kReferenceTable.string(reference, "estimator");
     if (!(r.rel_error > 0) && !(r.max_seconds > 0) && r.samples == 0)
       reference.fail(
           "rel_error, max_seconds and samples are all 0: no rule would stop a reference");

@@ -35,6 +35,7 @@ struct ReferenceSettings {
   double max_seconds = 600;  // per frame, a safety net for a target a scene cannot reach
   uint32_t samples = 0;      // iterations (camera samples per pixel); 0 or at least 2
   uint32_t max_bounces = 0;  // scattering vertices on a full path; 0: untruncated
+  std::string estimator = "auto";  // auto | bdpt | pt (trace::Estimator)
   // Also score every cell of a technique with a max_bounces parameter against a reference truncated
   // like it (trace::bounces_matching_photon_technique): metrics.csv rows with reference
   // "bounce_matched" beside the "full" ones, so a study separates estimator error from truncation.

@@ -33,6 +33,8 @@ trace::ReferenceOptions reference_options(const config::Config& config) {
   options.max_seconds = config.reference.max_seconds;
   options.samples = config.reference.samples;
   options.max_bounces = config.reference.max_bounces;
+  options.estimator =
+      trace::parse_estimator(config.reference.estimator).value_or(trace::Estimator::automatic);
   options.seed = uint32_t(config.seed);
   return options;
 }

@@ -199,13 +199,7 @@ EmissionRay LightSet::emit(uint32_t i, glm::vec2 uv, glm::vec2 u_dir) const {
 bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
                                IncidentSample& out) const {
   if (emitters_.empty()) return false;
-  size_t n = emitters_.size();
-  size_t i = std::clamp<size_t>(
-      size_t(std::upper_bound(selection_cdf_.begin(), selection_cdf_.end(), u_select) -
-             selection_cdf_.begin()) -
-          1,
-      0, n - 1);
-  while (i < n - 1 && selection_pdf_[i] <= 0) ++i;
+  uint32_t i = choose(u_select);
   float select = selection_pdf_[i];
   if (select <= 0) return false;
   const Emitter& e = emitters_[i];
@@ -225,6 +219,7 @@ bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
     float dist = std::sqrt(dist2);
     out.wi = d / dist;
     out.point = y;
+    out.normal = ny;
     float cos_l = -glm::dot(out.wi, ny);
     if (cos_l <= 0) return false;  // the back of a one-sided emitter
     out.distance = dist;
@@ -275,6 +270,43 @@ glm::vec3 LightSet::emitted(const Hit& y, const glm::vec3& wo) const {
   if (i < 0) return glm::vec3(0.f);
   if (glm::dot(wo, y.geometric_normal) <= 0) return glm::vec3(0.f);
   return emitters_[i].radiance;
+}
+
+uint32_t LightSet::choose(float u) const {
+  size_t n = emitters_.size();
+  size_t i =
+      std::clamp<size_t>(size_t(std::upper_bound(selection_cdf_.begin(), selection_cdf_.end(), u) -
+                                selection_cdf_.begin()) -
+                             1,
+                         0, n - 1);
+  while (i < n - 1 && selection_pdf_[i] <= 0) ++i;
+  return uint32_t(i);
+}
+
+float LightSet::position_pdf(uint32_t i) const {
+  const Emitter& e = emitters_[i];
+  if (has_area(i)) return e.area > 0 ? selection_pdf_[i] / e.area : 0.f;
+  return selection_pdf_[i];
+}
+
+float LightSet::direction_pdf(uint32_t i, const glm::vec3& n, const glm::vec3& dir) const {
+  const Emitter& e = emitters_[i];
+  if (has_area(i)) return std::max(0.f, glm::dot(n, dir)) * kInvPi;
+  const scene::Light& light = world_.state().lights[e.source];
+  switch (e.type) {
+    case EmitterType::point:
+      return 1.f / (4.f * kPi);
+    case EmitterType::spot: {
+      float ci = std::cos(light.spot_inner), co = std::cos(light.spot_outer);
+      if (ci < co) std::swap(ci, co);
+      float c = glm::dot(dir, glm::normalize(light.direction));
+      return c >= co ? 1.f / (2.f * kPi * (1.f - co)) : 0.f;
+    }
+    case EmitterType::directional:
+      return 1.f / (4.f * radius_ * radius_);
+    default:
+      return 0.f;
+  }
 }
 
 }  // namespace pb::trace

@@ -43,6 +43,7 @@ struct EmissionRay {
 struct IncidentSample {
   glm::vec3 wi{0.0f};      // towards the light
   glm::vec3 point{0.0f};   // the sampled point on the emitter, or the point light's position
+  glm::vec3 normal{0.0f};  // the emitter's normal there (surface emitters; else 0)
   float distance = 0;      // to the sampled point (infinity for a directional light)
   glm::vec3 weight{0.0f};  // incident radiance / pdf (the selection probability included)
   float pdf = 0;           // solid angle density including selection; 0 for delta lights
@@ -72,6 +73,23 @@ class LightSet {
   float pdf_incident(const glm::vec3& p, const Hit& y) const;
   // Radiance leaving emitter surface `y` towards wo (0 at the back and for non-emitters).
   glm::vec3 emitted(const Hit& y, const glm::vec3& wo) const;
+
+  // The emitter that selection number u in [0, 1) picks (by power, as sample_incident does).
+  uint32_t choose(float u) const;
+  // Surface emitters (quad, mesh) have an area a path can hit; the others are points or directions.
+  bool has_area(uint32_t i) const {
+    return emitters_[i].type == EmitterType::quad || emitters_[i].type == EmitterType::mesh;
+  }
+  // The densities with which choose() + emit() (light paths) and choose() + sample_incident()
+  // (next- event estimation) produce a light vertex, for the MIS weights of bidirectional path
+  // tracing: position: selection probability / area for surface emitters, the selection probability
+  // alone for points and directions (their delta is the same for every strategy and cancels);
+  // direction: solid-angle density of the emitted direction `dir` leaving a surface emitter of
+  // normal `n` (cosine), a point (uniform sphere) or a spot (uniform in the outer cone); for a
+  // directional light, the density per unit area of the emission square (1 / (2R)^2), the light's
+  // one direction being the same delta for every strategy.
+  float position_pdf(uint32_t i) const;
+  float direction_pdf(uint32_t i, const glm::vec3& n, const glm::vec3& dir) const;
 
   float scene_radius() const { return radius_; }
   glm::vec3 scene_center() const { return center_; }

@@ -106,16 +106,25 @@ struct Rig {
     px = {(x + 1.f) * 0.5f * width, (1.f - y) * 0.5f * height};
     return px.x >= 0 && px.y >= 0 && px.x < width && px.y < height;
   }
-  // Importance of the pinhole for a direction, per unit area of the image plane at distance 1
-  // (W_e of Veach 1997 §10.1 for a box-filtered pixel measured in pixels: 1 / (pixel area on that
-  // plane) / cos^4, so that integrating over the pixel's solid angle gives 1).
-  float importance(const glm::vec3& dir) const {
+  // The solid-angle density of camera directions whose image-plane position is uniform over the
+  // whole image: 1 / (A cos^3 theta), A the image's area on the plane at distance 1 (an image-plane
+  // area element at angle theta subtends cos^3 theta / 1 of solid angle). It is also the camera's
+  // importance W_e normalised over the image (Veach 1997 §10.1, for box-filtered pixels): a light
+  // path's connection to the camera adds f W_e cos / d^2 to the pixel it lands in, and one light
+  // path per pixel makes each such splat an estimate of that pixel's mean radiance.
+  float film_density(const glm::vec3& dir) const {
     float c = glm::dot(dir, forward);
     if (c <= 0) return 0;
-    float pixel_area = (2.f * tan_half * aspect / width) * (2.f * tan_half / height);
-    return 1.f / (pixel_area * c * c * c * c);
+    float film_area = (2.f * tan_half * aspect) * (2.f * tan_half);
+    return 1.f / (film_area * c * c * c);
   }
 };
+
+// The pixels a pilot of Estimator::automatic renders: a grid of every stride-th pixel in x and y
+// (every pixel for stride 1).
+inline bool in_grid(int x, int y, int stride) {
+  return stride <= 1 || (x % stride == stride / 2 && y % stride == stride / 2);
+}
 
 // A ray origin off the surface on the side `dir` leaves towards.
 inline glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {

@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "photonbench/error.h"
+#include "trace/bdpt.h"
 #include "trace/bsdf.h"
 #include "trace/lights.h"
 #include "trace/path_space.h"
@@ -257,8 +258,11 @@ struct PhotonPass {
   // squared radius is r_1^2 prod_{j<i} (j + alpha) / (j + 1) (their eq. 20), so that the variance
   // grows and the blur bias shrinks just fast enough for the average over iterations to converge.
   // Adds each pixel's estimate into frame[pixel * kClasses + class].
+  // With stride > 1 only the pilot's grid of pixels (in_grid) gets visible points, and `paths`
+  // (0: options.sppm_photons) photon paths are traced.
   void run(uint32_t iteration_seed, double radius_scale2, tbb::task_arena& arena,
-           tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame) {
+           tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame, int stride = 1,
+           uint32_t paths = 0) {
     const int width = rig.width, height = rig.height;
     uint32_t vp_seed = hash_combine(iteration_seed, 0x5eedu);
     arena.execute([&] {
@@ -268,9 +272,11 @@ struct PhotonPass {
             for (int y = rows.begin(); y != rows.end(); ++y)
               for (int x = 0; x < width; ++x) {
                 size_t i = size_t(y) * width + x;
+                VisiblePoint& vp = vps[i];
+                vp.valid = false;
+                if (!in_grid(x, y, stride)) continue;
                 Pcg32 rng(vp_seed, i);
                 glm::vec2 j = rng.next_2d();
-                VisiblePoint& vp = vps[i];
                 // A photon path makes at least one specular interaction before it reaches the
                 // visible point, so the camera side may use at most budget - 2 specular vertices.
                 if (find_visible_point(world, rig, x + j.x, y + j.y, rng, budget - 1, vp, rays)) {
@@ -288,7 +294,7 @@ struct PhotonPass {
     if (r_count == 0) return;
     PhotonBatch batch;
     TraceSettings ts;
-    ts.paths = options.sppm_photons;
+    ts.paths = paths ? paths : options.sppm_photons;
     // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and
     // specular.
     ts.store = 0;
@@ -390,6 +396,15 @@ class Accumulator {
   }
   uint32_t iterations() const { return iterations_; }
 
+  // Mean luminance over the image of class slot j.
+  double mean_luminance(size_t j) const {
+    if (iterations_ == 0) return 0;
+    double acc = 0;
+    size_t k = classes_.size();
+    for (size_t i = 0; i < pixels_; ++i) acc += luminance(glm::vec3(moments_[i * k + j].sum));
+    return acc / (double(iterations_) * double(pixels_));
+  }
+
   // reference.h's error estimate over the requested classes; 0 before two iterations.
   double rel_error() const {
     if (iterations_ < 2) return 0;
@@ -443,6 +458,190 @@ class Accumulator {
   uint32_t iterations_ = 0;
 };
 
+// Estimator::automatic's pilot (reference.h): on a grid of pixels, per requested class, the
+// luminance moments of path tracing's, bidirectional path tracing's and photon mapping's estimates.
+class Pilot {
+ public:
+  enum Part { path_tracing, bidirectional, splats, photons };
+  Pilot(int width, int height, int stride, const std::vector<int>& classes)
+      : classes_(classes), stride_(stride) {
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        if (in_grid(x, y, stride)) pixels_.push_back(size_t(y) * width + x);
+    for (auto& m : moments_) m.resize(pixels_.size() * classes_.size());
+  }
+  // One iteration of `part`, read from frame[pixel * kClasses + class] at the grid's pixels.
+  void add(Part part, const std::vector<glm::vec3>& frame) {
+    for (size_t p = 0; p < pixels_.size(); ++p) {
+      const glm::vec3* v = &frame[pixels_[p] * kClasses];
+      for (size_t j = 0; j < classes_.size(); ++j) {
+        double l = 0;
+        if (classes_[j] == int(PathClass::combined))
+          for (int c = 0; c < kClasses; ++c) l += luminance(v[c]);
+        else
+          l = luminance(v[classes_[j]]);
+        moments_[part][p * classes_.size() + j].add(l);
+      }
+    }
+    ++iterations_[part];
+  }
+  // The error estimate's square (reference.h) for one full-image iteration of path tracing or of
+  // bidirectional path tracing, plus photon mapping, relative to the pixel means of both unbiased
+  // estimators averaged plus photon mapping's (a short run of path tracing alone can miss the light
+  // of a small bright region at many pixels, and dividing by its low mean there would inflate the
+  // other estimator's relative variance). The grid's variances are scaled to a full iteration's:
+  // light tracing splats by 1 / stride^2 (a full iteration has stride^2 times the light paths),
+  // photon mapping's by photon_scale (its pilot traces fewer photons).
+  double error2(bool bdpt, double photon_scale) const {
+    std::vector<double> class_mean(classes_.size(), 0.0);
+    for (size_t p = 0; p < pixels_.size(); ++p)
+      for (size_t j = 0; j < classes_.size(); ++j) class_mean[j] += mean(p, j) / pixels_.size();
+    double acc = 0;
+    size_t counted = 0;
+    for (size_t p = 0; p < pixels_.size(); ++p)
+      for (size_t j = 0; j < classes_.size(); ++j) {
+        if (!(class_mean[j] > 0)) continue;
+        size_t slot = p * classes_.size() + j;
+        double var = photon_scale * variance(photons, slot);
+        var += bdpt ? variance(bidirectional, slot) +
+                          variance(splats, slot) / (double(stride_) * stride_)
+                    : variance(path_tracing, slot);
+        double m = mean(p, j);
+        acc += var / (m * m + std::pow(0.01 * class_mean[j], 2.0));
+        ++counted;
+      }
+    return counted ? acc / double(counted) : 0.0;
+  }
+
+ private:
+  struct Moment {
+    double s1 = 0, s2 = 0;
+    void add(double v) { s1 += v, s2 += v * v; }
+    double mean(uint32_t n) const { return n ? s1 / n : 0.0; }
+    double variance(uint32_t n) const {
+      return n > 1 ? std::max(0.0, s2 - s1 * s1 / n) / (n - 1) : 0.0;
+    }
+  };
+  double variance(Part part, size_t slot) const {
+    return moments_[part][slot].variance(iterations_[part]);
+  }
+  double mean(Part part, size_t slot) const { return moments_[part][slot].mean(iterations_[part]); }
+  double mean(size_t p, size_t j) const {
+    size_t slot = p * classes_.size() + j;
+    return 0.5 * (mean(path_tracing, slot) + mean(bidirectional, slot) + mean(splats, slot)) +
+           mean(photons, slot);
+  }
+  std::vector<int> classes_;
+  int stride_;
+  std::vector<size_t> pixels_;
+  std::array<std::vector<Moment>, 4> moments_;
+  std::array<uint32_t, 4> iterations_{};
+};
+
+// The pilot's grid: every stride-th pixel in x and y, about 2000 pixels. (1000, which would halve
+// the pilot's cost on short renders, picked path tracing on cornell-box in both rounds of
+// bench_reference at 320x180: too few pixels see its hotspot's paths.)
+int pilot_stride(size_t pixels) { return std::max(1, int(std::sqrt(double(pixels) / 2000.0))); }
+
+// The path-tracing pass over every pixel of the grid of `stride` (every pixel: stride 1).
+void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
+                       const ReferenceOptions& options, uint32_t wanted, uint32_t budget,
+                       uint32_t iteration_seed, int stride, tbb::task_arena& arena,
+                       tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame) {
+  arena.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, rig.height, 1), [&](const tbb::blocked_range<int>& rows) {
+          uint64_t& rays = ray_count.local();
+          for (int y = rows.begin(); y != rows.end(); ++y)
+            for (int x = 0; x < rig.width; ++x) {
+              if (!in_grid(x, y, stride)) continue;
+              size_t i = size_t(y) * rig.width + x;
+              Pcg32 rng(iteration_seed, i);
+              glm::vec2 j = rng.next_2d();
+              trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, budget,
+                                options.light_strategies, &frame[i * kClasses], rays);
+            }
+        });
+  });
+}
+
+// Estimator::automatic (reference.h): the pilot on a grid of about 2000 pixels, then the choice.
+// Each estimator runs kPilotIterations there, photon mapping with a 32nd of the photons and its
+// variance scaled back by that factor (a density estimate's variance goes as 1 / photons at a given
+// radius).
+Estimator choose_estimator(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
+                           const ReferenceOptions& options, uint32_t wanted, uint32_t budget,
+                           const std::vector<int>& classes, BdptPass& bdpt, PhotonPass* photons,
+                           tbb::task_arena& arena, tbb::combinable<uint64_t>& ray_count,
+                           const std::function<uint64_t()>& total_rays,
+                           std::vector<glm::vec3>& frame, PilotReport& report) {
+  auto t0 = std::chrono::steady_clock::now();
+  size_t pixels = size_t(rig.width) * rig.height;
+  int stride = pilot_stride(pixels);
+  double scale = double(stride) * stride;  // full-image rays per grid ray
+  Pilot pilot(rig.width, rig.height, stride, classes);
+  uint32_t seed = hash_combine(options.seed, 0x9170u);
+  std::vector<glm::vec3> splat_frame(frame.size());
+  double pt_rays = 0, bdpt_rays = 0;
+  uint32_t done = 0;
+  auto run_unbiased = [&](uint32_t until) {
+    for (; done < until; ++done) {
+      uint64_t before = total_rays();
+      path_tracing_pass(world, lights, rig, options, wanted, budget, hash_combine(seed, done),
+                        stride, arena, ray_count, frame);
+      pt_rays += scale * double(total_rays() - before);
+      pilot.add(Pilot::path_tracing, frame);
+      uint64_t rays =
+          bdpt.run(hash_combine(seed, done, 1u), arena, ray_count, frame, stride, &splat_frame);
+      bdpt_rays += scale * double(rays);
+      pilot.add(Pilot::bidirectional, frame);
+      pilot.add(Pilot::splats, splat_frame);
+    }
+  };
+  double photon_scale = 0;
+  if (photons) {  // photon mapping's variance is not heavy-tailed: a shorter pilot suffices
+    uint32_t paths = std::max(1000u, options.sppm_photons / 32);
+    photon_scale = double(paths) / double(std::max(1u, options.sppm_photons));
+    double radius_scale2 = 1;
+    for (uint32_t it = 0; it < kPilotPhotonIterations; ++it) {
+      if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
+      std::fill(frame.begin(), frame.end(), glm::vec3(0.f));
+      uint64_t before = total_rays(), photon_before = photons->photon_rays;
+      photons->run(hash_combine(seed, it, 2u), radius_scale2, arena, ray_count, frame, stride,
+                   paths);
+      uint64_t photon = photons->photon_rays - photon_before;
+      uint64_t camera = total_rays() - before - photon;
+      report.photon_rays +=
+          (scale * double(camera) + double(photon) / photon_scale) / kPilotPhotonIterations;
+      pilot.add(Pilot::photons, frame);
+    }
+  }
+  double target2 = double(options.rel_error) * options.rel_error;
+  auto predict = [&] {
+    report.pt_rays = pt_rays / done, report.bdpt_rays = bdpt_rays / done;
+    report.pt_error2 = pilot.error2(false, photon_scale);
+    report.bdpt_error2 = pilot.error2(true, photon_scale);
+    double pt_iteration = report.pt_rays + report.photon_rays;
+    double bdpt_iteration = kBdptRayCost * report.bdpt_rays + report.photon_rays;
+    if (options.rel_error > 0) {  // iterations to the target (error^2 falls as 1 / n) x cost
+      double least = std::max(2u, options.min_samples);
+      report.pt_cost = std::max(least, report.pt_error2 / target2) * pt_iteration;
+      report.bdpt_cost = std::max(least, report.bdpt_error2 / target2) * bdpt_iteration;
+    } else {  // error^2 x cost per iteration: the cost of any given error
+      report.pt_cost = report.pt_error2 * pt_iteration;
+      report.bdpt_cost = report.bdpt_error2 * bdpt_iteration;
+    }
+  };
+  run_unbiased(kPilotIterations);
+  predict();
+  report.ran = true;
+  report.iterations = done;
+  report.seconds = seconds_since(t0);
+  // Within 10%, the pilot's noise decides more than the estimators do; path tracing, the anchor,
+  // is the cheaper per iteration and keeps the tie.
+  return report.bdpt_cost * kPilotMargin < report.pt_cost ? Estimator::bdpt : Estimator::pt;
+}
+
 }  // namespace
 
 std::string_view path_class_name(PathClass c) { return kClassInfo[int(c)].name; }
@@ -456,6 +655,15 @@ std::vector<PathClass> all_path_classes() {
   std::vector<PathClass> out;
   for (const auto& info : kClassInfo) out.push_back(info.id);
   return out;
+}
+
+std::string_view estimator_name(Estimator e) {
+  return e == Estimator::pt ? "pt" : e == Estimator::bdpt ? "bdpt" : "auto";
+}
+std::optional<Estimator> parse_estimator(std::string_view name) {
+  for (Estimator e : {Estimator::pt, Estimator::bdpt, Estimator::automatic})
+    if (estimator_name(e) == name) return e;
+  return std::nullopt;
 }
 
 std::string_view stop_rule_name(StopRule rule) { return kStopRuleNames[int(rule)]; }
@@ -496,50 +704,58 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
 
   size_t pixels = size_t(width) * height;
   std::vector<glm::vec3> frame(pixels * kClasses);
-  Accumulator acc(pixels, class_mask);
+  auto acc = std::make_unique<Accumulator>(pixels, class_mask);
   auto arena = options.threads > 0 ? std::make_unique<tbb::task_arena>(options.threads)
                                    : std::make_unique<tbb::task_arena>();
+  tbb::combinable<uint64_t> ray_count([] { return uint64_t(0); });
   std::unique_ptr<PhotonPass> photons;
   if (use_photons) photons = std::make_unique<PhotonPass>(world, rig, options, wanted, budget);
-  tbb::combinable<uint64_t> ray_count([] { return uint64_t(0); });
   auto total_rays = [&] {
     uint64_t rays = photons ? photons->photon_rays : 0;
     ray_count.combine_each([&](uint64_t r) { rays += r; });
     return rays;
   };
+  // The automatic choice pilots where the pilot costs a small part of the render: an image of at
+  // least 9 times the pilot's pixels (its 32 iterations then cost about 4 of the render's, or 3
+  // with photon mapping's shorter pilot), and a render not limited to a few iterations. Smaller
+  // renders are bidirectional.
+  Estimator estimator = options.estimator;
+  std::unique_ptr<BdptPass> bdpt;
+  if (estimator != Estimator::pt)
+    bdpt = std::make_unique<BdptPass>(world, lights, rig, wanted, budget, options.mis_heuristic);
+  PilotReport report;
+  if (estimator == Estimator::automatic) {
+    bool worth = (options.samples == 0 || options.samples >= 8 * kPilotIterations) &&
+                 pilot_stride(pixels) >= 3;
+    estimator =
+        worth ? choose_estimator(world, lights, rig, options, wanted, budget, acc->classes(), *bdpt,
+                                 photons.get(), *arena, ray_count, total_rays, frame, report)
+              : Estimator::bdpt;
+  }
 
   double rel_error = 0, radius_scale2 = 1;
   StopRule stopped_by = StopRule::samples;
   for (uint32_t it = 0;; ++it) {
     uint32_t iteration_seed = hash_combine(options.seed, it);
-    // ---- path tracing: one sample per pixel ----
-    arena->execute([&] {
-      tbb::parallel_for(
-          tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
-            uint64_t& rays = ray_count.local();
-            for (int y = rows.begin(); y != rows.end(); ++y)
-              for (int x = 0; x < width; ++x) {
-                size_t i = size_t(y) * width + x;
-                Pcg32 rng(iteration_seed, i);
-                glm::vec2 j = rng.next_2d();
-                trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, budget,
-                                  options.light_strategies, &frame[i * kClasses], rays);
-              }
-          });
-    });
+    // ---- the unbiased estimator: one camera sample per pixel ----
+    if (estimator == Estimator::bdpt)
+      bdpt->run(iteration_seed, *arena, ray_count, frame);
+    else
+      path_tracing_pass(world, lights, rig, options, wanted, budget, iteration_seed, 1, *arena,
+                        ray_count, frame);
     // ---- photon mapping: visible points, photons, gather ----
     if (photons) {
       if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
       photons->run(iteration_seed, radius_scale2, *arena, ray_count, frame);
     }
-    acc.add(it, frame, *arena);
+    acc->add(it, frame, *arena);
     // ---- stop rules: the first reached ends the render ----
-    uint32_t done = it + 1;
+    uint32_t done = acc->iterations();
     double elapsed = seconds_since(t0);
     bool stop = false;
-    if (done % 2 == 0) {  // the error and time rules stop on even counts (equal halves)
+    if (done % 2 == 0 && done > 0) {  // the error and time rules stop on even counts
       if (options.rel_error > 0 && done >= std::max(2u, options.min_samples)) {
-        rel_error = acc.rel_error();
+        rel_error = acc->rel_error();
         if (rel_error <= options.rel_error) stop = true, stopped_by = StopRule::rel_error;
       }
       if (!stop && options.max_seconds > 0 && elapsed >= options.max_seconds)
@@ -555,22 +771,25 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
 
   // ---- resolve ----
   ReferenceResult result;
-  result.samples = acc.iterations();
+  result.samples = acc->iterations();
   result.photon_paths = photons ? photons->photon_paths : 0;
   result.seed = options.seed;
-  result.rel_error = acc.rel_error();
+  result.rel_error = acc->rel_error();
   result.stopped_by = stopped_by;
+  result.estimator = estimator;
+  result.pilot = report;
   result.rays = total_rays();
   result.seconds = seconds_since(t0);
-  for (size_t j = 0; j < acc.classes().size(); ++j) {
-    ReferenceImage& img = result.classes[acc.classes()[j]];
-    acc.resolve(j, width, height, img);
+  for (size_t j = 0; j < acc->classes().size(); ++j) {
+    ReferenceImage& img = result.classes[acc->classes()[j]];
+    acc->resolve(j, width, height, img);
     img.samples = result.samples;
     img.seed = options.seed;
     img.seconds = result.seconds;
     img.rel_error = result.rel_error;
     img.stopped_by = stopped_by;
     img.max_bounces = options.max_bounces;
+    img.estimator = estimator;
   }
   return result;
 }

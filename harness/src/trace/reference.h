@@ -2,9 +2,11 @@
 // techniques on exactly what they estimate.
 //
 // Two estimators share the work, each on its own part of path space, so the sum converges to the
-// full solution with nothing counted twice:
-//   * path tracing with next-event estimation and MIS (power heuristic, Veach 1997 ch. 9) for every
-//     path whose vertex next to the light is diffuse, or that has no diffuse vertex at all;
+// full solution with nothing counted twice (the design and its measurements: README.md here):
+//   * an unbiased estimator for every path whose vertex next to the light is diffuse, or that has
+//     no diffuse vertex at all: path tracing with next-event estimation and MIS (power heuristic,
+//     Veach 1997 ch. 9), or bidirectional path tracing with MIS (Veach 1997 ch. 10, bdpt.h), chosen
+//     per render by a pilot (Estimator);
 //   * progressive photon mapping in its probabilistic form (Knaus & Zwicker 2011: every iteration
 //     an independent photon-map estimate, the radius shrinking from one iteration to the next) for
 //     every path with a diffuse vertex whose vertex next to the light is specular (L S ... ): the
@@ -100,6 +102,49 @@ std::optional<StopRule> parse_stop_rule(std::string_view name);
 // unbiased too, only noisier, except that BSDF sampling alone cannot reach delta lights).
 enum class LightStrategies : uint8_t { mis, nee_only, bsdf_only };
 
+// How bidirectional path tracing weights its strategies: the power heuristic (Veach 1997 §9.2.3,
+// the default), or the same weight for every strategy that can sample the path (unbiased too, only
+// noisier; for tests, where every strategy's share should be large enough to be checked).
+enum class MisHeuristic : uint8_t { power, uniform };
+
+// The unbiased estimator for the part of path space photon mapping does not own: path tracing with
+// next-event estimation (the anchor), bidirectional path tracing with MIS (bdpt.h), or automatic:
+// a pilot picks one of them per render (of an image of 18000 pixels or more; smaller ones are
+// bidirectional, since the pilot would cost too much of them). On a grid of about 2000 of the
+// pixels it runs both for kPilotIterations iterations, and photon mapping (with a 32nd of the
+// photons) for kPilotPhotonIterations. From the per-iteration variances measured there, scaled to
+// a full iteration (photon mapping's share included, the same for both), and from the rays each
+// would trace per iteration of the whole image, it predicts the cost of reaching the error target
+// with either, and renders with the cheaper (bidirectional path tracing only when cheaper by
+// kPilotMargin). Equal pilots for both, and not too short: a small bright region that path
+// tracing finds by chance makes its sample variance grow with the samples for a long while (8
+// iterations picked path tracing on cornell-box, whose hotspot makes it 8x slower there). Rays
+// rather than seconds, so that a seed gives one image; a ray of bidirectional path tracing counts
+// kBdptRayCost of path tracing's.
+enum class Estimator : uint8_t { pt, bdpt, automatic };
+std::string_view estimator_name(Estimator e);  // "pt", "bdpt", "auto"
+std::optional<Estimator> parse_estimator(std::string_view name);
+inline constexpr uint32_t kPilotIterations = 32;
+inline constexpr uint32_t kPilotPhotonIterations = 8;
+// Bidirectional path tracing is chosen when predicted cheaper by more than this factor.
+inline constexpr double kPilotMargin = 1.1;
+// Bidirectional path tracing's time per ray over path tracing's, measured (bench_reference: on
+// cornell-box and pillars its Mrays/s are 0.74 and 0.76 of path tracing's: vertex bookkeeping and
+// MIS weights around the same Embree queries).
+inline constexpr double kBdptRayCost = 1.3;
+
+// What the automatic choice saw: per-iteration error^2 (reference.h's error estimate for one
+// iteration) and rays per iteration of each estimator (photon mapping's rays apart), and the
+// predicted cost (rays, BDPT's weighted by kBdptRayCost) of finishing with each.
+struct PilotReport {
+  bool ran = false;
+  double pt_error2 = 0, bdpt_error2 = 0;
+  double pt_rays = 0, bdpt_rays = 0, photon_rays = 0;
+  double pt_cost = 0, bdpt_cost = 0;
+  double seconds = 0;       // the pilot's own time
+  uint32_t iterations = 0;  // of each unbiased estimator on the grid
+};
+
 // One iteration renders one camera sample per pixel with the unbiased estimator and, where photon
 // mapping has work (a scene with specular surfaces and a wanted class it feeds), one photon pass;
 // the iteration's image is one independent, identically seeded-apart estimate of the frame, so
@@ -117,7 +162,9 @@ struct ReferenceOptions {
   uint32_t sppm_photons = 200000;  // photon paths per photon pass
   float sppm_alpha = 2.f / 3.f;    // radius reduction (Knaus & Zwicker 2011, eq. 20)
   float sppm_radius = 0;           // initial radius, m; 0: 3 pixel footprints at the visible point
-  LightStrategies light_strategies = LightStrategies::mis;
+  Estimator estimator = Estimator::automatic;
+  LightStrategies light_strategies = LightStrategies::mis;  // pt only
+  MisHeuristic mis_heuristic = MisHeuristic::power;         // bdpt only
   uint32_t seed = 1;
   int threads = 0;  // 0: all cores
 };
@@ -156,7 +203,8 @@ struct ReferenceImage {
   double seconds = 0;
   double rel_error = 0;  // the error estimate reached (over all classes rendered together)
   StopRule stopped_by = StopRule::samples;
-  uint32_t max_bounces = 0;  // as requested (0: untruncated)
+  uint32_t max_bounces = 0;             // as requested (0: untruncated)
+  Estimator estimator = Estimator::pt;  // the one that rendered it (never automatic)
   bool empty() const { return mean.pixels.empty(); }
 };
 
@@ -167,6 +215,8 @@ struct ReferenceResult {
   double seconds = 0, rel_error = 0;
   StopRule stopped_by = StopRule::samples;
   uint32_t seed = 0;
+  Estimator estimator = Estimator::pt;  // the one that rendered it (never automatic)
+  PilotReport pilot;
   const io::Image& image(PathClass c) const { return classes[int(c)].mean; }
   double mrays_per_second() const { return seconds > 0 ? rays / seconds * 1e-6 : 0.0; }
 };

@@ -224,6 +224,7 @@ std::optional<ReferenceImage> ReferenceCache::get_entry(const scene::Scene& scen
   entry.rel_error = side->value("rel_error", 0.0);
   entry.stopped_by = parse_stop_rule(side->value("stopped_by", "")).value_or(StopRule::samples);
   entry.max_bounces = side->value("max_bounces", 0u);
+  entry.estimator = parse_estimator(side->value("estimator", "")).value_or(Estimator::pt);
   return entry;
 }
 
@@ -288,6 +289,7 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
         {"target_max_seconds", options.max_seconds},
         {"target_samples", options.samples},
         {"max_bounces", options.max_bounces},
+        {"estimator", std::string(estimator_name(img.estimator))},
         {"photons_per_iteration", r.photon_paths > 0 ? options.sppm_photons : 0u},
         {"rays", r.rays},
         {"images",
@@ -297,6 +299,12 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
           {"half1", k + kImageSuffix[3]}}},
         {"created", now_iso()},
     };
+    if (r.pilot.ran)
+      side["pilot"] = {{"pt_error2", r.pilot.pt_error2},     {"bdpt_error2", r.pilot.bdpt_error2},
+                       {"pt_rays", r.pilot.pt_rays},         {"bdpt_rays", r.pilot.bdpt_rays},
+                       {"photon_rays", r.pilot.photon_rays}, {"pt_cost", r.pilot.pt_cost},
+                       {"bdpt_cost", r.pilot.bdpt_cost},     {"seconds", r.pilot.seconds},
+                       {"iterations", r.pilot.iterations}};
     write_atomic(dir_ / (k + ".json"), side.dump(2) + "\n");  // last: marks the entry complete
     ++written;
   }

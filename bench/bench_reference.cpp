@@ -1,0 +1,211 @@
+// Renders each shipped scene's first metric frame of configs/quick.yaml at quick's resolution, to
+// quick's error target, with the reference renderer's estimator (automatic: a pilot picks
+// bidirectional or plain path tracing, reference.h) and with path tracing + NEE alone (the
+// anchor), and prints the time ratio per scene: alternating rounds (the order flips every round),
+// median ratio, of process CPU time (user + system, all threads: what the work costs, whatever
+// else runs on the machine) and of wall time. Both stop by the same rule, the renderer's error
+// estimate (reference.h) over the classes quick's cells score (combined, direct, indirect); a
+// render that hits the time limit first is reported as such, and its ratio as a bound.
+//
+//   bench_reference [--scenes a,b,...] [--rounds N] [--rel-error E] [--max-seconds S]
+//                   [--resolution WxH] [--estimator auto|bdpt] [--threads N]
+#include <fmt/format.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "config/config.h"
+#include "photonbench/error.h"
+#include "run/scoring.h"
+#include "scene/scene.h"
+#include "trace/embree_scene.h"
+#include "trace/reference.h"
+
+namespace fs = std::filesystem;
+using namespace pb;
+
+namespace {
+
+struct Args {
+  std::vector<std::string> scenes;
+  int rounds = 3;
+  double rel_error = -1, max_seconds = -1;
+  int width = 0, height = 0;
+  trace::Estimator estimator = trace::Estimator::automatic;
+  int threads = 0;
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start <= s.size()) {
+    size_t comma = s.find(',', start);
+    if (comma == std::string::npos) comma = s.size();
+    if (comma > start) out.push_back(s.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return out;
+}
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    std::string k = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw InputError("bench_reference: " + k + " needs a value");
+      return argv[++i];
+    };
+    if (k == "--scenes")
+      a.scenes = split(value());
+    else if (k == "--rounds")
+      a.rounds = std::max(1, std::atoi(value().c_str()));
+    else if (k == "--rel-error")
+      a.rel_error = std::atof(value().c_str());
+    else if (k == "--max-seconds")
+      a.max_seconds = std::atof(value().c_str());
+    else if (k == "--threads")
+      a.threads = std::atoi(value().c_str());
+    else if (k == "--resolution") {
+      std::string v = value();
+      if (std::sscanf(v.c_str(), "%dx%d", &a.width, &a.height) != 2)
+        throw InputError("bench_reference: --resolution WIDTHxHEIGHT");
+    } else if (k == "--estimator") {
+      auto e = trace::parse_estimator(value());
+      if (!e || *e == trace::Estimator::pt)
+        throw InputError("bench_reference: --estimator auto or bdpt (pt is the anchor)");
+      a.estimator = *e;
+    } else {
+      throw InputError("bench_reference: unknown option " + k);
+    }
+  }
+  return a;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+struct Run {
+  double seconds = 0, cpu = 0, rel_error = 0;
+  uint32_t iterations = 0;
+  bool reached = false;
+  trace::Estimator estimator = trace::Estimator::pt;
+};
+
+Run render(const trace::EmbreeScene& world, int w, int h, uint32_t mask,
+           trace::ReferenceOptions o) {
+  double cpu0 = cpu_seconds();
+  trace::ReferenceResult r = trace::render_reference_classes(world, w, h, mask, o);
+  return {r.seconds,
+          cpu_seconds() - cpu0,
+          r.rel_error,
+          r.samples,
+          r.stopped_by == trace::StopRule::rel_error,
+          r.estimator};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    Args args = parse(argc, argv);
+    fs::path root = PB_SOURCE_DIR;
+    config::Config quick = config::load_config(root / "configs" / "quick.yaml", {});
+    int w = args.width ? args.width : int(quick.width);
+    int h = args.height ? args.height : int(quick.height);
+    uint32_t frame = quick.frames.warmup;  // the first metric frame
+    trace::ReferenceOptions base = run::reference_options(quick);
+    base.samples = 0;
+    if (args.rel_error >= 0) base.rel_error = float(args.rel_error);
+    if (args.max_seconds >= 0) base.max_seconds = args.max_seconds;
+    base.threads = args.threads;
+    if (!(base.rel_error > 0))
+      throw InputError("bench_reference: needs an error target (quick.yaml's or --rel-error)");
+    if (args.scenes.empty())
+      for (const auto& e : fs::directory_iterator(root / "scenes"))
+        if (e.path().extension() == ".yaml") args.scenes.push_back(e.path().stem().string());
+    std::sort(args.scenes.begin(), args.scenes.end());
+    uint32_t mask = trace::class_bit(trace::PathClass::combined) |
+                    trace::class_bit(trace::PathClass::direct) |
+                    trace::class_bit(trace::PathClass::indirect);
+    std::printf(
+        "bench_reference: frame %u at %dx%d, classes combined+direct+indirect, stop at rel. error "
+        "%.3f (limit %.0f s a render), %d round(s), %s vs pt\n",
+        frame, w, h, base.rel_error, base.max_seconds, args.rounds,
+        std::string(trace::estimator_name(args.estimator)).c_str());
+    std::printf("%-20s %10s %10s %8s %8s %7s %7s  %s\n", "scene", "pt cpu s", "new cpu s", "pt it",
+                "new it", "ratio", "wall", "new estimator, notes");
+    std::fflush(stdout);
+    for (const std::string& name : args.scenes) {
+      scene::Scene scene = scene::load_scene(scene::find_scene(name, {root / "scenes"}));
+      trace::EmbreeScene world(scene, scene.at(frame));
+      std::vector<double> ratios, wall_ratios, pt_s, new_s, pt_it, new_it, pt_err, new_err;
+      bool pt_capped = false, new_capped = false;
+      std::string chosen;
+      for (int round = 0; round < args.rounds; ++round) {
+        trace::ReferenceOptions pt = base, fresh = base;
+        pt.estimator = trace::Estimator::pt;
+        fresh.estimator = args.estimator;
+        pt.seed = fresh.seed = uint32_t(17 + round);
+        Run a, b;
+        if (round % 2 == 0) {
+          a = render(world, w, h, mask, pt);
+          b = render(world, w, h, mask, fresh);
+        } else {
+          b = render(world, w, h, mask, fresh);
+          a = render(world, w, h, mask, pt);
+        }
+        pt_capped |= !a.reached;
+        new_capped |= !b.reached;
+        // Both stopped by the time limit: the time each would need for the other's error, from
+        // error^2 x time (path tracing's estimate only grows with more samples, so a bound).
+        double e2 = !a.reached && !b.reached
+                        ? (a.rel_error * a.rel_error) / (b.rel_error * b.rel_error)
+                        : 1.0;
+        ratios.push_back(e2 * a.cpu / b.cpu);
+        wall_ratios.push_back(e2 * a.seconds / b.seconds);
+        pt_err.push_back(a.rel_error), new_err.push_back(b.rel_error);
+        pt_s.push_back(a.cpu), new_s.push_back(b.cpu);
+        pt_it.push_back(a.iterations), new_it.push_back(b.iterations);
+        std::string e(trace::estimator_name(b.estimator));
+        if (chosen.find(e) == std::string::npos) chosen += (chosen.empty() ? "" : "/") + e;
+        std::fflush(stdout);
+      }
+      std::string notes = chosen;
+      if (pt_capped && new_capped)
+        notes += fmt::format(
+            "; both hit the time limit (error {:.4f} vs {:.4f}): ratios of error^2 x time",
+            median(pt_err), median(new_err));
+      else if (pt_capped)
+        notes += fmt::format("; pt hit the time limit at error {:.4f}: the ratio is a lower bound",
+                             median(pt_err));
+      else if (new_capped)
+        notes += "; new hit the time limit: the ratio is an upper bound";
+      std::printf("%-20s %10.1f %10.1f %8.0f %8.0f %6.2fx %6.2fx  %s\n", name.c_str(), median(pt_s),
+                  median(new_s), median(pt_it), median(new_it), median(ratios), median(wall_ratios),
+                  notes.c_str());
+      std::fflush(stdout);
+    }
+    return 0;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_reference: %s\n", e.what());
+    return 1;
+  }
+}
