@@ -45,8 +45,12 @@ def files_under(root):
 
 
 def compare_cell(a, b, cell, problems):
-    if cell_record(os.path.join(a, "cell.json")) != cell_record(os.path.join(b, "cell.json")):
-        problems.append(f"{cell}: cell.json differs beyond timings and host fields")
+    record_a = cell_record(os.path.join(a, "cell.json"))
+    record_b = cell_record(os.path.join(b, "cell.json"))
+    if record_a != record_b:
+        keys = sorted(k for k in set(record_a) | set(record_b) if record_a.get(k) != record_b.get(k))
+        problems.append(f"{cell}: cell.json differs beyond timings and host fields, in {keys}: "
+                        + "; ".join(f"{k}: {record_a.get(k)} vs {record_b.get(k)}" for k in keys))
     names_a, names_b = files_under(a), files_under(b)
     if names_a != names_b:
         problems.append(f"{cell}: files differ: {sorted(names_a ^ names_b)}")
