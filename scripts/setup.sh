@@ -11,6 +11,7 @@ packages=(
   python3 python3-matplotlib python3-numpy python3-scipy
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
   clang-format     # scripts/check_format.sh
+  clang-14 libfuzzer-14-dev  # scripts/fuzz.sh: libFuzzer targets with ASan/UBSan (tests/fuzz/)
   chromium  # tests/e2e/report_html.sh opens the HTML report headless
 )
 missing=()
