@@ -3,8 +3,9 @@
 # clang-14 (AddressSanitizer and UndefinedBehaviorSanitizer on) and runs each from its seed corpus
 # tests/fuzz/corpus/<target>/, growing a working corpus in build-fuzz/corpus/<target>/.
 #
-#   scripts/fuzz.sh [--seconds N | --runs N] [TARGET...]     (default: --seconds 30, all four)
+#   scripts/fuzz.sh [--seconds N] [--runs N] [TARGET...]   (default: --seconds 30, all four)
 #
+# With both limits a target stops at whichever comes first.
 # .ci/run runs each target for a bounded time. A finding (a crash, a sanitizer report, an exception
 # other than pb::InputError, an input slower than 30 s or one using more than 4 GiB) stops that
 # target, leaves the input in build-fuzz/findings/<target>/ and makes the script exit 1; reproduce
@@ -12,16 +13,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-limit=(-max_total_time=30)
+limit=()
 targets=()
 while (($#)); do
   case "$1" in
-    --seconds) limit=(-max_total_time="$2"); shift 2 ;;
-    --runs) limit=(-runs="$2"); shift 2 ;;
-    -h | --help) sed -n '2,11p' "$0"; exit 0 ;;
+    --seconds) limit+=(-max_total_time="$2"); shift 2 ;;
+    --runs) limit+=(-runs="$2"); shift 2 ;;
+    -h | --help) sed -n '2,13p' "$0"; exit 0 ;;
     *) targets+=("$1"); shift ;;
   esac
 done
+((${#limit[@]})) || limit=(-max_total_time=30)
 ((${#targets[@]})) || targets=(config set scene obj)
 
 cmake -S tests/fuzz -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++-14 > build-fuzz.log 2>&1 ||
