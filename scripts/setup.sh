@@ -12,6 +12,7 @@ packages=(
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
   python3-jsonschema  # tests/e2e/schema.sh checks configs and scenes against `photonbench schema`
   clang-format     # scripts/check_format.sh
+  clang-14 libfuzzer-14-dev  # scripts/fuzz.sh: libFuzzer targets with ASan/UBSan (tests/fuzz/)
   chromium  # tests/e2e/report_html.sh opens the HTML report headless
   slurm-wlm munge  # tests/e2e/slurm_sweep.sh starts a one-node Slurm (slurmctld, slurmd, sbatch)
 )

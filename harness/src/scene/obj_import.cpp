@@ -217,7 +217,8 @@ ObjModel parse_obj(const std::string& obj_text, const std::filesystem::path& fil
   if (!ok || !err.empty()) {
     std::smatch m;
     size_t line = 0;
-    if (std::regex_search(err, m, std::regex(R"(line:? (\d+))"))) line = std::stoul(m[1]);
+    static const std::regex line_number(R"(line:? (\d{1,9})\b)");
+    if (std::regex_search(err, m, line_number)) line = std::stoul(m[1]);
     std::string message = err.empty() ? "cannot parse OBJ file" : err;
     while (!message.empty() && (message.back() == '\n' || message.back() == ' '))
       message.pop_back();
@@ -225,11 +226,13 @@ ObjModel parse_obj(const std::string& obj_text, const std::filesystem::path& fil
   }
   // tinyobjloader treats a missing MTL file and an unknown material as warnings and silently uses
   // no material; a benchmark scene must not change its look silently, so both are errors here.
+  static const std::regex missing_mtl(R"(Material file \[ (.*?) \] not found)");
+  static const std::regex unknown_material(R"(material \[ '?(.*?)'? \] not found in \.mtl)");
   std::smatch m;
-  if (std::regex_search(warn, m, std::regex(R"(Material file \[ (.*?) \] not found)")))
+  if (std::regex_search(warn, m, missing_mtl))
     fail_at(file, find_statement(lines, "mtllib"),
             fmt::format("MTL file '{}' not found next to the OBJ file", m[1].str()));
-  if (std::regex_search(warn, m, std::regex(R"(material \[ '?(.*?)'? \] not found in \.mtl)")))
+  if (std::regex_search(warn, m, unknown_material))
     fail_at(file, find_statement(lines, "usemtl", m[1].str()),
             fmt::format("usemtl '{}': no such material in the MTL file", m[1].str()));
 
