@@ -83,7 +83,9 @@ TEST(PluginAbi, MissingClassFails) {
 }
 
 TEST(PluginAbi, LoaderFailsOnlyTheModulesThatDoNotFit) {
-  PluginRegistry plugins({std::string(PB_BINARY_DIR) + "/test-plugins"});
+  // build/tests/plugins is the test plugins' CMake folder, not a plugin folder: name build/plugins.
+  PluginRegistry plugins(
+      {std::string(PB_BINARY_DIR) + "/plugins", std::string(PB_BINARY_DIR) + "/test-plugins"});
   const Plugin* wrong = plugins.find("wrong_api_version");
   ASSERT_NE(wrong, nullptr);
   EXPECT_FALSE(wrong->loaded());
