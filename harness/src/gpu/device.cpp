@@ -6,8 +6,8 @@
 #include <cstring>
 #include <mutex>
 
-#include "photonbench/error.h"
 #include "gpu/device_accounting.h"
+#include "photonbench/error.h"
 #include "photonbench/gpu.h"
 
 namespace pb::gpu {

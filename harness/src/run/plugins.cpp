@@ -71,7 +71,8 @@ std::string describe(const pb_build_record& build) {
 std::string known_path_classes() {
   std::vector<std::string> known;
   for (trace::PathClass c : trace::all_path_classes())
-    known.push_back(fmt::format("{} ({})", trace::path_class_name(c), trace::path_class_expression(c)));
+    known.push_back(
+        fmt::format("{} ({})", trace::path_class_name(c), trace::path_class_expression(c)));
   return fmt::format("{}", fmt::join(known, ", "));
 }
 
@@ -94,9 +95,10 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
   }
   if (!descriptor->build) return fmt::format("plugin {} has no build record", plugin.file.string());
   if (std::string mismatch = build_mismatch(host, *descriptor->build); !mismatch.empty())
-    return fmt::format("plugin {} was built unlike this photonbench: {}; rebuild it against this "
-                       "photonbench's package",
-                       plugin.file.string(), mismatch);
+    return fmt::format(
+        "plugin {} was built unlike this photonbench: {}; rebuild it against this "
+        "photonbench's package",
+        plugin.file.string(), mismatch);
   if (!descriptor->name || !descriptor->create || !descriptor->destroy)
     return fmt::format("plugin {} returned a descriptor without a name or factory",
                        plugin.file.string());
@@ -113,8 +115,8 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
 
 std::string build_mismatch(const pb_build_record& host, const pb_build_record& module) {
   std::vector<std::string> differences;
-  const std::string sides = fmt::format("plugin built with {}; photonbench with {}",
-                                        describe(module), describe(host));
+  const std::string sides =
+      fmt::format("plugin built with {}; photonbench with {}", describe(module), describe(host));
   if (std::string_view(host.standard_library_abi) != module.standard_library_abi)
     differences.push_back(fmt::format("standard library ABI {} (photonbench: {})",
                                       module.standard_library_abi, host.standard_library_abi));
@@ -127,11 +129,11 @@ std::string build_mismatch(const pb_build_record& host, const pb_build_record& m
     for (uint32_t j = 0; j < module.class_size_count; ++j)
       if (std::string_view(module.class_sizes[j].name) == want.name) got = &module.class_sizes[j];
     if (!got)
-      differences.push_back(fmt::format("no size recorded for {} (photonbench: {} bytes)",
-                                        want.name, want.bytes));
+      differences.push_back(
+          fmt::format("no size recorded for {} (photonbench: {} bytes)", want.name, want.bytes));
     else if (got->bytes != want.bytes)
-      differences.push_back(fmt::format("sizeof({}) {} bytes (photonbench: {})", want.name,
-                                        got->bytes, want.bytes));
+      differences.push_back(
+          fmt::format("sizeof({}) {} bytes (photonbench: {})", want.name, got->bytes, want.bytes));
   }
   if (differences.empty()) return "";
   return fmt::format("{} ({})", fmt::join(differences, "; "), sides);

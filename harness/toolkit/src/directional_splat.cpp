@@ -214,8 +214,10 @@ void DirectionalSplat::report(Context& ctx, const PhotonSet&) {
   ctx.count({"photons_missed", CounterKind::work, "photons"}, double(s[kStatMissed]));
   jobs_.report(ctx, "directional");
   report_truncated(ctx, "directional", s[kStatTruncated], budget_);
-  ctx.count({"bytes_cluster_hierarchy", CounterKind::size, "bytes"}, double(hierarchy_.bytes_hierarchy()));
-  ctx.count({"bytes_final_bounds", CounterKind::size, "bytes"}, double(hierarchy_.bytes_final_bounds()));
+  ctx.count({"bytes_cluster_hierarchy", CounterKind::size, "bytes"},
+            double(hierarchy_.bytes_hierarchy()));
+  ctx.count({"bytes_final_bounds", CounterKind::size, "bytes"},
+            double(hierarchy_.bytes_final_bounds()));
   ctx.count({"bytes_accum_flux", CounterKind::size, "bytes"}, double(flux_.bytes()));
   ctx.count({"bytes_leaf_counts", CounterKind::size, "bytes"}, double(leaf_counts_.size()));
   ctx.count({"bytes_jobs", CounterKind::size, "bytes"}, double(jobs_.bytes()));

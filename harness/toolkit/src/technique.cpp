@@ -78,7 +78,8 @@ void render_photon_frame(Context& ctx, const PhotonParams& photon, trace::Photon
   // The counters live on the GPU: wait for the frame's work (flush makes them host-visible).
   ctx.flush();
   splatter.report(ctx, set);
-  ctx.count({"bytes_photons", CounterKind::size, "bytes"}, double(uint64_t(set.count()) * sizeof(trace::PhotonRecord)));
+  ctx.count({"bytes_photons", CounterKind::size, "bytes"},
+            double(uint64_t(set.count()) * sizeof(trace::PhotonRecord)));
 }
 
 }  // namespace pb::toolkit
