@@ -4,12 +4,20 @@
 # With SUFFIX and DEFINES: a variant of each file compiled with -D<each define>, as k<stem>_<s>_spv
 # (e.g. the toolkit's profiled traversal passes).
 # Embedding keeps a plugin one self-contained file: no shader search paths at run time.
-# Include paths: harness/shaders (the GLSL library, "toolkit/*.glsl"), the public headers
-# ("photonbench/photon_layout.h", "photonbench/scene_layout.h") and the toolkit's public headers
-# ("photonbench/toolkit/*.h", the layouts it shares with GLSL), then the target's own shaders/.
-get_filename_component(PB_SOURCE_ROOT ${CMAKE_CURRENT_LIST_DIR}/.. ABSOLUTE)
-set(PB_SHADER_INCLUDE_FLAGS -I ${PB_SOURCE_ROOT}/harness/shaders
-    -I ${PB_SOURCE_ROOT}/harness/include -I ${PB_SOURCE_ROOT}/harness/toolkit/include)
+# Include paths (PB_SHADER_INCLUDE_DIRS): harness/shaders (the GLSL library, "toolkit/*.glsl"), the
+# public headers ("photonbench/photon_layout.h", "photonbench/scene_layout.h") and the toolkit's
+# public headers ("photonbench/toolkit/*.h", the layouts it shares with GLSL), then the target's own
+# shaders/. The installed package (photonbenchConfig.cmake) sets PB_SHADER_INCLUDE_DIRS to their
+# installed copies before including this file.
+if(NOT DEFINED PB_SHADER_INCLUDE_DIRS)
+  get_filename_component(PB_SOURCE_ROOT ${CMAKE_CURRENT_LIST_DIR}/.. ABSOLUTE)
+  set(PB_SHADER_INCLUDE_DIRS ${PB_SOURCE_ROOT}/harness/shaders ${PB_SOURCE_ROOT}/harness/include
+      ${PB_SOURCE_ROOT}/harness/toolkit/include)
+endif()
+set(PB_SHADER_INCLUDE_FLAGS "")
+foreach(dir IN LISTS PB_SHADER_INCLUDE_DIRS)
+  list(APPEND PB_SHADER_INCLUDE_FLAGS -I ${dir})
+endforeach()
 
 function(pb_embed_shaders)
   cmake_parse_arguments(ARG "" "TARGET;HEADER;SUFFIX" "SHADERS;DEFINES" ${ARGN})

@@ -60,10 +60,6 @@ expect_exit 0 "a scene's overrides sweep that scene only" -- "$PB" validate "$cf
 expect_match "one cornell-box cell and two pillars cells" "valid, 3 cells" "$OUT"
 expect_match "pillars cells take the scene's value" "pillars__direct__[0-9a-f]+ .*shadow_map_size=128" "$OUT"
 
-write "${base[@]/technique: direct/technique: wrong_api_version}" "plugin_dirs: [$TEST_PLUGINS]"
-expect_exit 2 "plugin built for another API version" -- "$PB" validate "$cfg"
-expect_match "API version error names location and both versions" "bad.yaml:6:[0-9]+: techniques\[0\].technique: plugin .*wrong_api_version.so was built for plugin API version 42, this photonbench has 1" "$OUT"
-
 write "${base[@]}"
 expect_exit 2 "--set with a bad value" -- "$PB" validate "$cfg" --set frames.count=-3
 expect_match "--set error says it came from the command line" "frames.count: value -3 is out of range" "$OUT"

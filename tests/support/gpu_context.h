@@ -98,7 +98,9 @@ class TestContext final : public Context {
   vk::CommandBuffer cmd() override { return *buffers_[0]; }
   void flush() override { submit(); }
   PassScope pass(std::string_view) override { return PassScope(nullptr, 0); }
-  void count(std::string_view name, double value) override { counters[std::string(name)] = value; }
+  void count(const Counter& counter, double value) override {
+    counters[std::string(counter.name)] = value;
+  }
   void warn(std::string_view message) override { warnings.emplace_back(message); }
   const FrameInfo& frame() const override { return frame_; }
   SharedPasses& shared() override { return shared_; }

@@ -39,6 +39,24 @@ class PassScope {
   int pass_;
 };
 
+// A per-frame counter, declared once where it is counted:
+//   constexpr pb::Counter kPhotonsRead{"photons_read", pb::CounterKind::work, "photons"};
+//   ctx.count(kPhotonsRead, n);
+// The kind says how frames combine (work adds up over frames; a size is a level each frame has; a
+// ratio is a fraction of the frame's work, averaged, never added);
+// the unit names what is counted. Both are recorded with the cell (cell.json "counters"); one name
+// declared with two kinds or units in a cell fails it.
+enum class CounterKind {
+  work,  // done this frame: photons read, jobs run, overflows
+  size,   // held this frame: bytes of a structure, nodes of a hierarchy, photons stored
+  ratio,  // a fraction of this frame's work: idle lanes
+};
+struct Counter {
+  std::string_view name;  // snake_case, unique within a technique
+  CounterKind kind;
+  std::string_view unit;  // "photons", "bytes", "nodes", ...
+};
+
 struct CameraView {
   glm::mat4 view, projection, view_projection, inverse_view_projection;
   glm::vec3 position;
@@ -92,8 +110,8 @@ class Context {
   // host-visible buffer) on the CPU within a frame.
   virtual void flush() = 0;
   virtual PassScope pass(std::string_view name) = 0;
-  // Counters are per frame: "photons_stored" etc. Warnings are recorded on the cell with the frame.
-  virtual void count(std::string_view name, double value) = 0;
+  // Counters are per frame (see Counter). Warnings are recorded on the cell with the frame.
+  virtual void count(const Counter& counter, double value) = 0;
   virtual void warn(std::string_view message) = 0;
   virtual const FrameInfo& frame() const = 0;
   virtual SharedPasses& shared() = 0;

@@ -133,6 +133,13 @@ struct GraphicsPipelineDesc {
 
 class Device {
  public:
+  // The device limits a technique sizes its work by.
+  struct Limits {
+    uint64_t max_storage_buffer_range;  // bytes one storage-buffer binding may span
+    uint32_t max_compute_workgroup_count[3];
+    uint32_t max_compute_workgroup_invocations;
+    uint32_t max_push_constant_bytes;
+  };
   struct Options {
     std::string name_filter;  // substring of the device name; empty picks lavapipe, else the first
     bool validation = false;  // enable VK_LAYER_KHRONOS_validation and count its errors
@@ -142,12 +149,10 @@ class Device {
   Device(const Device&) = delete;
   Device& operator=(const Device&) = delete;
 
-  static std::vector<std::string> list_devices();
-
   const std::string& name() const { return name_; }
   const std::string& driver() const { return driver_; }
   const vk::raii::Device& device() const { return device_; }
-  const vk::raii::PhysicalDevice& physical() const { return physical_; }
+  const Limits& limits() const { return limits_; }
   vk::Queue queue() const { return *queue_; }
   uint32_t queue_family() const { return queue_family_; }
   // lavapipe (llvmpipe) bins rasterisation and runs it after a pass's closing timestamp, so its
@@ -175,8 +180,6 @@ class Device {
   // Reads an RGBA32F image into `rgba` (width * height * 4 floats).
   void read_image(const Image& image, std::vector<float>& rgba);
 
-  // Bytes in live buffers and images made through this device; the runner attributes them per cell.
-  uint64_t allocated_bytes() const { return allocated_bytes_; }
   uint64_t validation_errors() const;
   std::string first_validation_error() const;
 
@@ -185,9 +188,12 @@ class Device {
   vk::Sampler nearest_sampler() const { return *nearest_sampler_; }
 
   void set_debug_name(uint64_t handle, vk::ObjectType type, const std::string& name) const;
-  void release(vk::DeviceSize bytes) { allocated_bytes_ -= bytes; }
 
  private:
+  friend class Buffer;  // their destructors hand back their bytes (release)
+  friend class Image;
+  friend struct DeviceAccounting;  // the runner's view: gpu/device_accounting.h
+  void release(vk::DeviceSize bytes) { allocated_bytes_ -= bytes; }
   uint32_t find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags flags) const;
   vk::raii::DeviceMemory allocate(vk::MemoryRequirements requirements, vk::MemoryPropertyFlags flags);
 
@@ -204,6 +210,7 @@ class Device {
   std::string name_, driver_;
   double timestamp_period_ns_ = 1;
   uint32_t timestamp_valid_bits_ = 64;
+  Limits limits_{};
   bool debug_names_ = false;
   uint64_t allocated_bytes_ = 0;
 };

@@ -1,7 +1,13 @@
-// The technique plugin contract. A technique is a shared module in build/plugins/ exporting one C entry
-// point, `photonbench_technique`, that takes the host's API version and returns a static descriptor
-// table of C types only: name, API version, path class, parameter schema and a factory. The loader
-// checks the version before calling anything else.
+// The technique plugin contract. A technique is a shared module exporting one C entry point,
+// `photonbench_technique`, that takes the host's API version and returns a static descriptor table of
+// C types only: API version, build record, name, path class, parameter schema and a factory.
+//
+// Plugins are built by other compilers on other days (out of tree, against the installed package),
+// so the boundary is checked before anything else is called: the descriptor opens with the module's
+// API version and its build record (compiler, standard library, Vulkan-Hpp version, sizeof of each
+// public class), a layout kept from version 2 on. The entry point honours the host's version: given
+// another version than its own it returns only that opening, never a factory the host cannot use.
+// A mismatch fails only that plugin's cells, with a message naming both sides (run/plugins.cpp).
 //
 //   static const pb_param_spec kParams[] = {
 //       {"photons", PB_PARAM_INT, 200000, 1000, 5e7, nullptr, "photons", "photons traced per frame"},
@@ -11,7 +17,9 @@
 
 #include <cstdint>
 
-#define PB_PLUGIN_API_VERSION 1u
+#ifndef PB_PLUGIN_API_VERSION  // a test plugin defines another to play a module of another day
+#define PB_PLUGIN_API_VERSION 2u
+#endif
 #define PB_TECHNIQUE_ENTRY_SYMBOL "photonbench_technique"
 
 extern "C" {
@@ -34,10 +42,33 @@ typedef struct pb_param_spec {
   const char* doc;      // one line
 } pb_param_spec;
 
+typedef struct pb_class_size {
+  const char* name;  // "pb::gpu::Device"
+  uint32_t bytes;
+} pb_class_size;
+
+// What a module was built with. The host requires the same standard library ABI, the same Vulkan-Hpp
+// headers (the vk::raii types of the public classes are inline) and the same size of every public
+// class; the compiler and the library's release are reported, not compared (GCC and Clang share the
+// Itanium C++ ABI, and a newer library than the host's fails in dlopen with the loader's message).
+typedef struct pb_build_record {
+  const char* compiler;              // "GCC 12.2.0"
+  const char* standard_library;      // "libstdc++ 12 (20230210)"
+  const char* standard_library_abi;  // "libstdc++ cxx11": must equal the host's
+  uint32_t vulkan_hpp_version;       // VK_HEADER_VERSION: must equal the host's
+  uint32_t class_size_count;
+  const pb_class_size* class_sizes;  // each must equal the host's
+} pb_build_record;
+
 typedef struct pb_technique_descriptor {
+  // The opening every API version from 2 on keeps: read before anything else.
   uint32_t api_version;  // PB_PLUGIN_API_VERSION the module was built against
+  const pb_build_record* build;
+  // The rest: null unless the host's API version is the module's.
   const char* name;
-  const char* path_class;  // light transport estimated, as a light path expression: "C D S+ L"
+  // Light transport estimated: a reference class name ("caustics") or its light path expression
+  // ("C D S+ L"); anything else fails the plugin at load.
+  const char* path_class;
   const char* summary;
   const pb_param_spec* params;
   uint32_t param_count;
@@ -53,9 +84,9 @@ typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_v
 #include <map>
 #include <string>
 
-namespace pb {
+#include "photonbench/context.h"
 
-class Context;
+namespace pb {
 
 // Resolved parameter values of one cell, already checked against the schema (type and range) by the
 // harness. Cross-parameter constraints are the technique's to check in setup (throw pb::InputError).
@@ -82,16 +113,72 @@ class Technique {
   virtual void render(Context& ctx) = 0;
 };
 
+namespace detail {
+
+#define PB_STRINGIFY_(x) #x
+#define PB_STRINGIFY(x) PB_STRINGIFY_(x)
+
+// The build record of the module that expands this (internal linkage: never bound to the host's
+// copy by the dynamic linker, so each side reports its own build).
+[[maybe_unused]] static const pb_build_record* this_build() {
+  static const pb_class_size sizes[] = {
+      {"std::string", sizeof(std::string)},
+      {"pb::Params", sizeof(Params)},
+      {"pb::Technique", sizeof(Technique)},
+      {"pb::Context", sizeof(Context)},
+      {"pb::FrameInfo", sizeof(FrameInfo)},
+      {"pb::GBuffer", sizeof(GBuffer)},
+      {"pb::Counter", sizeof(Counter)},
+      {"pb::PassScope", sizeof(PassScope)},
+      {"pb::gpu::Device", sizeof(gpu::Device)},
+      {"pb::gpu::Device::Limits", sizeof(gpu::Device::Limits)},
+      {"pb::gpu::Buffer", sizeof(gpu::Buffer)},
+      {"pb::gpu::Image", sizeof(gpu::Image)},
+      {"pb::gpu::Pipeline", sizeof(gpu::Pipeline)},
+      {"pb::gpu::GraphicsPipelineDesc", sizeof(gpu::GraphicsPipelineDesc)},
+      {"pb::trace::TraceSettings", sizeof(trace::TraceSettings)},
+      {"pb::trace::PhotonBatch", sizeof(trace::PhotonBatch)},
+  };
+  static const pb_build_record record = {
+#if defined(__clang__)
+      "clang " __clang_version__,
+#elif defined(__GNUC__)
+      "GCC " __VERSION__,
+#else
+      "unknown compiler",
+#endif
+#if defined(_LIBCPP_VERSION)
+      "libc++ " PB_STRINGIFY(_LIBCPP_VERSION), "libc++ " PB_STRINGIFY(_LIBCPP_ABI_VERSION),
+#elif defined(__GLIBCXX__)
+      "libstdc++ " PB_STRINGIFY(_GLIBCXX_RELEASE) " (" PB_STRINGIFY(__GLIBCXX__) ")",
+#if _GLIBCXX_USE_CXX11_ABI
+      "libstdc++ cxx11",
+#else
+      "libstdc++ pre-cxx11",
+#endif
+#else
+      "unknown standard library", "unknown standard library",
+#endif
+      VK_HEADER_VERSION, uint32_t(sizeof(sizes) / sizeof(sizes[0])), sizes};
+  return &record;
+}
+
+}  // namespace detail
 }  // namespace pb
 
-#define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params)                              \
-  extern "C" __attribute__((visibility("default"))) const pb_technique_descriptor*                 \
-  photonbench_technique(uint32_t /*host_api_version*/) {                                            \
-    static const pb_technique_descriptor descriptor = {                                            \
-        PB_PLUGIN_API_VERSION, name, path_class, summary, params,                                  \
-        uint32_t(sizeof(params) / sizeof(params[0])),                                              \
-        []() -> void* { return static_cast<pb::Technique*>(new Class()); },                        \
-        [](void* t) { delete static_cast<pb::Technique*>(t); }};                                   \
-    return &descriptor;                                                                            \
+// The entry point: the whole descriptor for a host of the module's API version, only the opening
+// (version and build record) for any other host.
+#define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params)                             \
+  extern "C" __attribute__((visibility("default"))) const pb_technique_descriptor*                \
+  photonbench_technique(uint32_t host_api_version) {                                               \
+    static const pb_technique_descriptor descriptor = {                                           \
+        PB_PLUGIN_API_VERSION, pb::detail::this_build(), name, path_class, summary, params,       \
+        uint32_t(sizeof(params) / sizeof(params[0])),                                             \
+        []() -> void* { return static_cast<pb::Technique*>(new Class()); },                       \
+        [](void* t) { delete static_cast<pb::Technique*>(t); }};                                  \
+    static const pb_technique_descriptor opening = {                                              \
+        PB_PLUGIN_API_VERSION, pb::detail::this_build(), nullptr, nullptr, nullptr, nullptr, 0,   \
+        nullptr, nullptr};                                                                         \
+    return host_api_version == PB_PLUGIN_API_VERSION ? &descriptor : &opening;                    \
   }
 #endif

@@ -4,7 +4,7 @@
 #include <cstdio>
 
 #include "cli/command.h"
-#include "photonbench/gpu.h"
+#include "gpu/device_accounting.h"
 #include "run/plugins.h"
 #include "scene/scene.h"
 
@@ -17,7 +17,7 @@ void list_techniques(const std::vector<std::string>& plugin_dirs) {
     const pb::run::Plugin* plugin = plugins.find(name);
     if (!plugin->loaded()) {
       std::printf("%s  (%s)\n  cannot load: %s\n\n", name.c_str(), plugin->file.c_str(),
-                  (plugin->load_error + plugin->version_error).c_str());
+                  plugin->load_error.c_str());
       continue;
     }
     const auto& d = *plugin->descriptor;
@@ -66,7 +66,7 @@ void add_list(CLI::App& app, int& exit_code) {
     if (*what == "techniques") list_techniques(*plugin_dirs);
     if (*what == "scenes") list_scenes();
     if (*what == "devices")
-      for (const auto& name : pb::gpu::Device::list_devices()) std::printf("%s\n", name.c_str());
+      for (const auto& name : pb::gpu::list_devices()) std::printf("%s\n", name.c_str());
     exit_code = 0;
   });
 }

@@ -67,9 +67,9 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
   std::map<std::string, json> scene_params;  // name -> the alternatives of its techniques
   for (const std::string& name : plugins.names()) {
     const pb::run::Plugin* plugin = plugins.find(name);
-    if (!plugin->version_error.empty()) {  // validate rejects it: so does the schema
+    if (!plugin->load_error.empty()) {  // its cells would fail: the schema offers what can run
       std::fprintf(stderr, "schema: leaving out %s: %s\n", name.c_str(),
-                   plugin->version_error.c_str());
+                   plugin->load_error.c_str());
       continue;
     }
     json params = {{"type", "object"}, {"additionalProperties", false}};

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <mutex>
 
+#include "gpu/device_accounting.h"
 #include "photonbench/error.h"
 #include "photonbench/gpu.h"
 
@@ -75,7 +76,7 @@ struct Device::Messenger {
   }
 };
 
-std::vector<std::string> Device::list_devices() {
+std::vector<std::string> list_devices() {
   vk::raii::Context context;
   vk::raii::Instance instance = make_instance(context, false, false);
   std::vector<std::string> names;
@@ -128,6 +129,11 @@ Device::Device(const Options& options) {
   const auto& driver = driver_props.get<vk::PhysicalDeviceDriverProperties>();
   driver_ = fmt::format("{} {}", driver.driverName.data(), driver.driverInfo.data());
   timestamp_period_ns_ = props.limits.timestampPeriod;
+  limits_.max_storage_buffer_range = props.limits.maxStorageBufferRange;
+  for (int axis = 0; axis < 3; ++axis)
+    limits_.max_compute_workgroup_count[axis] = props.limits.maxComputeWorkGroupCount[axis];
+  limits_.max_compute_workgroup_invocations = props.limits.maxComputeWorkGroupInvocations;
+  limits_.max_push_constant_bytes = props.limits.maxPushConstantsSize;
 
   // One queue that does graphics and compute, with timestamps (checked: rule 7).
   auto families = physical_.getQueueFamilyProperties();

@@ -38,6 +38,7 @@ json to_json(const CellRecord& r) {
   put("metrics_bounce_matched", r.metrics_bounce_matched);
   put("references", r.references);
   put("frames_measured", r.frames_measured);
+  put("counters", r.counters);
   put("summary", r.summary);
   put("memory", r.memory);
   put("validation", r.validation);

@@ -44,6 +44,7 @@ struct CellRecord {
   std::optional<nlohmann::json> references;  // the references scored against (samples, error, ...)
   // Frame timings, counted over the measured frames so far (run/frame_log.h).
   std::optional<uint64_t> frames_measured;
+  std::optional<nlohmann::json> counters;  // each counter counted: name -> {"kind", "unit"}
   std::optional<nlohmann::json> summary;  // frame_ms, harness_overhead_ms/_pct, pass_ms_median
   std::optional<nlohmann::json> memory;   // peak_host_bytes, gpu_bytes_technique, gpu_bytes_total
   std::optional<bool> validation;         // Vulkan validation layers were on

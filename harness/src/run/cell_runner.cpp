@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "gpu/device_accounting.h"
 #include "run/cell_record.h"
 #include "run/frame_log.h"
 #include "run/frame_loop.h"
@@ -60,7 +61,7 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
   if (!config.testing.slow_pass.empty())
     r.profiler.slow_down(config.testing.slow_pass, config.testing.slow_factor);
 
-  const uint64_t harness_gpu_bytes = r.device.allocated_bytes();
+  const uint64_t harness_gpu_bytes = gpu::DeviceAccounting::allocated_bytes(r.device);
   TechniqueInstance technique = set_up_technique(plugin, cell, r, record);
   FrameLoop frames(config, r, log, record, dir, reference_class_of(path_class), harness_gpu_bytes);
   const std::vector<uint32_t> written = frames.run(*technique);

@@ -1,5 +1,7 @@
 #include "run/frame_context.h"
 
+#include <fmt/format.h>
+
 #include "photonbench/error.h"
 
 namespace pb::run {
@@ -44,6 +46,29 @@ void FrameContext::begin_frame(const FrameInfo& frame) {
   frame_ = frame;
   counters_.clear();
   warnings_.clear();
+}
+
+void FrameContext::count(const Counter& counter, double value) {
+  std::string name(counter.name);
+  auto [it, added] =
+      declarations_.try_emplace(name, CounterDeclaration{counter.kind, std::string(counter.unit)});
+  if (!added && (it->second.kind != counter.kind || it->second.unit != counter.unit))
+    throw Error(fmt::format("counter '{}' is declared as {} ({}) and as {} ({})", name,
+                            counter_kind_name(it->second.kind), it->second.unit,
+                            counter_kind_name(counter.kind), counter.unit));
+  counters_.emplace_back(std::move(name), value);
+}
+
+std::string_view counter_kind_name(CounterKind kind) {
+  switch (kind) {
+    case CounterKind::work:
+      return "work";
+    case CounterKind::size:
+      return "size";
+    case CounterKind::ratio:
+      return "ratio";
+  }
+  return "?";
 }
 
 }  // namespace pb::run

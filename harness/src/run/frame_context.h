@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -48,6 +49,14 @@ class FrameContext final : public Context {
   void begin_frame(const FrameInfo& frame);
   const std::vector<std::pair<std::string, double>>& counters() const { return counters_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
+  struct CounterDeclaration {
+    CounterKind kind;
+    std::string unit;
+  };
+  // Every counter counted in this cell so far, by name (kept across frames).
+  const std::map<std::string, CounterDeclaration>& counter_declarations() const {
+    return declarations_;
+  }
 
   gpu::Device& gpu() override { return device_; }
   vk::CommandBuffer cmd() override { return commands_.current(); }
@@ -55,9 +64,9 @@ class FrameContext final : public Context {
   PassScope pass(std::string_view name) override {
     return PassScope(&profiler_, profiler_.begin_pass(name));
   }
-  void count(std::string_view name, double value) override {
-    counters_.emplace_back(std::string(name), value);
-  }
+  // Records the value and the counter's declaration; a name declared before with another kind or
+  // unit is pb::Error (the cell fails naming both).
+  void count(const Counter& counter, double value) override;
   void warn(std::string_view message) override { warnings_.emplace_back(std::string(message)); }
   const FrameInfo& frame() const override { return frame_; }
   SharedPasses& shared() override { return world_.passes(); }
@@ -71,7 +80,10 @@ class FrameContext final : public Context {
   World& world_;
   FrameInfo frame_{};
   std::vector<std::pair<std::string, double>> counters_;
+  std::map<std::string, CounterDeclaration> declarations_;
   std::vector<std::string> warnings_;
 };
+
+std::string_view counter_kind_name(CounterKind kind);  // "work", "size", "ratio"
 
 }  // namespace pb::run

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "gpu/device_accounting.h"
 #include "io/image.h"
 #include "run/scoring.h"
 
@@ -76,9 +77,13 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
     try {
       const bool warmup = f < config_.frames.warmup;
       const FrameTiming timing = render_timed(technique, f, warmup);
-      const uint64_t allocated = r_.device.allocated_bytes();
+      const uint64_t allocated = gpu::DeviceAccounting::allocated_bytes(r_.device);
       log_.track_gpu_memory(allocated - technique_gpu_bytes_from_, allocated);
       if (!warmup) log_.add(timing, r_.ctx.counters());
+      nlohmann::json declarations = nlohmann::json::object();
+      for (const auto& [name, declared] : r_.ctx.counter_declarations())
+        declarations[name] = {{"kind", counter_kind_name(declared.kind)}, {"unit", declared.unit}};
+      if (!declarations.empty()) record_.counters = std::move(declarations);
       for (const std::string& warning : r_.ctx.warnings()) record_.warn(f, warning);
       check_output(f);
       if (std::find(scored.begin(), scored.end(), f) != scored.end()) {

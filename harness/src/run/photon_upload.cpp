@@ -16,7 +16,7 @@ uint32_t trace_and_upload_photons(Context& ctx, const trace::TraceSettings& sett
     auto scope = ctx.pass("photon-trace");
     ctx.photon_tracer().trace(settings, batch);
     count = uint32_t(batch.photons.size());
-    ctx.count("photons_stored", count);
+    ctx.count({"photons_stored", CounterKind::size, "photons"}, count);
   }
   auto scope = ctx.pass("photon-upload");
   const uint64_t bytes = uint64_t(std::max<uint32_t>(count, 1)) * sizeof(trace::PhotonRecord);

@@ -83,7 +83,6 @@ std::vector<ParamMap> technique_combos(const config::TechniqueEntry& entry,
                                hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
                                fmt::join(names, ", ")));
   }
-  if (!plugin->version_error.empty()) name_node.fail(plugin->version_error);
   if (!plugin->loaded()) return {{}};  // fails when it runs, with the loader's error
   const pb_technique_descriptor& d = *plugin->descriptor;
   std::vector<std::string> names;

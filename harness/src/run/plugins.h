@@ -19,8 +19,9 @@ struct Plugin {
   std::string name;
   std::filesystem::path file;
   const pb_technique_descriptor* descriptor = nullptr;
-  std::string load_error;     // dlopen / dlsym error text: fails only this plugin's cells
-  std::string version_error;  // API version mismatch: bad input
+  // Why it did not load (dlopen / dlsym error, API version or build mismatch, unknown path
+  // class): fails only this plugin's cells, with this message.
+  std::string load_error;
   void* handle = nullptr;
   bool loaded() const { return descriptor != nullptr; }
 };
@@ -54,6 +55,10 @@ struct TechniqueDeleter {
 };
 using TechniqueInstance = std::unique_ptr<Technique, TechniqueDeleter>;
 TechniqueInstance create_technique(const pb_technique_descriptor& descriptor);
+
+// Why a module built as `module` cannot run in a host built as `host`, naming both sides of each
+// difference; empty when they match (pb_build_record says what must match).
+std::string build_mismatch(const pb_build_record& host, const pb_build_record& module);
 
 // The type of a parameter spec as a word ("int", "float", "bool", "enum") and its default as text.
 std::string param_type_name(const pb_param_spec& spec);

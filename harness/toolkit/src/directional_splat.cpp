@@ -209,16 +209,18 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
 
 void DirectionalSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
-  ctx.count("node_deposits",
+  ctx.count({"node_deposits", CounterKind::work, "deposits"},
             double(uint64_t(s[kStatDeposits]) | (uint64_t(s[kStatDeposits + 1]) << 32)));
-  ctx.count("photons_missed", double(s[kStatMissed]));
+  ctx.count({"photons_missed", CounterKind::work, "photons"}, double(s[kStatMissed]));
   jobs_.report(ctx, "directional");
   report_truncated(ctx, "directional", s[kStatTruncated], budget_);
-  ctx.count("bytes_cluster_hierarchy", double(hierarchy_.bytes_hierarchy()));
-  ctx.count("bytes_final_bounds", double(hierarchy_.bytes_final_bounds()));
-  ctx.count("bytes_accum_flux", double(flux_.bytes()));
-  ctx.count("bytes_leaf_counts", double(leaf_counts_.size()));
-  ctx.count("bytes_jobs", double(jobs_.bytes()));
+  ctx.count({"bytes_cluster_hierarchy", CounterKind::size, "bytes"},
+            double(hierarchy_.bytes_hierarchy()));
+  ctx.count({"bytes_final_bounds", CounterKind::size, "bytes"},
+            double(hierarchy_.bytes_final_bounds()));
+  ctx.count({"bytes_accum_flux", CounterKind::size, "bytes"}, double(flux_.bytes()));
+  ctx.count({"bytes_leaf_counts", CounterKind::size, "bytes"}, double(leaf_counts_.size()));
+  ctx.count({"bytes_jobs", CounterKind::size, "bytes"}, double(jobs_.bytes()));
   profile_.report(ctx);
 }
 

@@ -200,7 +200,7 @@ void Hierarchy::allocate(gpu::Device& gpu, uint32_t width, uint32_t height) {
     cid_at += capacity;
   }
 
-  uint64_t limit = gpu.physical().getProperties().limits.maxStorageBufferRange;
+  uint64_t limit = gpu.limits().max_storage_buffer_range;
   uint64_t largest = std::max({mask_at * 4, slot_at * 4, cid_at * 24, pixels * 4});
   if (largest > limit)
     throw InputError(fmt::format(

@@ -34,7 +34,7 @@ void configure_shadows(Context& ctx, uint32_t map_size) {
 }
 
 void check_storage_range(const gpu::Device& gpu, uint64_t bytes, std::string_view what) {
-  const uint64_t limit = gpu.physical().getProperties().limits.maxStorageBufferRange;
+  const uint64_t limit = gpu.limits().max_storage_buffer_range;
   if (bytes > limit)
     throw InputError(fmt::format(
         "{} needs a storage buffer of {} bytes, more than the device's maxStorageBufferRange ({} "
@@ -78,7 +78,8 @@ void render_photon_frame(Context& ctx, const PhotonParams& photon, trace::Photon
   // The counters live on the GPU: wait for the frame's work (flush makes them host-visible).
   ctx.flush();
   splatter.report(ctx, set);
-  ctx.count("bytes_photons", double(uint64_t(set.count()) * sizeof(trace::PhotonRecord)));
+  ctx.count({"bytes_photons", CounterKind::size, "bytes"},
+            double(uint64_t(set.count()) * sizeof(trace::PhotonRecord)));
 }
 
 }  // namespace pb::toolkit

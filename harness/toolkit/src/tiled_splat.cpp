@@ -140,10 +140,10 @@ void TiledSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
   auto wide = [&](uint32_t at) { return double(uint64_t(s[at]) | (uint64_t(s[at + 1]) << 32)); };
   lists_.report(ctx, "tiled: per-tile photon lists", kMaxListEntriesParam.name);
-  ctx.count("photons_read", wide(kStatRead));
-  ctx.count("photons_rejected", wide(kStatRejected));
-  ctx.count("bytes_tile_bounds", double(bounds_.size()));
-  ctx.count("bytes_photon_lists", double(lists_.bytes()));
+  ctx.count({"photons_read", CounterKind::work, "photons"}, wide(kStatRead));
+  ctx.count({"photons_rejected", CounterKind::work, "photons"}, wide(kStatRejected));
+  ctx.count({"bytes_tile_bounds", CounterKind::size, "bytes"}, double(bounds_.size()));
+  ctx.count({"bytes_photon_lists", CounterKind::size, "bytes"}, double(lists_.bytes()));
 }
 
 }  // namespace pb::toolkit

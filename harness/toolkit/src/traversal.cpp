@@ -8,7 +8,7 @@
 namespace pb::toolkit {
 
 void report_truncated(Context& ctx, std::string_view who, uint64_t truncated, uint32_t budget) {
-  ctx.count("truncated_traversals", double(truncated));
+  ctx.count({"truncated_traversals", CounterKind::work, "traversals"}, double(truncated));
   if (truncated > 0)
     ctx.warn(fmt::format(
         "{}: {} hierarchy traversals ran out of their loop budget ({} steps per invocation, kept "
@@ -35,12 +35,13 @@ void PassProfile::report(Context& ctx) const {
     const uint32_t* slot = s.data() + i * kSlotWords;
     auto wide = [&](int at) { return double(uint64_t(slot[at]) | (uint64_t(slot[at + 1]) << 32)); };
     const std::string prefix = "profile_" + passes_[i] + "_";
-    ctx.count(prefix + "steps", wide(0));
-    ctx.count(prefix + "visits", wide(2));
-    ctx.count(prefix + "atomics", wide(4));
+    ctx.count({prefix + "steps", CounterKind::work, "steps"}, wide(0));
+    ctx.count({prefix + "visits", CounterKind::work, "nodes"}, wide(2));
+    ctx.count({prefix + "atomics", CounterKind::work, "atomics"}, wide(4));
     double active = wide(6), lanes = wide(8);
-    ctx.count(prefix + "lanes_idle", lanes > 0 ? 1.0 - active / lanes : 0.0);
-    ctx.count(prefix + "steps_max", double(slot[10]));
+    ctx.count({prefix + "lanes_idle", CounterKind::ratio, "fraction"},
+              lanes > 0 ? 1.0 - active / lanes : 0.0);
+    ctx.count({prefix + "steps_max", CounterKind::size, "steps"}, double(slot[10]));
   }
 }
 
