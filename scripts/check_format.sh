@@ -4,7 +4,7 @@
 # 100 columns (clang-format leaves comments as written, ReflowComments: false, so long comment lines
 # are caught here). Exits 1 naming each file and line that is off.
 #
-#   scripts/check_format.sh [--fix] [PATH...]   (default: the paths checked today, below)
+#   scripts/check_format.sh [--fix] [PATH...]   (default: every C++ and GLSL source)
 #
 # --fix rewrites the files with clang-format -i instead (long comment lines stay for you to wrap).
 set -euo pipefail
@@ -15,11 +15,8 @@ if [[ "${1:-}" == "--fix" ]]; then fix=1; shift; fi
 paths=("$@")
 exclude='^$'
 if ((${#paths[@]} == 0)); then
-  # The folders formatted so far. The rest of harness/, techniques/, tests/ and bench/ join this
-  # list once they are formatted (clang-format -i), so that every file here stays formatted.
-  paths=(harness/src/config harness/src/io harness/src/run harness/src/cli harness/src/scene bench
-    tests/unit/run_flow_test.cpp tests/unit/scene_test.cpp tests/unit/config_test.cpp tests/fuzz)
-  exclude='^harness/src/run/scoring\.(h|cpp)$|^harness/src/cli/reference_command\.cpp$'
+  # Every C++ and GLSL source of the repository.
+  paths=(harness techniques tests bench examples)
 fi
 
 mapfile -t files < <(git ls-files --cached --others --exclude-standard -- "${paths[@]}" |

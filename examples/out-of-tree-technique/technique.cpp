@@ -1,10 +1,10 @@
 // ambient: direct light plus a constant ambient term, a technique built outside photonbench's tree
 // against its installed package (README.md here).
 //
-// The oldest stand-in for indirect light: every diffuse surface reflects a uniform incident radiance
-// `ambient` (shaders/ambient.comp). It estimates the indirect class only on average and only where
-// the guess is right, which is what the scores show; it is the example of the plugin contract, not
-// a rival to the photon techniques.
+// The oldest stand-in for indirect light: every diffuse surface reflects a uniform incident
+// radiance `ambient` (shaders/ambient.comp). It estimates the indirect class only on average and
+// only where the guess is right, which is what the scores show; it is the example of the plugin
+// contract, not a rival to the photon techniques.
 #include "photonbench/toolkit/technique.h"
 
 #include <glm/glm.hpp>

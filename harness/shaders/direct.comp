@@ -1,9 +1,10 @@
 #version 460
 // Direct lighting (path class C D L) at each G-buffer sample, with shadow-map visibility.
-// Point, spot and quad lights use a 6-face cube of atlas tiles around the light (the quad's from its
-// centre, so its shadows are hard: a documented approximation); directional lights one orthographic tile.
-// Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter et al. 2007) with
-// Schlick's Fresnel; smooth specular surfaces receive no direct light from delta or small lights here.
+// Point, spot and quad lights use a 6-face cube of atlas tiles around the light (the quad's from
+// its centre, so its shadows are hard: a documented approximation); directional lights one
+// orthographic tile. Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter
+// et al. 2007) with Schlick's Fresnel; smooth specular surfaces receive no direct light from delta
+// or small lights here.
 #include "photonbench/scene_layout.h"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
@@ -14,9 +15,16 @@ layout(binding = 4, rgba32f) readonly uniform image2D gbuffer_position;
 layout(binding = 5, rgba32f) readonly uniform image2D gbuffer_normal;
 layout(binding = 6) uniform sampler2D shadow_atlas;
 layout(binding = 7, rgba32f) writeonly uniform image2D direct_out;
-// relative_bias: a receiver is lit when its light-space depth * (1 - relative_bias) <= the stored depth.
-// Cube tiles are perspective (near/far given), directional tiles orthographic (depth already linear).
-layout(push_constant) uniform Push { float relative_bias; float normal_offset; float near; float far; } push;
+// relative_bias: a receiver is lit when its light-space depth * (1 - relative_bias) <= the stored
+// depth. Cube tiles are perspective (near/far given), directional tiles orthographic (depth already
+// linear).
+layout(push_constant) uniform Push {
+  float relative_bias;
+  float normal_offset;
+  float near;
+  float far;
+}
+push;
 
 const float PI = 3.14159265358979;
 
@@ -54,8 +62,9 @@ float visibility(uint tile, vec3 p) {
   return lit / 9.0;
 }
 
-// Irradiance at p (normal n) from a Lambertian quad of radiance L, by Lambert's polygon formula; zero
-// behind the quad. No horizon clipping: a quad crossing the tangent plane is slightly overestimated.
+// Irradiance at p (normal n) from a Lambertian quad of radiance L, by Lambert's polygon formula;
+// zero behind the quad. No horizon clipping: a quad crossing the tangent plane is slightly
+// overestimated.
 float quad_form_factor(vec3 p, vec3 n, vec3 corner, vec3 eu, vec3 ev) {
   vec3 qn = normalize(cross(eu, ev));
   if (dot(p - corner, qn) <= 0.0) return 0.0;
@@ -129,7 +138,8 @@ void main() {
       if (type == PB_LIGHT_SPOT)
         falloff = smoothstep(light.direction_cos_outer.w, light.edge_u_cos_inner.w,
                              dot(-wi, light.direction_cos_outer.xyz));
-      irradiance_rgb = light.radiant.rgb * falloff * max(dot(n, wi), 0.0) / r2;  // I cos(theta) / r^2
+      // I cos(theta) / r^2
+      irradiance_rgb = light.radiant.rgb * falloff * max(dot(n, wi), 0.0) / r2;
       tile = first_tile + cube_face(shadow_p - light.position_type.xyz);
     }
     if (all(equal(irradiance_rgb, vec3(0.0)))) continue;

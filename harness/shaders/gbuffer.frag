@@ -6,7 +6,11 @@ layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial materials[]; };
-layout(push_constant) uniform Push { mat4 model; uint material; } push;
+layout(push_constant) uniform Push {
+  mat4 model;
+  uint material;
+}
+push;
 layout(location = 0) out vec4 out_position;
 layout(location = 1) out vec4 out_normal;
 layout(location = 2) out vec4 out_albedo;

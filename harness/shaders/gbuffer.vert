@@ -4,7 +4,11 @@
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
-layout(push_constant) uniform Push { mat4 model; uint material; } push;
+layout(push_constant) uniform Push {
+  mat4 model;
+  uint material;
+}
+push;
 layout(location = 0) out vec3 world_position;
 layout(location = 1) out vec3 world_normal;
 void main() {

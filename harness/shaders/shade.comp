@@ -1,6 +1,6 @@
 #version 460
-// Final shading: emitted radiance seen directly (C L) + direct light (C D L) + the technique's indirect
-// estimate (outgoing radiance of its path class). Background is black.
+// Final shading: emitted radiance seen directly (C L) + direct light (C D L) + the technique's
+// indirect estimate (outgoing radiance of its path class). Background is black.
 #include "photonbench/scene_layout.h"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
@@ -10,7 +10,8 @@ layout(binding = 3, rgba32f) readonly uniform image2D gbuffer_normal;
 layout(binding = 4, rgba32f) readonly uniform image2D direct_light;
 layout(binding = 5, rgba32f) readonly uniform image2D indirect_light;
 layout(binding = 6, rgba32f) writeonly uniform image2D final_out;
-layout(push_constant) uniform Push { uint has_indirect; } push;
+layout(push_constant) uniform Push { uint has_indirect; }
+push;
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   if (pixel.x >= int(frame.size_lights.x) || pixel.y >= int(frame.size_lights.y)) return;

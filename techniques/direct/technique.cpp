@@ -1,10 +1,10 @@
 // direct: G-buffer plus shadow-mapped direct light, and no indirect light at all.
 //
-// The lower bound every chart shows: what a renderer gets with no global illumination. It is also the
-// template for a technique: it reads its parameters in setup, and in render calls the shared passes
-// that every photon technique reuses (gbuffer, direct-light, shade), each of which records its own
-// named pass. A photon technique adds its passes between direct-light and shade and hands its indirect
-// radiance image to shade.
+// The lower bound every chart shows: what a renderer gets with no global illumination. It is also
+// the template for a technique: it reads its parameters in setup, and in render calls the shared
+// passes that every photon technique reuses (gbuffer, direct-light, shade), each of which records
+// its own named pass. A photon technique adds its passes between direct-light and shade and hands
+// its indirect radiance image to shade.
 //
 // Fails (by design) wherever indirect light matters: it estimates only C D L (and emitters seen
 // directly). Shadows of quad lights are hard (one shadow cube at the quad's centre).
@@ -14,7 +14,8 @@
 namespace {
 
 const pb_param_spec kParams[] = {
-    {"shadow_map_size", PB_PARAM_INT, 512, 16, 4096, nullptr, "texels", "shadow-map tile side; default 512"},
+    {"shadow_map_size", PB_PARAM_INT, 512, 16, 4096, nullptr, "texels",
+     "shadow-map tile side; default 512"},
     {"shadow_bias", PB_PARAM_FLOAT, 0.01, 0, 0.2, nullptr, "fraction",
      "relative depth bias of the shadow test; default 0.01"},
     {"shadow_normal_offset", PB_PARAM_FLOAT, 0.01, 0, 1, nullptr, "m",
@@ -24,7 +25,8 @@ const pb_param_spec kParams[] = {
 class Direct final : public pb::Technique {
  public:
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")), float(params.number("shadow_bias")),
+    ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")),
+                                   float(params.number("shadow_bias")),
                                    float(params.number("shadow_normal_offset")));
   }
 
@@ -37,4 +39,5 @@ class Direct final : public pb::Technique {
 
 }  // namespace
 
-PB_EXPORT_TECHNIQUE(Direct, "direct", "C L | C D L", "G-buffer + shadow-mapped direct light; no indirect light", kParams)
+PB_EXPORT_TECHNIQUE(Direct, "direct", "C L | C D L",
+                    "G-buffer + shadow-mapped direct light; no indirect light", kParams)

@@ -1,5 +1,5 @@
-// Sleeps `sleep_ms` in every frame: with a small limits.cell_seconds the runner must kill the cell and
-// record the time limit and the frame.
+// Sleeps `sleep_ms` in every frame: with a small limits.cell_seconds the runner must kill the cell
+// and record the time limit and the frame.
 #include <chrono>
 #include <thread>
 
@@ -12,7 +12,9 @@ const pb_param_spec kParams[] = {
 };
 class Sleeps final : public pb::Technique {
  public:
-  void setup(pb::Context&, const pb::Params& params) override { sleep_ms_ = params.integer("sleep_ms"); }
+  void setup(pb::Context&, const pb::Params& params) override {
+    sleep_ms_ = params.integer("sleep_ms");
+  }
   void render(pb::Context& ctx) override {
     auto scope = ctx.pass("sleep");
     std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms_));

@@ -1,8 +1,9 @@
-// Paper I's splatting techniques converge like photon mapping (issue 5): with more photons of a smaller
-// radius, each technique's indirect-diffuse estimate (the image it hands to the shared shade pass,
-// scored alone against the path-traced `indirect` reference) gets closer to the reference. Three steps,
-// photons x8 and radius / 2 a step (variance ~ 1 / (N r^2) halves, bias ~ r^2 quarters); relMSE must
-// fall at every step. One run holds every technique's three cells so the references render once.
+// Paper I's splatting techniques converge like photon mapping (issue 5): with more photons of a
+// smaller radius, each technique's indirect-diffuse estimate (the image it hands to the shared
+// shade pass, scored alone against the path-traced `indirect` reference) gets closer to the
+// reference. Three steps, photons x8 and radius / 2 a step (variance ~ 1 / (N r^2) halves, bias ~
+// r^2 quarters); relMSE must fall at every step. One run holds every technique's three cells so the
+// references render once.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -45,18 +46,20 @@ class Paper1Convergence : public ::testing::TestWithParam<std::string> {
         (g_dir / "refs").string() + "}\ntechniques:\n";
     for (const std::string& technique : kTechniques)
       for (const Step& step : kSteps)
-        yaml += "  - technique: " + technique + "\n    params: {photons: " +
-                std::to_string(step.photons) + ", radius: " + std::to_string(step.radius) +
-                ", max_bounces: 12}\n";
+        yaml += "  - technique: " + technique +
+                "\n    params: {photons: " + std::to_string(step.photons) +
+                ", radius: " + std::to_string(step.radius) + ", max_bounces: 12}\n";
     std::ofstream(g_dir / "config.yaml") << yaml;
-    std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") + (g_dir / "config.yaml").string() +
-                      " --out " + (g_dir / "run").string() + " > " + (g_dir / "log.txt").string() + " 2>&1";
+    std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") +
+                      (g_dir / "config.yaml").string() + " --out " + (g_dir / "run").string() +
+                      " > " + (g_dir / "log.txt").string() + " 2>&1";
     g_exit = std::system(cmd.c_str());
     for (const auto& entry : fs::directory_iterator(g_dir / "run" / "cells")) {
       std::ifstream in(entry.path() / "cell.json");
       auto cell = nlohmann::json::parse(in);
       if (cell["status"] != "ok" || !cell["metrics"].contains("indirect")) continue;
-      g_relmse[{cell["technique"].get<std::string>(), std::stoi(cell["params"]["photons"].get<std::string>())}] =
+      g_relmse[{cell["technique"].get<std::string>(),
+                std::stoi(cell["params"]["photons"].get<std::string>())}] =
           cell["metrics"]["indirect"]["relmse"].get<double>();
     }
   }
@@ -74,10 +77,11 @@ TEST_P(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
                                   << " photons has no indirect score (see " << g_dir << ")";
     errors.push_back(it->second);
   }
-  std::printf("%s indirect relMSE: %.4f -> %.4f -> %.4f\n", GetParam().c_str(), errors[0], errors[1], errors[2]);
+  std::printf("%s indirect relMSE: %.4f -> %.4f -> %.4f\n", GetParam().c_str(), errors[0],
+              errors[1], errors[2]);
   for (size_t i = 1; i < errors.size(); ++i)
-    EXPECT_LT(errors[i], errors[i - 1]) << GetParam() << ": relMSE " << errors[0] << " -> " << errors[1]
-                                        << " -> " << errors[2];
+    EXPECT_LT(errors[i], errors[i - 1])
+        << GetParam() << ": relMSE " << errors[0] << " -> " << errors[1] << " -> " << errors[2];
 }
 
 INSTANTIATE_TEST_SUITE_P(Techniques, Paper1Convergence, ::testing::ValuesIn(kTechniques));

@@ -1,14 +1,15 @@
-// The profiler's process CPU clock (frames.csv process_cpu_ms) and its testing hook (testing.slow_pass)
-// under fenced timing, the lavapipe path. No timed assertions: only lower bounds that hold on any
-// machine, however loaded. Threads that consumed X ms of CPU while a pass was open make the process
-// consume at least X ms in it, and the hook must add at least (factor - 1) x that again.
+// The profiler's process CPU clock (frames.csv process_cpu_ms) and its testing hook
+// (testing.slow_pass) under fenced timing, the lavapipe path. No timed assertions: only lower
+// bounds that hold on any machine, however loaded. Threads that consumed X ms of CPU while a pass
+// was open make the process consume at least X ms in it, and the hook must add at least (factor -
+// 1) x that again.
+#include "run/profiler.h"
+
 #include <gtest/gtest.h>
 
 #include <ctime>
 #include <thread>
 #include <vector>
-
-#include "run/profiler.h"
 
 namespace pb {
 namespace {
@@ -26,17 +27,20 @@ void burn_cpu_ms(double ms) {
   while (thread_cpu_ms() < end) x = x * 1664525u + 1013904223u;
 }
 
-// One frame with a pass "outer" holding a pass "work" in which `threads` threads each burn `ms` of CPU
-// time at once, as llvmpipe's workers execute a pass. Fenced timing, with the runner's flush: submit
-// what is recorded, wait, begin a new command buffer.
-std::vector<run::PassSample> one_frame(int threads, double ms, const std::string& slow_pass, double factor) {
+// One frame with a pass "outer" holding a pass "work" in which `threads` threads each burn `ms` of
+// CPU time at once, as llvmpipe's workers execute a pass. Fenced timing, with the runner's flush:
+// submit what is recorded, wait, begin a new command buffer.
+std::vector<run::PassSample> one_frame(int threads, double ms, const std::string& slow_pass,
+                                       double factor) {
   gpu::Device device({"", false});
-  vk::raii::CommandPool pool(device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
+  vk::raii::CommandPool pool(
+      device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
   std::vector<vk::raii::CommandBuffer> buffers;
   vk::CommandBuffer cmd;
   vk::raii::Fence fence(device.device(), vk::FenceCreateInfo{});
   auto begin = [&] {
-    buffers.push_back(std::move(vk::raii::CommandBuffers(device.device(), {*pool, vk::CommandBufferLevel::ePrimary, 1})[0]));
+    buffers.push_back(std::move(vk::raii::CommandBuffers(
+        device.device(), {*pool, vk::CommandBufferLevel::ePrimary, 1})[0]));
     cmd = *buffers.back();
     cmd.begin(vk::CommandBufferBeginInfo{});
   };
@@ -73,18 +77,20 @@ TEST(Profiler, ProcessCpuTimeCountsEveryThreadsWork) {
   ASSERT_EQ(samples.size(), 2u);
   EXPECT_EQ(samples[1].name, "outer/work");
   EXPECT_GE(samples[1].process_cpu_ms, 2 * 20.0);  // both threads' CPU time, not the wall time
-  EXPECT_GE(samples[0].process_cpu_ms, samples[1].process_cpu_ms);  // a parent contains its children
+  // a parent contains its children
+  EXPECT_GE(samples[0].process_cpu_ms, samples[1].process_cpu_ms);
 }
 
 TEST(Profiler, SlowPassHookStretchesProcessCpuTimeByTheFactor) {
-  // The work is 2 x 20 ms of CPU done in about 20 ms of wall time. Stretching process CPU time by the
-  // factor needs at least (2 - 1) x 40 ms more; a hook that stretched the wall time would add ~20 ms.
+  // The work is 2 x 20 ms of CPU done in about 20 ms of wall time. Stretching process CPU time by
+  // the factor needs at least (2 - 1) x 40 ms more; a hook that stretched the wall time would add
+  // ~20 ms.
   auto samples = one_frame(/*threads=*/2, /*ms=*/20, "outer/work", 2.0);
   ASSERT_EQ(samples.size(), 2u);
   EXPECT_GE(samples[1].process_cpu_ms, 2.0 * 2 * 20.0);
   EXPECT_GE(samples[0].process_cpu_ms, samples[1].process_cpu_ms);  // the parent holds the spin too
-  // No GPU work here, so the pass is a CPU pass: its CPU clock holds the work and the spin (one thread
-  // spinning for 40 ms of CPU time takes at least 40 ms of wall time).
+  // No GPU work here, so the pass is a CPU pass: its CPU clock holds the work and the spin (one
+  // thread spinning for 40 ms of CPU time takes at least 40 ms of wall time).
   EXPECT_GE(samples[1].cpu_ms, 20.0 + 2 * 20.0);
   EXPECT_GE(samples[0].cpu_ms, samples[1].cpu_ms);
 }

@@ -44,7 +44,8 @@ double makespan(const std::vector<double>& costs, const std::vector<uint32_t>& s
 }
 
 TEST(Shard, LongestFirstToTheLightestShard) {
-  // Sorted a5 b4 c3 d3 e3: a -> 1st, b -> 2nd, c -> 2nd (4 < 5), d -> 1st (5 < 7), e -> 2nd (7 < 8).
+  // Sorted a5 b4 c3 d3 e3: a -> 1st, b -> 2nd, c -> 2nd (4 < 5), d -> 1st (5 < 7), e -> 2nd (7 <
+  // 8).
   const std::vector<std::string> ids = {"a", "b", "c", "d", "e"};
   const std::vector<double> costs = {5, 4, 3, 3, 3};
   EXPECT_EQ(assign_shards(ids, costs, 2), (std::vector<uint32_t>{0, 1, 1, 0, 1}));

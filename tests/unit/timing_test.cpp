@@ -1,8 +1,8 @@
 // Pass timing must measure what a pass costs, raster passes included. docs/architecture.md warns
 // that lavapipe bins rasterisation and may run it after the timestamp that should close the pass.
-// These tests record many G-buffer (raster) or direct-light (shadow raster + compute) passes and compare
-// the sum of the passes' GPU times with the fenced wall time of the whole submission. Agreement, not
-// speed, is asserted: the ratio does not depend on how fast the machine is.
+// These tests record many G-buffer (raster) or direct-light (shadow raster + compute) passes and
+// compare the sum of the passes' GPU times with the fenced wall time of the whole submission.
+// Agreement, not speed, is asserted: the ratio does not depend on how fast the machine is.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -15,24 +15,28 @@ namespace pb {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
 
 struct Measured {
   double passes_ms = 0, wall_ms = 0;
   bool device_says_unreliable = false;
 };
 
-// Records `repeats` passes; with `fenced`, the profiler submits at every pass boundary (the runner's
-// fallback). wall_ms is from the first submission to the last fence.
+// Records `repeats` passes; with `fenced`, the profiler submits at every pass boundary (the
+// runner's fallback). wall_ms is from the first submission to the last fence.
 Measured measure(bool gbuffer, int repeats, bool fenced) {
   scene::Scene scene = scene::load_scene(std::string(PB_SOURCE_DIR) + "/scenes/pillars.yaml");
   gpu::Device device({"", false});
-  vk::raii::CommandPool pool(device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
+  vk::raii::CommandPool pool(
+      device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
   std::vector<vk::raii::CommandBuffer> buffers;
   vk::CommandBuffer cmd;
   vk::raii::Fence fence(device.device(), vk::FenceCreateInfo{});
   auto begin = [&] {
-    buffers.push_back(std::move(vk::raii::CommandBuffers(device.device(), {*pool, vk::CommandBufferLevel::ePrimary, 1})[0]));
+    buffers.push_back(std::move(vk::raii::CommandBuffers(
+        device.device(), {*pool, vk::CommandBufferLevel::ePrimary, 1})[0]));
     cmd = *buffers.back();
     cmd.begin(vk::CommandBufferBeginInfo{});
   };

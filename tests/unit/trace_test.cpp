@@ -12,12 +12,12 @@
 #include <random>
 
 #include "photonbench/photons.h"
+#include "test_scenes.h"
 #include "trace/bsdf.h"
 #include "trace/embree_scene.h"
 #include "trace/lights.h"
 #include "trace/photon_tracer.h"
 #include "trace/sampling.h"
-#include "test_scenes.h"
 
 namespace pb::trace {
 namespace {

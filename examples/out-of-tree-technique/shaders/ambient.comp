@@ -9,7 +9,8 @@ layout(binding = 3, rgba32f) writeonly uniform image2D indirect_out;
 layout(push_constant) uniform Push {
   vec4 ambient_radiance;  // rgb, W / (sr m^2)
   uvec2 size;
-} push;
+}
+push;
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   if (!pb_in_frame(pixel, push.size)) return;

@@ -1,6 +1,6 @@
-// What a technique sees of the harness: the GPU, the frame being rendered, named pass scopes, counters,
-// warnings and the shared passes (G-buffer, shadow-mapped direct light, final shading). It never
-// reaches into the harness's internals; everything it needs is here.
+// What a technique sees of the harness: the GPU, the frame being rendered, named pass scopes,
+// counters, warnings and the shared passes (G-buffer, shadow-mapped direct light, final shading).
+// It never reaches into the harness's internals; everything it needs is here.
 #pragma once
 
 #include <glm/glm.hpp>
@@ -13,8 +13,8 @@
 namespace pb {
 
 // Pass scopes: `auto scope = ctx.pass("splat");` times everything recorded and done until the scope
-// ends, on the GPU (a timestamp pair bracketed by full barriers) and on the CPU (a monotonic clock).
-// Scopes nest; a nested pass is reported as "outer/inner".
+// ends, on the GPU (a timestamp pair bracketed by full barriers) and on the CPU (a monotonic
+// clock). Scopes nest; a nested pass is reported as "outer/inner".
 class PassRecorder {
  public:
   virtual ~PassRecorder() = default;
@@ -25,7 +25,9 @@ class PassRecorder {
 class PassScope {
  public:
   PassScope(PassRecorder* recorder, int pass) : recorder_(recorder), pass_(pass) {}
-  PassScope(PassScope&& other) noexcept : recorder_(other.recorder_), pass_(other.pass_) { other.recorder_ = nullptr; }
+  PassScope(PassScope&& other) noexcept : recorder_(other.recorder_), pass_(other.pass_) {
+    other.recorder_ = nullptr;
+  }
   PassScope(const PassScope&) = delete;
   PassScope& operator=(const PassScope&) = delete;
   ~PassScope() { end(); }
@@ -47,7 +49,7 @@ class PassScope {
 // the unit names what is counted. Both are recorded with the cell (cell.json "counters"); one name
 // declared with two kinds or units in a cell fails it.
 enum class CounterKind {
-  work,  // done this frame: photons read, jobs run, overflows
+  work,   // done this frame: photons read, jobs run, overflows
   size,   // held this frame: bytes of a structure, nodes of a hierarchy, photons stored
   ratio,  // a fraction of this frame's work: idle lanes
 };
@@ -86,9 +88,11 @@ struct GBuffer {
 class SharedPasses {
  public:
   virtual ~SharedPasses() = default;
-  virtual void gbuffer() = 0;                                 // pass "gbuffer"
-  virtual void direct_light() = 0;                            // pass "direct-light" (shadow maps nested)
-  virtual void shade(const gpu::Image* indirect_radiance) = 0;  // pass "shade": final = emitted + direct + indirect
+  virtual void gbuffer() = 0;  // pass "gbuffer"
+  // pass "direct-light" (shadow maps nested)
+  virtual void direct_light() = 0;
+  // pass "shade": final = emitted + direct + indirect
+  virtual void shade(const gpu::Image* indirect_radiance) = 0;
   // Shadow-map resolution (texels per tile side) and biases; call in setup to change the defaults.
   virtual void configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) = 0;
   virtual GBuffer gbuffer_images() const = 0;
@@ -115,8 +119,8 @@ class Context {
   virtual void warn(std::string_view message) = 0;
   virtual const FrameInfo& frame() const = 0;
   virtual SharedPasses& shared() = 0;
-  // The photon tracer (Embree, CPU, multi-threaded) over this frame's scene. Built on first use, then
-  // kept in step with the animation as part of the "scene-update" pass.
+  // The photon tracer (Embree, CPU, multi-threaded) over this frame's scene. Built on first use,
+  // then kept in step with the animation as part of the "scene-update" pass.
   virtual trace::PhotonTracer& photon_tracer() = 0;
   // The image the harness reads back and scores: RGBA32F, linear radiance. shade() writes it.
   virtual const gpu::Image& output() = 0;
@@ -124,9 +128,10 @@ class Context {
 
 // The photon techniques' first two passes: traces `settings` with the frame's tracer in pass
 // "photon-trace" (counter "photons_stored"), then copies the records into `photons`, a host-visible
-// storage buffer made or grown as needed (named `buffer_name`), in pass "photon-upload". Returns the
-// number of photons stored; `batch` keeps them for the technique's own CPU-side use.
-uint32_t trace_and_upload_photons(Context& ctx, const trace::TraceSettings& settings, trace::PhotonBatch& batch,
-                                  gpu::Buffer& photons, std::string_view buffer_name);
+// storage buffer made or grown as needed (named `buffer_name`), in pass "photon-upload". Returns
+// the number of photons stored; `batch` keeps them for the technique's own CPU-side use.
+uint32_t trace_and_upload_photons(Context& ctx, const trace::TraceSettings& settings,
+                                  trace::PhotonBatch& batch, gpu::Buffer& photons,
+                                  std::string_view buffer_name);
 
 }  // namespace pb

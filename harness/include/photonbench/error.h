@@ -1,5 +1,5 @@
-// Errors that cross module boundaries. InputError is the user's fault (bad config, scene, file): the CLI
-// exits 2 on it. Error is everything else that stops a cell or a command: exit 1.
+// Errors that cross module boundaries. InputError is the user's fault (bad config, scene, file):
+// the CLI exits 2 on it. Error is everything else that stops a cell or a command: exit 1.
 #pragma once
 
 #include <stdexcept>

@@ -1,8 +1,9 @@
 // The GPU services a technique gets: one headless Vulkan device (lavapipe by default), named RAII
-// buffers and images, and compute / graphics pipelines from SPIR-V embedded at build time. Resources are
-// bound with push descriptors (VK_KHR_push_descriptor), so a pipeline is just its binding list and a
-// technique never manages descriptor pools. Every image lives in VK_IMAGE_LAYOUT_GENERAL: one layout
-// for storage, sampling and attachments keeps barriers to plain memory dependencies.
+// buffers and images, and compute / graphics pipelines from SPIR-V embedded at build time.
+// Resources are bound with push descriptors (VK_KHR_push_descriptor), so a pipeline is just its
+// binding list and a technique never manages descriptor pools. Every image lives in
+// VK_IMAGE_LAYOUT_GENERAL: one layout for storage, sampling and attachments keeps barriers to plain
+// memory dependencies.
 #pragma once
 
 #include <cstdint>
@@ -33,7 +34,9 @@ class Buffer {
   const std::string& name() const { return name_; }
   void* mapped() const { return mapped_; }  // null unless host_visible
   template <class T>
-  std::span<T> view() const { return {static_cast<T*>(mapped_), size_t(size_ / sizeof(T))}; }
+  std::span<T> view() const {
+    return {static_cast<T*>(mapped_), size_t(size_ / sizeof(T))};
+  }
   explicit operator bool() const { return size_ != 0; }
 
  private:
@@ -87,8 +90,8 @@ class Pipeline {
   // Binds the pipeline and pushes its resources and push constants.
   void bind(vk::CommandBuffer cmd, std::span<const Resource> resources, const void* push = nullptr,
             uint32_t push_bytes = 0) const;
-  void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources, const void* push = nullptr,
-            uint32_t push_bytes = 0) const {
+  void bind(vk::CommandBuffer cmd, std::initializer_list<Resource> resources,
+            const void* push = nullptr, uint32_t push_bytes = 0) const {
     bind(cmd, std::span<const Resource>(resources.begin(), resources.size()), push, push_bytes);
   }
   template <class T>
@@ -113,8 +116,9 @@ class Pipeline {
   vk::raii::Pipeline pipeline_{nullptr};
 };
 
-// A raster pipeline for dynamic rendering. Vertex input is one interleaved buffer of `vertex_stride`
-// bytes with the given attribute formats at consecutive binding-0 locations (offsets packed in order).
+// A raster pipeline for dynamic rendering. Vertex input is one interleaved buffer of
+// `vertex_stride` bytes with the given attribute formats at consecutive binding-0 locations
+// (offsets packed in order).
 struct GraphicsPipelineDesc {
   std::string name;
   std::span<const uint32_t> vertex_spirv;
@@ -158,12 +162,16 @@ class Device {
   // lavapipe (llvmpipe) bins rasterisation and runs it after a pass's closing timestamp, so its
   // timestamps miss raster work (tests/unit/timing_test.cpp measures this); the runner then times
   // passes with fences instead.
-  bool raster_timestamps_unreliable() const { return driver_.find("llvmpipe") != std::string::npos; }
+  bool raster_timestamps_unreliable() const {
+    return driver_.find("llvmpipe") != std::string::npos;
+  }
   double timestamp_period_ns() const { return timestamp_period_ns_; }
   uint32_t timestamp_valid_bits() const { return timestamp_valid_bits_; }
 
-  Buffer create_buffer(std::string name, vk::DeviceSize size, vk::BufferUsageFlags usage, Memory memory);
-  Image create_image(std::string name, vk::Extent2D extent, vk::Format format, vk::ImageUsageFlags usage,
+  Buffer create_buffer(std::string name, vk::DeviceSize size, vk::BufferUsageFlags usage,
+                       Memory memory);
+  Image create_image(std::string name, vk::Extent2D extent, vk::Format format,
+                     vk::ImageUsageFlags usage,
                      vk::SampleCountFlagBits samples = vk::SampleCountFlagBits::e1);
   Pipeline create_compute_pipeline(std::string name, std::span<const uint32_t> spirv,
                                    std::vector<Binding> bindings, uint32_t push_bytes);
@@ -183,8 +191,9 @@ class Device {
   uint64_t validation_errors() const;
   std::string first_validation_error() const;
 
-  // One nearest-neighbour, clamp-to-edge sampler for every sampled binding: techniques read textures
-  // with texelFetch or unfiltered lookups; shadow-map depth compares are done in the shader.
+  // One nearest-neighbour, clamp-to-edge sampler for every sampled binding: techniques read
+  // textures with texelFetch or unfiltered lookups; shadow-map depth compares are done in the
+  // shader.
   vk::Sampler nearest_sampler() const { return *nearest_sampler_; }
 
   void set_debug_name(uint64_t handle, vk::ObjectType type, const std::string& name) const;
@@ -195,7 +204,8 @@ class Device {
   friend struct DeviceAccounting;  // the runner's view: gpu/device_accounting.h
   void release(vk::DeviceSize bytes) { allocated_bytes_ -= bytes; }
   uint32_t find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags flags) const;
-  vk::raii::DeviceMemory allocate(vk::MemoryRequirements requirements, vk::MemoryPropertyFlags flags);
+  vk::raii::DeviceMemory allocate(vk::MemoryRequirements requirements,
+                                  vk::MemoryPropertyFlags flags);
 
   struct Messenger;
   vk::raii::Context context_;
@@ -215,11 +225,13 @@ class Device {
   uint64_t allocated_bytes_ = 0;
 };
 
-// A full memory barrier between commands: every earlier write is visible to every later access. Passes
-// are separated by it; it is what a technique uses between dependent dispatches.
+// A full memory barrier between commands: every earlier write is visible to every later access.
+// Passes are separated by it; it is what a technique uses between dependent dispatches.
 void full_barrier(vk::CommandBuffer cmd);
 
 // Work groups needed to cover `n` items with groups of `group_size`.
-inline uint32_t groups_for(uint64_t n, uint32_t group_size) { return uint32_t((n + group_size - 1) / group_size); }
+inline uint32_t groups_for(uint64_t n, uint32_t group_size) {
+  return uint32_t((n + group_size - 1) / group_size);
+}
 
 }  // namespace pb::gpu

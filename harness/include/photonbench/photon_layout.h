@@ -20,26 +20,26 @@
 // One photon: the state of a light path arriving at a surface where the tracer was asked to store
 // it. 96 bytes.
 struct PhotonRecord {
-  PB_VEC3 position;     // world position of the hit, metres
-  PB_UINT object;       // index into Scene::objects of the surface hit
-  PB_VEC3 power;        // flux carried, W (RGB); summed over the photons of one trace it
-                        // estimates the power arriving at the stored surfaces
-  PB_UINT path;         // index of the light path this photon belongs to (its sample index)
-  PB_VEC3 direction;    // unit direction of travel of the arriving photon (towards the surface);
-                        // the incident direction of the usual estimators is -direction
-  PB_UINT bounce;       // surface interactions before this one: 0 = the first hit from the light
-  PB_VEC3 normal;       // unit geometric normal at the hit, on the side the photon arrived from
+  PB_VEC3 position;       // world position of the hit, metres
+  PB_UINT object;         // index into Scene::objects of the surface hit
+  PB_VEC3 power;          // flux carried, W (RGB); summed over the photons of one trace it
+                          // estimates the power arriving at the stored surfaces
+  PB_UINT path;           // index of the light path this photon belongs to (its sample index)
+  PB_VEC3 direction;      // unit direction of travel of the arriving photon (towards the surface);
+                          // the incident direction of the usual estimators is -direction
+  PB_UINT bounce;         // surface interactions before this one: 0 = the first hit from the light
+  PB_VEC3 normal;         // unit geometric normal at the hit, on the side the photon arrived from
   PB_UINT specular_mask;  // bit i set: interaction i of the path (0 = first hit) was
                           // specular/glossy (S); clear: diffuse (D). Bits 0..bounce-1 are the path
                           // before this hit, bit `bounce` is this (diffuse) hit. See
                           // pb::trace::photon_kind.
-  PB_VEC3 footprint_u;  // ray-differential footprint: the displacement of the hit point when the
-                        // path's first emission parameter moves by one photon spacing
-                        // (parallelogram edge, m)
-  PB_UINT light;        // index of the emitting light (scene lights, then emissive objects)
-  PB_VEC3 footprint_v;  // the same for the second emission parameter; |u x v| ~ area per photon,
-                        // m^2
-  PB_UINT flags;        // reserved, 0
+  PB_VEC3 footprint_u;    // ray-differential footprint: the displacement of the hit point when the
+                          // path's first emission parameter moves by one photon spacing
+                          // (parallelogram edge, m)
+  PB_UINT light;          // index of the emitting light (scene lights, then emissive objects)
+  PB_VEC3 footprint_v;    // the same for the second emission parameter; |u x v| ~ area per photon,
+                          // m^2
+  PB_UINT flags;          // reserved, 0
 };
 
 #undef PB_VEC3

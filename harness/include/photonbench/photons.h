@@ -72,10 +72,9 @@ struct EmissionDensity {
 };
 
 struct TraceSettings {
-  uint32_t paths = 100000;  // light paths emitted per trace, shared among lights by power
-  uint32_t photon_target =
-      0;  // > 0: emit more paths until this many photons are stored (Paper I
-          // §5); `paths` is then the first wave, and at most max_paths are used
+  uint32_t paths = 100000;     // light paths emitted per trace, shared among lights by power
+  uint32_t photon_target = 0;  // > 0: emit more paths until this many photons are stored (Paper I
+      // §5); `paths` is then the first wave, and at most max_paths are used
   uint32_t max_paths = 1u << 26;
   uint32_t max_bounces = 8;         // surface interactions per path (stored or not), at most 31
   uint32_t store = kPaperIPhotons;  // PhotonKind mask

@@ -1,6 +1,6 @@
 // The technique plugin contract. A technique is a shared module exporting one C entry point,
-// `photonbench_technique`, that takes the host's API version and returns a static descriptor table of
-// C types only: API version, build record, name, path class, parameter schema and a factory.
+// `photonbench_technique`, that takes the host's API version and returns a static descriptor table
+// of C types only: API version, build record, name, path class, parameter schema and a factory.
 //
 // Plugins are built by other compilers on other days (out of tree, against the installed package),
 // so the boundary is checked before anything else is called: the descriptor opens with the module's
@@ -10,7 +10,7 @@
 // A mismatch fails only that plugin's cells, with a message naming both sides (run/plugins.cpp).
 //
 //   static const pb_param_spec kParams[] = {
-//       {"photons", PB_PARAM_INT, 200000, 1000, 5e7, nullptr, "photons", "photons traced per frame"},
+// {"photons", PB_PARAM_INT, 200000, 1000, 5e7, nullptr, "photons", "photons traced per frame"},
 //   };
 //   PB_EXPORT_TECHNIQUE(MyTechnique, "mine", "C D S+ L", "one-line summary", kParams)
 #pragma once
@@ -47,10 +47,11 @@ typedef struct pb_class_size {
   uint32_t bytes;
 } pb_class_size;
 
-// What a module was built with. The host requires the same standard library ABI, the same Vulkan-Hpp
-// headers (the vk::raii types of the public classes are inline) and the same size of every public
-// class; the compiler and the library's release are reported, not compared (GCC and Clang share the
-// Itanium C++ ABI, and a newer library than the host's fails in dlopen with the loader's message).
+// What a module was built with. The host requires the same standard library ABI, the same
+// Vulkan-Hpp headers (the vk::raii types of the public classes are inline) and the same size of
+// every public class; the compiler and the library's release are reported, not compared (GCC and
+// Clang share the Itanium C++ ABI, and a newer library than the host's fails in dlopen with the
+// loader's message).
 typedef struct pb_build_record {
   const char* compiler;              // "GCC 12.2.0"
   const char* standard_library;      // "libstdc++ 12 (20230210)"
@@ -89,7 +90,8 @@ typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_v
 namespace pb {
 
 // Resolved parameter values of one cell, already checked against the schema (type and range) by the
-// harness. Cross-parameter constraints are the technique's to check in setup (throw pb::InputError).
+// harness. Cross-parameter constraints are the technique's to check in setup (throw
+// pb::InputError).
 class Params {
  public:
   explicit Params(std::map<std::string, std::string> values) : values_(std::move(values)) {}
@@ -141,25 +143,30 @@ namespace detail {
   };
   static const pb_build_record record = {
 #if defined(__clang__)
-      "clang " __clang_version__,
+    "clang " __clang_version__,
 #elif defined(__GNUC__)
-      "GCC " __VERSION__,
+    "GCC " __VERSION__,
 #else
-      "unknown compiler",
+    "unknown compiler",
 #endif
 #if defined(_LIBCPP_VERSION)
-      "libc++ " PB_STRINGIFY(_LIBCPP_VERSION), "libc++ " PB_STRINGIFY(_LIBCPP_ABI_VERSION),
+    "libc++ " PB_STRINGIFY(_LIBCPP_VERSION),
+    "libc++ " PB_STRINGIFY(_LIBCPP_ABI_VERSION),
 #elif defined(__GLIBCXX__)
-      "libstdc++ " PB_STRINGIFY(_GLIBCXX_RELEASE) " (" PB_STRINGIFY(__GLIBCXX__) ")",
+    "libstdc++ " PB_STRINGIFY(_GLIBCXX_RELEASE) " (" PB_STRINGIFY(__GLIBCXX__) ")",
 #if _GLIBCXX_USE_CXX11_ABI
-      "libstdc++ cxx11",
+    "libstdc++ cxx11",
 #else
-      "libstdc++ pre-cxx11",
+    "libstdc++ pre-cxx11",
 #endif
 #else
-      "unknown standard library", "unknown standard library",
+    "unknown standard library",
+    "unknown standard library",
 #endif
-      VK_HEADER_VERSION, uint32_t(sizeof(sizes) / sizeof(sizes[0])), sizes};
+    VK_HEADER_VERSION,
+    uint32_t(sizeof(sizes) / sizeof(sizes[0])),
+    sizes
+  };
   return &record;
 }
 
@@ -168,17 +175,28 @@ namespace detail {
 
 // The entry point: the whole descriptor for a host of the module's API version, only the opening
 // (version and build record) for any other host.
-#define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params)                             \
-  extern "C" __attribute__((visibility("default"))) const pb_technique_descriptor*                \
-  photonbench_technique(uint32_t host_api_version) {                                               \
-    static const pb_technique_descriptor descriptor = {                                           \
-        PB_PLUGIN_API_VERSION, pb::detail::this_build(), name, path_class, summary, params,       \
-        uint32_t(sizeof(params) / sizeof(params[0])),                                             \
-        []() -> void* { return static_cast<pb::Technique*>(new Class()); },                       \
-        [](void* t) { delete static_cast<pb::Technique*>(t); }};                                  \
-    static const pb_technique_descriptor opening = {                                              \
-        PB_PLUGIN_API_VERSION, pb::detail::this_build(), nullptr, nullptr, nullptr, nullptr, 0,   \
-        nullptr, nullptr};                                                                         \
-    return host_api_version == PB_PLUGIN_API_VERSION ? &descriptor : &opening;                    \
+#define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params)              \
+  extern "C" __attribute__((visibility("default"))) const pb_technique_descriptor* \
+  photonbench_technique(uint32_t host_api_version) {                               \
+    static const pb_technique_descriptor descriptor = {                            \
+        PB_PLUGIN_API_VERSION,                                                     \
+        pb::detail::this_build(),                                                  \
+        name,                                                                      \
+        path_class,                                                                \
+        summary,                                                                   \
+        params,                                                                    \
+        uint32_t(sizeof(params) / sizeof(params[0])),                              \
+        []() -> void* { return static_cast<pb::Technique*>(new Class()); },        \
+        [](void* t) { delete static_cast<pb::Technique*>(t); }};                   \
+    static const pb_technique_descriptor opening = {PB_PLUGIN_API_VERSION,         \
+                                                    pb::detail::this_build(),      \
+                                                    nullptr,                       \
+                                                    nullptr,                       \
+                                                    nullptr,                       \
+                                                    nullptr,                       \
+                                                    0,                             \
+                                                    nullptr,                       \
+                                                    nullptr};                      \
+    return host_api_version == PB_PLUGIN_API_VERSION ? &descriptor : &opening;     \
   }
 #endif

@@ -1,6 +1,7 @@
 // GPU data layouts shared by C++ and GLSL: written once, included by both (GLSL: `#include
-// "photonbench/scene_layout.h"`). std430; every member a 16-byte vector so C++ and GLSL agree without
-// padding rules. The C++ side checks sizes with static_asserts in harness/src/gpu/shared_passes.cpp.
+// "photonbench/scene_layout.h"`). std430; every member a 16-byte vector so C++ and GLSL agree
+// without padding rules. The C++ side checks sizes with static_asserts in
+// harness/src/gpu/shared_passes.cpp.
 #ifndef PB_SCENE_LAYOUT_H
 #define PB_SCENE_LAYOUT_H
 
@@ -33,11 +34,12 @@ struct GpuMaterial {
 };
 
 struct GpuLight {
-  vec4 position_type;         // xyz position (quad: corner), w = PB_LIGHT_*
-  vec4 radiant;               // rgb: I (W/sr), E (W/m^2) or L (W/m^2/sr) by type
-  vec4 direction_cos_outer;   // xyz spot axis / propagation direction, w = cos(outer half-angle)
-  vec4 edge_u_cos_inner;      // xyz quad edge u, w = cos(inner half-angle)
-  vec4 edge_v_first_tile;     // xyz quad edge v, w = first shadow tile (6 faces, or 1 for directional)
+  vec4 position_type;        // xyz position (quad: corner), w = PB_LIGHT_*
+  vec4 radiant;              // rgb: I (W/sr), E (W/m^2) or L (W/m^2/sr) by type
+  vec4 direction_cos_outer;  // xyz spot axis / propagation direction, w = cos(outer half-angle)
+  vec4 edge_u_cos_inner;     // xyz quad edge u, w = cos(inner half-angle)
+  // xyz quad edge v, w = first shadow tile (6 faces, or 1 for directional)
+  vec4 edge_v_first_tile;
 };
 
 struct GpuFrame {

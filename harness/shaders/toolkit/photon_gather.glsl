@@ -54,13 +54,13 @@ void pb_gather_tally(uint read, uint accepted) {
   atomicAdd(pb_group_rejected, read - accepted);
 }
 // At the end of main, reached by every invocation of the group.
-#define PB_GATHER_GROUP_END(stats, read_at, rejected_at)  \
-  {                                                       \
-    barrier();                                            \
-    if (gl_LocalInvocationIndex == 0u) {                  \
-      PB_ADD64(stats, read_at, pb_group_read);            \
-      PB_ADD64(stats, rejected_at, pb_group_rejected);    \
-    }                                                     \
+#define PB_GATHER_GROUP_END(stats, read_at, rejected_at) \
+  {                                                      \
+    barrier();                                           \
+    if (gl_LocalInvocationIndex == 0u) {                 \
+      PB_ADD64(stats, read_at, pb_group_read);           \
+      PB_ADD64(stats, rejected_at, pb_group_rejected);   \
+    }                                                    \
   }
 
 #endif

@@ -48,8 +48,10 @@ void pb_act(int action, uint level, uint cid, uint stop_level, out bool push) {
   if (action == PB_VISIT_STORE) {
     on_store(level, cid);
   } else if (action == PB_VISIT_DESCEND) {
-    if (level >= stop_level) on_descend_stop(level, cid);
-    else push = true;
+    if (level >= stop_level)
+      on_descend_stop(level, cid);
+    else
+      push = true;
   }
 }
 

@@ -31,10 +31,10 @@ struct FrameSettings {
 // reached; 0 turns a rule off, and at least one stays on. A reference block that names any of
 // rel_error, max_seconds and samples uses those alone; one that names none keeps the defaults.
 struct ReferenceSettings {
-  double rel_error = 0.05;   // estimated relative RMS error of the mean (the default rule)
-  double max_seconds = 600;  // per frame, a safety net for a target a scene cannot reach
-  uint32_t samples = 0;      // iterations (camera samples per pixel); 0 or at least 2
-  uint32_t max_bounces = 0;  // scattering vertices on a full path; 0: untruncated
+  double rel_error = 0.05;         // estimated relative RMS error of the mean (the default rule)
+  double max_seconds = 600;        // per frame, a safety net for a target a scene cannot reach
+  uint32_t samples = 0;            // iterations (camera samples per pixel); 0 or at least 2
+  uint32_t max_bounces = 0;        // scattering vertices on a full path; 0: untruncated
   std::string estimator = "auto";  // auto | bdpt | pt (trace::Estimator)
   // Also score every cell of a technique with a max_bounces parameter against a reference truncated
   // like it (trace::bounces_matching_photon_technique): metrics.csv rows with reference

@@ -16,7 +16,8 @@ namespace {
 
 // Every failing VkResult becomes a pb::Error carrying the result's name and the call (rule 12).
 void check(vk::Result result, const char* call) {
-  if (result != vk::Result::eSuccess) throw Error(fmt::format("{} failed: {}", call, vk::to_string(result)));
+  if (result != vk::Result::eSuccess)
+    throw Error(fmt::format("{} failed: {}", call, vk::to_string(result)));
 }
 
 bool has_layer(const vk::raii::Context& context, const char* name) {
@@ -37,15 +38,17 @@ bool has_device_extension(const vk::raii::PhysicalDevice& physical, const char* 
   return false;
 }
 
-vk::raii::Instance make_instance(const vk::raii::Context& context, bool validation, bool debug_utils) {
-  // Ask for 1.3 so core 1.3 entry points (dynamic rendering) are dispatched on 1.3 devices; 1.2 devices
-  // use the KHR extension instead (see begin_rendering).
+vk::raii::Instance make_instance(const vk::raii::Context& context, bool validation,
+                                 bool debug_utils) {
+  // Ask for 1.3 so core 1.3 entry points (dynamic rendering) are dispatched on 1.3 devices; 1.2
+  // devices use the KHR extension instead (see begin_rendering).
   vk::ApplicationInfo app{"photonbench", 1, "photonbench", 1, VK_API_VERSION_1_3};
   std::vector<const char*> layers, extensions;
   if (validation) {
     if (!has_layer(context, "VK_LAYER_KHRONOS_validation"))
-      throw Error("validation requested but VK_LAYER_KHRONOS_validation is not installed "
-                  "(Debian package vulkan-validationlayers)");
+      throw Error(
+          "validation requested but VK_LAYER_KHRONOS_validation is not installed "
+          "(Debian package vulkan-validationlayers)");
     layers.push_back("VK_LAYER_KHRONOS_validation");
   }
   if (debug_utils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
@@ -83,7 +86,8 @@ std::vector<std::string> list_devices() {
   for (const auto& physical : vk::raii::PhysicalDevices(instance)) {
     auto props = physical.getProperties();
     names.push_back(fmt::format("{} (Vulkan {}.{}, {})", std::string(props.deviceName.data()),
-                                VK_API_VERSION_MAJOR(props.apiVersion), VK_API_VERSION_MINOR(props.apiVersion),
+                                VK_API_VERSION_MAJOR(props.apiVersion),
+                                VK_API_VERSION_MINOR(props.apiVersion),
                                 vk::to_string(props.deviceType)));
   }
   return names;
@@ -96,9 +100,11 @@ Device::Device(const Options& options) {
     messenger_ = std::make_unique<Messenger>();
     using S = vk::DebugUtilsMessageSeverityFlagBitsEXT;
     using T = vk::DebugUtilsMessageTypeFlagBitsEXT;
-    vk::DebugUtilsMessengerCreateInfoEXT info{
-        {}, S::eError | S::eWarning, T::eGeneral | T::eValidation | T::ePerformance,
-        &Messenger::callback, messenger_.get()};
+    vk::DebugUtilsMessengerCreateInfoEXT info{{},
+                                              S::eError | S::eWarning,
+                                              T::eGeneral | T::eValidation | T::ePerformance,
+                                              &Messenger::callback,
+                                              messenger_.get()};
     messenger_->handle = vk::raii::DebugUtilsMessengerEXT(instance_, info);
   }
 
@@ -115,17 +121,20 @@ Device::Device(const Options& options) {
       break;
     }
   }
-  if (!*physical_ && options.name_filter.empty() && !physicals.empty()) physical_ = std::move(physicals[0]);
+  if (!*physical_ && options.name_filter.empty() && !physicals.empty())
+    physical_ = std::move(physicals[0]);
   if (!*physical_)
-    throw InputError(fmt::format("--device: no Vulkan device matches '{}' (available: {})", options.name_filter,
-                                 available.empty() ? "none" : available));
+    throw InputError(fmt::format("--device: no Vulkan device matches '{}' (available: {})",
+                                 options.name_filter, available.empty() ? "none" : available));
 
   auto props = physical_.getProperties();
   name_ = props.deviceName.data();
   if (props.apiVersion < VK_API_VERSION_1_2)
     throw Error(fmt::format("device '{}' supports only Vulkan {}.{}; photonbench needs 1.2", name_,
-                            VK_API_VERSION_MAJOR(props.apiVersion), VK_API_VERSION_MINOR(props.apiVersion)));
-  auto driver_props = physical_.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceDriverProperties>();
+                            VK_API_VERSION_MAJOR(props.apiVersion),
+                            VK_API_VERSION_MINOR(props.apiVersion)));
+  auto driver_props =
+      physical_.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceDriverProperties>();
   const auto& driver = driver_props.get<vk::PhysicalDeviceDriverProperties>();
   driver_ = fmt::format("{} {}", driver.driverName.data(), driver.driverInfo.data());
   timestamp_period_ns_ = props.limits.timestampPeriod;
@@ -167,7 +176,8 @@ Device::Device(const Options& options) {
   vk::PhysicalDeviceFeatures2 features;
   features.features.shaderInt64 = physical_.getFeatures().shaderInt64;
   features.features.fragmentStoresAndAtomics = VK_TRUE;
-  features.features.vertexPipelineStoresAndAtomics = physical_.getFeatures().vertexPipelineStoresAndAtomics;
+  features.features.vertexPipelineStoresAndAtomics =
+      physical_.getFeatures().vertexPipelineStoresAndAtomics;
   vk::PhysicalDeviceVulkan12Features features12;
   features12.hostQueryReset = VK_TRUE;
   features12.scalarBlockLayout = VK_TRUE;
@@ -181,10 +191,14 @@ Device::Device(const Options& options) {
   queue_ = vk::raii::Queue(device_, queue_family_, 0);
   command_pool_ = vk::raii::CommandPool(
       device_, {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, queue_family_});
-  nearest_sampler_ = vk::raii::Sampler(
-      device_, vk::SamplerCreateInfo{{}, vk::Filter::eNearest, vk::Filter::eNearest, vk::SamplerMipmapMode::eNearest,
-                                     vk::SamplerAddressMode::eClampToEdge, vk::SamplerAddressMode::eClampToEdge,
-                                     vk::SamplerAddressMode::eClampToEdge});
+  nearest_sampler_ =
+      vk::raii::Sampler(device_, vk::SamplerCreateInfo{{},
+                                                       vk::Filter::eNearest,
+                                                       vk::Filter::eNearest,
+                                                       vk::SamplerMipmapMode::eNearest,
+                                                       vk::SamplerAddressMode::eClampToEdge,
+                                                       vk::SamplerAddressMode::eClampToEdge,
+                                                       vk::SamplerAddressMode::eClampToEdge});
 }
 
 Device::~Device() {
@@ -211,16 +225,20 @@ uint32_t Device::find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags fl
   throw Error(fmt::format("device '{}' has no memory type with {}", name_, vk::to_string(flags)));
 }
 
-vk::raii::DeviceMemory Device::allocate(vk::MemoryRequirements requirements, vk::MemoryPropertyFlags flags) {
-  vk::MemoryAllocateInfo info{requirements.size, find_memory_type(requirements.memoryTypeBits, flags)};
+vk::raii::DeviceMemory Device::allocate(vk::MemoryRequirements requirements,
+                                        vk::MemoryPropertyFlags flags) {
+  vk::MemoryAllocateInfo info{requirements.size,
+                              find_memory_type(requirements.memoryTypeBits, flags)};
   try {
     return vk::raii::DeviceMemory(device_, info);
   } catch (const vk::SystemError& e) {
-    throw Error(fmt::format("allocating {} bytes of GPU memory failed: {}", requirements.size, e.what()));
+    throw Error(
+        fmt::format("allocating {} bytes of GPU memory failed: {}", requirements.size, e.what()));
   }
 }
 
-Buffer Device::create_buffer(std::string name, vk::DeviceSize size, vk::BufferUsageFlags usage, Memory memory) {
+Buffer Device::create_buffer(std::string name, vk::DeviceSize size, vk::BufferUsageFlags usage,
+                             Memory memory) {
   if (size == 0) size = 16;  // a zero-sized buffer is invalid; an empty list still needs a binding
   Buffer buffer;
   buffer.name_ = std::move(name);
@@ -228,9 +246,9 @@ Buffer Device::create_buffer(std::string name, vk::DeviceSize size, vk::BufferUs
   buffer.device_ = this;
   usage |= vk::BufferUsageFlagBits::eTransferSrc | vk::BufferUsageFlagBits::eTransferDst;
   buffer.buffer_ = vk::raii::Buffer(device_, vk::BufferCreateInfo{{}, size, usage});
-  auto flags = memory == Memory::host_visible
-                   ? vk::MemoryPropertyFlagBits::eHostVisible | vk::MemoryPropertyFlagBits::eHostCoherent
-                   : vk::MemoryPropertyFlagBits::eDeviceLocal;
+  auto flags = memory == Memory::host_visible ? vk::MemoryPropertyFlagBits::eHostVisible |
+                                                    vk::MemoryPropertyFlagBits::eHostCoherent
+                                              : vk::MemoryPropertyFlagBits::eDeviceLocal;
   auto requirements = buffer.buffer_.getMemoryRequirements();
   buffer.memory_ = allocate(requirements, flags);
   buffer.buffer_.bindMemory(*buffer.memory_, 0);
@@ -256,24 +274,25 @@ Buffer& Buffer::operator=(Buffer&& other) noexcept {
   return *this;
 }
 
-Image Device::create_image(std::string name, vk::Extent2D extent, vk::Format format, vk::ImageUsageFlags usage,
-                           vk::SampleCountFlagBits samples) {
+Image Device::create_image(std::string name, vk::Extent2D extent, vk::Format format,
+                           vk::ImageUsageFlags usage, vk::SampleCountFlagBits samples) {
   Image image;
   image.name_ = std::move(name);
   image.format_ = format;
   image.extent_ = extent;
   image.device_ = this;
   bool depth = format == vk::Format::eD32Sfloat || format == vk::Format::eD16Unorm;
-  vk::ImageCreateInfo info{{},
-                           vk::ImageType::e2D,
-                           format,
-                           vk::Extent3D{extent.width, extent.height, 1},
-                           1,
-                           1,
-                           samples,
-                           vk::ImageTiling::eOptimal,
-                           usage | vk::ImageUsageFlagBits::eTransferSrc | vk::ImageUsageFlagBits::eTransferDst,
-                           vk::SharingMode::eExclusive};
+  vk::ImageCreateInfo info{
+      {},
+      vk::ImageType::e2D,
+      format,
+      vk::Extent3D{extent.width, extent.height, 1},
+      1,
+      1,
+      samples,
+      vk::ImageTiling::eOptimal,
+      usage | vk::ImageUsageFlagBits::eTransferSrc | vk::ImageUsageFlagBits::eTransferDst,
+      vk::SharingMode::eExclusive};
   image.image_ = vk::raii::Image(device_, info);
   auto requirements = image.image_.getMemoryRequirements();
   image.memory_ = allocate(requirements, vk::MemoryPropertyFlagBits::eDeviceLocal);
@@ -281,21 +300,23 @@ Image Device::create_image(std::string name, vk::Extent2D extent, vk::Format for
   image.bytes_ = requirements.size;
   auto aspect = depth ? vk::ImageAspectFlagBits::eDepth : vk::ImageAspectFlagBits::eColor;
   image.view_ = vk::raii::ImageView(
-      device_, vk::ImageViewCreateInfo{{}, *image.image_, vk::ImageViewType::e2D, format, {}, {aspect, 0, 1, 0, 1}});
+      device_, vk::ImageViewCreateInfo{
+                   {}, *image.image_, vk::ImageViewType::e2D, format, {}, {aspect, 0, 1, 0, 1}});
   allocated_bytes_ += image.bytes_;
   set_debug_name(uint64_t(VkImage(*image.image_)), vk::ObjectType::eImage, image.name_);
   // Every image lives in GENERAL from here on (see gpu.h).
   submit_and_wait([&](vk::CommandBuffer cmd) {
-    vk::ImageMemoryBarrier barrier{{},
-                                   vk::AccessFlagBits::eMemoryRead | vk::AccessFlagBits::eMemoryWrite,
-                                   vk::ImageLayout::eUndefined,
-                                   vk::ImageLayout::eGeneral,
-                                   VK_QUEUE_FAMILY_IGNORED,
-                                   VK_QUEUE_FAMILY_IGNORED,
-                                   *image.image_,
-                                   {aspect, 0, 1, 0, 1}};
-    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eTopOfPipe, vk::PipelineStageFlagBits::eAllCommands, {}, {}, {},
-                        barrier);
+    vk::ImageMemoryBarrier barrier{
+        {},
+        vk::AccessFlagBits::eMemoryRead | vk::AccessFlagBits::eMemoryWrite,
+        vk::ImageLayout::eUndefined,
+        vk::ImageLayout::eGeneral,
+        VK_QUEUE_FAMILY_IGNORED,
+        VK_QUEUE_FAMILY_IGNORED,
+        *image.image_,
+        {aspect, 0, 1, 0, 1}};
+    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eTopOfPipe,
+                        vk::PipelineStageFlagBits::eAllCommands, {}, {}, {}, barrier);
   });
   return image;
 }
@@ -329,14 +350,15 @@ void Device::submit_and_wait(const std::function<void(vk::CommandBuffer)>& recor
   check(device_.waitForFences(*fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 }
 
-void Device::upload(const Buffer& dst, const void* data, vk::DeviceSize bytes, vk::DeviceSize offset) {
+void Device::upload(const Buffer& dst, const void* data, vk::DeviceSize bytes,
+                    vk::DeviceSize offset) {
   if (bytes == 0) return;
   if (dst.mapped()) {
     std::memcpy(static_cast<char*>(dst.mapped()) + offset, data, bytes);
     return;
   }
-  Buffer staging = create_buffer(dst.name() + "/staging", bytes, vk::BufferUsageFlagBits::eTransferSrc,
-                                 Memory::host_visible);
+  Buffer staging = create_buffer(dst.name() + "/staging", bytes,
+                                 vk::BufferUsageFlagBits::eTransferSrc, Memory::host_visible);
   std::memcpy(staging.mapped(), data, bytes);
   submit_and_wait([&](vk::CommandBuffer cmd) {
     cmd.copyBuffer(staging.handle(), dst.handle(), vk::BufferCopy{0, offset, bytes});
@@ -349,8 +371,8 @@ void Device::download(const Buffer& src, void* data, vk::DeviceSize bytes, vk::D
     std::memcpy(data, static_cast<const char*>(src.mapped()) + offset, bytes);
     return;
   }
-  Buffer staging = create_buffer(src.name() + "/readback", bytes, vk::BufferUsageFlagBits::eTransferDst,
-                                 Memory::host_visible);
+  Buffer staging = create_buffer(src.name() + "/readback", bytes,
+                                 vk::BufferUsageFlagBits::eTransferDst, Memory::host_visible);
   submit_and_wait([&](vk::CommandBuffer cmd) {
     full_barrier(cmd);
     cmd.copyBuffer(src.handle(), staging.handle(), vk::BufferCopy{offset, 0, bytes});
@@ -363,12 +385,13 @@ void Device::read_image(const Image& image, std::vector<float>& rgba) {
     throw Error(fmt::format("read_image: '{}' is not RGBA32F", image.name()));
   auto extent = image.extent();
   vk::DeviceSize bytes = vk::DeviceSize(extent.width) * extent.height * 16;
-  Buffer staging = create_buffer(image.name() + "/readback", bytes, vk::BufferUsageFlagBits::eTransferDst,
-                                 Memory::host_visible);
+  Buffer staging = create_buffer(image.name() + "/readback", bytes,
+                                 vk::BufferUsageFlagBits::eTransferDst, Memory::host_visible);
   submit_and_wait([&](vk::CommandBuffer cmd) {
     full_barrier(cmd);
-    vk::BufferImageCopy region{0, 0, 0, {vk::ImageAspectFlagBits::eColor, 0, 0, 1}, {0, 0, 0},
-                               {extent.width, extent.height, 1}};
+    vk::BufferImageCopy region{0,         0,
+                               0,         {vk::ImageAspectFlagBits::eColor, 0, 0, 1},
+                               {0, 0, 0}, {extent.width, extent.height, 1}};
     cmd.copyImageToBuffer(image.handle(), vk::ImageLayout::eGeneral, staging.handle(), region);
   });
   rgba.resize(size_t(extent.width) * extent.height * 4);
@@ -390,8 +413,8 @@ void Device::end_rendering(vk::CommandBuffer cmd) const {
 void full_barrier(vk::CommandBuffer cmd) {
   vk::MemoryBarrier barrier{vk::AccessFlagBits::eMemoryWrite,
                             vk::AccessFlagBits::eMemoryRead | vk::AccessFlagBits::eMemoryWrite};
-  cmd.pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands, vk::PipelineStageFlagBits::eAllCommands, {},
-                      barrier, {}, {});
+  cmd.pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands,
+                      vk::PipelineStageFlagBits::eAllCommands, {}, barrier, {}, {});
 }
 
 }  // namespace pb::gpu

@@ -4,8 +4,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "photonbench/scene_layout.h"
 #include "photonbench/error.h"
+#include "photonbench/scene_layout.h"
 #include "shared_shaders.h"
 
 namespace pb::gpu {
@@ -27,10 +27,12 @@ struct DrawPush {
 };
 
 layout::GpuMaterial to_gpu(const scene::Material& m) {
-  return {glm::vec4(m.albedo, float(int(m.type))), glm::vec4(m.emission, m.roughness), glm::vec4(m.specular, m.ior)};
+  return {glm::vec4(m.albedo, float(int(m.type))), glm::vec4(m.emission, m.roughness),
+          glm::vec4(m.specular, m.ior)};
 }
 
-// The 6 cube-face views around `p`, in the order the direct-light shader picks them (+x -x +y -y +z -z).
+// The 6 cube-face views around `p`, in the order the direct-light shader picks them (+x -x +y -y +z
+// -z).
 void cube_views(glm::vec3 p, float far_plane, std::vector<glm::mat4>& out) {
   const glm::vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   glm::mat4 projection = glm::perspectiveRH_ZO(glm::radians(90.f), 1.f, kShadowNear, far_plane);
@@ -45,7 +47,12 @@ void cube_views(glm::vec3 p, float far_plane, std::vector<glm::mat4>& out) {
 ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t width, uint32_t height,
                          const SharedPassOptions& options, PassRecorder& recorder,
                          std::function<vk::CommandBuffer()> cmd)
-    : device_(device), scene_(scene), width_(width), height_(height), options_(options), recorder_(recorder),
+    : device_(device),
+      scene_(scene),
+      width_(width),
+      height_(height),
+      options_(options),
+      recorder_(recorder),
       cmd_(std::move(cmd)) {
   using U = vk::BufferUsageFlagBits;
   using I = vk::ImageUsageFlagBits;
@@ -56,17 +63,20 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
   std::vector<layout::GpuMaterial> materials;
   for (const auto& m : scene.materials) materials.push_back(to_gpu(m));
   if (materials.empty()) materials.push_back(to_gpu(scene::Material{}));
-  materials_ = device.create_buffer("world/materials", materials.size() * sizeof(layout::GpuMaterial),
-                                    U::eStorageBuffer, Memory::device_local);
+  materials_ =
+      device.create_buffer("world/materials", materials.size() * sizeof(layout::GpuMaterial),
+                           U::eStorageBuffer, Memory::device_local);
   device.upload(materials_, materials.data(), materials.size() * sizeof(layout::GpuMaterial));
 
   for (const auto& track : scene.lights)
     tile_count_ += track.light.type == scene::LightType::directional ? 1 : 6;
   size_t light_count = std::max<size_t>(scene.lights.size(), 1);
-  frame_ = device.create_buffer("world/frame", sizeof(layout::GpuFrame), U::eStorageBuffer, Memory::host_visible);
-  lights_ = device.create_buffer("world/lights", light_count * sizeof(layout::GpuLight), U::eStorageBuffer,
-                                 Memory::host_visible);
-  tiles_ = device.create_buffer("world/shadow-views", std::max<uint32_t>(tile_count_, 1) * sizeof(glm::mat4),
+  frame_ = device.create_buffer("world/frame", sizeof(layout::GpuFrame), U::eStorageBuffer,
+                                Memory::host_visible);
+  lights_ = device.create_buffer("world/lights", light_count * sizeof(layout::GpuLight),
+                                 U::eStorageBuffer, Memory::host_visible);
+  tiles_ = device.create_buffer("world/shadow-views",
+                                std::max<uint32_t>(tile_count_, 1) * sizeof(glm::mat4),
                                 U::eStorageBuffer, Memory::host_visible);
 
   vk::Extent2D extent{width, height};
@@ -74,19 +84,31 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
   position_ = device.create_image("gbuffer/position", extent, kColor, storage);
   normal_ = device.create_image("gbuffer/normal", extent, kColor, storage);
   albedo_ = device.create_image("gbuffer/albedo", extent, kColor, storage);
-  depth_ = device.create_image("gbuffer/depth", extent, kDepth, I::eDepthStencilAttachment | I::eSampled);
+  depth_ = device.create_image("gbuffer/depth", extent, kDepth,
+                               I::eDepthStencilAttachment | I::eSampled);
   direct_ = device.create_image("direct/radiance", extent, kColor, I::eStorage);
   final_ = device.create_image("output/radiance", extent, kColor, I::eStorage);
   create_shadow_atlas();
 
-  GraphicsPipelineDesc gbuffer{"gbuffer", kgbuffer_vert_spv, kgbuffer_frag_spv,
-                               {Binding::storage_buffer, Binding::storage_buffer}, sizeof(DrawPush),
-                               6 * sizeof(float), {vk::Format::eR32G32B32Sfloat, vk::Format::eR32G32B32Sfloat},
-                               {kColor, kColor, kColor}, kDepth};
+  GraphicsPipelineDesc gbuffer{"gbuffer",
+                               kgbuffer_vert_spv,
+                               kgbuffer_frag_spv,
+                               {Binding::storage_buffer, Binding::storage_buffer},
+                               sizeof(DrawPush),
+                               6 * sizeof(float),
+                               {vk::Format::eR32G32B32Sfloat, vk::Format::eR32G32B32Sfloat},
+                               {kColor, kColor, kColor},
+                               kDepth};
   gbuffer_pipeline_ = device.create_graphics_pipeline(gbuffer);
-  GraphicsPipelineDesc shadow{"shadow-maps", kshadow_vert_spv, {}, {Binding::storage_buffer}, sizeof(DrawPush),
-                              6 * sizeof(float), {vk::Format::eR32G32B32Sfloat, vk::Format::eR32G32B32Sfloat},
-                              {}, kDepth};
+  GraphicsPipelineDesc shadow{"shadow-maps",
+                              kshadow_vert_spv,
+                              {},
+                              {Binding::storage_buffer},
+                              sizeof(DrawPush),
+                              6 * sizeof(float),
+                              {vk::Format::eR32G32B32Sfloat, vk::Format::eR32G32B32Sfloat},
+                              {},
+                              kDepth};
   shadow_pipeline_ = device.create_graphics_pipeline(shadow);
   using B = Binding;
   direct_pipeline_ = device.create_compute_pipeline(
@@ -96,8 +118,8 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
       4 * sizeof(float));
   shade_pipeline_ = device.create_compute_pipeline(
       "shade", kshade_comp_spv,
-      {B::storage_buffer, B::storage_buffer, B::storage_image, B::storage_image, B::storage_image, B::storage_image,
-       B::storage_image},
+      {B::storage_buffer, B::storage_buffer, B::storage_image, B::storage_image, B::storage_image,
+       B::storage_image, B::storage_image},
       sizeof(uint32_t));
 }
 
@@ -105,12 +127,14 @@ void ScenePasses::create_shadow_atlas() {
   uint32_t size = options_.shadow_map_size;
   uint32_t rows = std::max<uint32_t>((tile_count_ + tiles_per_row_ - 1) / tiles_per_row_, 1);
   shadow_atlas_ = Image();  // release the old atlas before making the new one
-  shadow_atlas_ = device_.create_image("shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
-                                       vk::ImageUsageFlagBits::eDepthStencilAttachment | vk::ImageUsageFlagBits::eSampled);
+  shadow_atlas_ = device_.create_image(
+      "shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
+      vk::ImageUsageFlagBits::eDepthStencilAttachment | vk::ImageUsageFlagBits::eSampled);
 }
 
 void ScenePasses::configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) {
-  if (map_size < 16 || map_size > 4096) throw Error(fmt::format("shadow map size {} outside [16, 4096]", map_size));
+  if (map_size < 16 || map_size > 4096)
+    throw Error(fmt::format("shadow map size {} outside [16, 4096]", map_size));
   options_.shadow_relative_bias = relative_bias;
   options_.shadow_normal_offset = normal_offset_m;
   if (map_size != options_.shadow_map_size) {
@@ -125,14 +149,17 @@ void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const 
   interleaved.reserve(mesh.positions.size() * 6);
   for (size_t v = 0; v < mesh.positions.size(); ++v) {
     glm::vec3 n = v < mesh.normals.size() ? mesh.normals[v] : glm::vec3(0, 1, 0);
-    interleaved.insert(interleaved.end(), {mesh.positions[v].x, mesh.positions[v].y, mesh.positions[v].z, n.x, n.y, n.z});
+    interleaved.insert(interleaved.end(), {mesh.positions[v].x, mesh.positions[v].y,
+                                           mesh.positions[v].z, n.x, n.y, n.z});
   }
   size_t vertex_bytes = interleaved.size() * sizeof(float);
   size_t index_bytes = mesh.triangles.size() * sizeof(glm::uvec3);
   if (!gpu_mesh.vertices || gpu_mesh.vertices.size() < vertex_bytes)
-    gpu_mesh.vertices = device_.create_buffer(name + "/vertices", vertex_bytes, U::eVertexBuffer, Memory::host_visible);
+    gpu_mesh.vertices = device_.create_buffer(name + "/vertices", vertex_bytes, U::eVertexBuffer,
+                                              Memory::host_visible);
   if (!gpu_mesh.indices || gpu_mesh.indices.size() < index_bytes)
-    gpu_mesh.indices = device_.create_buffer(name + "/indices", index_bytes, U::eIndexBuffer, Memory::host_visible);
+    gpu_mesh.indices = device_.create_buffer(name + "/indices", index_bytes, U::eIndexBuffer,
+                                             Memory::host_visible);
   device_.upload(gpu_mesh.vertices, interleaved.data(), vertex_bytes);
   device_.upload(gpu_mesh.indices, mesh.triangles.data(), index_bytes);
   gpu_mesh.index_count = uint32_t(mesh.triangles.size() * 3);
@@ -141,7 +168,8 @@ void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const 
 void ScenePasses::update(const scene::FrameState& state) {
   indirect_estimate_ = nullptr;  // a new frame: shade() has not run yet
   object_to_world_ = state.object_to_world;
-  // Deformed meshes (the pool's water) are re-tessellated and re-uploaded; rigid motion is a matrix.
+  // Deformed meshes (the pool's water) are re-tessellated and re-uploaded; rigid motion is a
+  // matrix.
   for (uint32_t i : state.deformed_objects)
     upload_mesh(meshes_[i], scene_.mesh_at(i, state.time), "world/" + scene_.objects[i].name);
 
@@ -186,14 +214,15 @@ void ScenePasses::update(const scene::FrameState& state) {
   frame.view_projection = camera_.view_projection;
   frame.inverse_view_projection = camera_.inverse_view_projection;
   frame.camera_position = glm::vec4(camera_.position, camera_.fov_y);
-  frame.size_lights = glm::uvec4(width_, height_, uint32_t(state.lights.size()), options_.shadow_map_size);
+  frame.size_lights =
+      glm::uvec4(width_, height_, uint32_t(state.lights.size()), options_.shadow_map_size);
   vk::Extent2D atlas = shadow_atlas_.extent();
   frame.shadow_atlas = glm::uvec4(atlas.width, atlas.height, tiles_per_row_, tile_count_);
   std::memcpy(frame_.mapped(), &frame, sizeof(frame));
 }
 
-// One object's draw: `bind` binds the pass's pipeline with the push constants (object-to-world matrix and
-// the pass's index: material for the G-buffer, atlas tile for shadows).
+// One object's draw: `bind` binds the pass's pipeline with the push constants (object-to-world
+// matrix and the pass's index: material for the G-buffer, atlas tile for shadows).
 template <class Bind>
 void ScenePasses::draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind, uint32_t index) {
   if (meshes_[i].index_count == 0) return;
@@ -209,20 +238,35 @@ void ScenePasses::gbuffer() {
   std::array<vk::RenderingAttachmentInfo, 3> colors;
   const Image* targets[3] = {&position_, &normal_, &albedo_};
   for (int i = 0; i < 3; ++i)
-    colors[i] = vk::RenderingAttachmentInfo{targets[i]->view(), vk::ImageLayout::eGeneral, {}, {}, {},
-                                            vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
+    colors[i] = vk::RenderingAttachmentInfo{targets[i]->view(),
+                                            vk::ImageLayout::eGeneral,
+                                            {},
+                                            {},
+                                            {},
+                                            vk::AttachmentLoadOp::eClear,
+                                            vk::AttachmentStoreOp::eStore,
                                             vk::ClearColorValue(std::array<float, 4>{0, 0, 0, 0})};
-  vk::RenderingAttachmentInfo depth{depth_.view(), vk::ImageLayout::eGeneral, {}, {}, {},
-                                    vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
+  vk::RenderingAttachmentInfo depth{depth_.view(),
+                                    vk::ImageLayout::eGeneral,
+                                    {},
+                                    {},
+                                    {},
+                                    vk::AttachmentLoadOp::eClear,
+                                    vk::AttachmentStoreOp::eStore,
                                     vk::ClearDepthStencilValue(1.f, 0)};
   vk::Rect2D area{{0, 0}, {width_, height_}};
   device_.begin_rendering(cmd, vk::RenderingInfo{{}, area, 1, 0, colors, &depth});
-  // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is plain.
+  // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is
+  // plain.
   cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
   cmd.setScissor(0, area);
   for (size_t i = 0; i < meshes_.size(); ++i)
-    draw_object(cmd, i, [&](const DrawPush& push) { gbuffer_pipeline_.bind(cmd, {&frame_, &materials_}, push); },
-                scene_.objects[i].material);
+    draw_object(
+        cmd, i,
+        [&](const DrawPush& push) {
+          gbuffer_pipeline_.bind(cmd, {&frame_, &materials_}, push);
+        },
+        scene_.objects[i].material);
   device_.end_rendering(cmd);
 }
 
@@ -230,8 +274,13 @@ void ScenePasses::shadow_maps() {
   auto scope = PassScope(&recorder_, recorder_.begin_pass("shadow-maps"));
   vk::CommandBuffer cmd = cmd_();
   vk::Extent2D atlas = shadow_atlas_.extent();
-  vk::RenderingAttachmentInfo depth{shadow_atlas_.view(), vk::ImageLayout::eGeneral, {}, {}, {},
-                                    vk::AttachmentLoadOp::eClear, vk::AttachmentStoreOp::eStore,
+  vk::RenderingAttachmentInfo depth{shadow_atlas_.view(),
+                                    vk::ImageLayout::eGeneral,
+                                    {},
+                                    {},
+                                    {},
+                                    vk::AttachmentLoadOp::eClear,
+                                    vk::AttachmentStoreOp::eStore,
                                     vk::ClearDepthStencilValue(1.f, 0)};
   // Built with setters: with no colour attachments, brace initialisation picks the (count, pointer)
   // constructor and would pass the depth attachment as a colour one.
@@ -240,11 +289,13 @@ void ScenePasses::shadow_maps() {
   device_.begin_rendering(cmd, rendering);
   uint32_t size = options_.shadow_map_size;
   for (uint32_t tile = 0; tile < tile_count_; ++tile) {
-    int32_t x = int32_t((tile % tiles_per_row_) * size), y = int32_t((tile / tiles_per_row_) * size);
+    int32_t x = int32_t((tile % tiles_per_row_) * size),
+            y = int32_t((tile / tiles_per_row_) * size);
     cmd.setViewport(0, vk::Viewport{float(x), float(y), float(size), float(size), 0, 1});
     cmd.setScissor(0, vk::Rect2D{{x, y}, {size, size}});
     for (size_t i = 0; i < meshes_.size(); ++i)
-      draw_object(cmd, i, [&](const DrawPush& push) { shadow_pipeline_.bind(cmd, {&tiles_}, push); }, tile);
+      draw_object(
+          cmd, i, [&](const DrawPush& push) { shadow_pipeline_.bind(cmd, {&tiles_}, push); }, tile);
   }
   device_.end_rendering(cmd);
 }
@@ -260,8 +311,8 @@ void ScenePasses::direct_light() {
     float relative_bias, normal_offset, near_plane, far_plane;
   } push{options_.shadow_relative_bias, options_.shadow_normal_offset, kShadowNear, far_plane};
   direct_pipeline_.bind(cmd,
-                        {&frame_, &materials_, &lights_, &tiles_, &position_, &normal_, Sampled{&shadow_atlas_},
-                         &direct_},
+                        {&frame_, &materials_, &lights_, &tiles_, &position_, &normal_,
+                         Sampled{&shadow_atlas_}, &direct_},
                         push);
   cmd.dispatch(groups_for(width_, kGroup), groups_for(height_, kGroup), 1);
 }

@@ -12,7 +12,7 @@
 namespace pb::gpu {
 
 struct SharedPassOptions {
-  uint32_t shadow_map_size = 512;  // texels per tile side
+  uint32_t shadow_map_size = 512;      // texels per tile side
   float shadow_relative_bias = 0.01f;  // fraction of the light-space depth
   float shadow_normal_offset = 0.01f;  // metres along the normal
 };
@@ -21,14 +21,15 @@ class ScenePasses : public SharedPasses {
  public:
   // `recorder` opens pass scopes; `cmd` returns the frame's current command buffer.
   ScenePasses(Device& device, const scene::Scene& scene, uint32_t width, uint32_t height,
-              const SharedPassOptions& options, PassRecorder& recorder, std::function<vk::CommandBuffer()> cmd);
+              const SharedPassOptions& options, PassRecorder& recorder,
+              std::function<vk::CommandBuffer()> cmd);
 
   // Uploads this frame's camera, lights, shadow views and moved or deformed geometry.
   void update(const scene::FrameState& state);
   CameraView camera_view() const { return camera_; }
   const Image& output() const { return final_; }
-  // The indirect radiance the technique handed to shade() this frame (null if none): its estimate of
-  // its own path class alone, which the harness scores against that class's reference.
+  // The indirect radiance the technique handed to shade() this frame (null if none): its estimate
+  // of its own path class alone, which the harness scores against that class's reference.
   const Image* indirect_estimate() const { return indirect_estimate_; }
 
   void gbuffer() override;

@@ -11,8 +11,8 @@
 namespace pb::metrics {
 namespace {
 
-// sRGB-encoded colours, index 0 for error 0 and 255 for error 1, generated at build time from Debian's
-// python3-matplotlib by cmake/magma_table.py (the repository holds no copy of the table).
+// sRGB-encoded colours, index 0 for error 0 and 255 for error 1, generated at build time from
+// Debian's python3-matplotlib by cmake/magma_table.py (the repository holds no copy of the table).
 constexpr float kMagma[256][3] =
 #include "magma_table.inc"
     ;

@@ -121,7 +121,8 @@ PB_METRICS_KERNEL double ssim_row(const double* const* xr, const double* const* 
   // without a chain of one dependent addition per column.
   Lanes lanes = {};
   size_t j_sum = kRadius;
-  for (; j_sum + kLanes <= end; j_sum += kLanes) lanes += *reinterpret_cast<const LanesAt*>(s + j_sum);
+  for (; j_sum + kLanes <= end; j_sum += kLanes)
+    lanes += *reinterpret_cast<const LanesAt*>(s + j_sum);
   double sum = 0;
   for (size_t l = 0; l < kLanes; ++l) sum += lanes[l];
   for (; j_sum < end; ++j_sum) sum += s[j_sum];

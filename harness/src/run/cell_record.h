@@ -45,10 +45,10 @@ struct CellRecord {
   // Frame timings, counted over the measured frames so far (run/frame_log.h).
   std::optional<uint64_t> frames_measured;
   std::optional<nlohmann::json> counters;  // each counter counted: name -> {"kind", "unit"}
-  std::optional<nlohmann::json> summary;  // frame_ms, harness_overhead_ms/_pct, pass_ms_median
-  std::optional<nlohmann::json> memory;   // peak_host_bytes, gpu_bytes_technique, gpu_bytes_total
-  std::optional<bool> validation;         // Vulkan validation layers were on
-  std::optional<std::string> log_tail;    // a child that ended without writing its record
+  std::optional<nlohmann::json> summary;   // frame_ms, harness_overhead_ms/_pct, pass_ms_median
+  std::optional<nlohmann::json> memory;    // peak_host_bytes, gpu_bytes_technique, gpu_bytes_total
+  std::optional<bool> validation;          // Vulkan validation layers were on
+  std::optional<std::string> log_tail;     // a child that ended without writing its record
 };
 
 nlohmann::json to_json(const CellRecord& record);

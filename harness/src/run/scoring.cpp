@@ -134,9 +134,9 @@ json class_means(const std::vector<Row>& rows) {
 
 }  // namespace
 
-ScoreResult score_cell(const config::Config& config, const Cell& cell,
-                       const scene::Scene& scene, const std::vector<uint32_t>& frames,
-                       const std::string& path_class, const std::filesystem::path& cell_dir) {
+ScoreResult score_cell(const config::Config& config, const Cell& cell, const scene::Scene& scene,
+                       const std::vector<uint32_t>& frames, const std::string& path_class,
+                       const std::filesystem::path& cell_dir) {
   ScoreResult result;
   std::vector<std::string> header = csv_header();
   io::CsvAppender metrics_csv(cell_dir / "metrics.csv", header);

@@ -9,7 +9,8 @@ layout(std430, binding = 1) buffer Sums { uint sums[]; };
 layout(push_constant) uniform Push {
   vec4 units_per_watt;
   uint count;
-} push;
+}
+push;
 void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= push.count) return;

@@ -21,7 +21,7 @@ layout(binding = 23, rgba32f) uniform image2D indirect_out;
 
 // Mirrors ClusterPush (harness/toolkit/src/cluster_splat.cpp).
 layout(push_constant) uniform Push {
-  mat4 view;              // world -> view (the hierarchy's space)
+  mat4 view;  // world -> view (the hierarchy's space)
   uint photon_count;
   float radius;           // the sphere this pass tests (insert: x the list-check test hook)
   uint flags;             // CLUSTER_VARIANT_MASK bits: the variant
@@ -32,7 +32,8 @@ layout(push_constant) uniform Push {
   float estimate_radius;  // radiance-estimate: the photons' radius
   vec4 units_per_watt;    // trivial: fixed-point scale of the node flux, per channel
   vec4 pad0;
-} push;
+}
+push;
 
 #define CLUSTER_VARIANT_MASK 3u
 #define CLUSTER_VARIANT_PLAIN 0u
@@ -50,6 +51,5 @@ uint cluster_variant() { return push.flags & CLUSTER_VARIANT_MASK; }
 #define CLUSTER_STAT_TRUNCATED 6u  // traversals (a photon's from the roots, or a job's) cut short
 #define CLUSTER_STAT_WORDS 8u
 
-#include "toolkit/profile.glsl"
 #include "toolkit/gbuffer.glsl"
-
+#include "toolkit/profile.glsl"

@@ -9,8 +9,10 @@
 #include "cluster_splat.glsl"
 layout(local_size_x = 64) in;
 void store(uint cid) {
-  if (push.mode == CLUSTER_MODE_COUNT) pb_list_count(cid);
-  else pb_list_insert(cid, ph_id);
+  if (push.mode == CLUSTER_MODE_COUNT)
+    pb_list_count(cid);
+  else
+    pb_list_insert(cid, ph_id);
 }
 void on_store(uint level, uint cid) { store(cid); }
 void on_descend_stop(uint level, uint cid) {}  // the walk stops at the leaves, which never descend

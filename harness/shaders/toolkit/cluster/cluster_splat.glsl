@@ -8,7 +8,7 @@ uint ph_id;
 vec3 ph_center;    // view-space position
 vec3 ph_incoming;  // view-space unit direction towards where the photon came from
 vec3 ph_power;
-bool ph_effects;   // count cone rejects and apply trivial accepts (the top and count runs only)
+bool ph_effects;  // count cone rejects and apply trivial accepts (the top and count runs only)
 uint local_cone_rejects = 0u, local_trivial = 0u, local_truncated = 0u;
 
 void photon_begin(uint index, bool effects) {

@@ -27,7 +27,8 @@ layout(push_constant) uniform Push {
   float normal_sigma;  // radians
   uint apply_brdf;     // 1: write albedo / pi * blurred irradiance (the last pass)
   uint pad0;
-} push;
+}
+push;
 
 bool lit(ivec2 q) {
   return imageLoad(gbuffer_position, q).w > 0.0 && pb_material_lit(imageLoad(gbuffer_albedo, q).w);

@@ -26,12 +26,13 @@ layout(binding = 19, rgba32f) uniform image2D irradiance_out;
 
 // Mirrors DirPush (harness/toolkit/src/directional_splat.cpp).
 layout(push_constant) uniform Push {
-  mat4 view;           // world -> view (right-handed, the camera looks along -z)
-  vec4 scale_radius;   // xyz fixed-point units per watt (per channel), w r (m)
-  vec4 inverse_area;   // xyz watts per unit, w 1 / (pi r^2)
-  uvec4 counts;        // x photons, y stop level (buckets at and above), z DIR_FLAG_*, w top level
-  uvec4 limits;        // x loop budget per invocation, y width, z height (pixels)
-} push;
+  mat4 view;          // world -> view (right-handed, the camera looks along -z)
+  vec4 scale_radius;  // xyz fixed-point units per watt (per channel), w r (m)
+  vec4 inverse_area;  // xyz watts per unit, w 1 / (pi r^2)
+  uvec4 counts;       // x photons, y stop level (buckets at and above), z DIR_FLAG_*, w top level
+  uvec4 limits;       // x loop budget per invocation, y width, z height (pixels)
+}
+push;
 
 #define DIR_FLAG_DEPOSIT_PAPER 1u  // intersected stop-level nodes get the whole flux
 #define DIR_FLAG_WEIGHT_CLIP 2u    // octant weights: solid-angle share above the tangent plane
@@ -46,5 +47,5 @@ layout(push_constant) uniform Push {
 // Fixed-point scale of the sample-position sums of directional_leaf_counts.comp.
 #define DIR_CENTROID_SCALE 4096.0
 
-#include "toolkit/profile.glsl"
 #include "toolkit/gbuffer.glsl"
+#include "toolkit/profile.glsl"

@@ -7,7 +7,7 @@
 #define PB_PROFILE_SLOT 1u
 #include "directional_splat.glsl"
 layout(local_size_x = 64) in;
-void on_store(uint level, uint cid) {}       // visit() never stores: it deposits
+void on_store(uint level, uint cid) {}         // visit() never stores: it deposits
 void on_descend_stop(uint level, uint cid) {}  // visit() deposits at the stop level
 void main() {
   uvec2 run = pb_job_run();
@@ -21,8 +21,8 @@ void main() {
     uvec2 job = pb_jobs[j];
     photon_begin(job.x);
     uint level = hier_level_of_cid(job.y);
-    bool complete = level == stop ? deposit_covered(level, job.y)
-                                  : pb_traverse_job(level, job.y, stop);
+    bool complete =
+        level == stop ? deposit_covered(level, job.y) : pb_traverse_job(level, job.y, stop);
     if (!complete) {
       local_truncated += run.y - j;
       break;

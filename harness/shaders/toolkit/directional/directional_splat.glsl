@@ -15,8 +15,8 @@
 // resolution (nodes much larger than r) every intersected node would receive the whole flux and the
 // estimate would be many times too bright (techniques/directional/README.md: deviations).
 #include "directional_common.glsl"
-#include "toolkit/traverse.glsl"
 #include "octants.glsl"
+#include "toolkit/traverse.glsl"
 
 uint ph_id, ph_octant;
 vec3 ph_center, ph_power;

@@ -19,8 +19,10 @@ void main() {
   if (id < push.counts.x) {
     photon_begin(id);
     pb_budget = push.limits.x;
-    if (!pb_traverse_from_roots(push.counts.w)) ++local_truncated;
-    else if (local_deposits == 0u && local_jobs == 0u) ++local_missed;
+    if (!pb_traverse_from_roots(push.counts.w))
+      ++local_truncated;
+    else if (local_deposits == 0u && local_jobs == 0u)
+      ++local_missed;
   }
   flush_counters();
 }

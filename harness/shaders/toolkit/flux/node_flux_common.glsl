@@ -15,4 +15,5 @@ layout(push_constant) uniform Push {
   vec4 watts_per_unit;  // xyz: per channel
   uint stop_level;      // levels 0 .. stop_level have sums
   uint words_per_node;  // 3 x groups (cluster: 3, directional: 24)
-} push;
+}
+push;

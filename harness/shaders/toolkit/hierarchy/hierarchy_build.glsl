@@ -9,12 +9,13 @@ layout(binding = HIER_BINDING_COUNT + 1, rgba32f) readonly uniform image2D gbuff
 
 // Mirrors pb::toolkit::Hierarchy's BuildPush (harness/toolkit/src/hierarchy.cpp).
 layout(push_constant) uniform HierPush {
-  mat4 view;          // world -> view space of this frame's camera
-  uint level;         // hierarchy_propagate: the level whose nodes are built from their children
-  int normal_scale;   // fixed-point scale of the leaf normal sums (2^30 / pixels per leaf)
-  float ln_q_min;     // ln of the depth ratio of a cubical leaf slice (leaf block's angular size)
+  mat4 view;         // world -> view space of this frame's camera
+  uint level;        // hierarchy_propagate: the level whose nodes are built from their children
+  int normal_scale;  // fixed-point scale of the leaf normal sums (2^30 / pixels per leaf)
+  float ln_q_min;    // ln of the depth ratio of a cubical leaf slice (leaf block's angular size)
   uint pad0;
-} hp;
+}
+hp;
 
 // Monotonic map of floats to uints (negative floats reversed), so atomicMin / atomicMax on the
 // words order like the floats.

@@ -42,7 +42,7 @@ void main() {
       old = atomicOr(hier_masks[hier.level[level - 1u].x + hier_parent_key(key)], bit);
     }
     if ((old & bit) != 0u) break;  // another sample created this node (and its ancestors)
-    if (level != leaf) {            // leaves get their cids in hierarchy_leaf_alloc
+    if (level != leaf) {           // leaves get their cids in hierarchy_leaf_alloc
       uint cid = hier.level[level].z + atomicAdd(hier.counts[level], 1u);
       hier_slots[hier.level[level].y + key] = cid;
       hier_node_keys[cid] = key;

@@ -13,7 +13,8 @@ layout(std430, binding = 3) buffer ScanTotal { uint scan_total[]; };
 layout(push_constant) uniform ScanPush {
   uint count;     // words scanned
   uint total_at;  // scan_top writes the sum of all words to scan_total[total_at] (~0u: nowhere)
-} push;
+}
+push;
 
 #define SCAN_PER_THREAD 16u
 #define SCAN_GROUP 256u

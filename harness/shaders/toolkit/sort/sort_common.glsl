@@ -7,7 +7,7 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer SortIn { uvec2 sort_in[]; };
 layout(std430, binding = 1) writeonly buffer SortOut { uvec2 sort_out[]; };
 layout(std430, binding = 2) readonly buffer SortCount { uint sort_count[]; };
-layout(std430, binding = 3) buffer SortBins { uint sort_bins[]; };        // items per key
+layout(std430, binding = 3) buffer SortBins { uint sort_bins[]; };  // items per key
 layout(std430, binding = 4) readonly buffer SortOffsets { uint sort_offsets[]; };
 layout(std430, binding = 5) buffer SortCursors { uint sort_cursors[]; };
 
@@ -15,7 +15,8 @@ layout(std430, binding = 5) buffer SortCursors { uint sort_cursors[]; };
 layout(push_constant) uniform SortPush {
   uint count_at;  // the item count is sort_count[count_at]
   uint key_mask;
-} push;
+}
+push;
 
 bool sort_item(out uvec2 item, out uint key) {
   uint i = gl_GlobalInvocationID.x;

@@ -24,8 +24,9 @@ layout(push_constant) uniform Push {
   vec4 depth_plane;  // view depth of world point p = dot(depth_plane.xyz, p) + depth_plane.w
   uint width, height, tiles_x, tiles_y;
   uint photon_count, tile_size, tile_count, mode;  // mode: TILED_MODE_* (splat)
-  float radius;      // splat: the sphere tested (the insert run's may differ: list-check test hook)
+  float radius;  // splat: the sphere tested (the insert run's may differ: list-check test hook)
   float estimate_radius;
-  uint list_first;   // radiance-estimate: this dispatch's slice of each list
+  uint list_first;  // radiance-estimate: this dispatch's slice of each list
   uint pad0;
-} push;
+}
+push;

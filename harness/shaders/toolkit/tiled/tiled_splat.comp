@@ -56,7 +56,9 @@ void main() {
     for (uint tx = lo.x; tx <= hi.x; ++tx) {
       uint t = ty * push.tiles_x + tx;
       if (!tile_overlaps(t, z, r)) continue;
-      if (push.mode == TILED_MODE_COUNT) pb_list_count(t);
-      else pb_list_insert(t, i);
+      if (push.mode == TILED_MODE_COUNT)
+        pb_list_count(t);
+      else
+        pb_list_insert(t, i);
     }
 }
