@@ -78,7 +78,12 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
       const bool warmup = f < config_.frames.warmup;
       const FrameTiming timing = render_timed(technique, f, warmup);
       const uint64_t allocated = gpu::DeviceAccounting::allocated_bytes(r_.device);
-      log_.track_gpu_memory(allocated - technique_gpu_bytes_from_, allocated);
+      // The technique's share is what was allocated since it was created; the harness may free
+      // its own staging memory meanwhile, so the total can fall below that mark (then 0, never an
+      // unsigned wrap).
+      const uint64_t technique_bytes =
+          allocated > technique_gpu_bytes_from_ ? allocated - technique_gpu_bytes_from_ : 0;
+      log_.track_gpu_memory(technique_bytes, allocated);
       if (!warmup) log_.add(timing, r_.ctx.counters());
       nlohmann::json declarations = nlohmann::json::object();
       for (const auto& [name, declared] : r_.ctx.counter_declarations())
