@@ -548,17 +548,12 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
       light_changed[e] |=
           old.light_state[e * kLightStateSize + k] != now_state[e * kLightStateSize + k];
     const Emitter& em = lights.emitter(e);
-    if (light_changed[e] && em.type == EmitterType::quad &&
+    if (light_changed[e] && em.type != EmitterType::mesh && lights.has_area(e) &&
         world_.is_light_object(world_.light_object(em.source))) {
       uint32_t obj = world_.light_object(em.source);
       if (obj < moved.size()) {
         moved[obj] = 1;
-        const scene::Light& l = lights_now[em.source];
-        Aabb box;
-        for (glm::vec3 q : {l.position, l.position + l.edge_u, l.position + l.edge_v,
-                            l.position + l.edge_u + l.edge_v})
-          box.extend(q);
-        moved_boxes.push_back(box);
+        moved_boxes.push_back(light_bounds(lights_now[em.source]));
       }
     }
   }
