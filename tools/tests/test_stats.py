@@ -117,11 +117,11 @@ def write_seed_run(path, seed_flips, flicker=None, floor=0.001):
                 for k, v in enumerate(flips):
                     fl = "" if flicker is None or k == 0 else flicker
                     w.writerow([4 + 2 * k, "combined", "full", v, floor, fl])
-            rows.append([cid, "box", technique, "ok", "10000", "0.1", variant or ""])
+            rows.append([cid, "box", technique, "ok", "10000", "0.1", variant or "", 1 + i])
     with open(os.path.join(path, "summary.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["cell", "scene", "technique", "status", "param.photons", "param.radius",
-                    "param.variant"])
+                    "param.variant", "seed"])
         w.writerows(rows)
     return path
 
@@ -150,6 +150,8 @@ class SeedRunTest(unittest.TestCase):
         self.assertAlmostEqual(r["std"], np.std(per_seed, ddof=1))
         self.assertAlmostEqual(r["max"], max(per_seed))
         self.assertAlmostEqual(rows[("box__tiled__none", "flicker")]["mean"], 0.03)
+        # The K cells of one setting are told apart by their seed.
+        self.assertEqual(run.label(groups["box__tiled__none"][1]), "tiled (seed=2)")
         temporal = seeds.temporal_rows(run)
         self.assertEqual(len(temporal), 8)
         self.assertAlmostEqual(temporal[0]["flicker"], 0.03)
@@ -177,7 +179,9 @@ class SeedRunTest(unittest.TestCase):
 
     def test_without_seeds_the_test_was_not_possible(self):
         one = {k: v[:1] for k, v in self.flips.items()}
-        text = paper1.claims(Run(write_seed_run(self.runs.path("one"), one)))
+        run = Run(write_seed_run(self.runs.path("one"), one))
+        self.assertEqual(run.label(run.cells[0]), "tiled")  # one seed: no seed in the label
+        text = paper1.claims(run)
         line = next(l for l in text.splitlines() if "cluster-trivial beats tiled" in l)
         self.assertIn("not possible", line)
         self.assertTrue(line.rstrip().endswith("| 1 / 1 | – |"))
