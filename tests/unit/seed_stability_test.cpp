@@ -12,6 +12,7 @@
 #include "metrics/flicker.h"
 #include "metrics/z_test.h"
 #include "photonbench/error.h"
+#include "plan_scratch.h"
 #include "run/plan.h"
 
 namespace pb {
@@ -35,11 +36,17 @@ io::Image filled(const io::Image& like, float value) {
   return image;
 }
 
-// One noiseless reference frame (zero variance, halves equal to the mean).
+// One reference frame: its mean, and halves mean +- noise (noise 0: a noiseless reference).
 struct Frame {
-  io::Image mean, variance;
-  explicit Frame(io::Image m, float var = 0) : mean(std::move(m)), variance(filled(mean, var)) {}
-  metrics::NoisyReference noisy() const { return {mean, variance, mean, mean}; }
+  io::Image mean, variance, half_a, half_b;
+  explicit Frame(io::Image m, float noise = 0)
+      : mean(std::move(m)), variance(filled(mean, noise * noise)), half_a(mean), half_b(mean) {
+    for (size_t i = 0; i < mean.pixels.size(); ++i) {
+      half_a.pixels[i] += noise;
+      half_b.pixels[i] -= noise;
+    }
+  }
+  metrics::NoisyReference noisy() const { return {mean, variance, half_a, half_b}; }
 };
 
 TEST(Flicker, StaticExactSequenceIsZero) {
@@ -73,13 +80,18 @@ TEST(Flicker, AlternatingSequenceScoresTwiceItsAmplitude) {
   }
 }
 
-TEST(Flicker, FloorIsTheReferencesNoiseRelativeToTheirLevel) {
-  // Constant level L and variance v in both frames: floor = sqrt(2 v) / L.
+TEST(Flicker, FloorIsTheDifferenceOfTheReferencesNoiseRelativeToTheirLevel) {
+  // Level L; noise samples (H1 - H2) / 2 of +n in one frame and -n in the other: the difference
+  // of the references' noises is 2n everywhere, so floor = 2n / L.
   const io::Image level = filled(ramp(1), 0.5f);
-  const Frame p(level, 0.0004f), c(level, 0.0004f);
+  const Frame p(level, 0.02f), c(level, -0.02f);
   const metrics::Flicker f = metrics::flicker(p.noisy(), c.noisy(), level, level);
-  EXPECT_NEAR(f.floor, std::sqrt(2 * 0.0004) / 0.5, 1e-6);
+  EXPECT_NEAR(f.floor, 2 * 0.02 / 0.5, 1e-6);
   EXPECT_EQ(f.value, 0.0);
+  // The same noise in both frames (one sample sequence for both references) cancels in R_c - R_p:
+  // no floor, though each reference alone is as noisy.
+  const Frame same(level, 0.02f);
+  EXPECT_NEAR(metrics::flicker(same.noisy(), same.noisy(), level, level).floor, 0.0, 1e-9);
 }
 
 TEST(Flicker, RejectsMismatchedAndBlackFrames) {
@@ -154,17 +166,8 @@ TEST(ZTest, ExactPixelsPassWhenEqualAndRejectWhenNot) {
 }
 
 // A config in a scratch folder, with the build's plugins.
-struct Scratch {
-  fs::path dir = fs::temp_directory_path() / ("pb_seed_test_" + std::to_string(getpid()));
-  Scratch() {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Scratch() { fs::remove_all(dir); }
-  run::RunPlan plan(const std::string& yaml, const std::vector<std::string>& overrides = {}) const {
-    std::ofstream(dir / "config.yaml") << yaml << "plugin_dirs: [" PB_BINARY_DIR "/plugins]\n";
-    return run::plan_run(dir / "config.yaml", overrides);
-  }
+struct Scratch : testing::PlanScratch {
+  Scratch() : PlanScratch("seed_test") {}
 };
 
 const char* kSweep = R"(name: t

@@ -463,7 +463,7 @@ class Run:
         """Whether summary.csv's `seed` column holds more than one seed (a seed axis)."""
         return "seed" in self.columns and self.text["seed"].replace("", np.nan).dropna().nunique() > 1
 
-    def label(self, cell: Cell, with_technique: bool = True) -> str:
+    def label(self, cell: Cell, with_technique: bool = True, with_seed: bool = True) -> str:
         """A short human label: technique plus the parameters that are swept within its technique
         (in its scene)."""
         if self._swept is None:
@@ -472,7 +472,8 @@ class Run:
                            for key, rows in groups.items()}
         swept = self._swept[(cell.scene, cell.technique)]
         parts = [f"{p}={format_param(cell.params[p])}" for p in swept if p in cell.params]
-        if cell.text("seed") and self._seed_axis():  # `run --seeds K`: K cells of one setting
+        # `run --seeds K`: K cells of one setting (with_seed False: the setting, for all K)
+        if with_seed and cell.text("seed") and self._seed_axis():
             parts.append(f"seed={cell.text('seed')}")
         setting = ", ".join(parts)
         if not with_technique:

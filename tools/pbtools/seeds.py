@@ -68,7 +68,8 @@ def spread_rows(run: Run, metrics: Sequence[str] = SPREAD_METRICS) -> List[dict]
             s = stats.spread(per_seed_means(cells, m))
             if s is None:
                 continue
-            rows.append({"group": group, "scene": first.scene, "label": run.label(first),
+            rows.append({"group": group, "scene": first.scene,
+                         "label": run.label(first, with_seed=False),
                          "metric": m, "seeds": s.n, "mean": s.mean, "std": s.std, "min": s.min,
                          "max": s.max})
     return rows
@@ -88,7 +89,8 @@ def z_tests(run: Run) -> List[dict]:
             z = frame.get("z_test") or {}
             image = os.path.join(run.path, "seeds", group,
                                  f"stddev_{int(frame['frame']):04d}_{frame['path_class']}.png")
-            rows.append({"group": group, "scene": cells[0].scene, "label": run.label(cells[0]),
+            rows.append({"group": group, "scene": cells[0].scene,
+                         "label": run.label(cells[0], with_seed=False),
                          "frame": int(frame["frame"]), "path_class": frame["path_class"],
                          "seeds": len(record.get("seeds", [])), "p_value": z.get("p_value", math.nan),
                          "rejected": z.get("rejected"), "tested": z.get("tested"),

@@ -152,6 +152,7 @@ class SeedRunTest(unittest.TestCase):
         self.assertAlmostEqual(rows[("box__tiled__none", "flicker")]["mean"], 0.03)
         # The K cells of one setting are told apart by their seed.
         self.assertEqual(run.label(groups["box__tiled__none"][1]), "tiled (seed=2)")
+        self.assertEqual(rows[("box__tiled__none", "flip")]["label"], "tiled")
         temporal = seeds.temporal_rows(run)
         self.assertEqual(len(temporal), 8)
         self.assertAlmostEqual(temporal[0]["flicker"], 0.03)

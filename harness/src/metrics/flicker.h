@@ -12,12 +12,16 @@
 // error that stays in place), whatever the scene does; a technique alternating between R (1 + a)
 // and R (1 - a) on a static scene scores 2a. The denominator makes it a relative error, like
 // relMSE, so scenes of different brightness compare. The reference's own frame difference is a
-// Monte Carlo estimate too: a technique equal to the true images scores, in expectation,
+// Monte Carlo estimate too: a technique equal to the true images scores, in expectation, the RMS of
+// the difference of the two references' noises. Each reference's two half-estimates give a sample
+// of its noise with its variance, D = (H1 - H2) / 2 (noise_floor.h), so
 //
-//   flicker_floor = sqrt(mean(Var R_c + Var R_p)) / RMS((R_c + R_p) / 2)
+//   flicker_floor = RMS(D_c - D_p) / RMS((R_c + R_p) / 2)
 //
-// (the two references are independent renders), the floor beside every flicker value, as each
-// score of metrics.csv has one (noise_floor.h).
+// the floor beside every flicker value, as each score of metrics.csv has one. Not
+// sqrt(mean(Var R_c + Var R_p)): the references of consecutive frames are rendered with the same
+// sample sequence (the reference seed does not change with the frame), so their noises are
+// correlated and largely cancel in R_c - R_p, and D_c - D_p keeps that correlation.
 #pragma once
 
 #include "metrics/noise_floor.h"

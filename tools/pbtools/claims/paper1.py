@@ -316,7 +316,10 @@ def order_tests(grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]],
     out = [f"### Tests behind the FLIP order, against {which} reference", "",
            "Each neighbouring pair of the order above. \"A beats B\": Welch's t-test, one-sided (H0: A's "
            "mean FLIP is not lower); \"A equals B\": two-sided (H0: equal means; a p-value below "
-           f"{stats.ALPHA:g} rejects the equality). Samples: each seed's mean FLIP over the metric frames.",
+           f"{stats.ALPHA:g} rejects the equality). Samples: each seed's mean FLIP over the metric frames. "
+           "The test is on the techniques' own Monte Carlo noise against one reference; the reference's "
+           "noise, which shifts every seed's score alike, is what the floors and `≈` above account for: "
+           "an order needs both to hold against the true image.",
            "", "| scene | setting | class | claim | test | seeds | p |", "|---|---|---|---|---|---|---|"]
     for (scene, s), kinds in sorted(grid.items()):
         ks = {kind: c for kind, c in kinds.items() if reference in c.metric_references()}
