@@ -32,8 +32,9 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
+from . import measures
+
 POPPING_K = 4.0
-MAD_TO_SIGMA = 1.4826  # 1 / Phi^-1(3/4): MAD x this estimates sigma for normal data
 ALPHA = 0.05  # the level a claim's p-value is read at
 
 
@@ -86,15 +87,6 @@ def jumps(values: Sequence[float]) -> np.ndarray:
     return out
 
 
-def robust_sigma(x: Sequence[float]) -> float:
-    """1.4826 x the median absolute deviation from the median (NaN values left out)."""
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    if not len(x):
-        return math.nan
-    return float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
-
-
 def popping_frames(frames: Sequence[int], values: Sequence[float], k: float = POPPING_K) -> List[int]:
     """The frames of a series (frame order) whose error pops (the module's rule). Needs three or more
     values; only the interior frames can pop; a series whose jumps all equal the median has none, and when the MAD is zero any rise
@@ -104,7 +96,7 @@ def popping_frames(frames: Sequence[int], values: Sequence[float], k: float = PO
         return []
     j = jumps(v)
     centre = float(np.nanmedian(j))
-    sigma = robust_sigma(j)
+    sigma = measures.robust_sigma(j)
     tolerance = max(k * sigma, 1e-9 * float(np.max(np.abs(v))))
     return [int(f) for f, x in zip(frames, j) if np.isfinite(x) and x - centre > tolerance]
 

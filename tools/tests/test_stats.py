@@ -12,7 +12,7 @@ import numpy as np
 from common import TempRuns
 
 from pbtools import figures as F
-from pbtools import seeds, stats, style
+from pbtools import measures, seeds, stats, style
 from pbtools.claims import paper1
 from pbtools.rundata import Run
 
@@ -82,7 +82,7 @@ class PoppingTest(unittest.TestCase):
         bump = base.copy()
         # 6 robust sds above the median jump (the bump barely moves the MAD of 38 jumps).
         j = stats.jumps(base)
-        bump[20] += np.nanmedian(j) - j[20] + 6 * stats.robust_sigma(j)
+        bump[20] += np.nanmedian(j) - j[20] + 6 * measures.robust_sigma(j)
         self.assertEqual(stats.popping_frames(frames, bump, k=4), [20])
         self.assertEqual(stats.popping_frames(frames, bump, k=8), [])
 
