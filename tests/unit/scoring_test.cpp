@@ -81,11 +81,12 @@ TEST(Scoring, RowsCarryFloorsAndUnbiasedErrorsAgainstBothReferences) {
   const ScoreResult result = score_cell(c, cell, scene, {0}, "combined", dir);
   const auto csv = io::read_csv(dir / "metrics.csv");
   const std::vector<std::string> header = {
-      "frame",      "path_class", "reference",    "flip",         "ssim",
-      "psnr",       "rmse",       "relmse",       "flip_floor",   "ssim_floor",
-      "psnr_floor", "rmse_floor", "relmse_floor", "mse_unbiased", "relmse_unbiased"};
+      "frame",        "path_class",   "reference",       "flip",       "ssim",         "psnr",
+      "rmse",         "relmse",       "flip_floor",      "ssim_floor", "psnr_floor",   "rmse_floor",
+      "relmse_floor", "mse_unbiased", "relmse_unbiased", "flicker",    "flicker_floor"};
   ASSERT_EQ(csv.size(), 3u);  // header, full, bounce_matched
   EXPECT_EQ(csv[0], header);
+  const size_t first_flicker_column = header.size() - 2;
 
   trace::ReferenceCache cache(kTemp / "cache");
   for (const ScoredReference& ref : scored_references(c, cell.params)) {
@@ -101,7 +102,10 @@ TEST(Scoring, RowsCarryFloorsAndUnbiasedErrorsAgainstBothReferences) {
     const metrics::UnbiasedErrors u = metrics::unbiased_errors(noisy, output);
     const auto& row = csv[ref.name == "full" ? 1 : 2];
     std::map<std::string, double> v;
-    for (size_t k = 3; k < header.size(); ++k) v[header[k]] = std::stod(row[k]);
+    for (size_t k = 3; k < first_flicker_column; ++k) v[header[k]] = std::stod(row[k]);
+    // One metric frame: no frame pair, so no flicker.
+    EXPECT_EQ(row[first_flicker_column], "");
+    EXPECT_EQ(row[first_flicker_column + 1], "");
     EXPECT_EQ(row[1], "combined");
     EXPECT_EQ(row[2], ref.name);
     EXPECT_NEAR(v["flip"], s.flip.mean, 1e-5);

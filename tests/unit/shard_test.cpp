@@ -13,6 +13,7 @@
 #include <random>
 
 #include "photonbench/error.h"
+#include "plan_scratch.h"
 
 namespace pb::run {
 namespace {
@@ -100,17 +101,8 @@ TEST(Shard, WithinGrahamsBoundOfTheBestSplit) {
 }
 
 // A config in a scratch folder, with the build's plugins.
-struct Scratch {
-  fs::path dir = fs::temp_directory_path() / ("pb_shard_test_" + std::to_string(getpid()));
-  Scratch() {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Scratch() { fs::remove_all(dir); }
-  RunPlan plan(const std::string& yaml, const std::vector<std::string>& overrides = {}) const {
-    std::ofstream(dir / "config.yaml") << yaml << "plugin_dirs: [" PB_BINARY_DIR "/plugins]\n";
-    return plan_run(dir / "config.yaml", overrides);
-  }
+struct Scratch : testing::PlanScratch {
+  Scratch() : PlanScratch("shard_test") {}
 };
 
 const char* kSweep = R"(name: t

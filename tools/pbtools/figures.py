@@ -15,7 +15,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import floors, measures, style
+from . import floors, measures, stats, style
 from .rundata import WHOLE_FRAME_PASS, Cell, Run, format_param
 
 QUALITY_METRICS = ("flip", "ssim", "psnr")
@@ -237,7 +237,8 @@ def pass_breakdown(run: Run, scene: str, styles: style.TechniqueStyle) -> Option
                   "failure). Nested passes are in the table beside the figure.", fig, header, rows)
 
 
-def timeline(run: Run, scene: str, styles: style.TechniqueStyle, clock: str = "auto") -> Optional[Figure]:
+def timeline(run: Run, scene: str, styles: style.TechniqueStyle, clock: str = "auto",
+             popping_k: float = stats.POPPING_K) -> Optional[Figure]:
     cells = run.cells_of(scene)
     with_frames = [c for c in cells if len(c.pass_samples(WHOLE_FRAME_PASS, clock)[0])]
     if not with_frames:
@@ -259,6 +260,12 @@ def timeline(run: Run, scene: str, styles: style.TechniqueStyle, clock: str = "a
             ax_e.plot(mf, mv, color=color, ls=ls, lw=0.9, marker=styles.marker(c.technique), markersize=3,
                       gid=f"flip:{c.id}")
             rows += [[c.id, c.technique, run.label(c), "flip", int(a), float(b)] for a, b in zip(mf, mv)]
+            for pop in stats.popping_frames(mf, mv, popping_k):
+                yv = float(mv[list(mf).index(pop)])
+                ax_e.plot([pop], [yv], ls="none", marker="o", markersize=7, markerfacecolor="none",
+                          markeredgecolor=style.FAILED_COLOR, markeredgewidth=0.9, zorder=6,
+                          gid=f"pop:{c.id}:{pop}")
+                rows.append([c.id, c.technique, run.label(c), "pop", pop, yv])
         for w in c.warnings:
             if w["frame"] is None:
                 continue
@@ -280,6 +287,8 @@ def timeline(run: Run, scene: str, styles: style.TechniqueStyle, clock: str = "a
               markeredgewidth=0.4, label="failure")
     ax_t.plot([], [], ls="none", marker="^", color=style.WARNING_COLOR, markeredgecolor="black",
               markeredgewidth=0.4, label="warning")
+    ax_t.plot([], [], ls="none", marker="o", markerfacecolor="none", markeredgecolor=style.FAILED_COLOR,
+              markeredgewidth=0.9, label=f"popping (FLIP > {popping_k:g} MAD-sd)")
     ax_t.set_ylabel("frame time [ms]")
     ax_e.set_ylabel("FLIP")
     ax_e.set_xlabel("frame")
@@ -291,7 +300,9 @@ def timeline(run: Run, scene: str, styles: style.TechniqueStyle, clock: str = "a
     fig.tight_layout()
     return Figure(f"timeline_{slug(scene)}", f"{scene}: time and error over the animation",
                   "Frame time of every measured frame (top) and FLIP on the metric frames (bottom). "
-                  "Triangles: frames with warnings; crosses and dotted lines: the frame a cell failed at.",
+                  "Triangles: frames with warnings; crosses and dotted lines: the frame a cell failed at; "
+                  f"open circles: popping frames, whose FLIP rises above its neighbours' mean by more than "
+                  f"{popping_k:g} robust standard deviations (1.4826 MAD) of the cell's jumps.",
                   fig, header, rows)
 
 

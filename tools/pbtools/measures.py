@@ -116,6 +116,14 @@ def successive_difference_sigma(samples) -> float:
     return float(stats.median_abs_deviation(np.diff(x), scale="normal")) / math.sqrt(2.0)
 
 
+def robust_sigma(samples) -> float:
+    """The normal-consistent MAD (1.4826 x the median absolute deviation from the median) of the
+    finite samples: a standard deviation that a few outliers do not inflate; NaN when none."""
+    x = np.asarray(samples, float)
+    x = x[np.isfinite(x)]
+    return float(stats.median_abs_deviation(x, scale="normal")) if len(x) else math.nan
+
+
 def percentile_range(samples, low: float = 5.0, high: float = 95.0) -> Tuple[float, float]:
     """(p5, p95) of the samples by linear interpolation between order statistics, the rule of the
     harness's summary.csv (harness/src/run/stats.cpp); NaNs when there are none."""

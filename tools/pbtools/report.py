@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import shutil
@@ -20,7 +21,7 @@ import pandas as pd
 
 from . import figures as F
 from . import images as I
-from . import pages, style, tables
+from . import pages, seeds, stats, style, tables
 from .rundata import Run, RunError
 
 def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
@@ -85,8 +86,51 @@ def cells_view(run: Run) -> List[dict]:
     return out
 
 
+def _g(v) -> str:
+    return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
+
+
+def stability_view(run: Run, tab_dir: str, image_dir: str, k: float) -> dict:
+    """The temporal and seed stability section (seeds.py); writes its tables as CSV and copies the
+    standard deviation images into the report."""
+    temporal = seeds.temporal_rows(run, k)
+    spread = seeds.spread_rows(run)
+    z = seeds.z_tests(run)
+    tables.write_csv(os.path.join(tab_dir, "temporal.csv"), pd.DataFrame(
+        [{**r, "popping_frames": " ".join(map(str, r["popping_frames"]))} for r in temporal],
+        columns=["cell", "scene", "label", "seed", "metric_frames", "flicker", "flicker_floor",
+                 "pops", "popping_frames"]))
+    if spread:
+        tables.write_csv(os.path.join(tab_dir, "seed_spread.csv"), pd.DataFrame(spread))
+    z_view = []
+    if z:
+        tables.write_csv(os.path.join(tab_dir, "z_tests.csv"),
+                         pd.DataFrame([{k2: v for k2, v in r.items() if k2 != "stddev_image"}
+                                       for r in z]))
+        os.makedirs(image_dir, exist_ok=True)
+    for r in z:
+        image = None
+        if r["stddev_image"]:
+            name = f"{F.slug(r['group'])}_{r['frame']:04d}_{r['path_class']}.png"
+            shutil.copyfile(r["stddev_image"], os.path.join(image_dir, name))
+            image = f"{os.path.basename(image_dir)}/{name}"
+        verdict = "" if r["equal"] is None else ("equal" if r["equal"] else "differs (biased)")
+        z_view.append({**r, "p_value": _g(r["p_value"]), "verdict": verdict, "image": image})
+    return {"k": f"{k:g}", "alpha": f"{z[0]['alpha']:g}" if z else "",
+            "seeds": max((r["seeds"] for r in spread), default=1),
+            "temporal": [{**r, "flicker": _g(r["flicker"]), "flicker_floor": _g(r["flicker_floor"]),
+                          "seed": "" if r["seed"] is None else r["seed"],
+                          "popping_frames": ", ".join(map(str, r["popping_frames"]))}
+                         for r in temporal],
+            "pops": sum(r["pops"] for r in temporal),
+            "popping_cells": sum(1 for r in temporal if r["pops"]),
+            "spread": [{**r, **{m: _g(r[m]) for m in ("mean", "std", "min", "max")}} for r in spread],
+            "z": z_view}
+
+
 def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = None,
-          frame: Optional[int] = None, clock: str = "auto", max_cols: int = 6) -> str:
+          frame: Optional[int] = None, clock: str = "auto", max_cols: int = 6,
+          popping_k: float = stats.POPPING_K) -> str:
     """Builds the report; returns the path of index.html. Writes into a temporary folder and swaps it
     in at the end, so a reader never sees half a report."""
     run = Run(run_dir)
@@ -111,7 +155,7 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
             fig = builder(run, scene, styles)
             if fig:
                 figs.append(fig)
-        fig = F.timeline(run, scene, styles, clock=clock)
+        fig = F.timeline(run, scene, styles, clock=clock, popping_k=popping_k)
         if fig:
             figs.append(fig)
         figs += F.sweep_curves(run, scene, styles)
@@ -138,7 +182,8 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         scenes=[{"name": s, "slug": F.slug(s)} for s in run.scenes()], run_info=run_info_view(run),
         config=config_text(run), status=status_view(run), summary=tables.summary_view(run),
         floors=tables.floors_view(run, floor_rows), sections=sections, cells=cells_view(run),
-        clock=clock)
+        clock=clock,
+        stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k))
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"
@@ -163,10 +208,16 @@ def main(argv=None) -> int:
     ap.add_argument("--clock", choices=["auto", "gpu", "cpu"], default="auto",
                     help="per-frame times: gpu_ms, cpu_ms, or gpu where present else cpu (default)")
     ap.add_argument("--max-cols", type=int, default=6, help="image grid columns before wrapping")
+    ap.add_argument("--popping-k", type=float, default=stats.POPPING_K,
+                    help="a metric frame pops when its FLIP rises above its neighbours' by more than "
+                         "K robust standard deviations (default %(default)g)")
     a = ap.parse_args(argv)
     try:
         crop = I.parse_crop(a.crop)
-        path = build(a.run_dir, a.out, crop=crop, frame=a.frame, clock=a.clock, max_cols=a.max_cols)
+        if not a.popping_k > 0:
+            raise ValueError(f"--popping-k {a.popping_k:g}: expected a number above 0")
+        path = build(a.run_dir, a.out, crop=crop, frame=a.frame, clock=a.clock, max_cols=a.max_cols,
+                     popping_k=a.popping_k)
     except (RunError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

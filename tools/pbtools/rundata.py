@@ -459,7 +459,11 @@ class Run:
         return [p for p in self.param_columns
                 if rows[PARAM_PREFIX + p].dropna().map(format_param).nunique() > 1]
 
-    def label(self, cell: Cell, with_technique: bool = True) -> str:
+    def _seed_axis(self) -> bool:
+        """Whether summary.csv's `seed` column holds more than one seed (a seed axis)."""
+        return "seed" in self.columns and self.text["seed"].replace("", np.nan).dropna().nunique() > 1
+
+    def label(self, cell: Cell, with_technique: bool = True, with_seed: bool = True) -> str:
         """A short human label: technique plus the parameters that are swept within its technique
         (in its scene)."""
         if self._swept is None:
@@ -467,8 +471,11 @@ class Run:
             self._swept = {key: self.swept_params([self.cells[i] for i in rows])
                            for key, rows in groups.items()}
         swept = self._swept[(cell.scene, cell.technique)]
-        setting = ", ".join(f"{p}={format_param(cell.params[p])}"
-                            for p in swept if p in cell.params)
+        parts = [f"{p}={format_param(cell.params[p])}" for p in swept if p in cell.params]
+        # `run --seeds K`: K cells of one setting (with_seed False: the setting, for all K)
+        if with_seed and cell.text("seed") and self._seed_axis():
+            parts.append(f"seed={cell.text('seed')}")
+        setting = ", ".join(parts)
         if not with_technique:
             return setting or cell.technique
         return f"{cell.technique} ({setting})" if setting else cell.technique

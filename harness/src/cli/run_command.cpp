@@ -27,11 +27,17 @@ void add_run(CLI::App& app, int& exit_code) {
   cmd->add_option("--shard", *shard,
                   "I/N: run only shard I of N, a deterministic subset of the cells balanced by "
                   "their estimated cost; `merge` joins the N run folders");
+  auto seeds = std::make_shared<uint32_t>(0);
+  cmd->add_option("--seeds", *seeds,
+                  "K: run every cell with K seeds (config seed + 0 .. K - 1); the same as --set "
+                  "seeds=K")
+      ->check(CLI::Range(1, 1000));
   cmd->add_flag("--resume", options->resume, "continue the run in --out, skipping complete cells");
   cmd->add_flag("--validation", options->validation,
                 "Vulkan validation layers on; an error fails the cell");
-  cmd->callback([options, plugin_dirs, shard, &exit_code] {
+  cmd->callback([options, plugin_dirs, shard, seeds, &exit_code] {
     if (!shard->empty()) options->shard = pb::run::parse_shard(*shard);
+    if (*seeds > 0) options->overrides.push_back("seeds=" + std::to_string(*seeds));
     for (const auto& dir : *plugin_dirs)
       options->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     if (std::getenv("PB_VALIDATION")) options->validation = true;

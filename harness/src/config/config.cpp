@@ -186,7 +186,10 @@ const KeyTable kConfigTable{
      {"resolution", tuple_type({integer_type(16, 8192), integer_type(16, 8192)}), false,
       json::array({640, 360}), "[width, height] in pixels"},
      {"frames", table_type(kFramesTable), false, nullptr, ""},
-     {"seed", integer_type(0, int64_t(1) << 53), false, 1, "seeds every technique and reference"},
+     {"seed", integer_type(0, int64_t(1) << 53), false, 1,
+      "seeds the references (and, with seeds > 1, the photons of every cell but the first seed's)"},
+     {"seeds", integer_type(1, 1000), false, 1,
+      "K > 1: every cell runs K times, with seeds seed, seed + 1, ..., seed + K - 1"},
      {"scenes", list_type(any_of_type({string_type(), table_type(kSceneEntryTable)}), 1, true),
       true, nullptr, "scene names or paths, or {scene, params}"},
      {"techniques", list_type(table_type(kTechniqueTable), 1, false), true, nullptr, ""},
@@ -257,6 +260,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   config.frames.count = uint32_t(kFramesTable.integer(frames, "count"));
   config.frames.metrics_every = uint32_t(kFramesTable.integer(frames, "metrics_every"));
   config.seed = uint64_t(kConfigTable.integer(root, "seed"));
+  config.seeds = uint32_t(kConfigTable.integer(root, "seeds"));
 
   YamlView scenes = root["scenes"];
   if (scenes.elements().empty()) scenes.fail("at least one scene is needed");

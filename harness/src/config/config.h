@@ -71,6 +71,7 @@ struct Config {
   uint32_t width = 640, height = 360;
   FrameSettings frames;
   uint64_t seed = 1;
+  uint32_t seeds = 1;  // the seed axis: each cell run with seeds seed .. seed + seeds - 1
   std::vector<SceneEntry> scenes;
   std::vector<std::filesystem::path> scene_dirs;  // where scene names are looked up
   std::vector<TechniqueEntry> techniques;

@@ -56,6 +56,7 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
 
   Renderer r({options.device, options.validation}, scene::load_scene(cell.scene_file), config.width,
              config.height);
+  r.world.set_seed(cell.seed, cell.seed_index);
   record.device = r.device.name();
   record.timing = r.profiler.fenced() ? "fenced" : "timestamps";
   if (!config.testing.slow_pass.empty())

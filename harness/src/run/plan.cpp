@@ -139,6 +139,31 @@ Cell make_cell(const std::filesystem::path& scene_file, const std::string& techn
   return cell;
 }
 
+// Each cell `config.seeds` times, seed index i with seed config.seed + i, next to each other (a
+// shard or an interrupted run then holds whole seed groups as far as it can).
+std::vector<Cell> with_seed_axis(std::vector<Cell> cells, const config::Config& config) {
+  for (Cell& cell : cells) {
+    cell.seed = config.seed;
+    cell.seed_group = cell.id;
+  }
+  if (config.seeds <= 1) return cells;
+  if (cells.size() > kMaxCells / config.seeds)
+    throw InputError(fmt::format(
+        "{}: seeds: {} x {} cells = {} cells, more than the {} a run may have",
+        config.file.string(), config.seeds, cells.size(), cells.size() * config.seeds, kMaxCells));
+  std::vector<Cell> seeded;
+  seeded.reserve(cells.size() * config.seeds);
+  for (const Cell& cell : cells)
+    for (uint32_t i = 0; i < config.seeds; ++i) {
+      Cell copy = cell;
+      copy.seed_index = i;
+      copy.seed = config.seed + i;
+      copy.id = fmt::format("{}__seed{}", cell.id, copy.seed);
+      seeded.push_back(std::move(copy));
+    }
+  return seeded;
+}
+
 }  // namespace
 
 const Cell& RunPlan::cell(const std::string& id) const {
@@ -191,7 +216,7 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
         if (ids.insert(cell.id).second) cells.push_back(std::move(cell));
       }
     }
-  return cells;
+  return with_seed_axis(std::move(cells), config);
 }
 
 }  // namespace pb::run

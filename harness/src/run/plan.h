@@ -16,13 +16,22 @@
 
 namespace pb::run {
 
-// A cell: one scene, one technique, one value of every parameter.
+// A cell: one scene, one technique, one value of every parameter and, with `seeds: K` > 1, one
+// seed of the seed axis.
 struct Cell {
-  std::string id;  // "<scene>__<technique>__<8 hex of the parameter values>": stable across runs
+  // "<scene>__<technique>__<8 hex of the parameter values>", and "__seed<seed>" after it on a seed
+  // axis: stable across runs
+  std::string id;
   std::string scene;
   std::filesystem::path scene_file;
   std::string technique;
   std::map<std::string, std::string> params;  // every schema parameter, defaults filled in
+  // config.seed + seed_index. Seed index 0 is the cell a run without a seed axis makes, so its
+  // photons are the technique's own; any other index scrambles the photon tracer's sequence with
+  // `seed` (World::photon_tracer), so the K cells are independent Monte Carlo runs.
+  uint64_t seed = 1;
+  uint32_t seed_index = 0;
+  std::string seed_group;  // the id without the seed: the same for the K cells of one seed axis
 };
 
 // A run has at most this many cells: a sweep beyond it is a slip of the keyboard or of a script
@@ -47,7 +56,8 @@ RunPlan plan_run(const std::filesystem::path& config_file,
 // entry) and checks its camera and lights at every frame the run plays, then expands the sweeps,
 // checking each technique and parameter against its plugin's schema. Throws pb::InputError for a
 // scene that is not found or does not load, an unknown technique, a plugin built for another API
-// version, an unknown parameter, a value of the wrong type or range, or more than kMaxCells cells.
+// version, an unknown parameter, a value of the wrong type or range, or more than kMaxCells cells
+// (seeds included: each cell is repeated `seeds` times, its seed indices in order).
 // A plugin that exists but fails to load is not an input error: its cells are returned with an
 // empty parameter map, to fail when they run.
 std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins);

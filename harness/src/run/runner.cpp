@@ -22,6 +22,7 @@
 #include "run/invocation.h"
 #include "run/run_record.h"
 #include "run/scoring.h"
+#include "run/seed_stats.h"
 #include "scene/scene.h"
 #include "trace/reference.h"
 
@@ -125,7 +126,8 @@ void write_summary(const std::filesystem::path& run_dir) {
                                      "status",      "frames",       "frame_ms_median",
                                      "frame_ms_p5", "frame_ms_p95", "flip_mean",
                                      "ssim_mean",   "psnr_mean",    "flip_floor",
-                                     "ssim_floor",  "psnr_floor",   "harness_overhead_pct"};
+                                     "ssim_floor",  "psnr_floor",   "harness_overhead_pct",
+                                     "seed"};
   for (const auto& p : params) header.push_back("param." + p);
   for (const auto& p : passes) header.push_back("pass." + p + ".ms_median");
   header.push_back("reason");
@@ -148,7 +150,8 @@ void write_summary(const std::filesystem::path& run_dir) {
                                     fmt_or_empty(combined.value("flip_floor", json())),
                                     fmt_or_empty(combined.value("ssim_floor", json())),
                                     fmt_or_empty(combined.value("psnr_floor", json())),
-                                    fmt_or_empty(summary.value("harness_overhead_pct", json()))};
+                                    fmt_or_empty(summary.value("harness_overhead_pct", json())),
+                                    r.contains("seed") ? r["seed"].dump() : ""};
     for (const auto& p : params) row.push_back(r["params"].value(p, ""));
     for (const auto& p : passes)
       row.push_back(fmt_or_empty(summary.value("pass_ms_median", json::object()).value(p, json())));
@@ -329,6 +332,13 @@ int run_benchmark(const RunOptions& options) {
   const CellTally tally = run_cells(plan, options, run_dir);
 
   write_summary(run_dir);
+  // A shard holds only some of a seed group's cells; a merged run is summarised by the tools' own
+  // seed spread (tools/pbtools/seeds.py), without the per-pixel images.
+  if (!options.shard.sharded() && plan.config.seeds > 1) {
+    std::fprintf(stderr, "photonbench: seed statistics of %zu cells -> %s\n", plan.cells.size(),
+                 (run_dir / "seeds").string().c_str());
+    write_seed_statistics(plan, run_dir);
+  }
   run["end"] = now_iso();
   io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
   std::fprintf(stderr, "photonbench: %zu cells, %d failed%s. Summary: %s\n", plan.cells.size(),

@@ -7,6 +7,7 @@
 
 #include "io/image.h"
 #include "io/results.h"
+#include "metrics/flicker.h"
 #include "metrics/metrics.h"
 #include "metrics/noise_floor.h"
 #include "trace/reference.h"
@@ -74,19 +75,34 @@ namespace {
 
 // metrics.csv's columns after frame, path_class and reference: each score, then its noise floor
 // (metrics/noise_floor.h: what the true image scores against this reference), then the squared
-// errors with the reference's noise taken off.
+// errors with the reference's noise taken off, then the flicker since the previous metric frame and
+// its floor (metrics/flicker.h; empty on the first metric frame).
 const std::vector<std::string> kScoreColumns = {"flip", "ssim", "psnr", "rmse", "relmse"};
-const std::vector<std::string> kExtraColumns = {"mse_unbiased", "relmse_unbiased"};
+const std::vector<std::string> kExtraColumns = {"mse_unbiased", "relmse_unbiased", "flicker",
+                                                "flicker_floor"};
 
 // One row's values by column name; PSNR is absent when the images are identical.
 using Row = std::map<std::string, std::optional<double>>;
 
-Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io::Image* error_map) {
-  const metrics::NoisyReference noisy{reference.mean, reference.variance, reference.half[0],
-                                      reference.half[1]};
+metrics::NoisyReference noisy_reference(const trace::ReferenceImage& reference) {
+  return {reference.mean, reference.variance, reference.half[0], reference.half[1]};
+}
+
+// The previous metric frame of one class and reference: what the next frame's flicker compares.
+struct ScoredFrame {
+  io::Image test;
+  trace::ReferenceImage reference;
+};
+
+Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io::Image* error_map,
+              const ScoredFrame* previous) {
+  const metrics::NoisyReference noisy = noisy_reference(reference);
   const metrics::Scores s = metrics::evaluate(reference.mean, test, {}, error_map);
   const metrics::NoiseFloor f = metrics::noise_floor(noisy);
   const metrics::UnbiasedErrors u = metrics::unbiased_errors(noisy, test);
+  std::optional<metrics::Flicker> flicker;
+  if (previous)
+    flicker = metrics::flicker(noisy_reference(previous->reference), noisy, previous->test, test);
   return {{"flip", s.flip.mean},
           {"ssim", s.ssim},
           {"psnr", s.psnr},
@@ -100,7 +116,9 @@ Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io:
           {"mse_unbiased", u.mse},
           {"relmse_unbiased", u.relmse},
           {"mse_floor", f.mse},
-          {"mse_floor_halves", f.mse_from_halves}};
+          {"mse_floor_halves", f.mse_from_halves},
+          {"flicker", flicker ? std::optional(flicker->value) : std::nullopt},
+          {"flicker_floor", flicker ? std::optional(flicker->floor) : std::nullopt}};
 }
 
 std::vector<std::string> csv_header() {
@@ -158,6 +176,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
   const std::vector<ScoredReference> references = scored_references(config, cell.params);
   // reference name -> class -> rows
   std::map<std::string, std::map<trace::PathClass, std::vector<Row>>> rows;
+  std::map<std::pair<std::string, trace::PathClass>, ScoredFrame> previous;
   for (uint32_t f : frames) {
     const io::Image output =
         io::read_image(cell_dir / "images" / fmt::format("frame_{:04d}.exr", f));
@@ -178,7 +197,9 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
             cache.get_or_render_entry(scene, state, c, test.width, test.height, ref.options);
         io::Image error_map;
         const bool full = ref.name == "full";
-        Row row = score_row(reference, test, full ? &error_map : nullptr);
+        auto before = previous.find({ref.name, c});
+        Row row = score_row(reference, test, full ? &error_map : nullptr,
+                            before == previous.end() ? nullptr : &before->second);
         std::vector<std::string> fields = {std::to_string(f), name, ref.name};
         for (size_t k = 3; k < header.size(); ++k)
           fields.push_back(csv_value(header[k], row[header[k]]));
@@ -191,6 +212,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
                           io::display_encode(reference.mean));
         }
         rows[ref.name][c].push_back(std::move(row));
+        previous[{ref.name, c}] = {test, reference};
         result.references.push_back({{"frame", f},
                                      {"path_class", name},
                                      {"reference", ref.name},

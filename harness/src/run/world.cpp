@@ -2,7 +2,41 @@
 
 #include <utility>
 
+#include "trace/sampling.h"
+
 namespace pb::run {
+
+namespace {
+
+// The scene's photon tracer with the cell's seed mixed into every request's (trace and
+// retrace_invalid alike, so a re-validated path continues the sequence it was first traced with).
+class SeededPhotonTracer final : public trace::PhotonTracer {
+ public:
+  SeededPhotonTracer(std::unique_ptr<trace::PhotonTracer> inner, uint32_t seed)
+      : inner_(std::move(inner)), seed_(seed) {}
+  uint32_t light_count() const override { return inner_->light_count(); }
+  glm::vec3 light_power(uint32_t light) const override { return inner_->light_power(light); }
+  void set_emission_density(uint32_t light, const trace::EmissionDensity* density) override {
+    inner_->set_emission_density(light, density);
+  }
+  trace::TraceStats trace(const trace::TraceSettings& settings, trace::PhotonBatch& out) override {
+    return inner_->trace(seeded(settings), out);
+  }
+  trace::TraceStats retrace_invalid(const trace::TraceSettings& settings,
+                                    trace::PhotonBatch& batch) override {
+    return inner_->retrace_invalid(seeded(settings), batch);
+  }
+
+ private:
+  trace::TraceSettings seeded(trace::TraceSettings settings) const {
+    settings.seed = trace::hash_combine(settings.seed, seed_);
+    return settings;
+  }
+  std::unique_ptr<trace::PhotonTracer> inner_;
+  uint32_t seed_;
+};
+
+}  // namespace
 
 World::World(gpu::Device& device, scene::Scene scene, uint32_t width, uint32_t height,
              PassRecorder& recorder, std::function<vk::CommandBuffer()> cmd)
@@ -20,8 +54,16 @@ trace::PhotonTracer& World::photon_tracer() {
   if (!tracer_) {
     embree_ = std::make_unique<trace::EmbreeScene>(scene_, state_);
     tracer_ = trace::make_photon_tracer(*embree_);
+    if (seed_index_ > 0)
+      tracer_ =
+          std::make_unique<SeededPhotonTracer>(std::move(tracer_), uint32_t(seed_ ^ (seed_ >> 32)));
   }
   return *tracer_;
+}
+
+void World::set_seed(uint64_t seed, uint32_t seed_index) {
+  seed_ = seed;
+  seed_index_ = seed_index;
 }
 
 }  // namespace pb::run

@@ -34,6 +34,10 @@ class World {
   // The Embree scene and its photon tracer are built on first use, at the current frame; techniques
   // that never trace photons pay nothing for them.
   trace::PhotonTracer& photon_tracer();
+  // A seed axis' cell (run/plan.h, Cell::seed_index > 0): every trace the techniques ask for is
+  // scrambled with `seed` besides their own seed, so each seed gives independent photons. Index 0
+  // leaves the technique's sequence as it is (the cell a run without a seed axis makes).
+  void set_seed(uint64_t seed, uint32_t seed_index);
 
  private:
   scene::Scene scene_;  // first: passes_ holds a reference to it
@@ -41,6 +45,8 @@ class World {
   gpu::ScenePasses passes_;
   std::unique_ptr<trace::EmbreeScene> embree_;
   std::unique_ptr<trace::PhotonTracer> tracer_;
+  uint64_t seed_ = 1;
+  uint32_t seed_index_ = 0;
 };
 
 }  // namespace pb::run

@@ -10,6 +10,11 @@ The comparisons, with the paper's statements (digest seed002-papers-I-II.md §6.
     FLIP with "<" where the difference exceeds both floors and "≈" where it does not; against the full
     reference, and again against the bounce-matched one when the run scored it
     (reference: {bounce_matched: true}), so truncation and the estimator's own error separate.
+Every "A beats B" and "A equals B" statement (the FLIP order: `<`, `≈`, `=`) carries the statistical
+test behind it and its p-value (stats.py): Welch's t-test across seeds on the per-seed mean FLIP, one-
+sided for "beats", two-sided for "equals" (a p-value below 0.05 rejects the equality). A run without a
+seed axis (`run --seeds K`) has one sample per cell, and the row says the test was not possible. With
+seeds, the tables show each cell's first seed and the tests use all of them.
 A technique's "kind" is its name plus its `variant` when it has one (cluster-plain, cluster-trivial...);
 a "setting" is its (photons, radius) pair. Ratios are per frame (same frame index, same scene and
 setting), then averaged: the paper's Fig. 6 compares curves over the same fly-through.
@@ -23,7 +28,7 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 import pandas as pd
 
-from .. import floors, measures
+from .. import floors, measures, seeds, stats
 from ..rundata import BOUNCE_MATCHED_REFERENCE, FULL_REFERENCE, Cell, Run, format_param
 
 TITLE = "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)"
@@ -114,11 +119,15 @@ def claims(run: Run) -> str:
     cells = [c for c in run.cells if c.ok]
     if not cells:
         raise MissingCells("no completed cells")
-    # (scene, setting) -> kind -> cell
+    # (scene, setting) -> kind -> cell (the first seed's), and every seed's cells
     grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]] = defaultdict(dict)
-    for c in cells:
-        if c.technique in ("tiled", "cluster", "directional"):
-            grid[(c.scene, setting(c))][kind(c)] = c
+    replicas: Dict[Tuple[str, Tuple[float, float]], Dict[str, List[Cell]]] = defaultdict(
+        lambda: defaultdict(list))
+    for group in seeds.groups(run).values():
+        for c in group:
+            if c.ok and c.technique in ("tiled", "cluster", "directional"):
+                grid[(c.scene, setting(c))].setdefault(kind(c), c)
+                replicas[(c.scene, setting(c))][kind(c)].append(c)
     if not grid:
         raise MissingCells("no tiled, cluster or directional cells")
 
@@ -244,6 +253,7 @@ def claims(run: Run) -> str:
                   if any(r in c.metric_references() for ks in grid.values() for c in ks.values())]
     for reference in references:
         out += quality_table(grid, reference)
+        out += order_tests(grid, replicas, reference)
     return "\n".join(out)
 
 
@@ -265,10 +275,11 @@ def _quality_text(values: List[Tuple[float, float, bool]]) -> str:
     return " / ".join(parts[:3]) + "; ind. " + " / ".join(parts[3:])
 
 
-def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
-    """The kinds ordered by FLIP (best first): "=" between neighbours equal to the digits shown, "<"
-    where their order holds against the true image (floors.comparison_resolved), "≈" where it may be
-    the reference's noise, "," where a floor is missing."""
+def flip_order(kinds: Dict[str, Cell], cls: str, reference: str) -> List[Tuple[str, float, str]]:
+    """The kinds ordered by FLIP (best first) as (kind, FLIP, separator before it): "=" between
+    neighbours equal to the digits shown, "<" where their order holds against the true image
+    (floors.comparison_resolved), "≈" where it may be the reference's noise, "," where a floor is
+    missing; the first kind's separator is ""."""
     scored = []
     for k, c in kinds.items():
         v, f = _score(c, "flip", cls, reference)
@@ -276,15 +287,57 @@ def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
             scored.append((v, f, k))
     scored.sort(reverse=not measures.lower_is_better("flip"))
     if not scored:
-        return "–"
-    text = f"{scored[0][2]} {scored[0][0]:.3f}"
+        return []
+    order = [(scored[0][2], scored[0][0], "")]
     for (va, fa, _), (vb, fb, kb) in zip(scored, scored[1:]):
         if f"{va:.3f}" == f"{vb:.3f}":
-            sep = " = "
+            sep = "="
         else:
-            sep = {True: " < ", False: " ≈ ", None: ", "}[floors.comparison_resolved("flip", va, fa, vb, fb)]
-        text += sep + f"{kb} {vb:.3f}"
-    return text
+            sep = {True: "<", False: "≈", None: ","}[floors.comparison_resolved("flip", va, fa, vb, fb)]
+        order.append((kb, vb, sep))
+    return order
+
+
+def flip_ranking(kinds: Dict[str, Cell], cls: str, reference: str) -> str:
+    """flip_order as text: "a 0.100 < b 0.200 ≈ c 0.210"."""
+    order = flip_order(kinds, cls, reference)
+    if not order:
+        return "–"
+    return "".join((f"{sep} " if sep == "," else f" {sep} " if sep else "") + f"{k} {v:.3f}"
+                   for k, v, sep in order)
+
+
+def order_tests(grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]],
+                replicas: Dict[Tuple[str, Tuple[float, float]], Dict[str, List[Cell]]],
+                reference: str) -> List[str]:
+    """Every neighbouring pair of the FLIP order as a claim, "A beats B" (`<`) or "A equals B" (`≈`,
+    `=`), with Welch's t-test across seeds on the per-seed mean FLIP and its p-value."""
+    which = "the full" if reference == FULL_REFERENCE else "the bounce-matched"
+    out = [f"### Tests behind the FLIP order, against {which} reference", "",
+           "Each neighbouring pair of the order above. \"A beats B\": Welch's t-test, one-sided (H0: A's "
+           "mean FLIP is not lower); \"A equals B\": two-sided (H0: equal means; a p-value below "
+           f"{stats.ALPHA:g} rejects the equality). Samples: each seed's mean FLIP over the metric frames. "
+           "The test is on the techniques' own Monte Carlo noise against one reference; the reference's "
+           "noise, which shifts every seed's score alike, is what the floors and `≈` above account for: "
+           "an order needs both to hold against the true image.",
+           "", "| scene | setting | class | claim | test | seeds | p |", "|---|---|---|---|---|---|---|"]
+    for (scene, s), kinds in sorted(grid.items()):
+        ks = {kind: c for kind, c in kinds.items() if reference in c.metric_references()}
+        for cls in ("combined", "indirect"):
+            order = flip_order(ks, cls, reference)
+            for (ka, _, _), (kb, _, sep) in zip(order, order[1:]):
+                if sep == ",":
+                    continue
+                beats = sep == "<"
+                a = seeds.per_seed_means(replicas[(scene, s)][ka], "flip", cls, reference)
+                b = seeds.per_seed_means(replicas[(scene, s)][kb], "flip", cls, reference)
+                w = stats.welch(a, b, "less" if beats else "two-sided")
+                claim = f"{ka} beats {kb}" if beats else f"{ka} equals {kb}"
+                p = f"{w.p:.3g}" if w.possible else "–"
+                out.append(f"| {scene} | {setting_label(s)} | {cls} | {claim} | {w.test} | "
+                           f"{w.n_a} / {w.n_b} | {p} |")
+    out.append("")
+    return out
 
 
 def quality_table(grid: Dict[Tuple[str, Tuple[float, float]], Dict[str, Cell]], reference: str) -> List[str]:
