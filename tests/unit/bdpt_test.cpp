@@ -63,7 +63,9 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(SceneCase{"cornell-box", 4096, 65536}, SceneCase{"cornell-glass", 2048, 2048},
                       SceneCase{"dynamic-room", 2048, 2048}, SceneCase{"mirror-box", 2048, 2048},
                       SceneCase{"pillars", 2048, 2048}, SceneCase{"pool", 2048, 2048},
-                      SceneCase{"ring", 2048, 2048}, SceneCase{"torus-in-glass-cube", 2048, 2048}),
+                      SceneCase{"ring", 2048, 2048}, SceneCase{"torus-in-glass-cube", 2048, 2048},
+                      SceneCase{"merry-go-round", 2048, 2048}, SceneCase{"walker", 2048, 2048},
+                      SceneCase{"villa", 2048, 2048}),
     [](const ::testing::TestParamInfo<SceneCase>& info) {
       std::string s = info.param.name;
       for (char& ch : s)

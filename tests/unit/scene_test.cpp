@@ -493,8 +493,8 @@ TEST(Scene, BoundsCoverTransformedMeshes) {
 }
 
 const std::vector<std::string> kExpectedScenes = {
-    "cornell-box", "cornell-glass", "dynamic-room", "mirror-box",
-    "pillars",     "pool",          "ring",         "torus-in-glass-cube"};
+    "cornell-box", "cornell-glass", "dynamic-room", "merry-go-round",      "mirror-box", "pillars",
+    "pool",        "ring",          "villa",        "torus-in-glass-cube", "walker"};
 
 TEST(SceneFiles, EveryShippedSceneLoadsAndAnimates) {
   std::vector<std::string> names = list_scenes({});
@@ -531,6 +531,42 @@ TEST(SceneFiles, EveryShippedSceneLoadsAndAnimates) {
     }
     auto [lo, hi] = scene.bounds();
     EXPECT_TRUE(glm::all(glm::lessThan(lo, hi)));
+  }
+}
+
+// Paper II's three situations (§5, Fig. 6), each lit by a disc light as all its experiments are:
+// objects moving in the light's direct field under a static light (merry-go-round), one figure
+// that walks and then stands still under a static light (walker: nothing moves over its last
+// second), and a moving light among static objects (villa).
+TEST(SceneFiles, PaperTwoScenesModelTheirSituationWithADiscLight) {
+  auto moving_objects = [](const Scene& scene, float t0, float t1) {
+    FrameState a = scene.at(uint32_t(t0 * scene.fps)), b = scene.at(uint32_t(t1 * scene.fps));
+    size_t n = 0;
+    for (size_t i = 0; i < a.object_to_world.size(); ++i)
+      n += a.object_to_world[i] != b.object_to_world[i];
+    return n;
+  };
+  for (const char* name : {"merry-go-round", "walker", "villa"}) {
+    SCOPED_TRACE(name);
+    Scene scene = load_scene(find_scene(name, {}));
+    ASSERT_EQ(scene.lights.size(), 1u);
+    EXPECT_EQ(scene.lights[0].light.type, LightType::disc);
+    float end = float(scene.default_frames - 1) / scene.fps;
+    bool light_moves =
+        scene.at(0).lights[0].position != scene.at(scene.default_frames / 2).lights[0].position;
+    std::string n = name;
+    if (n == "merry-go-round") {
+      EXPECT_FALSE(light_moves);
+      EXPECT_EQ(moving_objects(scene, 0, 1), 11u);  // three "teapots", eight "bunnies"
+    } else if (n == "walker") {
+      EXPECT_FALSE(light_moves);
+      EXPECT_EQ(moving_objects(scene, 0, 1), 4u);          // torso, head, two legs
+      EXPECT_EQ(moving_objects(scene, 3.5f, 6.5f), 0u);    // waiting at the stand
+      EXPECT_EQ(moving_objects(scene, end - 1, end), 0u);  // arrived
+    } else {
+      EXPECT_TRUE(light_moves);
+      EXPECT_EQ(moving_objects(scene, 0, end), 0u);
+    }
   }
 }
 
