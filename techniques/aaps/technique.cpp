@@ -162,8 +162,7 @@ class Aaps final : public pb::Technique {
     settings_.seed_per_frame = false;
 
     pb::gpu::Device& gpu = ctx.gpu();
-    const pb::FrameInfo& f = ctx.frame();
-    width_ = f.width, height_ = f.height;
+    width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
     samples_ = 1;
     if (msaa_ != Msaa::none) {
       uint32_t wanted = uint32_t(params.integer("msaa_samples"));
@@ -242,7 +241,7 @@ class Aaps final : public pb::Technique {
       tracer.trace(settings_, batch_);
       build_splats(ctx, f);
     }
-    vk::CommandBuffer cmd = ctx.cmd();
+    // ctx.cmd() is asked for in each pass: a pass scope may submit and start a fresh buffer.
     const pb::GBuffer g = ctx.shared().gbuffer_images();
     {
       auto scope = ctx.pass("rasterize");
@@ -252,6 +251,7 @@ class Aaps final : public pb::Technique {
     }
     if (msaa_ != Msaa::none) {
       auto scope = ctx.pass("resolve");
+      vk::CommandBuffer cmd = ctx.cmd();
       vk::ImageSubresourceLayers layers{vk::ImageAspectFlagBits::eColor, 0, 0, 1};
       vk::ImageResolve region{layers, {0, 0, 0}, layers, {0, 0, 0}, {width_, height_, 1}};
       cmd.resolveImage(caustics_msaa_.handle(), vk::ImageLayout::eGeneral, resolved_.handle(),
@@ -260,6 +260,7 @@ class Aaps final : public pb::Technique {
     }
     {
       auto scope = ctx.pass("apply");
+      vk::CommandBuffer cmd = ctx.cmd();
       const pb::gpu::Image* resolved = msaa_ != Msaa::none ? &resolved_ : &caustics_;
       uint32_t push[3] = {width_, height_, msaa_ != Msaa::none ? 1u : 0u};
       apply_.bind(cmd, {&caustics_, resolved, g.position, g.albedo, &radiance_, &luminance_}, push,

@@ -165,7 +165,7 @@ TEST(AapsTrace, RefusesKeptPathsAndMissingDensities) {
 
 fs::path work_dir(const std::string& name) { return pb::testing::work_dir("aaps_test", name); }
 
-constexpr int kWidth = 96, kHeight = 72;
+constexpr int kWidth = 128, kHeight = 96;
 constexpr uint32_t kReferenceSamples = 64;
 
 std::string header(const fs::path& dir, int warmup, int count) {
@@ -199,8 +199,8 @@ double image_sum(const pb::io::Image& image) {
 // covered share of samples, and is dimmer.
 TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
   fs::path dir = work_dir("energy");
-  const int warmup = 12;
-  std::string common = "density_resolution: 64, target_area: 6, max_anisotropy: 16";
+  const int warmup = 10;
+  std::string common = "density_resolution: 32, target_area: 2";
   std::string yaml = header(dir, warmup, 1) + "techniques:\n";
   for (const char* mode : {"none", "all", "all_per_sample", "small_per_sample"})
     yaml += std::string("  - technique: aaps\n    params: {") + common + ", msaa: " + mode + "}\n";
@@ -256,7 +256,7 @@ TEST(Aaps, DensityConcentratesOnTheCaustic) {
   std::string yaml = header(dir, 0, 12) +
                      "techniques:\n"
                      "  - technique: aaps\n"
-                     "    params: {density_resolution: 64, target_area: 6}\n";
+                     "    params: {density_resolution: 16, target_area: 1}\n";
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
   fs::path cell = find_cell(dir, "aaps");
   ASSERT_FALSE(cell.empty());
