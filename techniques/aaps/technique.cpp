@@ -8,8 +8,9 @@
 //   rasterize     the quads drawn with additive blending into a screen-sized caustics buffer,
 //                 clipped to the ellipse and depth-tested against the G-buffer in the fragment
 //                 shader (brightness = energy / ellipse area); per-sample variants into a
-//                 multisampled buffer, then `resolve`;
-//   apply         caustic irradiance to radiance on diffuse receivers, handed to shade();
+//                 multisampled buffer;
+//   apply         the multisampled buffer resolved, caustic irradiance to radiance on diffuse
+//                 receivers, handed to shade();
 //   task-update   variance by reprojection, density D' = D A / A_t + v g with the spatio-temporal
 //                 blend, the sum quadtree of the next frame's emission.
 // README.md gives the parameters, every constant the thesis leaves open and the deviations.
@@ -166,8 +167,13 @@ class Aaps final : public pb::Technique {
     samples_ = 1;
     if (msaa_ != Msaa::none) {
       uint32_t wanted = uint32_t(params.integer("msaa_samples"));
-      samples_ = 1;
-      while (samples_ * 2 <= std::min(wanted, gpu.limits().max_color_samples)) samples_ *= 2;
+      // The device's highest count up to the one asked for. Below its highest a device need not
+      // support every power of two; lavapipe offers 1 and 4 only.
+      const uint32_t highest = gpu.limits().max_color_samples;
+      while (samples_ * 2 <= std::min(wanted, highest)) samples_ *= 2;
+      if (samples_ < highest && gpu.driver().find("llvmpipe") != std::string::npos)
+        throw pb::InputError(fmt::format(
+            "aaps: msaa_samples {} is not offered by lavapipe (1 or {} samples)", wanted, highest));
       if (samples_ < 2)
         throw pb::InputError(
             fmt::format("aaps: msaa {} needs a multisampled colour target; the "
@@ -182,10 +188,8 @@ class Aaps final : public pb::Technique {
     radiance_ = gpu.create_image("aaps.radiance", extent, kFloat4, Usage::eStorage);
     if (msaa_ != Msaa::none) {
       caustics_msaa_ = gpu.create_image("aaps.caustics_msaa", extent, kFloat4,
-                                        Usage::eColorAttachment | Usage::eTransferSrc,
+                                        Usage::eColorAttachment | Usage::eSampled,
                                         vk::SampleCountFlagBits(samples_));
-      resolved_ = gpu.create_image("aaps.caustics_resolved", extent, kFloat4,
-                                   Usage::eStorage | Usage::eTransferDst);
     }
     luminance_ =
         gpu.create_buffer("aaps.luminance", uint64_t(width_) * height_ * sizeof(float),
@@ -214,11 +218,18 @@ class Aaps final : public pb::Technique {
     else if (msaa_ != Msaa::none)
       splat_msaa_ = splat_pipeline("aaps.splat_per_sample", kaaps_splat_sample_frag_spv,
                                    vk::SampleCountFlagBits(samples_), 1.f);
-    apply_ = gpu.create_compute_pipeline(
-        "aaps.apply", kaaps_apply_comp_spv,
-        {Binding::storage_image, Binding::storage_image, Binding::storage_image,
-         Binding::storage_image, Binding::storage_image, Binding::storage_buffer},
-        3 * sizeof(uint32_t));
+    if (msaa_ == Msaa::none)
+      apply_ = gpu.create_compute_pipeline(
+          "aaps.apply", kaaps_apply_comp_spv,
+          {Binding::storage_image, Binding::storage_image, Binding::storage_image,
+           Binding::storage_image, Binding::storage_image, Binding::storage_buffer},
+          3 * sizeof(uint32_t));
+    else
+      apply_ = gpu.create_compute_pipeline(
+          "aaps.apply_msaa", kaaps_apply_msaa_comp_spv,
+          {Binding::storage_image, Binding::sampled_image, Binding::storage_image,
+           Binding::storage_image, Binding::storage_image, Binding::storage_buffer},
+          3 * sizeof(uint32_t));
 
     pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
     lights_.resize(tracer.light_count());
@@ -249,21 +260,16 @@ class Aaps final : public pb::Technique {
       if (msaa_ != Msaa::none)
         draw(ctx, caustics_msaa_, splat_msaa_, vertices_msaa_, uint32_t(multi_.size()), g);
     }
-    if (msaa_ != Msaa::none) {
-      auto scope = ctx.pass("resolve");
-      vk::CommandBuffer cmd = ctx.cmd();
-      vk::ImageSubresourceLayers layers{vk::ImageAspectFlagBits::eColor, 0, 0, 1};
-      vk::ImageResolve region{layers, {0, 0, 0}, layers, {0, 0, 0}, {width_, height_, 1}};
-      cmd.resolveImage(caustics_msaa_.handle(), vk::ImageLayout::eGeneral, resolved_.handle(),
-                       vk::ImageLayout::eGeneral, region);
-      pb::gpu::full_barrier(cmd);
-    }
     {
+      // With MSAA the multisampled buffer is resolved here, the mean of its samples (§5.1.3's
+      // "extra resolve step", folded into the apply dispatch).
       auto scope = ctx.pass("apply");
       vk::CommandBuffer cmd = ctx.cmd();
-      const pb::gpu::Image* resolved = msaa_ != Msaa::none ? &resolved_ : &caustics_;
-      uint32_t push[3] = {width_, height_, msaa_ != Msaa::none ? 1u : 0u};
-      apply_.bind(cmd, {&caustics_, resolved, g.position, g.albedo, &radiance_, &luminance_}, push,
+      uint32_t push[3] = {width_, height_, samples_};
+      pb::gpu::Resource multi = msaa_ != Msaa::none
+                                    ? pb::gpu::Resource(pb::gpu::Sampled{&caustics_msaa_})
+                                    : pb::gpu::Resource(&caustics_);
+      apply_.bind(cmd, {&caustics_, multi, g.position, g.albedo, &radiance_, &luminance_}, push,
                   sizeof(push));
       cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
       pb::gpu::full_barrier(cmd);
@@ -477,7 +483,7 @@ class Aaps final : public pb::Technique {
   uint32_t splats_per_sample_ = 0;
   std::vector<float> previous_luminance_;
   glm::mat4 previous_view_projection_{1.f};
-  pb::gpu::Image caustics_, caustics_msaa_, resolved_, radiance_;
+  pb::gpu::Image caustics_, caustics_msaa_, radiance_;
   pb::gpu::Buffer luminance_, vertices_, vertices_msaa_, contributed_;
   pb::gpu::Pipeline splat_, splat_msaa_, apply_;
 };
