@@ -133,6 +133,9 @@ struct GraphicsPipelineDesc {
   bool depth_bias = false;
   vk::SampleCountFlagBits samples = vk::SampleCountFlagBits::e1;
   std::vector<bool> additive_blend;  // per colour attachment; empty: no blending
+  // > 0: sample-rate shading (sampleShadingEnable) with this minSampleShading; 1 runs the fragment
+  // shader once per sample.
+  float min_sample_shading = 0;
 };
 
 class Device {
@@ -143,6 +146,7 @@ class Device {
     uint32_t max_compute_workgroup_count[3];
     uint32_t max_compute_workgroup_invocations;
     uint32_t max_push_constant_bytes;
+    uint32_t max_color_samples;  // the highest sample count of float colour attachments
   };
   struct Options {
     std::string name_filter;  // substring of the device name; empty picks lavapipe, else the first

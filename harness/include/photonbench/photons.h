@@ -84,6 +84,17 @@ struct TraceSettings {
   bool seed_per_frame = true;  // true: the sequence is scrambled with hash(seed, frame) (fresh
                                // photons each frame); false: identical photons every frame
   bool keep_paths = false;     // keep whole light paths for retrace_invalid (path verification)
+  // AAPS (seed 004 §1.4-1.5). Emission: each light's emission density holds photon counts D per
+  // texel (square, power-of-two side; required); texel t emits n = floor(sqrt(D))^2 photons on an
+  // m x m grid at the cell centres, in the order of a sum-quadtree walk (texels in Morton order,
+  // x bit first), with power = light power / texels / n; PhotonRecord::path is the task id within
+  // its light; `paths`, `photon_target`, `rr_start` and the seed are unused. Tracing: the first hit
+  // must be a dielectric, else the photon is discarded; the first dielectric hit splits it into
+  // its reflected and refracted parts (Fresnel weights), every later specular hit repeats the
+  // part's last interaction (refraction under total internal reflection reflects); the photon is
+  // stored at its first diffuse hit only (L S+ D) or lost at max_bounces, the recursion cap.
+  // Glossy (rough) surfaces end the photon. keep_paths is refused.
+  bool aaps = false;
 };
 
 struct TraceStats {

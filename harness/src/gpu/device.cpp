@@ -143,6 +143,12 @@ Device::Device(const Options& options) {
     limits_.max_compute_workgroup_count[axis] = props.limits.maxComputeWorkGroupCount[axis];
   limits_.max_compute_workgroup_invocations = props.limits.maxComputeWorkGroupInvocations;
   limits_.max_push_constant_bytes = props.limits.maxPushConstantsSize;
+  limits_.max_color_samples = 1;
+  for (uint32_t n = 64; n > 1; n /= 2)
+    if (uint32_t(props.limits.framebufferColorSampleCounts) & n) {
+      limits_.max_color_samples = n;
+      break;
+    }
 
   // One queue that does graphics and compute, with timestamps (checked: rule 7).
   auto families = physical_.getQueueFamilyProperties();
@@ -176,6 +182,7 @@ Device::Device(const Options& options) {
   vk::PhysicalDeviceFeatures2 features;
   features.features.shaderInt64 = physical_.getFeatures().shaderInt64;
   features.features.fragmentStoresAndAtomics = VK_TRUE;
+  features.features.sampleRateShading = physical_.getFeatures().sampleRateShading;
   features.features.vertexPipelineStoresAndAtomics =
       physical_.getFeatures().vertexPipelineStoresAndAtomics;
   vk::PhysicalDeviceVulkan12Features features12;

@@ -126,6 +126,10 @@ Pipeline Device::create_graphics_pipeline(const GraphicsPipelineDesc& desc) {
                                                   0,
                                                   1.f};
   vk::PipelineMultisampleStateCreateInfo multisample{{}, desc.samples};
+  if (desc.min_sample_shading > 0) {
+    multisample.sampleShadingEnable = VK_TRUE;
+    multisample.minSampleShading = desc.min_sample_shading;
+  }
   bool has_depth = desc.depth_format != vk::Format::eUndefined;
   vk::PipelineDepthStencilStateCreateInfo depth{
       {}, has_depth, has_depth, vk::CompareOp::eLessOrEqual};

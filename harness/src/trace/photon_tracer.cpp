@@ -66,6 +66,35 @@ glm::vec3 normal_derivative(const Triangle& tri, glm::vec2 bary, const glm::vec3
   return (dn - ns * glm::dot(ns, dn)) / len;
 }
 
+// Transfers a ray differential (dp, dd) along a segment of length t to the plane of the hit with
+// normal ng (Igehy 1999 eq. 10).
+glm::vec3 transfer_differential(const glm::vec3& dir, const glm::vec3& ng, float t,
+                                const glm::vec3& dp, const glm::vec3& dd) {
+  float d_dot_n = glm::dot(dir, ng);
+  glm::vec3 q = dp + t * dd;
+  return d_dot_n != 0 ? q - dir * (glm::dot(q, ng) / d_dot_n) : q;
+}
+
+// The direction differential after a delta reflection or refraction `s` at `hit`, for the
+// incoming direction `dir` and its differentials (dp on the surface, dd): Igehy eq. 14 for
+// reflection, eq. 18-19 for refraction, with the derivative of the interpolated normal.
+glm::vec3 scatter_differential(const Triangle& tri, const Hit& hit, const BsdfSample& s,
+                               const glm::vec3& dir, const glm::vec3& dp, const glm::vec3& dd) {
+  float flip = glm::dot(s.normal, hit.shading_normal) >= 0 ? 1.f : -1.f;
+  const glm::vec3 n = s.normal;
+  glm::vec3 dn = flip * normal_derivative(tri, hit.barycentric, dp);
+  if (!s.transmitted)
+    return dd - 2.f * (glm::dot(dir, n) * dn + (glm::dot(dd, n) + glm::dot(dir, dn)) * n);
+  // eta = eta_i / eta_t and n facing the incoming side.
+  float eta = s.eta, cos_i = -glm::dot(dir, n), cos_t = -glm::dot(s.wi, n);
+  if (cos_t <= 1e-6f) return dd;
+  float k_coef = eta * cos_i - cos_t;
+  float dcos_i = -(glm::dot(dd, n) + glm::dot(dir, dn));
+  float dcos_t = eta * eta * cos_i * dcos_i / cos_t;
+  float dk = eta * dcos_i - dcos_t;
+  return eta * dd + dk * n + k_coef * dn;
+}
+
 // Can a photon still be stored after interaction k, given the path so far (`mask` includes bit k)?
 bool storable_later(uint32_t mask, uint32_t k, uint32_t store) {
   if (!(mask & 1u)) return (store & kIndirectPhotons) != 0;
@@ -129,13 +158,8 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     next.normal = ng;
     next.spacing = v.spacing;
     next.specular_mask = v.specular_mask;
-    // Transfer the differentials to the plane of the hit (Igehy 1999 eq. 10).
-    float d_dot_n = glm::dot(dir, ng);
-    auto transfer = [&](const glm::vec3& dp, const glm::vec3& dd) {
-      glm::vec3 q = dp + hit.t * dd;
-      return d_dot_n != 0 ? q - dir * (glm::dot(q, ng) / d_dot_n) : q;
-    };
-    glm::vec3 dp_du = transfer(v.dp_du, v.dd_du), dp_dv = transfer(v.dp_dv, v.dd_dv);
+    glm::vec3 dp_du = transfer_differential(dir, ng, hit.t, v.dp_du, v.dd_du);
+    glm::vec3 dp_dv = transfer_differential(dir, ng, hit.t, v.dp_dv, v.dd_dv);
     if (world.is_light_object(hit.object)) {  // a luminaire absorbs what reaches it
       next.flags = PathVertex::kTerminated;
       verts.push_back(next);
@@ -198,25 +222,10 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
           next.spacing = restart_spacing;
         } else {
           Triangle tri = world.triangle(hit.object, hit.primitive);
-          float flip = glm::dot(s.normal, hit.shading_normal) >= 0 ? 1.f : -1.f;
-          const glm::vec3 n = s.normal;
-          auto scatter = [&](const glm::vec3& dp, const glm::vec3& dd) {
-            glm::vec3 dn = flip * normal_derivative(tri, hit.barycentric, dp);
-            if (!s.transmitted)  // Igehy eq. 14
-              return dd - 2.f * (glm::dot(dir, n) * dn + (glm::dot(dd, n) + glm::dot(dir, dn)) * n);
-            // Igehy eq. 18-19 with eta = eta_i / eta_t and n facing the incoming side.
-            float eta = s.eta, cos_i = -glm::dot(dir, n), cos_t = -glm::dot(s.wi, n);
-            if (cos_t <= 1e-6f) return dd;
-            float k_coef = eta * cos_i - cos_t;
-            float dcos_i = -(glm::dot(dd, n) + glm::dot(dir, dn));
-            float dcos_t = eta * eta * cos_i * dcos_i / cos_t;
-            float dk = eta * dcos_i - dcos_t;
-            return eta * dd + dk * n + k_coef * dn;
-          };
           next.dp_du = dp_du;
           next.dp_dv = dp_dv;
-          next.dd_du = scatter(dp_du, v.dd_du);
-          next.dd_dv = scatter(dp_dv, v.dd_dv);
+          next.dd_du = scatter_differential(tri, hit, s, dir, dp_du, v.dd_du);
+          next.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, v.dd_dv);
         }
         verts.push_back(next);
         continue;
@@ -405,10 +414,13 @@ void EmbreePhotonTracer::set_emission_density(uint32_t light, const EmissionDens
       density ? std::make_shared<Distribution2D>(density->width, density->height, density->texels)
               : nullptr;
   ++density_version_[light];
+  grid_densities_.resize(densities_.size());
+  grid_densities_[light] = density ? *density : EmissionDensity{};
 }
 
 TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch& out) {
   check_settings(settings);
+  if (settings.aaps) return trace_aaps(settings, out);
   auto t0 = std::chrono::steady_clock::now();
   LightSet lights(world_);
   densities_.resize(std::max<size_t>(densities_.size(), lights.size()));
@@ -665,6 +677,223 @@ TraceStats EmbreePhotonTracer::retrace_invalid(const TraceSettings& settings, Ph
   stats.seconds = seconds_since(t0);
   next.stats = stats;
   batch = std::move(next);
+  return stats;
+}
+
+// ---- AAPS (seed 004 §1.4-1.5) --------------------------------------------------------------------
+
+namespace {
+
+// Interleaves the bits of x (even bits) and y (odd bits): the order in which a sum quadtree with
+// children (0,0), (1,0), (0,1), (1,1) lists its leaves.
+uint32_t morton_xy(uint32_t x, uint32_t y) {
+  uint32_t code = 0;
+  for (uint32_t b = 0; b < 16; ++b)
+    code |= ((x >> b) & 1u) << (2 * b) | ((y >> b) & 1u) << (2 * b + 1);
+  return code;
+}
+
+enum class Interaction { none, reflect, refract };
+
+// One part of an AAPS photon: its state leaving interaction k - 1.
+struct AapsPart {
+  PathVertex v;
+  uint32_t k = 0;  // interactions so far
+  Interaction last = Interaction::none;
+  bool split = false;
+};
+
+// Traces one AAPS photon from `start` by the thesis's rules (TraceSettings::aaps), appending the
+// photons its parts store; returns the rays traced.
+uint64_t trace_aaps_photon(const EmbreeScene& world, const PathVertex& start, uint32_t light,
+                           uint32_t task, uint32_t max_bounces,
+                           std::vector<PhotonRecord>& photons) {
+  const scene::Scene& scene = world.scene();
+  AapsPart stack[2];  // a photon splits once, so at most one part waits
+  int waiting = 0;
+  stack[waiting++].v = start;
+  uint64_t rays = 0;
+  while (waiting > 0) {
+    AapsPart p = stack[--waiting];
+    while (p.k < max_bounces) {
+      const glm::vec3 dir = p.v.direction;
+      Hit hit;
+      ++rays;
+      if (!world.intersect(spawn_origin(p.v), dir, kInfinity, hit)) break;
+      if (world.is_light_object(hit.object)) break;
+      glm::vec3 ng =
+          glm::dot(hit.geometric_normal, dir) > 0 ? -hit.geometric_normal : hit.geometric_normal;
+      // The differentials follow the main ray's triangle even where they would miss it (§3.3.2).
+      glm::vec3 dp_du = transfer_differential(dir, ng, hit.t, p.v.dp_du, p.v.dd_du);
+      glm::vec3 dp_dv = transfer_differential(dir, ng, hit.t, p.v.dp_dv, p.v.dd_dv);
+      const scene::Material& material = scene.materials[hit.material];
+      Bsdf bsdf(material, hit);
+      if (bsdf.is_diffuse()) {
+        if (p.k == 0) break;  // L D: not a caustic photon
+        PhotonRecord r{};
+        r.position = hit.position;
+        r.object = hit.object;
+        r.power = p.v.power;
+        r.path = task;
+        r.direction = dir;
+        r.bounce = p.k;
+        r.normal = ng;
+        r.specular_mask = p.v.specular_mask;
+        r.footprint_u = dp_du * p.v.spacing;
+        r.footprint_v = dp_dv * p.v.spacing;
+        r.light = light;
+        photons.push_back(r);
+        break;
+      }
+      const bool dielectric = material.type == scene::MaterialType::dielectric;
+      const bool mirror = material.type == scene::MaterialType::mirror;
+      if (p.k == 0 && !dielectric) break;  // §1.5: the first hit must be a dielectric
+      if (!dielectric && !mirror) break;   // glossy surfaces end the photon
+      Triangle tri = world.triangle(hit.object, hit.primitive);
+      // The part leaving this hit by reflection or refraction (refraction under total internal
+      // reflection reflects), its power scaled by the Fresnel weight of that part.
+      auto advance = [&](bool reflect, AapsPart& q) {
+        BsdfSample s;
+        bool ok = bsdf.sample(-dir, {0.5f, 0.5f, reflect ? 0.f : 1.f}, Transport::importance, s);
+        if (!ok && !reflect) ok = bsdf.sample(-dir, {0.5f, 0.5f, 0.f}, Transport::importance, s);
+        if (!ok) return false;
+        q = p;
+        q.v.power = p.v.power * s.weight * (dielectric ? s.pdf : 1.f);
+        if (!(max3(q.v.power) > 0)) return false;
+        q.v.position = hit.position;
+        q.v.normal = ng;
+        q.v.direction = s.wi;
+        q.v.object = hit.object;
+        q.v.specular_mask |= 1u << p.k;
+        q.v.dp_du = dp_du;
+        q.v.dp_dv = dp_dv;
+        q.v.dd_du = scatter_differential(tri, hit, s, dir, dp_du, p.v.dd_du);
+        q.v.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, p.v.dd_dv);
+        q.k = p.k + 1;
+        q.last = s.transmitted ? Interaction::refract : Interaction::reflect;
+        return true;
+      };
+      AapsPart next;
+      if (dielectric && !p.split) {  // §3.3.1: split once, both parts marked as split
+        AapsPart reflected, refracted;
+        bool has_reflected = advance(true, reflected), has_refracted = advance(false, refracted);
+        reflected.split = refracted.split = true;
+        if (has_reflected && has_refracted) stack[waiting++] = reflected;
+        if (!has_reflected && !has_refracted) break;
+        next = has_refracted ? refracted : reflected;
+      } else if (!advance(mirror || p.last != Interaction::refract, next)) {
+        break;  // then repeat the last interaction
+      }
+      p = next;
+    }
+  }
+  return rays;
+}
+
+}  // namespace
+
+GridEmission::GridEmission(const EmissionDensity& counts) {
+  int side = counts.width;
+  if (side <= 0 || counts.height != side || (side & (side - 1)) != 0 || side > 65536 ||
+      counts.texels.size() != size_t(side) * side)
+    throw InputError(fmt::format(
+        "photon tracer: AAPS emission needs a square density of power-of-two side, not {}x{}",
+        counts.width, counts.height));
+  side_ = uint32_t(side);
+  size_t n = size_t(side) * side;
+  texel_.resize(n), first_.resize(n), m_.resize(n);
+  for (uint32_t y = 0; y < side_; ++y)
+    for (uint32_t x = 0; x < side_; ++x) texel_[morton_xy(x, y)] = y * side_ + x;
+  uint64_t sum = 0;
+  for (size_t k = 0; k < n; ++k) {
+    float d = counts.texels[texel_[k]];
+    uint32_t m = d >= 1 ? uint32_t(std::floor(std::sqrt(double(d)))) : 0;  // n = floor(sqrt(D))^2
+    m_[k] = m;
+    first_[k] = uint32_t(sum);
+    sum += uint64_t(m) * m;
+    if (sum > std::numeric_limits<uint32_t>::max())
+      throw InputError("photon tracer: AAPS emission density asks for more than 2^32 photons");
+  }
+  total_ = uint32_t(sum);
+}
+
+GridEmission::Task GridEmission::locate(uint32_t task) const {
+  // The last texel whose first task is at most `task`: texels of no photons share their successor's
+  // first task, so this is the one that holds it.
+  size_t k = size_t(std::upper_bound(first_.begin(), first_.end(), task) - first_.begin()) - 1;
+  Task t;
+  t.texel = texel_[k];
+  t.m = m_[k];
+  t.cell = task - first_[k];
+  float x = float(t.texel % side_), y = float(t.texel / side_);
+  t.uv = glm::vec2((x + (float(t.cell % t.m) + 0.5f) / float(t.m)) / float(side_),
+                   (y + (float(t.cell / t.m) + 0.5f) / float(t.m)) / float(side_));
+  return t;
+}
+
+TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonBatch& out) {
+  if (settings.keep_paths)
+    throw InputError("photon tracer: TraceSettings::aaps does not keep light paths (keep_paths)");
+  auto t0 = std::chrono::steady_clock::now();
+  LightSet lights(world_);
+  grid_densities_.resize(std::max<size_t>(grid_densities_.size(), lights.size()));
+  std::vector<GridEmission> grids;
+  std::vector<uint32_t> first_task;  // per light, then the total
+  uint64_t total = 0;
+  for (uint32_t e = 0; e < lights.size(); ++e) {
+    EmitterType type = lights.emitter(e).type;
+    if (type != EmitterType::point && type != EmitterType::spot && type != EmitterType::directional)
+      throw InputError(fmt::format(
+          "photon tracer: AAPS emits from point, spot and directional lights only, light {} is an "
+          "area light (seed 004 §4.5.3: its task buffer would need four dimensions)",
+          e));
+    if (grid_densities_[e].texels.empty())
+      throw InputError(fmt::format("photon tracer: AAPS emission needs a density for light {}", e));
+    grids.emplace_back(grid_densities_[e]);
+    first_task.push_back(uint32_t(total));
+    total += mean3(lights.emitter(e).power) > 0 ? grids.back().tasks() : 0;
+    if (total > std::numeric_limits<uint32_t>::max())
+      throw InputError("photon tracer: AAPS emission asks for more than 2^32 photons");
+  }
+  first_task.push_back(uint32_t(total));
+  out.photons.clear();
+  out.paths = LightPaths{};
+  uint32_t blocks = uint32_t((total + kBlockSize - 1) / kBlockSize);
+  std::vector<BlockOutput>& outputs = scratch_->blocks;
+  reset_blocks(outputs, blocks);
+  tbb::parallel_for(
+      tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+        for (uint32_t b = r.begin(); b != r.end(); ++b) {
+          BlockOutput& o = outputs[b];
+          uint32_t end = uint32_t(std::min<uint64_t>(total, (b + 1) * kBlockSize));
+          for (uint32_t g = b * kBlockSize; g < end; ++g) {
+            uint32_t e = uint32_t(std::upper_bound(first_task.begin(), first_task.end(), g) -
+                                  first_task.begin()) -
+                         1;
+            uint32_t task = g - first_task[e];
+            const GridEmission& grid = grids[e];
+            GridEmission::Task cell = grid.locate(task);
+            EmissionRay ray = lights.emit(e, cell.uv, {0.5f, 0.5f});
+            PathVertex v;
+            v.position = ray.origin;
+            v.direction = ray.direction;
+            v.normal = ray.normal;
+            // §3.2.1: light power / texels / photons in the texel.
+            v.power = ray.power /
+                      (float(grid.side()) * float(grid.side()) * float(cell.m) * float(cell.m));
+            v.spacing = 1.f / (float(grid.side()) * float(cell.m));
+            v.dp_du = ray.dp_du, v.dp_dv = ray.dp_dv;
+            v.dd_du = ray.dd_du, v.dd_dv = ray.dd_dv;
+            o.rays += trace_aaps_photon(world_, v, e, task, settings.max_bounces, o.photons);
+          }
+        }
+      });
+  TraceStats stats;
+  gather(outputs, blocks, 0, false, out, stats);
+  stats.paths = total;
+  stats.photons = out.photons.size();
+  stats.seconds = seconds_since(t0);
+  out.stats = stats;
   return stats;
 }
 

@@ -48,6 +48,31 @@ class EmbreePhotonTracer final : public PhotonTracer {
   std::unique_ptr<Scratch> scratch_;
   std::vector<std::shared_ptr<const Distribution2D>> densities_;
   std::vector<uint32_t> density_version_;
+  std::vector<EmissionDensity> grid_densities_;  // the counts themselves, for TraceSettings::aaps
+  TraceStats trace_aaps(const TraceSettings& settings, PhotonBatch& out);
+};
+
+// AAPS's emission order (seed 004 §1.4): the tasks of one light's density, texels in the order a
+// sum-quadtree walk visits them (Morton order, x bit first), each texel's n = floor(sqrt(D))^2
+// tasks row by row over its m x m grid.
+class GridEmission {
+ public:
+  explicit GridEmission(const EmissionDensity& counts);
+  uint32_t tasks() const { return total_; }
+  uint32_t side() const { return side_; }
+  struct Task {
+    uint32_t texel;  // row-major index (v * side + u)
+    uint32_t cell;   // row-major index in the texel's m x m grid
+    uint32_t m;
+    glm::vec2 uv;  // the cell centre in the emission domain
+  };
+  Task locate(uint32_t task) const;  // task < tasks()
+
+ private:
+  uint32_t side_ = 0, total_ = 0;
+  std::vector<uint32_t> texel_;  // Morton position -> row-major texel
+  std::vector<uint32_t> first_;  // Morton position -> its first task (exclusive prefix sum)
+  std::vector<uint32_t> m_;      // Morton position -> m
 };
 
 std::unique_ptr<PhotonTracer> make_photon_tracer(const EmbreeScene& world);

@@ -1,0 +1,3 @@
+#version 460
+// AAPS apply without MSAA.
+#include "aaps_apply.glsl"

@@ -1,0 +1,496 @@
+// aaps: adaptive anisotropic photon scattering (Yang & Ouyang 2021, as re-implemented and settled in
+// seed 004, van Casteren 2023), with the thesis's MSAA variants (§5.1). Per frame:
+//   photon-trace  the CPU tracer emits each light's task buffer (TraceSettings::aaps: a grid of
+//                 floor(sqrt(D))^2 photons per density texel, first hit a dielectric, split once
+//                 then repeat, stored at the first diffuse hit); each stored photon's two
+//                 differentials give an ellipse, clamped in anisotropy, culled outside the frustum
+//                 and above the solid-angle threshold; accepted ones become two-triangle quads;
+//   rasterize     the quads drawn with additive blending into a screen-sized caustics buffer,
+//                 clipped to the ellipse and depth-tested against the G-buffer in the fragment
+//                 shader (brightness = energy / ellipse area); per-sample variants into a
+//                 multisampled buffer;
+//   apply         the multisampled buffer resolved, caustic irradiance to radiance on diffuse
+//                 receivers, handed to shade();
+//   task-update   variance by reprojection, density D' = D A / A_t + v g with the spatio-temporal
+//                 blend, the sum quadtree of the next frame's emission.
+// README.md gives the parameters, every constant the thesis leaves open and the deviations.
+#include "photonbench/toolkit/technique.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "aaps_shaders.h"
+#include "photonbench/error.h"
+#include "photonbench/plugin.h"
+#include "photonbench/scene_layout.h"
+#include "task_buffer.h"
+
+namespace {
+
+using pb::gpu::Binding;
+
+// clang-format off
+const pb_param_spec kParams[] = {
+    {"density_resolution", PB_PARAM_INT, 256, 2, 4096, nullptr, "texels",
+     "side of each light's ray-density texture, a power of two (seed 004 §3.2.2: 256)"},
+    {"density_min", PB_PARAM_FLOAT, 4, 1, 1e6, nullptr, "photons",
+     "density floor, so no texel stops being sampled (§3.2.2: 4)"},
+    {"density_max", PB_PARAM_FLOAT, 0, 0, 1e9, nullptr, "photons",
+     "density ceiling, 0 for none (§3.2.2: none for the thesis's data)"},
+    {"target_area", PB_PARAM_FLOAT, 19, 0.01, 1e6, nullptr, "px^2",
+     "target projected splat area A_t (§4.5.2: 19 gave Pool's best RMSE)"},
+    {"variance_gain", PB_PARAM_FLOAT, 2, 0, 1e6, nullptr, "photons",
+     "g of D' = D A / A_t + v g, v the energy-weighted relative temporal difference in [0, 1] "
+     "(unspecified; 2: half the density floor where a caustic flickers fully)"},
+    {"temporal_weight", PB_PARAM_FLOAT, 0.5, 0.01, 1, nullptr, "",
+     "w_t, the share of the new suggestion D' per frame (unspecified; 0.5)"},
+    {"neighbour_weight", PB_PARAM_FLOAT, 0.5, 0, 100, nullptr, "",
+     "weight of each 4-neighbour's previous density against 1 for the texel's own (unspecified)"},
+    {"footprint_scale", PB_PARAM_FLOAT, 0.71, 0.05, 10, nullptr, "spacings",
+     "ellipse semi-axes in photon spacings along the two differentials (unspecified; 0.71 ~ "
+     "1/sqrt 2: the ellipse through a spacing cell's corners, so neighbours leave no holes)"},
+    {"max_anisotropy", PB_PARAM_FLOAT, 16, 1, 1e6, nullptr, "",
+     "largest ratio of the ellipse's principal semi-axes; above it the minor axis grows "
+     "(§3.1.2; unspecified)"},
+    {"cull_solid_angle", PB_PARAM_FLOAT, 0, 0, 1e6, nullptr, "sr",
+     "cull splats whose ellipse at one unit of emission parameter subtends more than this from "
+     "the light (§3.3.5; 0: no culling, the thesis's setting unless stated)"},
+    {"depth_margin", PB_PARAM_FLOAT, 0.01, 0, 1, nullptr, "",
+     "relative depth tolerance of a splat against the G-buffer (§3.3.4: 1%)"},
+    {"msaa", PB_PARAM_ENUM, 0, 0, 3, "none|all|all_per_sample|small_per_sample", "",
+     "splat anti-aliasing (§5.1): none; all splats multisampled, coverage only; all at sample "
+     "rate; only splats below msaa_threshold at sample rate"},
+    {"msaa_threshold", PB_PARAM_FLOAT, 2, 0, 1e6, nullptr, "px^2",
+     "small_per_sample: projected ellipse area below which a splat is drawn at sample rate "
+     "(§5.1.3; swept, unspecified)"},
+    {"msaa_samples", PB_PARAM_INT, 8, 2, 64, nullptr, "samples",
+     "samples per pixel of the multisampled buffer, lowered to the device's highest (§5.1: 8)"},
+    {"max_bounces", PB_PARAM_INT, 8, 1, 31, nullptr, "hits",
+     "recursion cap: surface interactions per photon (§1.5, Fig. 2; unspecified)"},
+    pb::toolkit::kShadowMapSizeParam,
+};
+// clang-format on
+
+constexpr pb::Counter kEmitted{"photons_emitted", pb::CounterKind::work, "photons"};
+constexpr pb::Counter kRecorded{"photons_recorded", pb::CounterKind::work, "photons"};
+constexpr pb::Counter kRecordedShare{"recorded_share", pb::CounterKind::ratio, "photons"};
+constexpr pb::Counter kCulled{"photons_culled", pb::CounterKind::work, "photons"};
+constexpr pb::Counter kSplats{"splats_drawn", pb::CounterKind::work, "splats"};
+constexpr pb::Counter kSplatsPerSample{"splats_per_sample", pb::CounterKind::work, "splats"};
+constexpr pb::Counter kNonContributing{"splats_noncontributing", pb::CounterKind::work, "splats"};
+constexpr pb::Counter kNonContributingShare{"noncontributing_share", pb::CounterKind::ratio,
+                                            "splats"};
+constexpr pb::Counter kSamples{"msaa_samples", pb::CounterKind::size, "samples"};
+// Caustic irradiance luminance summed over the screen: the thesis's "total light" (§5.1.1).
+constexpr pb::Counter kEnergy{"caustic_energy", pb::CounterKind::size, "W/m^2 px"};
+
+enum class Msaa { none, all, all_per_sample, small_per_sample };
+
+// One quad corner: world position and quad barycentric u, barycentric v and the splat's
+// brightness (irradiance, W/m^2 RGB), the splat's index for the contribution flags.
+struct Vertex {
+  glm::vec4 position_bary_u;
+  glm::vec4 bary_v_brightness;
+  uint32_t splat;
+};
+static_assert(sizeof(Vertex) == 36);
+
+// What the task-buffer update needs of an accepted photon.
+struct Accepted {
+  glm::vec3 position;
+  uint32_t light, texel;
+  float energy_fraction;  // of its texel's share of the light power (§3.1.5)
+};
+
+// The principal semi-axes of the ellipse with conjugate semi-diameters a and b (eigen-decomposition
+// of their 2x2 Gram matrix), the minor one grown to major / max_anisotropy (§3.1.2).
+void principal_axes(const glm::vec3& a, const glm::vec3& b, float max_anisotropy, glm::vec3& major,
+                    glm::vec3& minor) {
+  float aa = glm::dot(a, a), ab = glm::dot(a, b), bb = glm::dot(b, b);
+  float mean = 0.5f * (aa + bb), diff = 0.5f * (aa - bb);
+  float root = std::sqrt(diff * diff + ab * ab);
+  float l1 = mean + root, l2 = std::max(0.f, mean - root);
+  // Eigenvector of l1 in the (a, b) basis.
+  glm::vec2 e = std::abs(ab) > 1e-30f ? glm::vec2(ab, l1 - aa)
+                                      : (aa >= bb ? glm::vec2(1, 0) : glm::vec2(0, 1));
+  glm::vec3 d1 = e.x * a + e.y * b;
+  float len1 = glm::length(d1);
+  glm::vec3 axis1 = len1 > 0 ? d1 / len1 : glm::vec3(0.f);
+  glm::vec3 normal = glm::cross(a, b);
+  glm::vec3 axis2 =
+      glm::length(normal) > 0 ? glm::normalize(glm::cross(normal, axis1)) : glm::vec3(0.f);
+  float major_len = std::sqrt(l1), minor_len = std::sqrt(l2);
+  minor_len = std::max(minor_len, major_len / max_anisotropy);
+  major = axis1 * major_len;
+  minor = axis2 * minor_len;
+}
+
+class Aaps final : public pb::Technique {
+ public:
+  void setup(pb::Context& ctx, const pb::Params& params) override {
+    side_ = uint32_t(params.integer("density_resolution"));
+    if (side_ & (side_ - 1))
+      throw pb::InputError(fmt::format(
+          "aaps: density_resolution {} is not a power of two (the sum quadtree halves it)", side_));
+    feedback_.density_min = float(params.number("density_min"));
+    feedback_.density_max = float(params.number("density_max"));
+    if (feedback_.density_max > 0 && feedback_.density_max < feedback_.density_min)
+      throw pb::InputError("aaps: density_max is below density_min");
+    feedback_.target_area = float(params.number("target_area"));
+    feedback_.variance_gain = float(params.number("variance_gain"));
+    feedback_.temporal_weight = float(params.number("temporal_weight"));
+    feedback_.neighbour_weight = float(params.number("neighbour_weight"));
+    footprint_scale_ = float(params.number("footprint_scale"));
+    max_anisotropy_ = float(params.number("max_anisotropy"));
+    cull_solid_angle_ = float(params.number("cull_solid_angle"));
+    depth_margin_ = float(params.number("depth_margin"));
+    msaa_threshold_ = float(params.number("msaa_threshold"));
+    const std::string& mode = params.choice("msaa");
+    msaa_ = mode == "all"                ? Msaa::all
+            : mode == "all_per_sample"   ? Msaa::all_per_sample
+            : mode == "small_per_sample" ? Msaa::small_per_sample
+                                         : Msaa::none;
+    pb::toolkit::configure_shadows(ctx, uint32_t(params.integer("shadow_map_size")));
+
+    settings_.aaps = true;
+    settings_.store = pb::trace::kCausticPhotons;
+    settings_.max_bounces = uint32_t(params.integer("max_bounces"));
+    settings_.seed_per_frame = false;
+
+    pb::gpu::Device& gpu = ctx.gpu();
+    width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
+    samples_ = 1;
+    if (msaa_ != Msaa::none) {
+      uint32_t wanted = uint32_t(params.integer("msaa_samples"));
+      // The device's highest count up to the one asked for. Below its highest a device need not
+      // support every power of two; lavapipe offers 1 and 4 only.
+      const uint32_t highest = gpu.limits().max_color_samples;
+      while (samples_ * 2 <= std::min(wanted, highest)) samples_ *= 2;
+      if (samples_ < highest && gpu.driver().find("llvmpipe") != std::string::npos)
+        throw pb::InputError(fmt::format(
+            "aaps: msaa_samples {} is not offered by lavapipe (1 or {} samples)", wanted, highest));
+      if (samples_ < 2)
+        throw pb::InputError(
+            fmt::format("aaps: msaa {} needs a multisampled colour target; the "
+                        "device offers 1 sample",
+                        mode));
+    }
+    constexpr vk::Format kFloat4 = vk::Format::eR32G32B32A32Sfloat;
+    using Usage = vk::ImageUsageFlagBits;
+    vk::Extent2D extent{width_, height_};
+    caustics_ = gpu.create_image("aaps.caustics", extent, kFloat4,
+                                 Usage::eColorAttachment | Usage::eStorage);
+    radiance_ = gpu.create_image("aaps.radiance", extent, kFloat4, Usage::eStorage);
+    if (msaa_ != Msaa::none) {
+      caustics_msaa_ = gpu.create_image("aaps.caustics_msaa", extent, kFloat4,
+                                        Usage::eColorAttachment | Usage::eSampled,
+                                        vk::SampleCountFlagBits(samples_));
+    }
+    luminance_ =
+        gpu.create_buffer("aaps.luminance", uint64_t(width_) * height_ * sizeof(float),
+                          vk::BufferUsageFlagBits::eStorageBuffer, pb::gpu::Memory::host_visible);
+
+    auto splat_pipeline = [&](std::string name, std::span<const uint32_t> fragment,
+                              vk::SampleCountFlagBits samples, float min_sample_shading) {
+      pb::gpu::GraphicsPipelineDesc desc;
+      desc.name = std::move(name);
+      desc.vertex_spirv = kaaps_splat_vert_spv;
+      desc.fragment_spirv = fragment;
+      desc.bindings = {Binding::storage_buffer, Binding::storage_image, Binding::storage_buffer};
+      desc.push_bytes = sizeof(float);
+      desc.vertex_stride = sizeof(Vertex);
+      desc.vertex_attributes = {kFloat4, kFloat4, vk::Format::eR32Uint};
+      desc.color_formats = {kFloat4};
+      desc.samples = samples;
+      desc.additive_blend = {true};
+      desc.min_sample_shading = min_sample_shading;
+      return gpu.create_graphics_pipeline(desc);
+    };
+    splat_ = splat_pipeline("aaps.splat", kaaps_splat_frag_spv, vk::SampleCountFlagBits::e1, 0);
+    if (msaa_ == Msaa::all)
+      splat_msaa_ = splat_pipeline("aaps.splat_msaa", kaaps_splat_frag_spv,
+                                   vk::SampleCountFlagBits(samples_), 0);
+    else if (msaa_ != Msaa::none)
+      splat_msaa_ = splat_pipeline("aaps.splat_per_sample", kaaps_splat_sample_frag_spv,
+                                   vk::SampleCountFlagBits(samples_), 1.f);
+    if (msaa_ == Msaa::none)
+      apply_ = gpu.create_compute_pipeline(
+          "aaps.apply", kaaps_apply_comp_spv,
+          {Binding::storage_image, Binding::storage_image, Binding::storage_image,
+           Binding::storage_image, Binding::storage_image, Binding::storage_buffer},
+          3 * sizeof(uint32_t));
+    else
+      apply_ = gpu.create_compute_pipeline(
+          "aaps.apply_msaa", kaaps_apply_msaa_comp_spv,
+          {Binding::storage_image, Binding::sampled_image, Binding::storage_image,
+           Binding::storage_image, Binding::storage_image, Binding::storage_buffer},
+          3 * sizeof(uint32_t));
+
+    pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
+    lights_.resize(tracer.light_count());
+    for (LightTasks& l : lights_) {
+      l.density.width = l.density.height = int(side_);
+      l.density.texels.assign(size_t(side_) * side_, feedback_.density_min);
+      l.quadtree.build(l.density.texels, side_);
+    }
+  }
+
+  void render(pb::Context& ctx) override {
+    ctx.shared().gbuffer();
+    ctx.shared().direct_light();
+    const pb::FrameInfo& f = ctx.frame();
+    {
+      auto scope = ctx.pass("photon-trace");
+      pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
+      for (uint32_t l = 0; l < lights_.size(); ++l)
+        tracer.set_emission_density(l, &lights_[l].density);
+      tracer.trace(settings_, batch_);
+      build_splats(ctx, f);
+    }
+    // ctx.cmd() is asked for in each pass: a pass scope may submit and start a fresh buffer.
+    const pb::GBuffer g = ctx.shared().gbuffer_images();
+    {
+      auto scope = ctx.pass("rasterize");
+      draw(ctx, caustics_, splat_, vertices_, uint32_t(single_.size()), g);
+      if (msaa_ != Msaa::none)
+        draw(ctx, caustics_msaa_, splat_msaa_, vertices_msaa_, uint32_t(multi_.size()), g);
+    }
+    {
+      // With MSAA the multisampled buffer is resolved here, the mean of its samples (§5.1.3's
+      // "extra resolve step", folded into the apply dispatch).
+      auto scope = ctx.pass("apply");
+      vk::CommandBuffer cmd = ctx.cmd();
+      uint32_t push[3] = {width_, height_, samples_};
+      pb::gpu::Resource multi = msaa_ != Msaa::none
+                                    ? pb::gpu::Resource(pb::gpu::Sampled{&caustics_msaa_})
+                                    : pb::gpu::Resource(&caustics_);
+      apply_.bind(cmd, {&caustics_, multi, g.position, g.albedo, &radiance_, &luminance_}, push,
+                  sizeof(push));
+      cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
+      pb::gpu::full_barrier(cmd);
+    }
+    ctx.shared().shade(&radiance_);
+    ctx.flush();
+    count(ctx);
+    {
+      auto scope = ctx.pass("task-update");
+      update_tasks(ctx, f);
+    }
+  }
+
+ private:
+  struct LightTasks {
+    pb::trace::EmissionDensity density;
+    aaps::SumQuadtree quadtree;  // of `density` as the last trace emitted it
+    std::vector<float> area, variance;
+  };
+
+  // Footprint, acceptance and culling (§1.6-1.7) of every stored photon; the accepted ones become
+  // quads in the single-sample or the multisampled list.
+  void build_splats(pb::Context& ctx, const pb::FrameInfo& f) {
+    single_.clear(), multi_.clear(), accepted_.clear();
+    for (LightTasks& l : lights_) {
+      l.area.assign(size_t(side_) * side_, 0.f);
+      l.variance.assign(size_t(side_) * side_, 0.f);
+    }
+    culled_ = 0;
+    const glm::mat4& vp = f.camera.view_projection;
+    auto to_screen = [&](const glm::vec3& p, glm::vec2& s) {
+      glm::vec4 c = vp * glm::vec4(p, 1.f);
+      if (c.w <= 0) return false;
+      s = glm::vec2((c.x / c.w * 0.5f + 0.5f) * float(width_),
+                    (c.y / c.w * 0.5f + 0.5f) * float(height_));
+      return true;
+    };
+    pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
+    for (uint32_t i = 0; i < batch_.photons.size(); ++i) {
+      const pb::trace::PhotonRecord& p = batch_.photons[i];
+      LightTasks& light = lights_[p.light];
+      aaps::SumQuadtree::Leaf leaf = light.quadtree.walk(p.path);
+      glm::vec3 major, minor;
+      principal_axes(p.footprint_u * footprint_scale_, p.footprint_v * footprint_scale_,
+                     max_anisotropy_, major, minor);
+      float world_area = float(M_PI) * glm::length(major) * glm::length(minor);
+      glm::vec2 c, s1, s2;
+      bool visible = to_screen(p.position, c) && to_screen(p.position + major, s1) &&
+                     to_screen(p.position + minor, s2);
+      glm::vec2 extent = visible ? glm::abs(s1 - c) + glm::abs(s2 - c) : glm::vec2(0.f);
+      bool in_frustum = visible && c.x + extent.x >= 0 && c.x - extent.x <= float(width_) &&
+                        c.y + extent.y >= 0 && c.y - extent.y <= float(height_);
+      // §3.3.5: the ellipse at one unit of emission parameter (before the density rescale), as a
+      // solid angle seen from the light.
+      bool too_big = false;
+      if (cull_solid_angle_ > 0) {
+        float spacing = 1.f / (float(side_) * float(std::max(1u, leaf.m)));
+        float d2 = light_distance_squared(ctx, p);
+        too_big = world_area / (spacing * spacing) / std::max(d2, 1e-12f) > cull_solid_angle_;
+      }
+      if (!in_frustum || too_big || !(world_area > 0)) {
+        ++culled_;
+        continue;
+      }
+      glm::vec2 d1 = s1 - c, d2 = s2 - c;
+      float screen_area = float(M_PI) * std::abs(d1.x * d2.y - d1.y * d2.x);
+      glm::vec3 brightness = p.power / world_area;  // §3.2.1: energy / splat area
+      float texel_power = (tracer.light_power(p.light).x + tracer.light_power(p.light).y +
+                           tracer.light_power(p.light).z) /
+                          (3.f * float(side_) * float(side_));
+      float fraction =
+          texel_power > 0 ? (p.power.x + p.power.y + p.power.z) / 3.f / texel_power : 0.f;
+      light.area[leaf.texel] += fraction * screen_area;
+      accepted_.push_back({p.position, p.light, leaf.texel, fraction});
+      bool per_sample = msaa_ == Msaa::all || msaa_ == Msaa::all_per_sample ||
+                        (msaa_ == Msaa::small_per_sample && screen_area < msaa_threshold_);
+      std::vector<Vertex>& list = per_sample ? multi_ : single_;
+      uint32_t splat = uint32_t(accepted_.size() - 1);
+      const glm::vec2 corner[6] = {{-1, -1}, {1, -1}, {1, 1}, {-1, -1}, {1, 1}, {-1, 1}};
+      for (const glm::vec2& q : corner) {
+        glm::vec3 position = p.position + q.x * major + q.y * minor;
+        list.push_back({glm::vec4(position, q.x), glm::vec4(q.y, brightness), splat});
+      }
+    }
+    splats_per_sample_ = uint32_t(multi_.size() / 6);
+    upload(ctx, single_, vertices_, "aaps.vertices");
+    upload(ctx, multi_, vertices_msaa_, "aaps.vertices_msaa");
+    uint64_t flag_bytes = std::max<uint64_t>(4, accepted_.size() * sizeof(uint32_t));
+    if (contributed_.size() < flag_bytes)
+      contributed_ = ctx.gpu().create_buffer("aaps.contributed", flag_bytes * 2,
+                                             vk::BufferUsageFlagBits::eStorageBuffer,
+                                             pb::gpu::Memory::host_visible);
+    std::memset(contributed_.mapped(), 0, flag_bytes);
+  }
+
+  // §3.3.5's distance: from the light's position (point and spot lights, the shared passes'
+  // light buffer, updated each frame); a directional light has none, so its rule is one of area.
+  float light_distance_squared(pb::Context& ctx, const pb::trace::PhotonRecord& p) const {
+    auto lights = ctx.shared().light_buffer().view<pb::layout::GpuLight>();
+    if (p.light >= lights.size() || int(lights[p.light].position_type.w) == PB_LIGHT_DIRECTIONAL)
+      return 1.f;
+    glm::vec3 d = p.position - glm::vec3(lights[p.light].position_type);
+    return glm::dot(d, d);
+  }
+
+  void upload(pb::Context& ctx, const std::vector<Vertex>& list, pb::gpu::Buffer& buffer,
+              const char* name) {
+    uint64_t bytes = std::max<uint64_t>(sizeof(Vertex), list.size() * sizeof(Vertex));
+    if (buffer.size() < bytes)
+      buffer = ctx.gpu().create_buffer(name, bytes * 3 / 2, vk::BufferUsageFlagBits::eVertexBuffer,
+                                       pb::gpu::Memory::host_visible);
+    if (!list.empty()) std::memcpy(buffer.mapped(), list.data(), list.size() * sizeof(Vertex));
+  }
+
+  void draw(pb::Context& ctx, const pb::gpu::Image& target, const pb::gpu::Pipeline& pipeline,
+            const pb::gpu::Buffer& vertices, uint32_t vertex_count, const pb::GBuffer& g) {
+    vk::CommandBuffer cmd = ctx.cmd();
+    vk::RenderingAttachmentInfo color{target.view(),
+                                      vk::ImageLayout::eGeneral,
+                                      {},
+                                      {},
+                                      {},
+                                      vk::AttachmentLoadOp::eClear,
+                                      vk::AttachmentStoreOp::eStore,
+                                      vk::ClearColorValue(std::array<float, 4>{0, 0, 0, 0})};
+    vk::Rect2D area{{0, 0}, {width_, height_}};
+    ctx.gpu().begin_rendering(cmd, vk::RenderingInfo{{}, area, 1, 0, color});
+    if (vertex_count > 0) {
+      cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
+      cmd.setScissor(0, area);
+      pipeline.bind(cmd, {&ctx.shared().frame_buffer(), g.position, &contributed_}, depth_margin_);
+      cmd.bindVertexBuffers(0, vertices.handle(), vk::DeviceSize(0));
+      cmd.draw(vertex_count, 1, 0, 0);
+    }
+    ctx.gpu().end_rendering(cmd);
+    pb::gpu::full_barrier(cmd);
+  }
+
+  void count(pb::Context& ctx) {
+    uint64_t emitted = batch_.stats.paths, recorded = batch_.photons.size();
+    const uint32_t* flags = static_cast<const uint32_t*>(contributed_.mapped());
+    uint64_t silent = 0;
+    for (size_t i = 0; i < accepted_.size(); ++i) silent += flags[i] == 0 ? 1 : 0;
+    ctx.count(kEmitted, double(emitted));
+    ctx.count(kRecorded, double(recorded));
+    ctx.count(kRecordedShare, emitted > 0 ? double(recorded) / double(emitted) : 0.0);
+    ctx.count(kCulled, double(culled_));
+    ctx.count(kSplats, double(accepted_.size()));
+    ctx.count(kSplatsPerSample, double(splats_per_sample_));
+    ctx.count(kNonContributing, double(silent));
+    ctx.count(kNonContributingShare,
+              accepted_.empty() ? 0.0 : double(silent) / double(accepted_.size()));
+    ctx.count(kSamples, double(samples_));
+    const float* luminance = static_cast<const float*>(luminance_.mapped());
+    double energy = 0;
+    for (size_t i = 0; i < size_t(width_) * height_; ++i) energy += luminance[i];
+    ctx.count(kEnergy, energy);
+  }
+
+  // §1.10: variance by reprojection against the previous frame's caustics, the density update and
+  // the quadtree of the next frame's emission.
+  void update_tasks(pb::Context& ctx, const pb::FrameInfo& f) {
+    const float* now = static_cast<const float*>(luminance_.mapped());
+    {
+      auto scope = ctx.pass("variance");
+      auto pixel = [&](const glm::mat4& vp, const glm::vec3& p, int& x, int& y) {
+        glm::vec4 c = vp * glm::vec4(p, 1.f);
+        if (c.w <= 0) return false;
+        x = int(std::floor((c.x / c.w * 0.5f + 0.5f) * float(width_)));
+        y = int(std::floor((c.y / c.w * 0.5f + 0.5f) * float(height_)));
+        return x >= 0 && y >= 0 && x < int(width_) && y < int(height_);
+      };
+      if (!previous_luminance_.empty())
+        for (const Accepted& a : accepted_) {
+          int x, y, px, py;
+          // "If a difference value for a photon cannot be found ... a value of 0" (§3.1.5).
+          if (!pixel(f.camera.view_projection, a.position, x, y) ||
+              !pixel(previous_view_projection_, a.position, px, py))
+            continue;
+          float c = now[size_t(y) * width_ + x], q = previous_luminance_[size_t(py) * width_ + px];
+          float scale = std::max(c, q);
+          if (scale > 0)
+            lights_[a.light].variance[a.texel] += a.energy_fraction * std::abs(c - q) / scale;
+        }
+      previous_luminance_.assign(now, now + size_t(width_) * height_);
+      previous_view_projection_ = f.camera.view_projection;
+    }
+    {
+      auto scope = ctx.pass("density");
+      for (LightTasks& l : lights_)
+        aaps::update_density(l.density.texels, l.area, l.variance, side_, feedback_);
+    }
+    {
+      auto scope = ctx.pass("quadtree");
+      for (LightTasks& l : lights_) l.quadtree.build(l.density.texels, side_);
+    }
+  }
+
+  uint32_t side_ = 256, width_ = 0, height_ = 0, samples_ = 1;
+  aaps::FeedbackParams feedback_;
+  float footprint_scale_ = 0.71f, max_anisotropy_ = 16, cull_solid_angle_ = 0,
+        depth_margin_ = 0.01f;
+  float msaa_threshold_ = 2;
+  Msaa msaa_ = Msaa::none;
+  pb::trace::TraceSettings settings_;
+  pb::trace::PhotonBatch batch_;
+  std::vector<LightTasks> lights_;
+  std::vector<Vertex> single_, multi_;
+  std::vector<Accepted> accepted_;
+  uint64_t culled_ = 0;
+  uint32_t splats_per_sample_ = 0;
+  std::vector<float> previous_luminance_;
+  glm::mat4 previous_view_projection_{1.f};
+  pb::gpu::Image caustics_, caustics_msaa_, radiance_;
+  pb::gpu::Buffer luminance_, vertices_, vertices_msaa_, contributed_;
+  pb::gpu::Pipeline splat_, splat_msaa_, apply_;
+};
+
+}  // namespace
+
+PB_EXPORT_TECHNIQUE(Aaps, "aaps", "caustics",
+                    "adaptive anisotropic photon scattering (seed 004): task-buffer emission, "
+                    "elliptical splats rasterised with optional (per-sample) MSAA",
+                    kParams)

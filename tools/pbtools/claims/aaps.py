@@ -1,0 +1,148 @@
+"""AAPS and MSAA splatting (seed 004, van Casteren 2023) claims, measured on a run of configs/aaps.yaml.
+
+The thesis's trends (digest seed004-aaps.md §2, §4), each set beside what the run measured:
+  * quality stops improving at small target areas (Fig. 30: Pool's RMSE is lowest at A_t = 19 and rises
+    below; "values below 10 ... should not be chosen");
+  * coverage-only MSAA (`all`) dims the caustics and does not help FLIP (§5.1.1, Figs. 35-37);
+  * per-sample MSAA (`all_per_sample`) cuts the share of splats that reach no pixel centre or sample
+    ("a factor of 6.7 at the smallest target area" on Cornell, §5.1.2) at about twice the cost
+    (Fig. 35: 14 ms -> 28 ms);
+  * per-sample MSAA for small splats only (`small_per_sample`) improves FLIP beyond a time budget at
+    little cost (Fig. 43: above ~3 ms on the RX 6900 XT).
+FLIP and RMSE are the caustics class against the full reference; time is the sum of the technique's own
+passes (photon-trace, rasterize, resolve, apply, task-update), the median frame; shares and energies are
+the counters' means over the measured frames. Cells are grouped by (scene, msaa, target_area); cells
+of the culling and threshold sweeps are listed in their own tables.
+"""
+
+import math
+from collections import defaultdict
+from typing import Dict, List, Tuple
+
+import numpy as np
+
+from ..rundata import Cell, Run
+
+TITLE = "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)"
+
+AAPS_PASSES = ("photon-trace", "rasterize", "resolve", "apply", "task-update")
+MODES = ("none", "all", "all_per_sample", "small_per_sample")
+
+
+class MissingCells(Exception):
+    pass
+
+
+def frame_ms(cell: Cell) -> float:
+    """Median over frames of the technique's own passes (top level only)."""
+    t = cell.pass_times()
+    t = t[t["pass"].isin(AAPS_PASSES)]
+    if t.empty:
+        return math.nan
+    return float(t.groupby("frame")["ms"].sum().median())
+
+
+def counter(cell: Cell, name: str) -> float:
+    means = cell.counter_means()
+    return float(means[name]) if name in means.index else math.nan
+
+
+def fmt(v: float, digits: int = 4) -> str:
+    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}g}"
+
+
+def param(cell: Cell, name: str, default: float) -> float:
+    v = cell.params.get(name)
+    return default if v is None else float(v)
+
+
+def culled_sweep(cell: Cell) -> bool:
+    return param(cell, "cull_solid_angle", 0.0) > 0
+
+
+def is_default_sweep(cell: Cell) -> bool:
+    """Cells of the target-area x msaa grid: no culling, the default small-splat threshold."""
+    return not culled_sweep(cell) and param(cell, "msaa_threshold", 2.0) == 2.0
+
+
+def claims(run: Run) -> str:
+    cells = [c for c in run.cells if c.technique == "aaps" and c.ok]
+    if not cells:
+        raise MissingCells("no successful aaps cells (run configs/aaps.yaml)")
+    grid: Dict[Tuple[str, str, float], Cell] = {}
+    for c in cells:
+        if is_default_sweep(c):
+            grid[(c.scene, str(c.params.get("msaa", "none")), float(c.params.get("target_area", 19)))] = c
+    scenes = sorted({k[0] for k in grid})
+    out: List[str] = [f"# Claims: {TITLE}", ""]
+
+    out += ["## Per scene, msaa mode and target area", "",
+            "| scene | msaa | A_t (px²) | FLIP | RMSE | ms/frame | non-contributing | per-sample splats | energy |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for key in sorted(grid):
+        c = grid[key]
+        out.append(f"| {key[0]} | {key[1]} | {fmt(key[2])} | {fmt(c.metric_mean('flip', 'caustics'))} | "
+                   f"{fmt(c.metric_mean('rmse', 'caustics'))} | {fmt(frame_ms(c))} | "
+                   f"{fmt(counter(c, 'noncontributing_share'))} | {fmt(counter(c, 'splats_per_sample'))} | "
+                   f"{fmt(counter(c, 'caustic_energy'))} |")
+    out.append("")
+
+    out += ["## Trends beside the thesis's", ""]
+    for scene in scenes:
+        areas = sorted({k[2] for k in grid if k[0] == scene}, reverse=True)
+        none = [(a, grid[(scene, "none", a)]) for a in areas if (scene, "none", a) in grid]
+        out.append(f"### {scene}")
+        if len(none) >= 3:
+            flips = [c.metric_mean("flip", "caustics") for _, c in none]
+            best = int(np.nanargmin(flips))
+            stops = best < len(none) - 1
+            out.append(f"* quality vs target area (thesis: stops improving below ~19, Fig. 30): FLIP "
+                       f"{', '.join(f'{fmt(a)}: {fmt(f)}' for (a, _), f in zip(none, flips))}; lowest at "
+                       f"A_t = {fmt(none[best][0])} -> "
+                       f"{'stops improving before the smallest A_t (as the thesis)' if stops else 'still improving at the smallest A_t (unlike the thesis)'}")
+        small = areas[-1] if areas else None
+        if small is not None and (scene, "none", small) in grid:
+            n = grid[(scene, "none", small)]
+            if (scene, "all", small) in grid:
+                a = grid[(scene, "all", small)]
+                e_ratio = counter(a, "caustic_energy") / counter(n, "caustic_energy")
+                out.append(f"* `all` at A_t = {fmt(small)} (thesis: dimmer, FLIP not better): energy x"
+                           f"{fmt(e_ratio, 3)} of none, FLIP {fmt(a.metric_mean('flip', 'caustics'))} vs "
+                           f"{fmt(n.metric_mean('flip', 'caustics'))}")
+            if (scene, "all_per_sample", small) in grid:
+                s = grid[(scene, "all_per_sample", small)]
+                cut = counter(n, "noncontributing_share") / counter(s, "noncontributing_share")
+                cost = frame_ms(s) / frame_ms(n)
+                out.append(f"* `all_per_sample` at A_t = {fmt(small)} (thesis: non-contributing /6.7 on "
+                           f"Cornell, ~2x the time): non-contributing /{fmt(cut, 3)}, time x{fmt(cost, 3)}")
+            if (scene, "small_per_sample", small) in grid:
+                s = grid[(scene, "small_per_sample", small)]
+                cost = frame_ms(s) / frame_ms(n)
+                out.append(f"* `small_per_sample` at A_t = {fmt(small)} (thesis: better FLIP beyond a time "
+                           f"budget, little cost): FLIP {fmt(s.metric_mean('flip', 'caustics'))} vs "
+                           f"{fmt(n.metric_mean('flip', 'caustics'))}, time x{fmt(cost, 3)}")
+        out.append("")
+
+    sweeps = defaultdict(list)
+    for c in cells:
+        if culled_sweep(c):
+            sweeps["cull_solid_angle"].append(c)
+    thresholds = defaultdict(list)
+    for c in cells:
+        if str(c.params.get("msaa", "none")) == "small_per_sample" and not culled_sweep(c):
+            thresholds[(c.scene, param(c, "target_area", 19.0))].append(c)
+    for group in thresholds.values():
+        if len({param(c, "msaa_threshold", 2.0) for c in group}) > 1:
+            sweeps["msaa_threshold"] += group
+    for name, group in sweeps.items():
+        thesis = ("Fig. 22: large time gains with little quality change until the lowest thresholds"
+                  if name == "cull_solid_angle" else "Fig. 42: FLIP, RMSE and time against the threshold")
+        out += [f"## Sweep of {name} ({thesis})", "", f"| scene | {name} | FLIP | RMSE | ms/frame | culled |",
+                "|---|---|---|---|---|---|"]
+        default = 0.0 if name == "cull_solid_angle" else 2.0
+        for c in sorted(group, key=lambda c: (c.scene, param(c, name, default))):
+            out.append(f"| {c.scene} | {fmt(param(c, name, default))} | {fmt(c.metric_mean('flip', 'caustics'))} | "
+                       f"{fmt(c.metric_mean('rmse', 'caustics'))} | {fmt(frame_ms(c))} | "
+                       f"{fmt(counter(c, 'photons_culled'))} |")
+        out.append("")
+    return "\n".join(out) + "\n"
