@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 
 #include "run/stats.h"
 
@@ -17,6 +19,16 @@ uint64_t peak_host_bytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return uint64_t(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
+}
+
+// Resident memory now (the second field of /proc/self/statm, in pages); 0 where it cannot be read.
+uint64_t current_host_bytes() {
+  std::FILE* file = std::fopen("/proc/self/statm", "r");
+  if (!file) return 0;
+  unsigned long long size = 0, resident = 0;
+  const int read = std::fscanf(file, "%llu %llu", &size, &resident);
+  std::fclose(file);
+  return read == 2 ? uint64_t(resident) * uint64_t(sysconf(_SC_PAGESIZE)) : 0;
 }
 
 }  // namespace
@@ -54,6 +66,15 @@ void FrameLog::add(const FrameTiming& timing,
 void FrameLog::track_gpu_memory(uint64_t technique_bytes, uint64_t total_bytes) {
   gpu_bytes_technique_ = std::max(gpu_bytes_technique_, technique_bytes);
   gpu_bytes_total_ = std::max(gpu_bytes_total_, total_bytes);
+  // A long run's memory is flat when the whole run's peaks equal those of its first frames.
+  if (++frames_tracked_ == kEarlyFrames)
+    early_memory_ = {{"frames", kEarlyFrames},
+                     {"peak_host_bytes", peak_host_bytes()},
+                     {"host_bytes", current_host_bytes()},
+                     {"gpu_bytes_technique", gpu_bytes_technique_},
+                     {"gpu_bytes_total", gpu_bytes_total_},
+                     {"host_bytes_end", current_host_bytes()},
+                     {"first_100_frames", early_memory_}};
 }
 
 void FrameLog::describe(CellRecord& record) const {
@@ -70,7 +91,9 @@ void FrameLog::describe(CellRecord& record) const {
   // The process's peak resident memory: the harness's and the technique's together.
   record.memory = {{"peak_host_bytes", peak_host_bytes()},
                    {"gpu_bytes_technique", gpu_bytes_technique_},
-                   {"gpu_bytes_total", gpu_bytes_total_}};
+                   {"gpu_bytes_total", gpu_bytes_total_},
+                   {"host_bytes_end", current_host_bytes()},
+                   {"first_100_frames", early_memory_}};
 }
 
 }  // namespace pb::run
