@@ -43,7 +43,7 @@ for r in csv.DictReader(open(sys.argv[1])):
         print(f'{r["class"]}|{r["reason"]}|{r["ratio"]}')
 PY
 }
-expect_match "direct on its baseline: ok" "^ok\|FLIP [0-9.e-]+$" "$(row baseline direct)"
+expect_match "direct on its baseline: ok" "^ok\|FLIP [0-9.e-]+\|$" "$(row baseline direct)"
 expect_match "direct on a scenario equal to the baseline: ok at 1x" "^ok\|.*= 1.00x.*\|1$" "$(row as-baseline direct)"
 expect_match "a NaN output fails its cell, with the reason" "^failed\|.*NaN or Inf" "$(row as-baseline nan_output)"
 expect_match "a crash fails its cell, with the signal" "^failed\|.*(SIGSEGV|signal)" "$(row light-inside crash_on_frame)"
