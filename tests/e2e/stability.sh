@@ -3,7 +3,7 @@
 # report, and bad stability files refused with file:line:col and key (exit 2).
 source "$(dirname "$0")/lib.bash"
 suite="$WORK/suite.yaml"
-write_suite() {  # write_suite [EXTRA LINE...]: the tiny suite, plus lines appended at the top level
+write_suite() {  # the tiny suite
   cat > "$suite" <<YAML
 name: tiny-stress
 resolution: [32, 18]
@@ -26,7 +26,6 @@ scenarios:
   - {name: light-inside, aims_at: a light inside a box, scene: $SRC/scenes/stress/light-inside.yaml}
   - {name: waits, aims_at: a technique not built yet, needs: [not-landed-yet], scene: cornell-box}
 YAML
-  printf '%s\n' "$@" >> "$suite"
 }
 write_suite
 out="$WORK/out"
@@ -70,24 +69,20 @@ expect_exit 0 "the report shows the robustness matrix" -- "$PB" report "$out"
 expect_match "the page has the section and the failures' reasons" "NaN or Inf" "$(grep -A200 'id="robustness"' "$out/report/index.html")"
 
 expect_exit 2 "a second stability run into the same folder is refused" -- "$PB" stability "$suite" --out "$out"
-# Bad stability files: exit 2, the file, line and key.
-write_suite "scenes: [cornell-box]"
-expect_exit 2 "scenes instead of scenarios" -- "$PB" stability "$suite" --out "$WORK/bad1"
-expect_match "  ... names the line and key" "suite.yaml:[0-9]+:[0-9]+: scenes: .*scenarios" "$OUT"
-write_suite
-sed -i 's/degraded_factor: 2/degraded_factr: 2/' "$suite"
-expect_exit 2 "a misspelt rule" -- "$PB" stability "$suite" --out "$WORK/bad2"
-expect_match "  ... suggests the right key" "suite.yaml:[0-9]+:[0-9]+: stability.*degraded_factor" "$OUT"
-write_suite
-sed -i 's/name: light-inside,/name: as-baseline,/' "$suite"
-expect_exit 2 "a scenario named twice" -- "$PB" stability "$suite" --out "$WORK/bad3"
-expect_match "  ... at its name" "suite.yaml:[0-9]+:[0-9]+: scenarios\[1\].name: .*named twice" "$OUT"
-write_suite
-sed -i 's/metrics_every: 2/metrics_every: 0/' "$suite"
-expect_exit 2 "a suite without metric frames" -- "$PB" stability "$suite" --out "$WORK/bad4"
-expect_match "  ... says why it needs them" "metrics_every is 0" "$OUT"
-write_suite
-sed -i 's|scene: cornell-box}|scene: no-such-scene}|' "$suite"
-expect_exit 2 "a scenario naming a missing scene" -- "$PB" stability "$suite" --out "$WORK/bad5"
-expect_match "  ... at its scene key" "suite.yaml:[0-9]+:[0-9]+: scenarios\[0\].scene" "$OUT"
+# Bad stability files: exit 2, the file, line and key. rejected NAME SED_EDIT REGEX: the tiny suite
+# edited by SED_EDIT is refused, with REGEX in the message.
+rejected() {
+  write_suite
+  sed -i "$2" "$suite"
+  expect_exit 2 "$1" -- "$PB" stability "$suite" --out "$WORK/bad"
+  expect_match "  ... $1: the message" "$3" "$OUT"
+}
+rejected "scenes instead of scenarios" '$a scenes: [cornell-box]' "suite.yaml:[0-9]+:[0-9]+: scenes: .*scenarios"
+rejected "a misspelt rule" 's/degraded_factor: 2/degraded_factr: 2/' \
+  "suite.yaml:[0-9]+:[0-9]+: stability.*degraded_factor"
+rejected "a scenario named twice" 's/name: light-inside,/name: as-baseline,/' \
+  "suite.yaml:[0-9]+:[0-9]+: scenarios\[1\].name: .*named twice"
+rejected "a suite without metric frames" 's/metrics_every: 2/metrics_every: 0/' "metrics_every is 0"
+rejected "a scenario naming a missing scene" 's|scene: cornell-box}|scene: no-such-scene}|' \
+  "suite.yaml:[0-9]+:[0-9]+: scenarios\[0\].scene"
 finish
