@@ -436,12 +436,16 @@ int run_stability(const StabilityOptions& options) {
       const auto base_outcome = base ? outcome_of(*base) : std::nullopt;
       if (base) row.baseline_cell = base->id;
       if (base_outcome) row.baseline_flip = base_outcome->flip;
-      if (!outcome)
+      if (!outcome) {
         row.verdict = {StabilityClass::unrated, "no cell record", std::nullopt};
-      else if (!base_outcome)
-        row.verdict = {StabilityClass::unrated, "no baseline cell to compare with", std::nullopt};
-      else
+      } else if (!base_outcome) {
+        // A failure is one with or without a baseline; anything else needs one to compare with.
+        row.verdict = classify_cell(*outcome, nullptr, spec.rules);
+        if (row.verdict.verdict == StabilityClass::ok)
+          row.verdict = {StabilityClass::unrated, "no baseline cell to compare with", std::nullopt};
+      } else {
         row.verdict = classify_cell(*outcome, &*base_outcome, spec.rules);
+      }
       if (outcome) row.flip = outcome->flip, row.flip_floor = outcome->flip_floor;
       rows.push_back(std::move(row));
     }
