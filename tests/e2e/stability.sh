@@ -20,6 +20,7 @@ techniques:
   - {technique: not-landed-yet, when_built: true}
 stability:
   degraded_factor: 2
+  no_gi_technique: direct
   baseline: cornell-box
 scenarios:
   - {name: as-baseline, aims_at: the baseline itself, scene: cornell-box}
@@ -49,15 +50,19 @@ expect_match "a crash fails its cell, with the signal" "^failed\|.*(SIGSEGV|sign
 expect_match "a technique failing on its baseline too: failed" "^failed" "$(row baseline crash_on_frame)"
 expect_match "a scenario waiting for a technique is skipped" "^skipped\|needs technique 'not-landed-yet', not built" "$(row waits direct)"
 expect_match "a technique not built is skipped" "^skipped\|technique not built" "$(row light-inside not-landed-yet)"
-# Every rated row follows the rule: degraded iff FLIP > 2 x the baseline's and >= 4 x its floor.
+# Every rated row follows the rule: degraded iff FLIP >= 4 x its floor and > 2 x the baseline's or
+# > 2 x direct's on the same scenario.
 expect_exit 0 "ok and degraded rows follow the factor and floor rule" -- /usr/bin/python3 - "$csv" <<'PY'
 import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+direct = {r["scenario"]: float(r["flip"]) for r in rows if r["technique"] == "direct" and r["flip"]}
 rated = 0
-for r in csv.DictReader(open(sys.argv[1])):
+for r in rows:
     if r["class"] not in ("ok", "degraded") or not r["baseline_flip"]:
         continue
     flip, base, floor = float(r["flip"]), float(r["baseline_flip"]), float(r["flip_floor"] or 0)
-    expect = "degraded" if flip > 2 * base and flip >= 4 * floor else "ok"
+    no_gi = direct[r["scenario"]] if r["technique"] != "direct" else float("inf")
+    expect = "degraded" if flip >= 4 * floor and (flip > 2 * base or flip > 2 * no_gi) else "ok"
     if r["class"] != expect:
         sys.exit(f"{r['scenario']} x {r['technique']}: {r['class']}, the rule says {expect}")
     rated += 1
@@ -82,6 +87,8 @@ rejected "a misspelt rule" 's/degraded_factor: 2/degraded_factr: 2/' \
   "suite.yaml:[0-9]+:[0-9]+: stability.*degraded_factor"
 rejected "a scenario named twice" 's/name: light-inside,/name: as-baseline,/' \
   "suite.yaml:[0-9]+:[0-9]+: scenarios\[1\].name: .*named twice"
+rejected "a no-GI technique not in the suite" 's/no_gi_technique: direct/no_gi_technique: drect/' \
+  "suite.yaml:[0-9]+:[0-9]+: stability.no_gi_technique: 'drect' is not one of"
 rejected "a suite without metric frames" 's/metrics_every: 2/metrics_every: 0/' "metrics_every is 0"
 rejected "a scenario naming a missing scene" 's|scene: cornell-box}|scene: no-such-scene}|' \
   "suite.yaml:[0-9]+:[0-9]+: scenarios\[0\].scene"

@@ -96,6 +96,27 @@ TEST(StabilityClassifier, FlickerAboveItsBoundIsDegraded) {
   EXPECT_EQ(classify_cell(c, &base, rules).verdict, StabilityClass::ok);
 }
 
+TEST(StabilityClassifier, WorseThanNoIndirectLightAtAllIsDegraded) {
+  // Light leaking out of a closed box: 0.03 is well under the baseline's 0.2, but 20x what direct
+  // light alone scores on the same scene.
+  StabilityRules rules;
+  rules.no_gi_technique = "direct";
+  const CellOutcome base = scored(0.2, 0.01), direct = scored(0.0015, 0.0008);
+  const CellOutcome leaking = scored(0.03, 0.0008);
+  EXPECT_EQ(classify_cell(leaking, &base, rules).verdict, StabilityClass::ok);
+  const Verdict v = classify_cell(leaking, &base, rules, &direct);
+  EXPECT_EQ(v.verdict, StabilityClass::degraded);
+  EXPECT_NE(v.reason.find("20x direct's 0.0015"), std::string::npos) << v.reason;
+  // Within the factor of direct's error, or unresolved from the reference's noise: ok.
+  EXPECT_EQ(classify_cell(scored(0.0025, 0.0001), &base, rules, &direct).verdict,
+            StabilityClass::ok);
+  EXPECT_EQ(classify_cell(scored(0.03, 0.01), &base, rules, &direct).verdict, StabilityClass::ok);
+  // A failed no-GI cell is no evidence.
+  CellOutcome failed_direct = direct;
+  failed_direct.status = "failed";
+  EXPECT_EQ(classify_cell(leaking, &base, rules, &failed_direct).verdict, StabilityClass::ok);
+}
+
 TEST(StabilityClassifier, ReadsTheOutcomeOfACellRecord) {
   const auto file = std::filesystem::temp_directory_path() / "stability_test_cell.json";
   std::ofstream(file) << R"({"status": "ok", "reason": "",

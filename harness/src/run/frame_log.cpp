@@ -72,9 +72,7 @@ void FrameLog::track_gpu_memory(uint64_t technique_bytes, uint64_t total_bytes) 
                      {"peak_host_bytes", peak_host_bytes()},
                      {"host_bytes", current_host_bytes()},
                      {"gpu_bytes_technique", gpu_bytes_technique_},
-                     {"gpu_bytes_total", gpu_bytes_total_},
-                     {"host_bytes_end", current_host_bytes()},
-                     {"first_100_frames", early_memory_}};
+                     {"gpu_bytes_total", gpu_bytes_total_}};
 }
 
 void FrameLog::describe(CellRecord& record) const {

@@ -39,7 +39,7 @@ const char* stability_class_name(StabilityClass c) {
 }
 
 Verdict classify_cell(const CellOutcome& cell, const CellOutcome* baseline,
-                      const StabilityRules& rules) {
+                      const StabilityRules& rules, const CellOutcome* no_gi) {
   if (cell.status != "ok")
     return {StabilityClass::failed, cell.reason.empty() ? "failed" : cell.reason, std::nullopt};
   if (!cell.frame_warnings.empty()) {
@@ -55,6 +55,16 @@ Verdict classify_cell(const CellOutcome& cell, const CellOutcome* baseline,
         StabilityClass::degraded,
         fmt::format("flicker {:.3g} above the bound {:.3g}", *cell.flicker, *rules.flicker_bound),
         std::nullopt};
+  const bool resolved =
+      !cell.flip_floor || *cell.flip >= rules.resolved_floor_factor * *cell.flip_floor;
+  if (no_gi && no_gi->status == "ok" && no_gi->flip && resolved &&
+      *cell.flip > rules.degraded_factor * *no_gi->flip)
+    return {StabilityClass::degraded,
+            fmt::format("FLIP {:.3g} = {:.3g}x {}'s {:.3g} on this scenario (no indirect light at "
+                        "all; bound {:.3g}x)",
+                        *cell.flip, *cell.flip / std::max(*no_gi->flip, 1e-12),
+                        rules.no_gi_technique, *no_gi->flip, rules.degraded_factor),
+            std::nullopt};
   if (!baseline) return {StabilityClass::ok, fmt::format("FLIP {:.3g}", *cell.flip), std::nullopt};
   if (baseline->status != "ok" || !baseline->frame_warnings.empty() || !baseline->flip)
     return {StabilityClass::unrated,
@@ -68,8 +78,6 @@ Verdict classify_cell(const CellOutcome& cell, const CellOutcome* baseline,
       ratio ? fmt::format("FLIP {:.3g} = {:.2f}x the baseline's {:.3g}", *cell.flip, *ratio, base)
             : fmt::format("FLIP {:.3g}, the baseline's 0", *cell.flip);
   const bool beyond = *cell.flip > rules.degraded_factor * base;
-  const bool resolved =
-      !cell.flip_floor || *cell.flip >= rules.resolved_floor_factor * *cell.flip_floor;
   if (beyond && resolved)
     return {StabilityClass::degraded,
             fmt::format("{} (bound {:.3g}x)", against, rules.degraded_factor), ratio};
@@ -183,7 +191,9 @@ StabilitySpec read_stability_file(const fs::path& file) {
   spec.name = root.string_or("name", file.stem().string());
 
   const config::YamlView rules = root["stability"];
-  rules.allow_keys({"degraded_factor", "resolved_floor_factor", "flicker_bound", "baseline"});
+  rules.allow_keys(
+      {"degraded_factor", "resolved_floor_factor", "flicker_bound", "no_gi_technique", "baseline"});
+  spec.rules.no_gi_technique = rules.string_or("no_gi_technique", "");
   spec.rules.degraded_factor = rules.number_or("degraded_factor", 2.0, 1.0, 1e6);
   spec.rules.resolved_floor_factor = rules.number_or("resolved_floor_factor", 4.0, 0.0, 1e6);
   if (auto bound = rules.get("flicker_bound")) spec.rules.flicker_bound = bound->as_number(0, 1e6);
@@ -213,6 +223,11 @@ StabilitySpec read_stability_file(const fs::path& file) {
     spec.techniques.push_back(name);
   }
   if (spec.techniques.empty()) root["techniques"].fail("no technique of the list is built");
+  if (!spec.rules.no_gi_technique.empty() &&
+      std::find(spec.techniques.begin(), spec.techniques.end(), spec.rules.no_gi_technique) ==
+          spec.techniques.end())
+    rules["no_gi_technique"].fail(fmt::format("'{}' is not one of the suite's techniques",
+                                              config::quote(spec.rules.no_gi_technique)));
 
   const config::YamlView scenarios = root["scenarios"];
   if (scenarios.elements().empty()) scenarios.fail("at least one scenario is needed");
@@ -429,7 +444,13 @@ int run_stability(const StabilityOptions& options) {
     std::set<std::string> free_keys = param_keys(scenario.entry.node);
     for (const std::string& k : param_keys(spec.baselines[scenario.baseline].node))
       free_keys.insert(k);
-    for (const Cell& cell : cells_of(scene_index)) {
+    const std::vector<Cell> cells = cells_of(scene_index);
+    std::optional<CellOutcome> no_gi;
+    for (const Cell& cell : cells)
+      if (cell.technique == spec.rules.no_gi_technique) no_gi = outcome_of(cell);
+    for (const Cell& cell : cells) {
+      const CellOutcome* no_gi_here =
+          no_gi && cell.technique != spec.rules.no_gi_technique ? &*no_gi : nullptr;
       Row row{scenario.name, cell.technique, cell.id, "", scenario.aims_at, {}, {}, {}, {}};
       const auto outcome = outcome_of(cell);
       const Cell* base = matching_baseline(cell, baseline_cells[scenario.baseline], free_keys);
@@ -440,11 +461,11 @@ int run_stability(const StabilityOptions& options) {
         row.verdict = {StabilityClass::unrated, "no cell record", std::nullopt};
       } else if (!base_outcome) {
         // A failure is one with or without a baseline; anything else needs one to compare with.
-        row.verdict = classify_cell(*outcome, nullptr, spec.rules);
+        row.verdict = classify_cell(*outcome, nullptr, spec.rules, no_gi_here);
         if (row.verdict.verdict == StabilityClass::ok)
           row.verdict = {StabilityClass::unrated, "no baseline cell to compare with", std::nullopt};
       } else {
-        row.verdict = classify_cell(*outcome, &*base_outcome, spec.rules);
+        row.verdict = classify_cell(*outcome, &*base_outcome, spec.rules, no_gi_here);
       }
       if (outcome) row.flip = outcome->flip, row.flip_floor = outcome->flip_floor;
       rows.push_back(std::move(row));

@@ -37,6 +37,10 @@ struct StabilityRules {
   // (README, "Scores and their noise floors"), so it cannot be called degraded.
   double resolved_floor_factor = 4.0;
   std::optional<double> flicker_bound;  // degraded above it (see CellOutcome::flicker)
+  // Degraded also when FLIP is above degraded_factor times this technique's on the same scenario
+  // (`direct`: no indirect light at all), so that a technique adding wrong light where there is
+  // almost none (a leak out of a closed box) shows even though its baseline error is larger.
+  std::string no_gi_technique;
 };
 
 enum class StabilityClass { ok, degraded, failed, unrated, skipped };
@@ -48,12 +52,14 @@ struct Verdict {
   std::optional<double> ratio;  // FLIP / baseline FLIP, when both exist
 };
 
-// One cell against its baseline cell (null when the baseline is this very cell, or has no record).
-// Failed: the cell failed (crash, time-out, NaN/Inf, validation error, technique error) or warned
-// during a frame. Unrated: it ran but cannot be compared (no score, or its baseline failed).
-// Degraded: FLIP resolved and above degraded_factor x the baseline's, or flicker above its bound.
+// One cell against its baseline cell (null when the baseline is this very cell, or has no record)
+// and against the no_gi_technique's cell on the same scenario (null when there is none, or it is
+// this cell). Failed: the cell failed (crash, time-out, NaN/Inf, validation error, technique error)
+// or warned during a frame. Unrated: it ran but cannot be compared (no score, or its baseline
+// failed). Degraded: FLIP resolved and above degraded_factor x the baseline's or x the no-GI
+// technique's, or flicker above its bound.
 Verdict classify_cell(const CellOutcome& cell, const CellOutcome* baseline,
-                      const StabilityRules& rules);
+                      const StabilityRules& rules, const CellOutcome* no_gi = nullptr);
 
 // The outcome of cells/<id>/cell.json.
 CellOutcome read_cell_outcome(const std::filesystem::path& cell_json);
