@@ -81,6 +81,7 @@ def matrix_figure(run_dir: str) -> Optional[Figure]:
     ax.set_yticks(range(len(scenarios)), scenarios)
     ax.xaxis.tick_top()
     ax.tick_params(length=0)
+    ax.grid(False)
     for spine in ax.spines.values():
         spine.set_visible(False)
     header = ["scenario", "technique", "class", "reason", "flip", "baseline_flip", "ratio", "cell"]
