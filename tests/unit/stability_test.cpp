@@ -1,5 +1,5 @@
-// The stability classifier (run/stability.h): each rule of ok, degraded, failed and unrated, and what
-// it reads of a cell record.
+// The stability classifier (run/stability.h): each rule of ok, degraded, failed and unrated, and
+// what it reads of a cell record.
 #include "run/stability.h"
 
 #include <gtest/gtest.h>

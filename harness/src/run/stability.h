@@ -1,9 +1,9 @@
 // `photonbench stability`: every technique through every stress scenario, each cell classified ok,
-// degraded or failed with its reason (issue 15). A stability file (configs/stress/stability.yaml) is a
-// benchmark config without `scenes`, plus `stability` (the rules and the baseline) and `scenarios`
-// (each a scene entry with the weakness it aims at). It becomes one generated benchmark config, run
-// by the ordinary run machinery into the run folder; the cells' records are then classified into
-// stability.csv.
+// degraded or failed with its reason (issue 15). A stability file (configs/stress/stability.yaml)
+// is a benchmark config without `scenes`, plus `stability` (the rules and the baseline) and
+// `scenarios` (each a scene entry with the weakness it aims at). It becomes one generated benchmark
+// config, run by the ordinary run machinery into the run folder; the cells' records are then
+// classified into stability.csv.
 #pragma once
 
 #include <filesystem>
