@@ -45,7 +45,8 @@ class FrameLog {
   std::map<std::string, std::vector<double>> pass_ms_;
   uint64_t gpu_bytes_technique_ = 0, gpu_bytes_total_ = 0;
   uint32_t frames_tracked_ = 0;
-  nlohmann::json early_memory_;  // null until kEarlyFrames frames are done
+  uint64_t host_bytes_peak_ = 0;  // the largest resident memory after a frame
+  nlohmann::json early_memory_;   // null until kEarlyFrames frames are done
 };
 
 }  // namespace pb::run
