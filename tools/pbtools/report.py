@@ -21,7 +21,7 @@ import pandas as pd
 
 from . import figures as F
 from . import images as I
-from . import pages, seeds, stats, style, tables
+from . import pages, robustness, seeds, stats, style, tables
 from .rundata import Run, RunError
 
 def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
@@ -128,6 +128,16 @@ def stability_view(run: Run, tab_dir: str, image_dir: str, k: float) -> dict:
             "z": z_view}
 
 
+def _saved(fig: F.Figure, fig_dir: str) -> dict:
+    """Writes the figure (SVG, PDF, PNG) and its numbers (CSV); returns what the page shows of it."""
+    files = style.save(fig.fig, fig_dir, fig.stem)
+    style.close(fig.fig)
+    tables.write_csv(os.path.join(fig_dir, fig.stem + ".csv"), pd.DataFrame(fig.rows, columns=fig.header))
+    return {"stem": fig.stem, "title": fig.title, "caption": fig.caption, "files": files,
+            "shown": files["png"] if fig.kind == "image" else files["svg"],
+            "width": _display_width_px(os.path.join(fig_dir, files["svg"]))}
+
+
 def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = None,
           frame: Optional[int] = None, clock: str = "auto", max_cols: int = 6,
           popping_k: float = stats.POPPING_K) -> str:
@@ -162,20 +172,16 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         fig = I.image_grid(run, scene, crop=crop, frame=frame, max_cols=max_cols)
         if fig:
             figs.append(fig)
-        shown = []
-        for fig in figs:
-            files = style.save(fig.fig, fig_dir, fig.stem)
-            style.close(fig.fig)
-            tables.write_csv(os.path.join(fig_dir, fig.stem + ".csv"),
-                             pd.DataFrame(fig.rows, columns=fig.header))
-            shown.append({"stem": fig.stem, "title": fig.title, "caption": fig.caption,
-                          "files": files,
-                          "shown": files["png"] if fig.kind == "image" else files["svg"],
-                          "width": _display_width_px(os.path.join(fig_dir, files["svg"]))})
+        shown = [_saved(fig, fig_dir) for fig in figs]
         tex = f"passes_{F.slug(scene)}.tex"
         with open(os.path.join(tab_dir, tex), "w", encoding="utf-8") as f:
             f.write(tables.passes_latex(run, scene))
         sections.append({"name": scene, "slug": F.slug(scene), "figures": shown, "passes_tex": tex})
+
+    # A `photonbench stability` run: its robustness matrix and the cells to look at.
+    matrix = robustness.matrix_figure(run.path)
+    robustness_section = ({"figure": _saved(matrix, fig_dir),
+                           "problems": robustness.problem_rows(run.path)} if matrix else None)
 
     page = pages.render(
         "report.html.j2", run_name=run.name,
@@ -183,7 +189,8 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         config=config_text(run), status=status_view(run), summary=tables.summary_view(run),
         floors=tables.floors_view(run, floor_rows), sections=sections, cells=cells_view(run),
         clock=clock,
-        stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k))
+        stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k),
+        robustness=robustness_section)
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"

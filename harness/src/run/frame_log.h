@@ -32,8 +32,10 @@ class FrameLog {
   // A measured frame (warm-up frames are not logged): its rows in frames.csv and counters.csv.
   void add(const FrameTiming& timing, const std::vector<std::pair<std::string, double>>& counters);
   // GPU memory after a frame, warm-up frames included: the technique's (allocated since its set-up
-  // began) and everything the device holds. The record keeps the peaks.
+  // began) and everything the device holds. The record keeps the peaks, and the same peaks (with
+  // the host's) over the first kEarlyFrames frames, for a long run to show its memory flat.
   void track_gpu_memory(uint64_t technique_bytes, uint64_t total_bytes);
+  static constexpr uint32_t kEarlyFrames = 100;
   // frames_measured, summary and memory, over the frames logged so far.
   void describe(CellRecord& record) const;
 
@@ -42,6 +44,9 @@ class FrameLog {
   std::vector<double> frame_ms_, overhead_ms_;
   std::map<std::string, std::vector<double>> pass_ms_;
   uint64_t gpu_bytes_technique_ = 0, gpu_bytes_total_ = 0;
+  uint32_t frames_tracked_ = 0;
+  uint64_t host_bytes_peak_ = 0;  // the largest resident memory after a frame
+  nlohmann::json early_memory_;   // null until kEarlyFrames frames are done
 };
 
 }  // namespace pb::run
