@@ -14,7 +14,8 @@ import sys
 
 from ..rundata import Run, RunError
 
-PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)"}
+PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)",
+          "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)"}
 
 
 def main(argv=None) -> int:
