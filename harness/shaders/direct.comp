@@ -1,7 +1,7 @@
 #version 460
 // Direct lighting (path class C D L) at each G-buffer sample, with shadow-map visibility.
-// Point, spot and quad lights use a 6-face cube of atlas tiles around the light (the quad's from
-// its centre, so its shadows are hard: a documented approximation); directional lights one
+// Point, spot, quad and disc lights use a 6-face cube of atlas tiles around the light (an area
+// light's from its centre, so its shadows are hard: a documented approximation); directional lights one
 // orthographic tile. Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter
 // et al. 2007) with Schlick's Fresnel; smooth specular surfaces receive no direct light from delta
 // or small lights here.
@@ -62,6 +62,16 @@ float visibility(uint tile, vec3 p) {
   return lit / 9.0;
 }
 
+// Lambert's contour integral over a polygon's edge a -> b seen from p (normal n): the angle p sees
+// the edge under times n . (unit normal of the plane through p and the edge).
+float edge_term(vec3 p, vec3 n, vec3 a, vec3 b) {
+  vec3 da = normalize(a - p), db = normalize(b - p);
+  float angle = acos(clamp(dot(da, db), -1.0, 1.0));
+  vec3 c = cross(da, db);
+  float lc = length(c);
+  return lc > 1e-8 ? angle * dot(c / lc, n) : 0.0;
+}
+
 // Irradiance at p (normal n) from a Lambertian quad of radiance L, by Lambert's polygon formula;
 // zero behind the quad. No horizon clipping: a quad crossing the tangent plane is slightly
 // overestimated.
@@ -70,12 +80,25 @@ float quad_form_factor(vec3 p, vec3 n, vec3 corner, vec3 eu, vec3 ev) {
   if (dot(p - corner, qn) <= 0.0) return 0.0;
   vec3 v[4] = vec3[4](corner, corner + eu, corner + eu + ev, corner + ev);
   float sum = 0.0;
-  for (int i = 0; i < 4; ++i) {
-    vec3 a = normalize(v[i] - p), b = normalize(v[(i + 1) % 4] - p);
-    float angle = acos(clamp(dot(a, b), -1.0, 1.0));
-    vec3 c = cross(a, b);
-    float lc = length(c);
-    if (lc > 1e-8) sum += angle * dot(c / lc, n);
+  for (int i = 0; i < 4; ++i) sum += edge_term(p, n, v[i], v[(i + 1) % 4]);
+  return max(0.5 * abs(sum), 0.0);
+}
+
+// The same for a disc of radii eu, ev, as the regular 32-gon of the disc's area (its circumradius
+// sqrt(2 pi / (32 sin(2 pi / 32))) = 1.00322 radii): against a 4096-gon, within 1e-5 of the disc
+// at receivers 0.3 radii or more from its rim, 0.4% at 0.1 radii, tens of percent within 0.01
+// radii of the rim itself; no horizon clipping either.
+const int DISC_SIDES = 32;
+float disc_form_factor(vec3 p, vec3 n, vec3 centre, vec3 eu, vec3 ev) {
+  if (dot(p - centre, cross(eu, ev)) <= 0.0) return 0.0;
+  float scale = 1.00322;
+  float sum = 0.0;
+  vec3 a = centre + scale * eu;
+  for (int i = 1; i <= DISC_SIDES; ++i) {
+    float phi = 2.0 * PI * float(i) / float(DISC_SIDES);
+    vec3 b = centre + scale * (cos(phi) * eu + sin(phi) * ev);
+    sum += edge_term(p, n, a, b);
+    a = b;
   }
   return max(0.5 * abs(sum), 0.0);
 }
@@ -129,6 +152,12 @@ void main() {
       vec3 centre = light.position_type.xyz + 0.5 * (eu + ev);
       wi = normalize(centre - p);
       irradiance_rgb = light.radiant.rgb * quad_form_factor(p, n, light.position_type.xyz, eu, ev);
+      tile = first_tile + cube_face(shadow_p - centre);
+    } else if (type == PB_LIGHT_DISC) {
+      vec3 centre = light.position_type.xyz;
+      vec3 eu = light.edge_u_cos_inner.xyz, ev = light.edge_v_first_tile.xyz;
+      wi = normalize(centre - p);
+      irradiance_rgb = light.radiant.rgb * disc_form_factor(p, n, centre, eu, ev);
       tile = first_tile + cube_face(shadow_p - centre);
     } else {
       vec3 to_light = light.position_type.xyz - p;

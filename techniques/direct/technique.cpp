@@ -7,7 +7,7 @@
 // its indirect radiance image to shade.
 //
 // Fails (by design) wherever indirect light matters: it estimates only C D L (and emitters seen
-// directly). Shadows of quad lights are hard (one shadow cube at the quad's centre).
+// directly). Shadows of quad and disc lights are hard (one shadow cube at the light's centre).
 #include "photonbench/context.h"
 #include "photonbench/plugin.h"
 

@@ -141,6 +141,23 @@ expect_match "OBJ vertex: names the OBJ line" "m.obj:3: 'v': 1e\+30 is out of ra
 obj_scene "mtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n" ""
 expect_exit 2 "mtllib /dev/zero does not hang" -- timeout 60 "$PB" validate "$cfg"
 
+# (12) Disc area lights: a finite radius, a normal that is not the zero vector, exactly one of
+# radiance and power, and no quad keys.
+validate_scene "disc radius 0" "s.yaml:5:[0-9]+: lights\[0\].radius: value 0 is out of range \[0.0001, 10000\]" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], normal: [0, -1, 0], radius: 0, radiance: 1}"
+validate_scene "disc radius 1e5" "s.yaml:5:[0-9]+: lights\[0\].radius: value 1e5 is out of range" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], normal: [0, -1, 0], radius: 1e5, radiance: 1}"
+validate_scene "disc normal zero" "s.yaml:5:[0-9]+: lights\[0\].normal: a direction must not be the zero vector" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], normal: [0, 0, 0], radius: 0.2, radiance: 1}"
+validate_scene "disc without a normal" "s.yaml:5:[0-9]+: lights\[0\]: missing required key 'normal'" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], radius: 0.2, radiance: 1}"
+validate_scene "disc with radiance and power" "s.yaml:5:[0-9]+: lights\[0\]: a disc light needs exactly one of 'radiance' or 'power'" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], normal: [0, -1, 0], radius: 0.2, radiance: 1, power: 3}"
+validate_scene "disc with a quad's edge" "s.yaml:5:[0-9]+: lights\[0\].edge_u: unknown key" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], normal: [0, -1, 0], radius: 0.2, radiance: 1, edge_u: [1, 0, 0]}"
+validate_scene "disc radiance negative" "s.yaml:5:[0-9]+: lights\[0\].radiance: value -1 is out of range" \
+  "LIGHT=  - {type: disc, position: [0, 2, 0], normal: [0, -1, 0], radius: 0.2, radiance: -1}"
+
 # (11) The shipped pool scene (a deforming water surface) builds without an Embree error.
 expect_exit 0 "reference of pool" -- "$PB" reference pool --frames 0 --resolution 16x16 --samples 2 \
   --cache "$WORK/pool-cache"

@@ -409,6 +409,9 @@ TEST(SceneFile, ReadsTracksLightsAndUnits) {
          "  - {type: directional, direction: [0, -2, 0], irradiance: 3}\n"
          "  - {type: quad, position: [0, 2, 0], edge_u: [0.5, 0, 0], edge_v: [0, 0, 0.4], power: "
          "10}\n"
+         "  - {type: disc, position: {keys: [[0, [0, 2, 0]], [2, [2, 2, 0]]]}, normal: [1, -2, "
+         "0.5],"
+         " radius: 0.3, power: 10}\n"
          "objects:\n"
          "  - name: ball\n"
          "    shape: {type: sphere, radius: 0.25, segments: 12}\n"
@@ -422,7 +425,7 @@ TEST(SceneFile, ReadsTracksLightsAndUnits) {
   EXPECT_EQ(scene.name, "tracks");
   EXPECT_EQ(scene.fps, 24.0f);
   EXPECT_EQ(scene.default_frames, 48u);
-  ASSERT_EQ(scene.lights.size(), 4u);
+  ASSERT_EQ(scene.lights.size(), 5u);
   EXPECT_EQ(scene.lights[0].light.name, "bulb");
   EXPECT_EQ(scene.lights[1].light.name, "light1");
   // Point power P -> intensity P / 4 pi; quad power P -> radiance P / (pi A).
@@ -430,11 +433,22 @@ TEST(SceneFile, ReadsTracksLightsAndUnits) {
   EXPECT_NEAR(scene.lights[3].light.radiant.x, 10 / (kPi * 0.2), 1e-4);
   EXPECT_LT(glm::length(scene.lights[3].light.normal() - glm::vec3(0, -1, 0)),
             1e-6f);  // u x v faces down
+  // Disc: two orthogonal radii whose cross product is the unit normal; power P -> P / (pi^2 r^2).
+  const Light& disc = scene.lights[4].light;
+  EXPECT_EQ(disc.type, LightType::disc);
+  EXPECT_LT(glm::length(disc.normal() - glm::normalize(glm::vec3(1, -2, 0.5f))), 1e-6f);
+  EXPECT_NEAR(glm::length(disc.edge_u), 0.3f, 1e-6f);
+  EXPECT_NEAR(glm::length(disc.edge_v), 0.3f, 1e-6f);
+  EXPECT_NEAR(glm::dot(disc.edge_u, disc.edge_v), 0.f, 1e-6f);
+  EXPECT_NEAR(disc.area(), kPi * 0.09f, 1e-6f);
+  EXPECT_NEAR(disc.radiant.x, 10 / (kPi * kPi * 0.09f), 1e-4);
   EXPECT_EQ(scene.lights[1].light.radiant, glm::vec3(5, 2.5f, 1.25f));
   EXPECT_NEAR(scene.lights[1].light.spot_outer, glm::radians(20.0f), 1e-6);
   EXPECT_EQ(scene.lights[2].light.direction, glm::vec3(0, -1, 0));
   FrameState s = scene.at(24);  // t = 1 s: a quarter orbit, the ball at its far key
   EXPECT_LT(glm::length(s.lights[0].position - glm::vec3(0, 1, -2)), 1e-5f);
+  EXPECT_LT(glm::length(s.lights[4].position - glm::vec3(1, 2, 0)), 1e-5f);  // the centre moves
+  EXPECT_EQ(s.lights[4].edge_u, disc.edge_u);
   EXPECT_LT(glm::length(s.lights[1].direction - glm::normalize(glm::vec3(1, -3, 0))), 1e-6f);
   EXPECT_LT(glm::length(glm::vec3(s.object_to_world[0][3]) - glm::vec3(1, 0, 0)), 1e-5f);
   EXPECT_TRUE(scene.objects[0].moves());

@@ -63,6 +63,7 @@ inline PhotonKind photon_kind(const PhotonRecord& p) {
 //   spot: direction in the outer cone, cos(theta) = 1 - u (1 - cos(outer)), phi = 2 pi v;
 //   directional: the ray origin on a square perpendicular to the light covering the scene bounds;
 //   quad: the point position + u edge_u + v edge_v (directions cosine-distributed);
+//   disc: the point at radius sqrt(u) R, angle 2 pi v from its first radius (cosine directions);
 //   emissive object: a point on its surface, u chooses the triangle by area.
 // Rows run along v (texel (i, j) covers u in [i/width, (i+1)/width), v in [j/height,
 // (j+1)/height)).

@@ -26,6 +26,7 @@ using mat4 = glm::mat4;
 #define PB_LIGHT_SPOT 1
 #define PB_LIGHT_DIRECTIONAL 2
 #define PB_LIGHT_QUAD 3
+#define PB_LIGHT_DISC 4
 
 struct GpuMaterial {
   vec4 albedo_type;         // rgb diffuse albedo, w = PB_MATERIAL_* as float
@@ -34,11 +35,12 @@ struct GpuMaterial {
 };
 
 struct GpuLight {
-  vec4 position_type;        // xyz position (quad: corner), w = PB_LIGHT_*
+  vec4 position_type;        // xyz position (quad: corner, disc: centre), w = PB_LIGHT_*
   vec4 radiant;              // rgb: I (W/sr), E (W/m^2) or L (W/m^2/sr) by type
   vec4 direction_cos_outer;  // xyz spot axis / propagation direction, w = cos(outer half-angle)
-  vec4 edge_u_cos_inner;     // xyz quad edge u, w = cos(inner half-angle)
-  // xyz quad edge v, w = first shadow tile (6 faces, or 1 for directional)
+  vec4 edge_u_cos_inner;     // xyz quad edge u (disc: a radius), w = cos(inner half-angle)
+  // xyz quad edge v (disc: the radius cross(normal, edge u)), w = first shadow tile (6 faces, or 1
+  // for directional)
   vec4 edge_v_first_tile;
 };
 

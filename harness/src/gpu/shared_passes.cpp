@@ -12,6 +12,9 @@ namespace pb::gpu {
 
 static_assert(sizeof(layout::GpuMaterial) == 48);
 static_assert(sizeof(layout::GpuLight) == 80);
+// The shaders read the light type as pb::scene::LightType's value.
+static_assert(PB_LIGHT_QUAD == int(scene::LightType::quad) &&
+              PB_LIGHT_DISC == int(scene::LightType::disc));
 static_assert(sizeof(layout::GpuFrame) == 176);
 
 namespace {
@@ -202,6 +205,7 @@ void ScenePasses::update(const scene::FrameState& state) {
       glm::mat4 view = glm::lookAtRH(centre - d * 2.f * radius, centre, up);
       tiles.push_back(glm::orthoRH_ZO(-radius, radius, -radius, radius, 0.f, 4.f * radius) * view);
     } else {
+      // A quad's shadow cube sits at its centre; a disc's position is its centre.
       glm::vec3 origin = light.type == scene::LightType::quad
                              ? light.position + 0.5f * (light.edge_u + light.edge_v)
                              : light.position;

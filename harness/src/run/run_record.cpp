@@ -6,9 +6,9 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cstdio>
 #include <fstream>
 
+#include "build_commit.h"  // generated: PB_BUILD_COMMIT
 #include "io/results.h"
 #include "photonbench/gpu.h"
 
@@ -17,17 +17,6 @@ namespace pb::run {
 using json = nlohmann::json;
 
 namespace {
-
-std::string command_output(const std::string& command) {
-  std::string out;
-  if (FILE* pipe = popen(command.c_str(), "r")) {
-    char buffer[256];
-    while (fgets(buffer, sizeof buffer, pipe)) out += buffer;
-    pclose(pipe);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  return out;
-}
 
 std::string cpu_model() {
   std::ifstream cpuinfo("/proc/cpuinfo");
@@ -57,12 +46,12 @@ json describe_run(const std::filesystem::path& config_file,
   }
   utsname uts{};
   uname(&uts);
-  const std::string git_commit =
-      command_output(fmt::format("git -C '{}' rev-parse HEAD 2>/dev/null", PB_SOURCE_DIR));
   json run = {
       {"schema_version", io::kResultsSchemaVersion},
       {"tool_version", PB_VERSION},
-      {"git_commit", git_commit},
+      // The binary's own commit (cmake/build_commit.cmake), not whatever the checkout holds when
+      // the run starts: a figure belongs to the code that measured it.
+      {"git_commit", PB_BUILD_COMMIT},
       {"config_file", std::filesystem::absolute(config_file).string()},
       {"overrides", overrides},
       {"config_hash", plan.config.hash},

@@ -119,6 +119,26 @@ glm::mat4 Camera::projection(float aspect) const {
   return p;
 }
 
+float Light::area() const {
+  if (type == LightType::disc) return glm::pi<float>() * glm::dot(edge_u, edge_u);
+  return glm::length(glm::cross(edge_u, edge_v));
+}
+
+glm::vec3 Light::surface_point(glm::vec2 uv, glm::vec3* dp_du, glm::vec3* dp_dv) const {
+  if (type != LightType::disc) {
+    if (dp_du) *dp_du = edge_u, *dp_dv = edge_v;
+    return position + uv.x * edge_u + uv.y * edge_v;
+  }
+  // Polar equal-area mapping: the area within rho is pi rho^2 radius^2 = u A.
+  float rho = std::sqrt(std::max(uv.x, 0.f)), phi = 2.f * glm::pi<float>() * uv.y;
+  glm::vec3 radial = std::cos(phi) * edge_u + std::sin(phi) * edge_v;
+  if (dp_du) {
+    *dp_du = radial * (0.5f / std::max(rho, 1e-3f));
+    *dp_dv = (2.f * glm::pi<float>() * rho) * (std::cos(phi) * edge_v - std::sin(phi) * edge_u);
+  }
+  return position + rho * radial;
+}
+
 Light LightTrack::at(float time) const {
   Light out = light;
   out.position = position.at(time);

@@ -50,27 +50,35 @@ struct Material {
   }
 };
 
-enum class LightType { point, spot, directional, quad };
+enum class LightType { point, spot, directional, quad, disc };
 
 // `radiant` is the light's defining quantity, RGB:
 //   point, spot: radiant intensity I in W/sr (power of a point light = 4 pi I);
 //   directional: irradiance E in W/m^2 on a plane facing the light;
-//   quad: emitted radiance L in W/(m^2 sr) from the side facing `normal()` (power = pi L area).
+//   quad, disc: emitted radiance L in W/(m^2 sr) from the side facing `normal()` (power = pi L
+//   area; a disc's area is pi radius^2).
 struct Light {
   std::string name;
   LightType type = LightType::point;
   glm::vec3 radiant{1.0f};
-  glm::vec3 position{0.0f};               // point, spot; quad: one corner
+  glm::vec3 position{0.0f};               // point, spot; quad: one corner; disc: the centre
   glm::vec3 direction{0, -1, 0};          // spot axis, directional propagation direction (unit)
   float spot_inner = glm::radians(30.f);  // full intensity inside this half-angle (radians)
   float spot_outer = glm::radians(40.f);  // zero outside this half-angle, smooth between
-  glm::vec3 edge_u{1, 0, 0}, edge_v{0, 0, 1};  // quad: position + s edge_u + t edge_v, s,t in [0,1]
+  // quad: position + s edge_u + t edge_v, s,t in [0,1]; disc: two orthogonal radii of length
+  // `radius`, so the disc is position + rho (cos(phi) edge_u + sin(phi) edge_v), rho in [0, 1].
+  glm::vec3 edge_u{1, 0, 0}, edge_v{0, 0, 1};
   glm::vec3 normal() const { return glm::normalize(glm::cross(edge_u, edge_v)); }
-  float area() const { return glm::length(glm::cross(edge_u, edge_v)); }
+  float area() const;
+  // quad, disc: the point at emission-domain coordinates uv in [0,1]^2, equal-area (uniform uv is
+  // uniform on the surface; photons.h, EmissionDensity), and its derivatives in u and v if asked.
+  // The disc's mapping is polar: rho = sqrt(u), phi = 2 pi v.
+  glm::vec3 surface_point(glm::vec2 uv, glm::vec3* dp_du = nullptr,
+                          glm::vec3* dp_dv = nullptr) const;
 };
 
-// A light and how it moves: its position (point, spot; a quad's corner, moving its whole
-// rectangle) and, for spot and directional lights, an optional aim point that sets `direction`
+// A light and how it moves: its position (point, spot; a quad's corner or a disc's centre, moving
+// its whole surface) and, for spot and directional lights, an optional aim point that sets `direction`
 // each frame.
 struct LightTrack {
   Light light;

@@ -128,6 +128,12 @@ const std::vector<KeyTable> kLightTables = {
                  {"edge_u", kCoordinates, true},
                  {"edge_v", kCoordinates, true},
                  {"radiance", kRadiant, false, nullptr, "W/(m^2 sr), or power"},
+                 {"power", kRadiant, false, nullptr, "W (pi radiance area), or radiance"}}),
+    light_table("disc", "A one-sided circular emitter at position (its centre) facing normal.",
+                {{"position", kPosition, true, nullptr, "the centre"},
+                 {"normal", kCoordinates, true, nullptr, "the emitting side, not the zero vector"},
+                 {"radius", config::number_type(1e-4, 1e4), true, nullptr, "m"},
+                 {"radiance", kRadiant, false, nullptr, "W/(m^2 sr), or power"},
                  {"power", kRadiant, false, nullptr, "W (pi radiance area), or radiance"}})};
 
 const ValueType kAlbedo = config::vec3_type(0, 1);
@@ -377,12 +383,22 @@ LightTrack read_light(const YamlView& v, size_t index) {
       track.target = read_position(v["target"]);
     }
     light.radiant = color * quantity({"irradiance"}).second;
-  } else {  // quad
-    light.type = LightType::quad;
+  } else {  // quad, disc
     track.position = read_position(v["position"]);
-    light.edge_u = table.vec3(v, "edge_u");
-    light.edge_v = table.vec3(v, "edge_v");
-    if (!(light.area() > 1e-10f)) v["edge_v"].fail("edge_u and edge_v must span a non-zero area");
+    if (type == "quad") {
+      light.type = LightType::quad;
+      light.edge_u = table.vec3(v, "edge_u");
+      light.edge_v = table.vec3(v, "edge_v");
+      if (!(light.area() > 1e-10f)) v["edge_v"].fail("edge_u and edge_v must span a non-zero area");
+    } else {
+      light.type = LightType::disc;
+      glm::vec3 n = unit_direction(v["normal"]);
+      float radius = float(table.number(v, "radius"));
+      // Two radii with cross(edge_u, edge_v) along n (Duff et al. 2017's orthonormal basis).
+      float sign = std::copysign(1.f, n.z), a = -1.f / (sign + n.z), b = n.x * n.y * a;
+      light.edge_u = radius * glm::vec3(1.f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+      light.edge_v = radius * glm::vec3(b, sign + n.y * n.y * a, -n.y);
+    }
     auto [key, value] = quantity({"radiance", "power"});
     // A one-sided Lambertian emitter of radiance L and area A emits pi L A watts.
     light.radiant = color * (key == "power" ? value / (glm::pi<float>() * light.area()) : value);

@@ -177,12 +177,31 @@ void EmbreeScene::place_object(uint32_t i, const glm::mat4& to_world) {
 }
 
 void EmbreeScene::place_lights() {
-  if (!options_.quad_lights_as_geometry) return;
+  if (!options_.area_lights_as_geometry) return;
   RTCDevice dev = device();
   for (uint32_t l = 0; l < state_.lights.size(); ++l) {
     const scene::Light& light = state_.lights[l];
-    if (light.type != scene::LightType::quad) continue;
     RTCGeometry& g = light_geometry_[l];
+    if (light.type == scene::LightType::disc) {
+      // Embree's oriented disc: the exact circle, so a hit and a light sample see the same area.
+      if (!g) {
+        g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_ORIENTED_DISC_POINT);
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, sizeof(glm::vec4),
+                                1);
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3, sizeof(glm::vec3),
+                                1);
+        rtcAttachGeometryByID(top_, g, light_object(l));
+      }
+      *static_cast<glm::vec4*>(rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_VERTEX, 0)) =
+          glm::vec4(light.position, glm::length(light.edge_u));
+      *static_cast<glm::vec3*>(rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_NORMAL, 0)) =
+          light.normal();
+      rtcUpdateGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0);
+      rtcUpdateGeometryBuffer(g, RTC_BUFFER_TYPE_NORMAL, 0);
+      rtcCommitGeometry(g);
+      continue;
+    }
+    if (light.type != scene::LightType::quad) continue;
     if (!g) {
       g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
       auto* index = static_cast<glm::uvec3*>(rtcSetNewGeometryBuffer(

@@ -3,7 +3,7 @@
 // small top-level BVH; a deformable shape (Shape::animated, the pool's water) refits its own BVH
 // from new vertices.
 //
-// Quad lights are part of the scene too (unless turned off): a one-sided emitter that is seen by
+// Quad and disc lights are part of the scene too (unless turned off): a one-sided emitter that is seen by
 // camera rays, hit by BSDF-sampled rays (so the reference renderer can weight them by MIS) and that
 // absorbs what hits it, as the physical luminaire it models.
 //
@@ -33,7 +33,7 @@ struct Hit {
   glm::vec3 geometric_normal{0.0f};  // unit, world; the side the shading normals point to
   glm::vec3 shading_normal{0.0f};    // unit, world, interpolated vertex normal
   glm::vec2 barycentric{0.0f};       // Embree's (u, v): weights of vertices 1 and 2
-  uint32_t object = kNoObject;       // Scene::objects index, or light_object(l) for quad light l
+  uint32_t object = kNoObject;       // Scene::objects index, or light_object(l) for area light l
   uint32_t primitive = 0;
   uint32_t material = 0;  // Scene::materials index (objects only)
 };
@@ -54,7 +54,7 @@ struct Aabb {
 };
 
 struct EmbreeOptions {
-  bool quad_lights_as_geometry = true;
+  bool area_lights_as_geometry = true;
   // Objects that never move (Object::moves() false) go into the top-level scene in world space
   // rather than behind an instance: one BVH level less on every ray. If such an object's transform
   // changes anyway, its vertices are re-transformed (correct, just slower than an instance).
@@ -124,7 +124,7 @@ class EmbreeScene {
   EmbreeOptions options_;
   RTCScene top_ = nullptr;
   std::vector<ObjectData> objects_;
-  std::vector<RTCGeometry> light_geometry_;  // one per scene light (null unless a quad)
+  std::vector<RTCGeometry> light_geometry_;  // one per scene light (null unless quad or disc)
 };
 
 }  // namespace pb::trace

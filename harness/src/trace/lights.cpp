@@ -66,7 +66,8 @@ LightSet::LightSet(const EmbreeScene& world) : world_(world) {
         e.power = light.radiant * (4.f * radius_ * radius_);
         break;
       case scene::LightType::quad:
-        e.type = EmitterType::quad;
+      case scene::LightType::disc:
+        e.type = light.type == scene::LightType::quad ? EmitterType::quad : EmitterType::disc;
         e.area = light.area();
         e.radiance = light.radiant;
         e.power = kPi * light.radiant * e.area;
@@ -182,12 +183,11 @@ EmissionRay LightSet::emit(uint32_t i, glm::vec2 uv, glm::vec2 u_dir) const {
       r.dp_dv = 2.f * radius_ * f.b;
       break;
     }
-    case EmitterType::quad: {
+    case EmitterType::quad:
+    case EmitterType::disc: {
       r.normal = light.normal();
-      r.origin = light.position + uv.x * light.edge_u + uv.y * light.edge_v;
+      r.origin = light.surface_point(uv, &r.dp_du, &r.dp_dv);
       r.direction = Frame(r.normal).to_world(cosine_hemisphere(u_dir));
-      r.dp_du = light.edge_u;
-      r.dp_dv = light.edge_v;
       break;
     }
     case EmitterType::mesh:
@@ -204,11 +204,11 @@ bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
   if (select <= 0) return false;
   const Emitter& e = emitters_[i];
   out.emitter = uint32_t(i);
-  if (e.type == EmitterType::quad || e.type == EmitterType::mesh) {
+  if (has_area(i)) {
     glm::vec3 y, ny;
-    if (e.type == EmitterType::quad) {
+    if (e.type != EmitterType::mesh) {
       const scene::Light& light = world_.state().lights[e.source];
-      y = light.position + u.x * light.edge_u + u.y * light.edge_v;
+      y = light.surface_point(u);
       ny = light.normal();
     } else {
       y = mesh_point(e, u, &ny, nullptr, nullptr);
@@ -270,6 +270,22 @@ glm::vec3 LightSet::emitted(const Hit& y, const glm::vec3& wo) const {
   if (i < 0) return glm::vec3(0.f);
   if (glm::dot(wo, y.geometric_normal) <= 0) return glm::vec3(0.f);
   return emitters_[i].radiance;
+}
+
+Aabb light_bounds(const scene::Light& light) {
+  Aabb box;
+  if (light.type == scene::LightType::disc) {
+    // The square around the disc holds it.
+    for (float su : {-1.f, 1.f})
+      for (float sv : {-1.f, 1.f})
+        box.extend(light.position + su * light.edge_u + sv * light.edge_v);
+  } else if (light.type == scene::LightType::quad) {
+    for (glm::vec2 uv : {glm::vec2(0, 0), glm::vec2(1, 0), glm::vec2(0, 1), glm::vec2(1, 1)})
+      box.extend(light.surface_point(uv));
+  } else {
+    box.extend(light.position);
+  }
+  return box;
 }
 
 uint32_t LightSet::choose(float u) const {

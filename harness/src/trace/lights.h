@@ -1,4 +1,4 @@
-// Every emitter of one frame, in one list: the scene's lights (point, spot, directional, quad)
+// Every emitter of one frame, in one list: the scene's lights (point, spot, directional, quad, disc)
 // followed by each object whose material is emissive. It answers the two questions of light
 // transport: where do photons start (emission, photon tracer and SPPM) and how much light arrives
 // at a point from a sampled emitter (next-event estimation in the reference renderer), with the
@@ -7,7 +7,7 @@
 //   falloff); directional: irradiance E (W/m^2) normal to the light, emitted through a square
 //   perpendicular to
 //     it that covers the scene's bounding sphere (side 2R), power E (2R)^2;
-//   quad and emissive surfaces: radiance L (W/m^2/sr) from the front side, power pi L area.
+//   quad, disc and emissive surfaces: radiance L (W/m^2/sr) from the front side, power pi L area.
 // Spot falloff: 1 inside spot_inner, 0 outside spot_outer, and smoothstep in cos(theta) between.
 #pragma once
 
@@ -18,14 +18,14 @@
 
 namespace pb::trace {
 
-enum class EmitterType { point, spot, directional, quad, mesh };
+enum class EmitterType { point, spot, directional, quad, disc, mesh };
 
 struct Emitter {
   EmitterType type = EmitterType::point;
   uint32_t source = 0;  // scene light index, or object index for a mesh
   glm::vec3 power{0.0f};
-  float area = 0;                   // quad, mesh (world, this frame)
-  glm::vec3 radiance{0.0f};         // quad, mesh
+  float area = 0;                   // quad, disc, mesh (world, this frame)
+  glm::vec3 radiance{0.0f};         // quad, disc, mesh
   std::vector<float> triangle_cdf;  // mesh: by world area, size triangles + 1
 };
 
@@ -52,6 +52,8 @@ struct IncidentSample {
 };
 
 float spot_falloff(float cos_theta, float cos_inner, float cos_outer);
+// World bounds of a light's surface (quad, disc; a point for the others).
+Aabb light_bounds(const scene::Light& light);
 
 class LightSet {
  public:
@@ -59,7 +61,8 @@ class LightSet {
   uint32_t size() const { return uint32_t(emitters_.size()); }
   const Emitter& emitter(uint32_t i) const { return emitters_[i]; }
   float selection_probability(uint32_t i) const { return selection_pdf_[i]; }
-  // Emitter index of a surface the camera can hit (quad light geometry, emissive object), or -1.
+  // Emitter index of a surface the camera can hit (quad or disc light geometry, emissive object),
+  // or -1.
   int emitter_of_object(uint32_t object) const;
 
   // A photon from emitter `i` at emission-domain point `uv` (see EmissionDensity in photons.h),
@@ -76,9 +79,11 @@ class LightSet {
 
   // The emitter that selection number u in [0, 1) picks (by power, as sample_incident does).
   uint32_t choose(float u) const;
-  // Surface emitters (quad, mesh) have an area a path can hit; the others are points or directions.
+  // Surface emitters (quad, disc, mesh) have an area a path can hit; the others are points or
+  // directions.
   bool has_area(uint32_t i) const {
-    return emitters_[i].type == EmitterType::quad || emitters_[i].type == EmitterType::mesh;
+    EmitterType t = emitters_[i].type;
+    return t == EmitterType::quad || t == EmitterType::disc || t == EmitterType::mesh;
   }
   // The densities with which choose() + emit() (light paths) and choose() + sample_incident()
   // (next- event estimation) produce a light vertex, for the MIS weights of bidirectional path

@@ -399,7 +399,7 @@ std::vector<uint32_t> EmbreePhotonTracer::split_paths(const std::vector<float>& 
 namespace {
 
 // What moved since a LightPaths snapshot was taken (Paper II §3.2): objects whose transform
-// changed or that deformed (and the objects of quad lights that moved), with their current
+// changed or that deformed (and the objects of quad and disc lights that moved), with their current
 // bounds, and the emitters whose state changed.
 struct Motion {
   bool compatible = false;  // false: the settings or the power split changed, trace afresh
@@ -408,7 +408,7 @@ struct Motion {
   std::vector<uint32_t> box_object;  // the object of each box
   std::vector<char> light_changed;   // per emitter
   std::vector<glm::vec4> now_state;
-  // `own`: an object whose box is not tested (the moved quad light a first segment leaves).
+  // `own`: an object whose box is not tested (the moved area light a first segment leaves).
   bool touches(const glm::vec3& origin, const glm::vec3& dir, float length,
                uint32_t own = kNoObject) const {
     for (size_t i = 0; i < moved_boxes.size(); ++i)
@@ -449,17 +449,12 @@ Motion find_motion(const EmbreeScene& world, const LightSet& lights, const Light
       m.light_changed[e] |=
           old.light_state[e * kLightStateSize + k] != m.now_state[e * kLightStateSize + k];
     const Emitter& em = lights.emitter(e);
-    if (m.light_changed[e] && em.type == EmitterType::quad &&
+    if (m.light_changed[e] && em.type != EmitterType::mesh && lights.has_area(e) &&
         world.is_light_object(world.light_object(em.source))) {
       uint32_t obj = world.light_object(em.source);
       if (obj < m.moved.size()) {
         m.moved[obj] = 1;
-        const scene::Light& l = lights_now[em.source];
-        Aabb box;
-        for (glm::vec3 q : {l.position, l.position + l.edge_u, l.position + l.edge_v,
-                            l.position + l.edge_u + l.edge_v})
-          box.extend(q);
-        m.moved_boxes.push_back(box);
+        m.moved_boxes.push_back(light_bounds(lights_now[em.source]));
         m.box_object.push_back(obj);
       }
     }
@@ -501,14 +496,15 @@ glm::vec2 sphere_direction_inverse(const glm::vec3& d, float cos_max) {
 enum class OriginUpdate {
   failed,          // the path cannot be kept: re-emit it
   verified,        // segment 0 was traced to the kept primary hit (point, spot)
-  moved,           // the origin moved along the kept direction (quad): segment 0 is untested
+  moved,           // the origin moved along the kept direction (quad, disc): segment 0 untested
   resample_first,  // as verified, but the primary hit is not diffuse: re-trace from it
 };
 
 // Paper II §3.1: moves the origin of a path whose light moved. Point and spot lights: the new
 // position, the direction towards the kept primary hit and a visibility ray to it (the paper uses
 // the light's shadow map); a spot light's falloff in the new direction rescales the path's power.
-// Quad lights: the kept direction met with the moved light's plane, which must fall inside it.
+// Quad and disc lights: the kept direction met with the moved light's plane, which must fall
+// inside the light.
 // The emission sample (LightPath::emission_uv, emission_dir) follows, so the distribution map
 // can place the path. `hit`: the visibility ray's hit.
 OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
@@ -521,26 +517,35 @@ OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
   PathVertex& v0 = pv[0];
   if (path.vertex_count < 2) return OriginUpdate::failed;  // escaped at once: nothing anchors it
   const PathVertex& v1 = pv[1];
-  if (em.type == EmitterType::quad) {
+  if (em.type == EmitterType::quad || em.type == EmitterType::disc) {
     glm::vec3 n = light.normal(), d = v0.direction;
     float cos_out = glm::dot(d, n);
     if (!(cos_out > 0)) return OriginUpdate::failed;
     float t = glm::dot(v1.position - light.position, n) / cos_out;
     if (!(t > 0)) return OriginUpdate::failed;
     glm::vec3 origin = v1.position - t * d;
-    // Solve origin - position = a edge_u + b edge_v (least squares: the edges need not be
-    // orthogonal).
     glm::vec3 q = origin - light.position;
-    float uu = glm::dot(light.edge_u, light.edge_u), uv = glm::dot(light.edge_u, light.edge_v);
-    float vv = glm::dot(light.edge_v, light.edge_v), det = uu * vv - uv * uv;
-    if (!(std::abs(det) > 0)) return OriginUpdate::failed;
-    float qu = glm::dot(q, light.edge_u), qv = glm::dot(q, light.edge_v);
-    glm::vec2 ab{(vv * qu - uv * qv) / det, (uu * qv - uv * qu) / det};
-    if (ab.x < 0 || ab.x >= 1 || ab.y < 0 || ab.y >= 1) return OriginUpdate::failed;
-    v0.position = origin;
+    glm::vec2 ab;
+    if (em.type == EmitterType::disc) {
+      // The inverse of Light::surface_point's polar map: q = rho (cos phi edge_u + sin phi
+      // edge_v), the edges orthogonal radii; u = rho^2, v = phi / 2 pi.
+      glm::vec2 p{glm::dot(q, light.edge_u) / glm::dot(light.edge_u, light.edge_u),
+                  glm::dot(q, light.edge_v) / glm::dot(light.edge_v, light.edge_v)};
+      float v = std::atan2(p.y, p.x) / (2.f * kPi);
+      ab = {glm::dot(p, p), v < 0 ? v + 1.f : v};
+      if (ab.x >= 1) return OriginUpdate::failed;
+      ab.y = std::min(ab.y, std::nextafter(1.f, 0.f));
+    } else {
+      // Solve q = a edge_u + b edge_v (least squares: the edges need not be orthogonal).
+      float uu = glm::dot(light.edge_u, light.edge_u), uv = glm::dot(light.edge_u, light.edge_v);
+      float vv = glm::dot(light.edge_v, light.edge_v), det = uu * vv - uv * uv;
+      if (!(std::abs(det) > 0)) return OriginUpdate::failed;
+      float qu = glm::dot(q, light.edge_u), qv = glm::dot(q, light.edge_v);
+      ab = {(vv * qu - uv * qv) / det, (uu * qv - uv * qu) / det};
+      if (ab.x < 0 || ab.x >= 1 || ab.y < 0 || ab.y >= 1) return OriginUpdate::failed;
+    }
+    v0.position = light.surface_point(ab, &v0.dp_du, &v0.dp_dv);  // = origin, to rounding
     v0.normal = n;
-    v0.dp_du = light.edge_u;
-    v0.dp_dv = light.edge_v;
     path.emission_uv = ab;
     glm::vec3 local = Frame(n).to_local(d);
     path.emission_dir = concentric_disk_inverse({local.x, local.y});
@@ -643,7 +648,7 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     if (update == OriginUpdate::verified) ++out.visibility_rays;
     out.moved_vertex = true;
     if (update == OriginUpdate::verified) first = 1;
-    // A quad's first segment leaves its own (moved) box; error_based traces it (its origin
+    // An area light path's first segment leaves its own (moved) box; error_based traces it (its origin
     // moved), naive only tests the other boxes, as the paper does (the gap the digest notes).
     const Emitter& em = lights.emitter(path.light);
     if (update == OriginUpdate::moved) {

@@ -147,8 +147,8 @@ TEST(Directional, BlurKeepsDepthAndNormalEdges) {
 
 // One photon, profiled: the most loop steps an invocation took is M. With loop_budget = M nothing
 // is truncated; with M - 1 some traversal is, counted and warned about, and the cell still
-// succeeds. (The splat used to decrement its budget in the root loop without a check, so a walk
-// that ended at 0 wrapped it to 2^32 - 1 and ran on unguarded and uncounted.)
+// succeeds. This exercises pb_step's shared guard inside the traversal; the root loop's own
+// budget check (a walk ending at 0 used to wrap it to 2^32 - 1) is RootLoopStopsAtTheBudget's.
 TEST(Directional, TraversalsAreTruncatedExactlyPastTheBudget) {
   fs::path dir = work_dir("budget");
   expect_budget_boundary(dir, header(dir), "directional",

@@ -324,7 +324,7 @@ TEST(PathVerification, AfterAPointLightJumpsDmCConvergesToDmT) {
   scene::Light moved = room.t.state.lights[0];
   moved.position = {1.2f, 2.0f, -0.8f};
   JumpResult r = jump_light(room, moved, 8, 1, 16);  // 256 cells, ~78 paths a cell
-  EXPECT_GT(r.kept, 10000u);  // most origins were kept, not re-emitted
+  EXPECT_GT(r.kept, 10000u);                         // most origins were kept, not re-emitted
   EXPECT_GT(r.refilled, 0u);
   EXPECT_LT(r.fresh, 0.01);
   EXPECT_GT(r.before, 10 * r.fresh);  // the kept directions crowd some cells
@@ -336,26 +336,42 @@ TEST(PathVerification, AfterAPointLightJumpsDmCConvergesToDmT) {
   std::printf("\n");
 }
 
-TEST(PathVerification, AQuadLightKeepsItsPathsAlongTheirDirections) {
+// An area light facing down under the ceiling, moved sideways and down: its paths keep their
+// directions, their origins move onto the moved light, the maps converge.
+void expect_area_light_reuse(const scene::Light& light, const char* what) {
   Room room;
+  room.t.state.lights[0] = light;
+  scene::Light moved = light;
+  moved.position += glm::vec3(0.3f, -0.2f, 0.1f);
+  JumpResult r = jump_light(room, moved, kConvergenceFrames + 2, 2, 8);  // 4 x 64 cells
+  EXPECT_GT(r.kept, 5000u) << what;
+  EXPECT_GT(r.before, 2 * r.fresh) << what;
+  for (int f = kConvergenceFrames - 1; f < kConvergenceFrames + 2; ++f)
+    EXPECT_LT(r.distance[f], r.fresh + kConvergedDistance) << what << ", frame " << f + 1;
+  std::printf("%s light jump, DM_C vs DM_T (fresh trace %.4f), before %.4f, then:", what, r.fresh,
+              r.before);
+  for (double d : r.distance) std::printf(" %.4f", d);
+  std::printf("\n");
+}
+
+TEST(PathVerification, AQuadLightKeepsItsPathsAlongTheirDirections) {
   scene::Light quad;
   quad.type = scene::LightType::quad;
   quad.position = {-0.5f, 2.9f, -0.5f};
   quad.edge_u = {0, 0, 1};
   quad.edge_v = {1, 0, 0};  // facing down
   quad.radiant = glm::vec3(5.f);
-  room.t.state.lights[0] = quad;
-  scene::Light moved = quad;
-  moved.position += glm::vec3(0.3f, -0.2f, 0.1f);
-  JumpResult r = jump_light(room, moved, kConvergenceFrames + 2, 2, 8);  // 4 x 64 cells
-  EXPECT_GT(r.kept, 5000u);
-  EXPECT_GT(r.before, 2 * r.fresh);
-  for (int f = kConvergenceFrames - 1; f < kConvergenceFrames + 2; ++f)
-    EXPECT_LT(r.distance[f], r.fresh + kConvergedDistance) << "frame " << f + 1;
-  std::printf("quad light jump, DM_C vs DM_T (fresh trace %.4f), before %.4f, then:", r.fresh,
-              r.before);
-  for (double d : r.distance) std::printf(" %.4f", d);
-  std::printf("\n");
+  expect_area_light_reuse(quad, "quad");
+}
+
+TEST(PathVerification, ADiscLightKeepsItsPathsAlongTheirDirections) {
+  scene::Light disc;
+  disc.type = scene::LightType::disc;
+  disc.position = {0, 2.9f, 0};  // the centre
+  disc.edge_u = {0, 0, 0.4f};
+  disc.edge_v = {0.4f, 0, 0};  // two orthogonal radii, facing down
+  disc.radiant = glm::vec3(5.f);
+  expect_area_light_reuse(disc, "disc");
 }
 
 // ---- the data layout (§4)
