@@ -418,8 +418,13 @@ struct Motion {
   bool moved_object(uint32_t object) const { return object < moved.size() && moved[object]; }
 };
 
+// (Sizes the tracer's per-light density tables to the lights first.)
 Motion find_motion(const EmbreeScene& world, const LightSet& lights, const LightPaths& old,
-                   const TraceSettings& settings, const std::vector<uint32_t>& density_version) {
+                   const TraceSettings& settings,
+                   std::vector<std::shared_ptr<const Distribution2D>>& densities,
+                   std::vector<uint32_t>& density_version) {
+  densities.resize(std::max<size_t>(densities.size(), lights.size()));
+  density_version.resize(densities.size(), 0);
   Motion m;
   m.now_state = light_state(world, lights, density_version);
   uint32_t n_emitters = lights.size();
@@ -648,8 +653,8 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     if (update == OriginUpdate::verified) ++out.visibility_rays;
     out.moved_vertex = true;
     if (update == OriginUpdate::verified) first = 1;
-    // An area light path's first segment leaves its own (moved) box; error_based traces it (its origin
-    // moved), naive only tests the other boxes, as the paper does (the gap the digest notes).
+    // An area light's path leaves the light's own (moved) box; error_based traces its first
+    // segment (its origin moved), naive only tests the other boxes, as the paper (the digest's gap).
     const Emitter& em = lights.emitter(path.light);
     if (update == OriginUpdate::moved) {
       own_light = world.light_object(em.source);
@@ -899,9 +904,7 @@ TraceStats EmbreePhotonTracer::verify_paths(const TraceSettings& settings,
   auto t0 = std::chrono::steady_clock::now();
   LightPaths& old = batch.paths;
   LightSet lights(world_);
-  densities_.resize(std::max<size_t>(densities_.size(), lights.size()));
-  density_version_.resize(densities_.size(), 0);
-  Motion motion = find_motion(world_, lights, old, settings, density_version_);
+  Motion motion = find_motion(world_, lights, old, settings, densities_, density_version_);
   Scratch& scratch = *scratch_;
   scratch.verify_stats = TraceStats{};
   if (!motion.compatible) {
@@ -961,9 +964,7 @@ TraceStats EmbreePhotonTracer::update_origins(const TraceSettings& settings,
   auto t0 = std::chrono::steady_clock::now();
   LightPaths& old = batch.paths;
   LightSet lights(world_);
-  densities_.resize(std::max<size_t>(densities_.size(), lights.size()));
-  density_version_.resize(densities_.size(), 0);
-  Motion motion = find_motion(world_, lights, old, settings, density_version_);
+  Motion motion = find_motion(world_, lights, old, settings, densities_, density_version_);
   Scratch& scratch = *scratch_;
   scratch.origins.clear();
   TraceStats stats;

@@ -437,13 +437,20 @@ std::string config_header(const std::filesystem::path& scene) {
          (scene.parent_path() / "refs").string() + "}\n";
 }
 
-TEST(PathVerificationTechnique, OnAStaticSceneEveryVariantRendersTheBaselineImage) {
-  auto dir = pb::testing::work_dir("path_verification", "static");
+// Runs path-verification with `params` on a static grey box in a fresh folder DIR/<name>.
+int run_technique(const std::string& name, const std::string& params, std::filesystem::path& dir) {
+  dir = pb::testing::work_dir("path_verification", name);
   auto scene = pb::testing::grey_box_scene(dir, "grey-box", "[1, 1, 1]");
-  int status = pb::testing::run_config(
-      dir, config_header(scene) +
-               "techniques:\n  - {technique: path-verification, params: {photons: 20000, radius: "
-               "0.06, reuse: [none, naive, error_based]}}\n");
+  return pb::testing::run_config(dir, config_header(scene) +
+                                          "techniques:\n  - {technique: path-verification, "
+                                          "params: {" +
+                                          params + "}}\n");
+}
+
+TEST(PathVerificationTechnique, OnAStaticSceneEveryVariantRendersTheBaselineImage) {
+  std::filesystem::path dir;
+  int status = run_technique(
+      "static", "photons: 20000, radius: 0.06, reuse: [none, naive, error_based]", dir);
   ASSERT_EQ(status, 0) << "see " << (dir / "log.txt");
   std::map<std::string, std::filesystem::path> cells;
   for (std::string reuse : {"none", "naive", "error_based"}) {
@@ -473,12 +480,9 @@ TEST(PathVerificationTechnique, OnAStaticSceneEveryVariantRendersTheBaselineImag
 }
 
 TEST(PathVerificationTechnique, MoreSegmentsThanThePathWordHoldsFailAtSetup) {
-  auto dir = pb::testing::work_dir("path_verification", "limits");
-  auto scene = pb::testing::grey_box_scene(dir, "grey-box", "[1, 1, 1]");
-  int status = pb::testing::run_config(
-      dir, config_header(scene) +
-               "techniques:\n  - {technique: path-verification, params: {photons: 1000, "
-               "max_bounces: 16, max_photons_per_path: 16}}\n");
+  std::filesystem::path dir;
+  int status =
+      run_technique("limits", "photons: 1000, max_bounces: 16, max_photons_per_path: 16", dir);
   std::ifstream log(dir / "log.txt");
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   auto cell = pb::testing::find_cell(dir, "path-verification");

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from ..rundata import FULL_REFERENCE, Cell, Run, format_param
+from .paper1 import frame_ratios
 
 TITLE = "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)"
 
@@ -65,12 +66,6 @@ def counter_series(cell: Cell, name: str) -> pd.Series:
 def pass_series(cell: Cell, passes) -> pd.Series:
     t = cell.pass_times()
     return t[t["pass"].isin(passes)].groupby("frame")["ms"].sum()
-
-
-def ratios(num: pd.Series, den: pd.Series) -> np.ndarray:
-    num, den = num.align(den, join="inner")
-    keep = den > 0
-    return (num[keep] / den[keep]).to_numpy(float)
 
 
 def mean_peak(r: np.ndarray) -> str:
@@ -120,9 +115,9 @@ def claims(run: Run) -> str:
             rays = later(counter_series(c, "rays_traced"))
             kept = later(counter_series(c, "paths_kept"))
             full = later(counter_series(c, "full_retrace_rays"))
-            out.append(f"| {scene} | {setting} | {v} | {mean_peak(ratios(b_rays, rays))} | "
-                       f"{mean_peak(ratios(b_time, later(pass_series(c, ('photon-trace',)))))} | "
-                       f"{_f(kept.mean() if len(kept) else None, 0)} | {mean_peak(ratios(full, rays))} |")
+            out.append(f"| {scene} | {setting} | {v} | {mean_peak(frame_ratios(b_rays, rays))} | "
+                       f"{mean_peak(frame_ratios(b_time, later(pass_series(c, ('photon-trace',)))))} | "
+                       f"{_f(kept.mean() if len(kept) else None, 0)} | {mean_peak(frame_ratios(full, rays))} |")
     out.append("")
 
     # -- 2. error-based against naive ----------------------------------------------------------------
@@ -139,7 +134,7 @@ def claims(run: Run) -> str:
         r = (nr / er.where(er > 0)).dropna()
         peak = int(r.idxmax()) if len(r) else None
         out.append(f"| {scene} | {setting} | {mean_peak(r.to_numpy(float))} | {peak if peak is not None else '–'} | "
-                   f"{mean_peak(ratios(later(counter_series(e, 'paths_kept')), later(counter_series(n, 'paths_kept'))))} |")
+                   f"{mean_peak(frame_ratios(later(counter_series(e, 'paths_kept')), later(counter_series(n, 'paths_kept'))))} |")
     out.append("")
 
     # -- 3. overhead and per-step time (Fig. 8) ------------------------------------------------------
