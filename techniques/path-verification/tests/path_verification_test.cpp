@@ -256,6 +256,10 @@ void expect_emission_samples_match(PhotonTracer& tracer, const PhotonBatch& upda
     if (marks[i] != LightPath::kRefill) continue;
     const PathVertex& a = updated.paths.vertices[updated.paths.paths[i].first_vertex];
     const PathVertex& b = again.paths.vertices[again.paths.paths[i].first_vertex];
+    // The moved origin still sends the first segment to the kept primary hit.
+    const PathVertex& hit = updated.paths.vertices[updated.paths.paths[i].first_vertex + 1];
+    EXPECT_GT(glm::dot(glm::normalize(hit.position - a.position), a.direction), 0.99999f)
+        << "path " << i;
     EXPECT_LT(glm::length(a.position - b.position), 1e-4f) << "path " << i;
     EXPECT_GT(glm::dot(a.direction, b.direction), 0.99999f) << "path " << i;
     ++checked;
