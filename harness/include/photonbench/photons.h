@@ -97,6 +97,25 @@ struct TraceSettings {
   bool aaps = false;
 };
 
+// How verify_paths decides that a kept segment is still valid (Paper II §3.2-3.3).
+enum class ReuseRule : uint32_t {
+  exact,        // a ray wherever a moved object's box touches the segment; a path is invalid from
+                // the first segment whose hit changed (retrace_invalid: equals a fresh trace)
+  naive,        // §3.2: invalid from the first segment that touches a moved object's box or ends
+                // on a moved object; no ray is traced to decide
+  error_based,  // §3.3, Algorithm 1: a visibility ray along each suspect segment; a moved hit is
+                // kept when the energy reflected towards the path's next vertex stays within
+                // energy_threshold of the original, and the path re-traced from it otherwise
+};
+struct ReuseSettings {
+  ReuseRule rule = ReuseRule::exact;
+  float energy_threshold = 1e-3f;  // T of Eq. 2, a fraction of the original energy, per channel
+  // §3.1: keep the paths of a moved light by moving their origins (point, spot: the new position,
+  // the direction towards the kept primary hit, a visibility ray to it; quad: the kept direction
+  // met with the moved light's plane). false: a moved light's paths are re-emitted whole.
+  bool update_origins = false;
+};
+
 struct TraceStats {
   uint64_t paths = 0;           // light paths emitted (or re-validated)
   uint64_t rays = 0;            // rays traced: path segments, plus visibility rays of re-validation
@@ -104,6 +123,11 @@ struct TraceStats {
   uint64_t paths_retraced = 0;  // retrace_invalid: paths re-traced from some segment
   uint64_t segments_retraced = 0;  // retrace_invalid: segments replaced
   double seconds = 0;
+  // Path verification (verify_paths / retrace_marked).
+  uint64_t visibility_rays = 0;    // rays traced to re-validate segments (counted in `rays` too)
+  uint64_t paths_kept = 0;         // paths that needed no re-traced segment
+  uint64_t paths_moved = 0;        // error_based: paths kept with a vertex moved within T
+  uint64_t full_retrace_rays = 0;  // segments of the resulting paths: what tracing all would cost
   double mrays_per_second() const { return seconds > 0 ? rays / seconds * 1e-6 : 0.0; }
 };
 
@@ -131,6 +155,14 @@ struct LightPath {
   glm::vec2 emission_uv{0.0f};  // where in the light's emission domain it started
   uint32_t first_vertex = 0, vertex_count = 0;
   uint32_t first_photon = 0, photon_count = 0;
+  // verify_paths' verdict: kKeep, kReemit (the light changed: the whole path is traced afresh), or
+  // the segment to re-trace from (segment s leaves vertex s; vertices 0..s are kept).
+  uint32_t restart = kKeep;
+  static constexpr uint32_t kKeep = ~0u, kReemit = ~0u - 1;
+  // kRefill: re-emitted from the given emission sample (emission_uv, emission_dir) instead of the
+  // path's own: Paper II's fill step samples the light inside one distribution-map cell.
+  static constexpr uint32_t kRefill = ~0u - 2;
+  glm::vec2 emission_dir{0.0f};  // surface emitters: the point that chose the direction (cosine)
 };
 
 // Whole light paths of one trace, with a snapshot of the world they were traced in, so that
@@ -173,6 +205,22 @@ class PhotonTracer {
   // afresh. Re-traced parts continue the path's own sample sequence, so the result equals a fresh
   // trace with the seed the paths were first traced with.
   virtual TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) = 0;
+  // Path verification in the two steps Paper II Fig. 8 times apart. verify_paths ("dynamic
+  // occlusion") sets LightPath::restart of every path in `batch` by `reuse.rule`; error_based also
+  // moves the vertices (and their photons) it keeps within the threshold. retrace_marked ("photon
+  // trace") re-traces each marked path from its restart segment and takes the new world snapshot.
+  // retrace_invalid is the two with ReuseRule::exact. If the settings or the lights' power split
+  // changed, verify_paths traces everything afresh and marks nothing.
+  virtual TraceStats verify_paths(const TraceSettings& settings, const ReuseSettings& reuse,
+                                  PhotonBatch& batch) = 0;
+  // The origin updates of §3.1 alone (reuse.update_origins), before verify_paths, so that they
+  // are timed apart and the distribution map sees the moved origins (Fig. 8: update-origins with
+  // compute-dm). Sets LightPath::restart to kReemit where an origin cannot be kept (kKeep
+  // elsewhere) and moves emission_uv / emission_dir with the origins; verify_paths then uses these
+  // updates instead of making its own.
+  virtual TraceStats update_origins(const TraceSettings& settings, const ReuseSettings& reuse,
+                                    PhotonBatch& batch) = 0;
+  virtual TraceStats retrace_marked(const TraceSettings& settings, PhotonBatch& batch) = 0;
 };
 
 }  // namespace pb::trace

@@ -37,6 +37,11 @@ class EmbreePhotonTracer final : public PhotonTracer {
   void set_emission_density(uint32_t light, const EmissionDensity* density) override;
   TraceStats trace(const TraceSettings& settings, PhotonBatch& out) override;
   TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) override;
+  TraceStats verify_paths(const TraceSettings& settings, const ReuseSettings& reuse,
+                          PhotonBatch& batch) override;
+  TraceStats update_origins(const TraceSettings& settings, const ReuseSettings& reuse,
+                            PhotonBatch& batch) override;
+  TraceStats retrace_marked(const TraceSettings& settings, PhotonBatch& batch) override;
 
   // Paths per emitter for `paths` in total: proportional to power by largest remainder, at least
   // one for every emitter with power when there are enough paths.

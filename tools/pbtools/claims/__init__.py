@@ -15,7 +15,8 @@ import sys
 from ..rundata import Run, RunError
 
 PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)",
-          "aaps": "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)"}
+          "aaps": "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)",
+          "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)"}
 
 
 def main(argv=None) -> int:

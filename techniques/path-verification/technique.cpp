@@ -1,0 +1,307 @@
+// path-verification: Paper II (Moreau, Sintorn et al., "Path Verification for Dynamic Indirect
+// Illumination") on Paper I's splatting engine. Light paths are kept from frame to frame; each
+// frame the segments of the kept paths are tested against what moved (dynamic-occlusion) and only
+// the invalid parts are re-traced (photon-trace), by one of the paper's three variants:
+//   none: the baseline, every path traced afresh every frame;
+//   naive (§3.2): a path is re-traced from its first segment that touches a moved object's box;
+//   error_based (§3.3, Algorithm 1): a visibility ray along each suspect segment; a hit that moved
+//     is kept while the reflected energy stays within T (Eq. 2) of the original.
+// The photons are then laid out bounce-major (§4) and splatted by one of Paper I's splatters (the
+// toolkit's TiledSplat, ClusterSplat or DirectionalSplat: `splatter`). README.md gives the passes,
+// the data layout, the deviations and what was measured.
+#include "photonbench/toolkit/technique.h"
+
+#include <fmt/format.h>
+
+#include <cstring>
+#include <memory>
+
+#include "distribution_map.h"
+#include "path_layout.h"
+#include "photonbench/error.h"
+#include "photonbench/plugin.h"
+#include "photonbench/toolkit/cluster_splat.h"
+#include "photonbench/toolkit/directional_splat.h"
+#include "photonbench/toolkit/hierarchy.h"
+#include "photonbench/toolkit/jobs.h"
+#include "photonbench/toolkit/photon_lists.h"
+#include "photonbench/toolkit/tiled_splat.h"
+#include "photonbench/toolkit/traversal.h"
+
+namespace {
+
+using namespace pb;
+using namespace pb::toolkit;
+using pathverification::LayoutBytes;
+using pathverification::PathInfo;
+using pathverification::PhotonMap;
+
+// clang-format off
+constexpr pb_param_spec kSplatterParam = {
+    "splatter", PB_PARAM_ENUM, 0, 0, 2, "tiled|cluster|directional", "",
+    "Paper I splatter the photons go through (Paper II builds on Paper I's engine); each reads its "
+    "own rows below"};
+constexpr pb_param_spec kReuseParam = {
+    "reuse", PB_PARAM_ENUM, 2, 0, 2, "none|naive|error_based", "",
+    "none: the baseline, every path re-traced each frame; naive: re-trace from the first segment "
+    "a moved object's box touches (§3.2); error_based: Algorithm 1 with energy_threshold (§3.3)"};
+constexpr pb_param_spec kEnergyThresholdParam = {
+    "energy_threshold", PB_PARAM_FLOAT, 0.001, 0, 1, nullptr, "",
+    "T of Eq. 2: a moved hit is kept while the reflected energy differs from the original by at "
+    "most this fraction in every channel (Paper II's experiments: 0.1%)"};
+constexpr pb_param_spec kLightReuseParam = {
+    "light_reuse", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
+    "keep the paths of a moved light by moving their origins (§3.1), with the distribution maps' "
+    "prune and fill; false: re-emit a moved light's paths whole (Table 1's 'reuse obj.')"};
+constexpr pb_param_spec kDmPositionCellsParam = {
+    "dm_position_cells", PB_PARAM_INT, 8, 1, 1024, nullptr, "cells",
+    "distribution-map cells along each position axis of an area light (Figs. 7/8: 8)"};
+constexpr pb_param_spec kDmDirectionCellsParam = {
+    "dm_direction_cells", PB_PARAM_INT, 64, 1, 4096, nullptr, "cells",
+    "distribution-map cells along each direction axis (Figs. 7/8: 64; point and spot lights "
+    "have only these two)"};
+constexpr pb_param_spec kMaxPhotonsPerPathParam = {
+    "max_photons_per_path", PB_PARAM_INT, 7, 1, 16, nullptr, "photons",
+    "rows of the bounce-major photon map (Paper II: 7); max_bounces - 1 may not exceed it"};
+// clang-format on
+
+const pb_param_spec kParams[] = {
+    kPhotonsParam,
+    kRadiusParam,
+    kMaxBouncesParam,
+    kShadowMapSizeParam,
+    kSplatterParam,
+    kReuseParam,
+    kEnergyThresholdParam,
+    kLightReuseParam,
+    kDmPositionCellsParam,
+    kDmDirectionCellsParam,
+    kMaxPhotonsPerPathParam,
+    kStoreFirstHitParam,
+    // The splatters' own rows (each reads only its own).
+    TiledSplat::kTileSizeParam,
+    TiledSplat::kMaxListEntriesParam,
+    kListCheckHookParam,
+    ClusterSplat::kVariantParam,
+    kLayoutParam,
+    kTopLevelsParam,
+    kMaxJobsParam,
+    kLoopBudgetParam,
+    kProfileParam,
+    DirectionalSplat::kDepositParam,
+    DirectionalSplat::kWeightingParam,
+    DirectionalSplat::kAccumulateAtParam,
+    DirectionalSplat::kBlurRadiusParam,
+    DirectionalSplat::kBlurDepthSigmaParam,
+    DirectionalSplat::kBlurNormalSigmaParam,
+    DirectionalSplat::kDebugIrradianceParam,
+};
+
+// The counters of the reuse steps (Paper II Figs. 7 and 8).
+constexpr Counter kPathsKept{"paths_kept", CounterKind::work, "paths"};
+constexpr Counter kPathsMoved{"paths_moved", CounterKind::work, "paths"};
+constexpr Counter kPathsRetraced{"paths_retraced", CounterKind::work, "paths"};
+constexpr Counter kRaysTraced{"rays_traced", CounterKind::work, "rays"};
+constexpr Counter kSegmentsRetraced{"segments_retraced", CounterKind::work, "rays"};
+constexpr Counter kVisibilityRays{"visibility_rays", CounterKind::work, "rays"};
+constexpr Counter kFullRetraceRays{"full_retrace_rays", CounterKind::work, "rays"};
+constexpr Counter kPathsPruned{"paths_pruned", CounterKind::work, "paths"};
+constexpr Counter kPathsRefilled{"paths_refilled", CounterKind::work, "paths"};
+constexpr Counter kDmDistance{"dm_distance", CounterKind::ratio, "paths"};
+
+std::unique_ptr<Splatter> make_splatter(const std::string& name) {
+  if (name == "tiled") return std::make_unique<TiledSplat>();
+  if (name == "cluster") return std::make_unique<ClusterSplat>();
+  return std::make_unique<DirectionalSplat>();
+}
+
+class PathVerification final : public Technique {
+ public:
+  void setup(Context& ctx, const Params& params) override {
+    photon_ = PhotonParams::read(params);
+    const std::string& reuse = params.choice(kReuseParam.name);
+    reuse_enabled_ = reuse != "none";
+    reuse_.rule = reuse == "naive" ? trace::ReuseRule::naive : trace::ReuseRule::error_based;
+    reuse_.energy_threshold = float(params.number(kEnergyThresholdParam.name));
+    max_photons_ = uint32_t(params.integer(kMaxPhotonsPerPathParam.name));
+    // Photons are stored at hits 2..max_bounces (Paper I §4.2), one row per stored photon.
+    if (photon_.max_bounces - (photon_.store_first_hit ? 0 : 1) > max_photons_)
+      throw InputError(fmt::format(
+          "path-verification: max_bounces = {} stores up to {} photons per path, more than "
+          "max_photons_per_path = {}",
+          photon_.max_bounces, photon_.max_bounces - (photon_.store_first_hit ? 0 : 1),
+          max_photons_));
+    reuse_.update_origins = params.flag(kLightReuseParam.name);
+    dm_position_cells_ = uint32_t(params.integer(kDmPositionCellsParam.name));
+    dm_direction_cells_ = uint32_t(params.integer(kDmDirectionCellsParam.name));
+    const uint64_t d = dm_direction_cells_, p = dm_position_cells_;
+    pathverification::check_packing_limits(photon_.max_bounces, d * d * p * p);
+    settings_ = photon_.trace_settings();
+    // Every variant traces the same sample sequence each frame (the paths keep the seed they were
+    // first traced with), so that on a static scene the baseline's photons are the reuse's.
+    settings_.seed_per_frame = false;
+    settings_.keep_paths = true;
+    configure_shadows(ctx, photon_.shadow_map_size);
+    splatter_ = make_splatter(params.choice(kSplatterParam.name));
+    splatter_->setup(ctx, params, photon_);
+  }
+
+  void render(Context& ctx) override {
+    trace::PhotonTracer& tracer = ctx.photon_tracer();
+    trace::TraceStats stats;
+    uint64_t pruned = 0, refilled = 0;
+    if (!reuse_enabled_ || batch_.paths.empty()) {
+      auto scope = ctx.pass("photon-trace");
+      stats = tracer.trace(settings_, batch_);
+      stats.paths_retraced = stats.paths;
+      stats.segments_retraced = stats.rays;
+      stats.full_retrace_rays = stats.rays;
+      if (reuse_enabled_) maps_.setup(batch_, dm_position_cells_, dm_direction_cells_);
+    } else {
+      // Paper II §4's order: origins and DM_C in one step, then the occlusion tests (they need
+      // the new origins), then prune and fill, then the tracing of what they scheduled.
+      const bool light_reuse = reuse_.update_origins;
+      {
+        auto scope = ctx.pass("update-origins");
+        tracer.update_origins(settings_, reuse_, batch_);
+        if (light_reuse) {
+          auto dm = ctx.pass("compute-dm");
+          maps_.compute(batch_);
+        }
+      }
+      {
+        auto scope = ctx.pass("dynamic-occlusion");
+        tracer.verify_paths(settings_, reuse_, batch_);
+      }
+      if (light_reuse) {
+        {
+          auto scope = ctx.pass("prune");
+          pruned = maps_.prune(batch_, ctx.frame().index, pruned_paths_);
+        }
+        auto scope = ctx.pass("fill");
+        refilled = maps_.fill(batch_, ctx.frame().index, pruned_paths_);
+      }
+      auto scope = ctx.pass("photon-trace");
+      stats = tracer.retrace_marked(settings_, batch_);
+    }
+    {
+      auto scope = ctx.pass("photon-upload");
+      pack_path_information();
+      photon_map_.build(batch_, max_photons_);
+      upload_photon_map(ctx);
+    }
+    PhotonSet set{&photons_, photon_map_.records};
+    ctx.shared().gbuffer();
+    ctx.shared().direct_light();
+    const gpu::Image& indirect = splatter_->render(ctx, set);
+    gpu::full_barrier(ctx.cmd());
+    ctx.shared().shade(&indirect);
+    ctx.flush();  // the splatter's counters live on the GPU
+    splatter_->report(ctx, set);
+    report(ctx, stats, pruned, refilled);
+  }
+
+ private:
+  // One path-information word per path (§4), from the verdict of this frame's verification.
+  void pack_path_information() {
+    const auto& paths = batch_.paths.paths;
+    path_info_.resize(paths.size());
+    for (size_t i = 0; i < paths.size(); ++i) {
+      const trace::LightPath& path = paths[i];
+      PathInfo info;
+      if (!maps_.empty()) info.cell = maps_.maps()[path.light].cell_of(path);
+      info.segments = pathverification::path_segments(path, batch_.paths.vertices);
+      info.replace = reuse_enabled_ && path.restart != trace::LightPath::kKeep;
+      info.reuse_light = path.restart != trace::LightPath::kReemit;
+      info.restart_segment = info.replace && info.reuse_light ? path.restart : 0;
+      path_info_[i] = info.pack();
+    }
+  }
+
+  void upload_photon_map(Context& ctx) {
+    const auto& records = photon_map_.records;
+    const uint64_t bytes =
+        uint64_t(std::max<size_t>(records.size(), 1)) * sizeof(trace::PhotonRecord);
+    // Grown with a quarter to spare, so a photon count that drifts does not reallocate each frame.
+    if (!photons_ || photons_.size() < bytes)
+      photons_ = ctx.gpu().create_buffer("path-verification/photon-map", bytes + bytes / 4,
+                                         vk::BufferUsageFlagBits::eStorageBuffer,
+                                         gpu::Memory::host_visible);
+    if (!records.empty())
+      std::memcpy(photons_.mapped(), records.data(), records.size() * sizeof(records[0]));
+  }
+
+  void report(Context& ctx, const trace::TraceStats& stats, uint64_t pruned, uint64_t refilled) {
+    ctx.count({"photons_stored", CounterKind::size, "photons"}, double(batch_.photons.size()));
+    ctx.count(kPathsKept, double(stats.paths - stats.paths_retraced));
+    ctx.count(kPathsMoved, double(stats.paths_moved));
+    ctx.count(kPathsRetraced, double(stats.paths_retraced));
+    ctx.count(kRaysTraced, double(stats.rays));
+    ctx.count(kSegmentsRetraced, double(stats.segments_retraced));
+    ctx.count(kVisibilityRays, double(stats.visibility_rays));
+    ctx.count(kFullRetraceRays, double(stats.full_retrace_rays));
+    if (reuse_enabled_ && reuse_.update_origins) {
+      ctx.count(kPathsPruned, double(pruned));
+      ctx.count(kPathsRefilled, double(refilled));
+      // DM_C against DM_T after this frame's fill: the total-variation distance of all lights.
+      double distance = 0, weight = 0;
+      for (const auto& m : maps_.maps()) {
+        double paths = 0;
+        for (float t : m.target) paths += t;
+        distance += m.distance() * paths, weight += paths;
+      }
+      ctx.count(kDmDistance, weight > 0 ? distance / weight : 0);
+    }
+    LayoutBytes bytes = layout_bytes();
+    ctx.count({"bytes_path_information", CounterKind::size, "bytes"},
+              double(bytes.path_information));
+    ctx.count({"bytes_path_origins", CounterKind::size, "bytes"}, double(bytes.path_origins));
+    ctx.count({"bytes_distribution_maps", CounterKind::size, "bytes"},
+              double(bytes.distribution_maps));
+    ctx.count({"bytes_pruned_paths", CounterKind::size, "bytes"}, double(bytes.pruned_paths));
+    ctx.count({"bytes_photon_map", CounterKind::size, "bytes"}, double(bytes.photon_map));
+    ctx.count({"bytes_photon_map_paper", CounterKind::size, "bytes"},
+              double(bytes.photon_map_paper));
+  }
+
+  LayoutBytes layout_bytes() const {
+    LayoutBytes b;
+    const uint64_t paths = batch_.paths.paths.size();
+    if (reuse_enabled_) {
+      b.path_information = paths * sizeof(uint32_t);
+      // Area lights' paths keep their origin (3 floats; a point light's is the light's own).
+      for (const auto& path : batch_.paths.paths)
+        if (batch_.paths.vertices[path.first_vertex].normal != glm::vec3(0.f))
+          b.path_origins += 3 * sizeof(float);
+    }
+    if (reuse_enabled_ && reuse_.update_origins) {
+      for (const auto& m : maps_.maps()) b.distribution_maps += 2 * uint64_t(m.cells()) * 4;
+      b.pruned_paths = paths * sizeof(uint32_t);  // capacity: every path may be pruned
+    }
+    b.photon_map = uint64_t(photon_map_.records.size()) * sizeof(trace::PhotonRecord);
+    b.photon_map_paper = paths * max_photons_ * 32;  // §4's 32-byte record
+    return b;
+  }
+
+  PhotonParams photon_;
+  trace::TraceSettings settings_;
+  trace::ReuseSettings reuse_;
+  bool reuse_enabled_ = true;
+  uint32_t max_photons_ = 7;
+  std::unique_ptr<Splatter> splatter_;
+  trace::PhotonBatch batch_;
+  std::vector<uint32_t> path_info_;
+  pathverification::DistributionMaps maps_;
+  std::vector<uint32_t> pruned_paths_;
+  uint32_t dm_position_cells_ = 8, dm_direction_cells_ = 64;
+  PhotonMap photon_map_;
+  gpu::Buffer photons_;
+};
+
+}  // namespace
+
+PB_EXPORT_TECHNIQUE(
+    PathVerification, "path-verification", "indirect",
+    "Paper II's path verification: light paths kept across frames, re-validated against moving "
+    "objects (none | naive | error_based reuse) and splatted by a Paper I splatter",
+    kParams)
