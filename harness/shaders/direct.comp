@@ -1,7 +1,7 @@
 #version 460
-// Direct lighting (path class C D L) at each G-buffer sample, with shadow-map visibility.
-// Point, spot, quad and disc lights use a 6-face cube of atlas tiles around the light (an area
-// light's from its centre, so its shadows are hard: a documented approximation); directional lights one
+// Direct lighting (path class C D L) at each G-buffer sample, with shadow-map visibility. Point,
+// spot, quad and disc lights use a 6-face cube of atlas tiles around the light (an area light's
+// from its centre, so its shadows are hard: a documented approximation); directional lights one
 // orthographic tile. Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter
 // et al. 2007) with Schlick's Fresnel; smooth specular surfaces receive no direct light from delta
 // or small lights here.

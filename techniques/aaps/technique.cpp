@@ -1,5 +1,5 @@
-// aaps: adaptive anisotropic photon scattering (Yang & Ouyang 2021, as re-implemented and settled in
-// seed 004, van Casteren 2023), with the thesis's MSAA variants (§5.1). Per frame:
+// aaps: adaptive anisotropic photon scattering (Yang & Ouyang 2021, as re-implemented and settled
+// in seed 004, van Casteren 2023), with the thesis's MSAA variants (§5.1). Per frame:
 //   photon-trace  the CPU tracer emits each light's task buffer (TraceSettings::aaps: a grid of
 //                 floor(sqrt(D))^2 photons per density texel, first hit a dielectric, split once
 //                 then repeat, stored at the first diffuse hit); each stored photon's two

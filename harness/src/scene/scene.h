@@ -78,8 +78,8 @@ struct Light {
 };
 
 // A light and how it moves: its position (point, spot; a quad's corner or a disc's centre, moving
-// its whole surface) and, for spot and directional lights, an optional aim point that sets `direction`
-// each frame.
+// its whole surface) and, for spot and directional lights, an optional aim point that sets
+// `direction` each frame.
 struct LightTrack {
   Light light;
   PositionTrack position;

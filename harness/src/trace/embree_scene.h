@@ -3,9 +3,9 @@
 // small top-level BVH; a deformable shape (Shape::animated, the pool's water) refits its own BVH
 // from new vertices.
 //
-// Quad and disc lights are part of the scene too (unless turned off): a one-sided emitter that is seen by
-// camera rays, hit by BSDF-sampled rays (so the reference renderer can weight them by MIS) and that
-// absorbs what hits it, as the physical luminaire it models.
+// Quad and disc lights are part of the scene too (unless turned off): a one-sided emitter that is
+// seen by camera rays, hit by BSDF-sampled rays (so the reference renderer can weight them by MIS)
+// and that absorbs what hits it, as the physical luminaire it models.
 //
 // Queries (intersect, occluded, triangle) are const and safe from any number of threads; update()
 // must not run concurrently with them.

@@ -1,5 +1,5 @@
-// Every emitter of one frame, in one list: the scene's lights (point, spot, directional, quad, disc)
-// followed by each object whose material is emissive. It answers the two questions of light
+// Every emitter of one frame, in one list: the scene's lights (point, spot, directional, quad,
+// disc) followed by each object whose material is emissive. It answers the two questions of light
 // transport: where do photons start (emission, photon tracer and SPPM) and how much light arrives
 // at a point from a sampled emitter (next-event estimation in the reference renderer), with the
 // same units as scene.h:

@@ -662,8 +662,8 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     if (update == OriginUpdate::verified) ++out.visibility_rays;
     out.moved_vertex = true;
     if (update == OriginUpdate::verified) first = 1;
-    // An area light's path leaves the light's own (moved) box; error_based traces its first
-    // segment (its origin moved), naive only tests the other boxes, as the paper (the digest's gap).
+    // An area light's path leaves the light's own (moved) box; error_based traces its first segment
+    // (its origin moved), naive only tests the other boxes, as the paper (the digest's gap).
     const Emitter& em = lights.emitter(path.light);
     if (update == OriginUpdate::moved) {
       own_light = world.light_object(em.source);
@@ -1107,7 +1107,7 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   return stats;
 }
 
-// ---- AAPS (seed 004 §1.4-1.5) --------------------------------------------------------------------
+// ---- AAPS (seed 004 §1.4-1.5) -------------------------------------------------------------------
 
 namespace {
 

@@ -14,9 +14,7 @@ layout(binding = 2, rgba32f) uniform readonly image2D gbuffer_position;
 layout(binding = 3, rgba32f) uniform readonly image2D gbuffer_albedo;
 layout(binding = 4, rgba32f) uniform writeonly image2D radiance;
 layout(std430, binding = 5) writeonly buffer Luminance { float luminance[]; };
-layout(push_constant) uniform Push {
-  uint width, height, samples;
-}
+layout(push_constant) uniform Push { uint width, height, samples; }
 push;
 void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);

@@ -14,7 +14,8 @@ layout(location = 3) flat in uint photon;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
 layout(binding = 1, rgba32f) uniform readonly image2D gbuffer_position;  // w: camera distance
 layout(std430, binding = 2) buffer Contributed { uint contributed[]; };
-layout(push_constant) uniform Push { float depth_margin; } push;
+layout(push_constant) uniform Push { float depth_margin; }
+push;
 layout(location = 0) out vec4 caustic;
 void main() {
   // Outside the ellipse inscribed in the quad: sum of squared barycentrics above 1 (§3.3.3).

@@ -39,8 +39,8 @@ std::vector<float> mixed_density(uint32_t side, uint32_t seed) {
   return d;
 }
 
-// §1.4: the thesis's traversal (each task id walks the sum quadtree to its leaf, then its grid cell)
-// visits exactly the (texel, cell) pairs the tracer emits, task by task.
+// §1.4: the thesis's traversal (each task id walks the sum quadtree to its leaf, then its grid
+// cell) visits exactly the (texel, cell) pairs the tracer emits, task by task.
 TEST(AapsTaskBuffer, QuadtreeWalkIsTheTracersEmissionOrder) {
   for (uint32_t side : {1u, 2u, 16u}) {
     SCOPED_TRACE(side);
