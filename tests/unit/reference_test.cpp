@@ -431,6 +431,28 @@ TEST(Reference, PathClassesPartitionTheImage) {
 // ---- cache
 // -----------------------------------------------------------------------------------------
 
+// A class no path of the scene belongs to (caustics in the all-diffuse Cornell box) renders black:
+// its error estimate is 0 at the first check, and the entry stopped by the error rule must serve
+// that rule afterwards. It was once refused (an error of 0 read as "not measured"), so every run
+// rendered it again and then failed with "the entry just written cannot be read back".
+TEST(ReferenceCache, ServesABlackReferenceStoppedByTheErrorRule) {
+  auto dir = std::filesystem::path(testing::TempDir()) / "pb_reference_cache_black";
+  std::filesystem::remove_all(dir);
+  scene::Scene scene = load("cornell-box.yaml");
+  ReferenceCache cache(dir);
+  ReferenceOptions o = quick(0);
+  o.rel_error = 0.05f;
+  o.max_seconds = 60;
+  io::Image black = cache.get_or_render(scene, scene.at(0), PathClass::caustics, 16, 12, o);
+  for (float v : black.pixels) ASSERT_EQ(v, 0.0f);
+  std::optional<ReferenceImage> entry =
+      cache.get_entry(scene, scene.at(0), PathClass::caustics, 16, 12, o);
+  ASSERT_TRUE(entry.has_value());
+  EXPECT_EQ(entry->stopped_by, StopRule::rel_error);
+  EXPECT_TRUE(cache.has(scene, scene.at(0), PathClass::caustics, 16, 12, o));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
   auto dir = std::filesystem::path(testing::TempDir()) / "pb_reference_cache_test";
   std::filesystem::remove_all(dir);

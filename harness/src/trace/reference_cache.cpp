@@ -185,7 +185,10 @@ constexpr const char* kImageSuffix[4] = {".exr", ".variance.exr", ".half0.exr", 
 bool serves(const nlohmann::json& side, const ReferenceOptions& options) {
   uint32_t samples = side.value("samples", 0u);
   double err = side.value("rel_error", 0.0), seconds = side.value("seconds", 0.0);
-  if (options.rel_error > 0 && samples >= 2 && err > 0 && err <= options.rel_error) return true;
+  // An error of 0 is a measured one when the error rule stopped the render: a black image.
+  const bool error_measured = err > 0 || side.value("stopped_by", "") == "rel_error";
+  if (options.rel_error > 0 && samples >= 2 && error_measured && err <= options.rel_error)
+    return true;
   if (options.samples > 0 && samples >= options.samples) return true;
   return options.max_seconds > 0 && seconds >= options.max_seconds;
 }
