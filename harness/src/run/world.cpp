@@ -26,6 +26,20 @@ class SeededPhotonTracer final : public trace::PhotonTracer {
                                     trace::PhotonBatch& batch) override {
     return inner_->retrace_invalid(seeded(settings), batch);
   }
+  trace::TraceStats verify_paths(const trace::TraceSettings& settings,
+                                 const trace::ReuseSettings& reuse,
+                                 trace::PhotonBatch& batch) override {
+    return inner_->verify_paths(seeded(settings), reuse, batch);
+  }
+  trace::TraceStats update_origins(const trace::TraceSettings& settings,
+                                   const trace::ReuseSettings& reuse,
+                                   trace::PhotonBatch& batch) override {
+    return inner_->update_origins(seeded(settings), reuse, batch);
+  }
+  trace::TraceStats retrace_marked(const trace::TraceSettings& settings,
+                                   trace::PhotonBatch& batch) override {
+    return inner_->retrace_marked(seeded(settings), batch);
+  }
 
  private:
   trace::TraceSettings seeded(trace::TraceSettings settings) const {
