@@ -201,7 +201,8 @@ class Aaps final : public pb::Technique {
       desc.name = std::move(name);
       desc.vertex_spirv = kaaps_splat_vert_spv;
       desc.fragment_spirv = fragment;
-      desc.bindings = {Binding::storage_buffer, Binding::storage_image, Binding::storage_buffer};
+      desc.bindings = {Binding::storage_buffer, Binding::storage_image, Binding::storage_image,
+                       Binding::storage_buffer};
       desc.push_bytes = sizeof(float);
       desc.vertex_stride = sizeof(Vertex);
       desc.vertex_attributes = {kFloat4, kFloat4, vk::Format::eR32Uint};
@@ -400,7 +401,8 @@ class Aaps final : public pb::Technique {
     if (vertex_count > 0) {
       cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
       cmd.setScissor(0, area);
-      pipeline.bind(cmd, {&ctx.shared().frame_buffer(), g.position, &contributed_}, depth_margin_);
+      pipeline.bind(cmd, {&ctx.shared().frame_buffer(), g.position, g.normal, &contributed_},
+                    depth_margin_);
       cmd.bindVertexBuffers(0, vertices.handle(), vk::DeviceSize(0));
       cmd.draw(vertex_count, 1, 0, 0);
     }

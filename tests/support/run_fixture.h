@@ -75,21 +75,38 @@ inline fs::path find_cell(const fs::path& dir, const std::string& technique,
   return {};
 }
 
-// Sum of each counter over the frames of a cell's counters.csv (frame,name,value).
-inline std::map<std::string, double> counters(const fs::path& cell) {
-  std::map<std::string, double> sums;
+// counters.csv of a cell, row by row: (frame, counter name, value).
+template <class Row>
+void for_each_counter(const fs::path& cell, Row row) {
   std::ifstream in(cell / "counters.csv");
   std::string line;
   std::getline(in, line);  // header
   while (std::getline(in, line)) {
-    std::stringstream row(line);
+    std::stringstream fields(line);
     std::string frame, name, value;
-    std::getline(row, frame, ',');
-    std::getline(row, name, ',');
-    std::getline(row, value, ',');
-    sums[name] += std::stod(value);
+    std::getline(fields, frame, ',');
+    std::getline(fields, name, ',');
+    std::getline(fields, value, ',');
+    row(std::stoi(frame), name, std::stod(value));
   }
+}
+
+// Each counter summed over the measured frames.
+inline std::map<std::string, double> counters(const fs::path& cell) {
+  std::map<std::string, double> sums;
+  for_each_counter(cell, [&](int, const std::string& name, double v) { sums[name] += v; });
   return sums;
+}
+
+// One counter's value per measured frame, in frame order.
+inline std::vector<double> counter_series(const fs::path& cell, const std::string& counter) {
+  std::map<int, double> by_frame;
+  for_each_counter(cell, [&](int frame, const std::string& name, double v) {
+    if (name == counter) by_frame[frame] += v;
+  });
+  std::vector<double> values;
+  for (const auto& [frame, v] : by_frame) values.push_back(v);
+  return values;
 }
 
 // images/frame_NNNN.exr, or with `path_class` the technique's estimate of that class alone

@@ -2,11 +2,13 @@
 // the tracer's AAPS rules and energy on cornell-glass, and end to end through `photonbench run`
 // (with Vulkan validation) the screen-summed caustics against the caustics reference per msaa mode
 // and the adaptivity of the density texture.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <numeric>
 #include <random>
 #include <set>
 #include <sstream>
@@ -165,24 +167,30 @@ TEST(AapsTrace, RefusesKeptPathsAndMissingDensities) {
 
 fs::path work_dir(const std::string& name) { return pb::testing::work_dir("aaps_test", name); }
 
-constexpr int kWidth = 128, kHeight = 96;
 constexpr uint32_t kReferenceSamples = 64;
+// AAPS's rules on cornell-glass (one convex dielectric): a photon that hits the sphere is reflected
+// once (L S D) or refracted in and out (L S S D); the chained paths (an internal reflection, about
+// a tenth of the caustic power here) are dropped by design (§1.5). The reference that holds exactly
+// those paths is the caustics class truncated at 3 scattering vertices.
+constexpr uint32_t kAapsPathVertices = 3;
 
-std::string header(const fs::path& dir, int warmup, int count) {
-  return "name: aaps-test\n"
-         "resolution: [" +
-         std::to_string(kWidth) + ", " + std::to_string(kHeight) +
-         "]\n"
-         "seed: 1\n"
-         "scenes: [cornell-glass]\n"
-         "limits: {cell_seconds: 300}\n"
-         "frames: {warmup: " +
-         std::to_string(warmup) + ", count: " + std::to_string(count) +
-         ", metrics_every: " + std::to_string(count) +
-         "}\n"
-         "metrics: [psnr]\n"
-         "reference: {samples: " +
-         std::to_string(kReferenceSamples) + ", cache_dir: " + (dir / "refs").string() + "}\n";
+struct Frames {
+  int width, height, warmup, count, metrics_every;
+  uint32_t reference_bounces = 0;  // 0: untruncated
+};
+
+std::string header(const fs::path& dir, const Frames& f) {
+  return fmt::format(
+      "name: aaps-test\n"
+      "resolution: [{}, {}]\n"
+      "seed: 1\n"
+      "scenes: [cornell-glass]\n"
+      "limits: {{cell_seconds: 300}}\n"
+      "frames: {{warmup: {}, count: {}, metrics_every: {}}}\n"
+      "metrics: [psnr]\n"
+      "reference: {{samples: {}, max_bounces: {}, cache_dir: {}}}\n",
+      f.width, f.height, f.warmup, f.count, f.metrics_every, kReferenceSamples, f.reference_bounces,
+      (dir / "refs").string());
 }
 
 double image_sum(const pb::io::Image& image) {
@@ -193,59 +201,93 @@ double image_sum(const pb::io::Image& image) {
   return sum;
 }
 
-// The thesis's energy finding (§5.1.1): once the task buffer has converged, the caustics summed
-// over the screen match the caustics-only reference at the thesis's target area (19 px^2) without
-// MSAA (measured 1.017 of the reference; at 2 px^2 it falls to 0.80, the no-AA energy loss of tiny
-// splats); coverage-only MSAA (`all`) tests the ellipse at the pixel centre and keeps only the
-// covered samples' share, and is dimmer. The per-sample modes are measured and printed, not
-// bounded: on lavapipe they lose about half the energy (README, "Open problem").
+// The thesis's energy finding (§5.1.1) on the paths AAPS models: once the task buffer has
+// converged, the caustics summed over the screen and over 8 frames match the reference's within 5%
+// for the per-sample modes; `all` tests the ellipse at the pixel centre and keeps only the covered
+// samples' share, and is dimmer. The caustic's focus is sub-pixel even at 256x192 (most of its
+// energy lies in a few dozen pixels, drawn by splats far smaller than a pixel), so without MSAA a
+// frame's energy depends on which pixel centres the tiny splats happen to cover: it swings by
+// +-20% from frame to frame as the orbiting light moves the focus (measured 0.81-1.14), and its
+// mean is bounded by three standard errors of its own frames (and never tighter than 5%).
 TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
   fs::path dir = work_dir("energy");
-  const int warmup = 10;
-  std::string common = "density_resolution: 32, target_area: 19";
-  std::string yaml = header(dir, warmup, 1) + "techniques:\n";
-  for (const char* mode : {"none", "all", "all_per_sample", "small_per_sample"})
-    yaml += std::string("  - technique: aaps\n    params: {") + common + ", msaa: " + mode + "}\n";
+  const Frames frames{256, 192, 10, 8, 1, kAapsPathVertices};
+  const char* modes[] = {"none", "all", "all_per_sample", "small_per_sample"};
+  std::string yaml = header(dir, frames) + "techniques:\n";
+  for (const char* mode : modes)
+    yaml += fmt::format(
+        "  - technique: aaps\n    params: {{density_resolution: 32, target_area: 19, msaa: {}}}\n",
+        mode);
   ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
 
   CornellGlass c;
   pb::trace::ReferenceCache cache(dir / "refs");
   pb::trace::ReferenceOptions options;
   options.samples = kReferenceSamples;
-  const uint32_t frame = uint32_t(warmup);
-  pb::io::Image reference = cache.get_or_render(
-      c.scene, c.scene.at(frame), pb::trace::PathClass::caustics, kWidth, kHeight, options);
-  double reference_sum = image_sum(reference);
+  options.max_bounces = kAapsPathVertices;
+  std::vector<double> reference;
+  for (int f = frames.warmup; f < frames.warmup + frames.count; ++f)
+    reference.push_back(image_sum(cache.get_or_render(c.scene, c.scene.at(uint32_t(f)),
+                                                      pb::trace::PathClass::caustics, frames.width,
+                                                      frames.height, options)));
+  const double reference_sum = std::accumulate(reference.begin(), reference.end(), 0.0);
   ASSERT_GT(reference_sum, 0);
-  std::map<std::string, double> ratio;
-  for (const char* mode : {"none", "all", "all_per_sample", "small_per_sample"}) {
+  std::map<std::string, double> ratio, standard_error;
+  for (const char* mode : modes) {
     fs::path cell = find_cell(dir, "aaps", {{"msaa", mode}});
     ASSERT_FALSE(cell.empty()) << mode;
     auto record = read_json(cell / "cell.json");
     EXPECT_EQ(record["status"], "ok") << record.dump();
     EXPECT_EQ(record["validation"], true);
-    ratio[mode] = image_sum(frame_image(cell, int(frame), "caustics")) / reference_sum;
-    std::printf("msaa %-16s screen caustics / reference = %.4f\n", mode, ratio[mode]);
+    double sum = 0, square_sum = 0;
+    std::string per_frame;
+    for (int i = 0; i < frames.count; ++i) {
+      double frame_sum = image_sum(frame_image(cell, frames.warmup + i, "caustics"));
+      double r = frame_sum / reference[size_t(i)];
+      sum += frame_sum, square_sum += r * r;
+      per_frame += fmt::format(" {:.3f}", r);
+    }
+    ratio[mode] = sum / reference_sum;
+    double mean_square = square_sum / frames.count;
+    double frame_mean = ratio[mode];  // close to the mean of the per-frame ratios
+    standard_error[mode] =
+        std::sqrt(std::max(0.0, mean_square - frame_mean * frame_mean) / double(frames.count - 1));
+    std::printf("msaa %-16s screen caustics / reference = %.4f (+- %.3f; frames%s)\n", mode,
+                ratio[mode], standard_error[mode], per_frame.c_str());
   }
-  EXPECT_NEAR(ratio["none"], 1.0, 0.05);
+  EXPECT_NEAR(ratio["all_per_sample"], 1.0, 0.05);
+  EXPECT_NEAR(ratio["small_per_sample"], 1.0, 0.05);
+  EXPECT_NEAR(ratio["none"], 1.0, std::max(0.05, 3 * standard_error["none"]));
   EXPECT_LT(ratio["all"], ratio["none"] - 0.05);
 }
 
-// Per-frame values of one counter, in frame order.
-std::vector<double> counter_series(const fs::path& cell, const std::string& name) {
-  std::vector<double> values;
-  std::ifstream in(cell / "counters.csv");
-  std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string frame, counter, value;
-    std::getline(row, frame, ',');
-    std::getline(row, counter, ',');
-    std::getline(row, value, ',');
-    if (counter == name) values.push_back(std::stod(value));
+// §5.1.2's per-sample depth test against the single-sample G-buffer: a sample off the pixel centre
+// is compared with the receiver's tangent plane met along its own ray, not with the centre's
+// distance, whose error (depth gradient x offset) exceeds the 1% margin on cornell-glass's floor at
+// 128x96. So tightening the margin from 5% to 1% drops per sample about what it drops at pixel
+// rate, what the sphere hides near its foot (measured: pixel rate keeps 0.968 of the energy, per
+// sample 0.939; with the centre's distance per sample kept 0.576).
+TEST(Aaps, PerSampleDepthTestFollowsTheReceiver) {
+  fs::path dir = work_dir("depth");
+  std::string yaml = header(dir, {128, 96, 10, 1, 0}) +
+                     "techniques:\n"
+                     "  - technique: aaps\n"
+                     "    params: {density_resolution: 32, msaa: [none, all_per_sample], "
+                     "depth_margin: [0.01, 0.05]}\n";
+  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  std::map<std::string, double> kept;
+  for (const char* mode : {"none", "all_per_sample"}) {
+    std::map<std::string, double> energy;
+    for (const char* margin : {"0.01", "0.05"}) {
+      fs::path cell = find_cell(dir, "aaps", {{"msaa", mode}, {"depth_margin", margin}});
+      ASSERT_FALSE(cell.empty()) << mode << " " << margin;
+      energy[margin] = counters(cell)["caustic_energy"];
+    }
+    ASSERT_GT(energy["0.05"], 0);
+    kept[mode] = energy["0.01"] / energy["0.05"];
+    std::printf("%s caustic energy, margin 1%% / 5%%: %.4f\n", mode, kept[mode]);
   }
-  return values;
+  EXPECT_GT(kept["all_per_sample"], kept["none"] - 0.05);
 }
 
 // §1.4 / §1.10: the sphere covers under 2% of the point light's directions, so a uniform task
@@ -253,7 +295,7 @@ std::vector<double> counter_series(const fs::path& cell, const std::string& name
 // on screen, and the recorded share of emitted photons rises over the first frames and stays up.
 TEST(Aaps, DensityConcentratesOnTheCaustic) {
   fs::path dir = work_dir("adaptivity");
-  std::string yaml = header(dir, 0, 12) +
+  std::string yaml = header(dir, {128, 96, 0, 12, 12}) +
                      "techniques:\n"
                      "  - technique: aaps\n"
                      "    params: {density_resolution: 16, target_area: 1}\n";

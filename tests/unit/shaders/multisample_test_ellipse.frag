@@ -1,0 +1,2 @@
+#version 460
+#include "multisample_test_ellipse.glsl"
