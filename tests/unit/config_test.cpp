@@ -110,6 +110,14 @@ TEST(Files, AreRegularAndBounded) {
   EXPECT_EQ(read_text_file(file, 2048, "test file").size(), 2048u);
   EXPECT_NE(error_of([&] { read_text_file(file, 2047, "test file"); }).find("larger than"),
             std::string::npos);
+  // Larger than the reader's chunks: read whole and in order, and bounded to the byte.
+  std::string text;
+  for (int i = 0; text.size() < 300000; ++i) text += std::to_string(i) + '\n';
+  std::ofstream(file, std::ios::trunc) << text;
+  EXPECT_EQ(read_text_file(file, text.size(), "test file"), text);
+  EXPECT_NE(
+      error_of([&] { read_text_file(file, text.size() - 1, "test file"); }).find("larger than"),
+      std::string::npos);
   std::filesystem::remove(file);
 }
 

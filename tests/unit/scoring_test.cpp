@@ -14,6 +14,7 @@
 #include "config/config.h"
 #include "io/image.h"
 #include "io/results.h"
+#include "metrics/flicker.h"
 #include "metrics/metrics.h"
 #include "metrics/noise_floor.h"
 #include "photonbench/error.h"
@@ -26,14 +27,79 @@ namespace {
 
 const std::filesystem::path kTemp = std::filesystem::path(testing::TempDir()) / "pb_scoring_test";
 
-config::Config load(const std::string& reference_block) {
+config::Config load(const std::string& reference_block,
+                    const std::string& frames = "{warmup: 0, count: 1, metrics_every: 1}") {
   std::filesystem::create_directories(kTemp);
   auto file = kTemp / "config.yaml";
-  std::ofstream(file) << "name: t\nresolution: [32, 18]\nframes: {warmup: 0, count: 1, "
-                         "metrics_every: 1}\nscenes: [" PB_SOURCE_DIR
+  std::ofstream(file) << "name: t\nresolution: [32, 18]\nframes: " << frames
+                      << "\nscenes: [" PB_SOURCE_DIR
                          "/scenes/cornell-box.yaml]\ntechniques:\n  - technique: direct\n"
                       << reference_block;
   return config::load_config(file, {});
+}
+
+// Every metrics_every-th measured frame and the metrics_window - 1 after it, from the first
+// measured frame, inside the measured frames, each once.
+TEST(Scoring, MetricFramesAreWindowsFromEveryNthFrame) {
+  using Frames = std::vector<uint32_t>;
+  EXPECT_EQ(metric_frames(load("", "{warmup: 2, count: 9, metrics_every: 4}")), (Frames{2, 6, 10}));
+  EXPECT_EQ(metric_frames(load("", "{warmup: 2, count: 9, metrics_every: 4, metrics_window: 2}")),
+            (Frames{2, 3, 6, 7, 10}));
+  EXPECT_EQ(metric_frames(load("", "{warmup: 0, count: 5, metrics_every: 2, metrics_window: 3}")),
+            (Frames{0, 1, 2, 3, 4}));
+  EXPECT_EQ(metric_frames(load("", "{warmup: 0, count: 5, metrics_every: 0, metrics_window: 3}")),
+            Frames{});
+  try {
+    load("", "{count: 5, metrics_window: 0}");
+    FAIL() << "metrics_window: 0 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frames.metrics_window"), std::string::npos) << e.what();
+  }
+}
+
+// Flicker compares a frame with the frame before only: of metric frames 0, 1 and 3, frame 1
+// carries it (against 0), frame 3 does not (frame 2 was not scored), and it equals
+// metrics::flicker of the two frames' images and references.
+TEST(Scoring, FlickerComparesConsecutiveFramesOnly) {
+  const config::Config c =
+      load(fmt::format("reference: {{samples: 8, cache_dir: {}}}\n", (kTemp / "cache").string()),
+           "{warmup: 0, count: 4, metrics_every: 3, metrics_window: 2}");
+  const std::vector<uint32_t> frames = metric_frames(c);
+  ASSERT_EQ(frames, (std::vector<uint32_t>{0, 1, 3}));
+  const scene::Scene scene = scene::load_scene(PB_SOURCE_DIR "/scenes/cornell-box.yaml");
+  const std::filesystem::path dir = kTemp / "flicker";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "images");
+  for (uint32_t f : frames) {
+    io::Image output(32, 18, 4);
+    for (size_t i = 0; i < output.pixels.size(); ++i)
+      output.pixels[i] = i % 4 == 3 ? 1.f : 0.2f + 0.05f * float(f) + 0.01f * float(i % 7);
+    io::write_image(dir / "images" / fmt::format("frame_{:04d}.exr", f), output);
+  }
+  score_cell(c, Cell{}, scene, frames, "combined", dir);
+  const auto csv = io::read_csv(dir / "metrics.csv");
+  ASSERT_EQ(csv.size(), 4u);
+  const size_t flicker_column = csv[0].size() - 2;
+  ASSERT_EQ(csv[0][flicker_column], "flicker");
+  EXPECT_EQ(csv[1][flicker_column], "");  // frame 0: nothing before
+  EXPECT_EQ(csv[3][0], "3");
+  EXPECT_EQ(csv[3][flicker_column], "");  // frame 3: frame 2 was not scored
+  ASSERT_EQ(csv[2][0], "1");
+  trace::ReferenceCache cache(kTemp / "cache");
+  // NoisyReference refers to the images: the entries stay alive here.
+  const auto before =
+      cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18, reference_options(c));
+  const auto after =
+      cache.get_entry(scene, scene.at(1), trace::PathClass::combined, 32, 18, reference_options(c));
+  ASSERT_TRUE(before && after);
+  // The outputs as scored: read back from the files the cell wrote.
+  const metrics::Flicker expected =
+      metrics::flicker({before->mean, before->variance, before->half[0], before->half[1]},
+                       {after->mean, after->variance, after->half[0], after->half[1]},
+                       io::read_image(dir / "images" / "frame_0000.exr"),
+                       io::read_image(dir / "images" / "frame_0001.exr"));
+  EXPECT_NEAR(std::stod(csv[2][flicker_column]) / expected.value, 1.0, 1e-5);
+  EXPECT_NEAR(std::stod(csv[2][flicker_column + 1]) / expected.floor, 1.0, 1e-5);
 }
 
 std::vector<std::string> names(const std::vector<ScoredReference>& refs) {

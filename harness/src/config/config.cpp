@@ -125,7 +125,10 @@ const KeyTable kFramesTable{
       "frames played before timing starts (not recorded)"},
      {"count", integer_type(1, kMaxMeasuredFrames), false, 32, "measured frames"},
      {"metrics_every", integer_type(0, kMaxMeasuredFrames), false, 8,
-      "score every Nth measured frame against its reference (0: never)"}}};
+      "score every Nth measured frame against its reference (0: never)"},
+     {"metrics_window", integer_type(1, kMaxMeasuredFrames), false, 1,
+      "frames scored in a row from each of those: 2 or more also measures flicker, which "
+      "compares consecutive frames only"}}};
 
 const KeyTable kReferenceTable{
     "config.reference",
@@ -259,6 +262,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   config.frames.warmup = uint32_t(kFramesTable.integer(frames, "warmup"));
   config.frames.count = uint32_t(kFramesTable.integer(frames, "count"));
   config.frames.metrics_every = uint32_t(kFramesTable.integer(frames, "metrics_every"));
+  config.frames.metrics_window = uint32_t(kFramesTable.integer(frames, "metrics_window"));
   config.seed = uint64_t(kConfigTable.integer(root, "seed"));
   config.seeds = uint32_t(kConfigTable.integer(root, "seeds"));
 

@@ -24,7 +24,8 @@ inline constexpr size_t kMaxNameLength = 100;
 struct FrameSettings {
   uint32_t warmup = 4;
   uint32_t count = 32;
-  uint32_t metrics_every = 8;  // score every Nth measured frame (0: never)
+  uint32_t metrics_every = 8;   // score every Nth measured frame (0: never)
+  uint32_t metrics_window = 1;  // and the frames after it: this many scored in a row (flicker)
 };
 
 // How references are rendered (trace/reference.h): a frame's render stops at the first stop rule

@@ -68,11 +68,16 @@ std::string read_text_file(const std::filesystem::path& file, size_t max_bytes, 
                                  file.string(), what));
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError(fmt::format("{}: cannot open {}", file.string(), what));
-  // Read one byte past the limit rather than trust the size: /proc files say 0 and are not.
-  std::string text(max_bytes + 1, '\0');
-  in.read(text.data(), std::streamsize(text.size()));
+  // Read until the end or one byte past the limit rather than trust the size (/proc files say 0
+  // and are not), in chunks: a buffer of the limit's size (256 MiB for an OBJ) cost a page-faulted
+  // memset of all of it on every read.
+  std::string text;
+  char chunk[1 << 16];
+  while (text.size() <= max_bytes && in) {
+    in.read(chunk, std::streamsize(std::min(sizeof chunk, max_bytes + 1 - text.size())));
+    text.append(chunk, size_t(in.gcount()));
+  }
   if (in.bad()) throw InputError(fmt::format("{}: cannot read {}", file.string(), what));
-  text.resize(size_t(in.gcount()));
   if (text.size() > max_bytes)
     throw InputError(
         fmt::format("{}: larger than {} MiB; not a {}", file.string(), max_bytes >> 20, what));

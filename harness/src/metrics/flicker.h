@@ -1,9 +1,10 @@
-// Flicker: how far a technique's change from one metric frame to the next is from the reference's
-// own change, per frame pair. A per-frame error (FLIP, RMSE) misses flicker: a technique whose
-// error is the same size every frame but of a fresh pattern (new photons each frame) scores as
-// well as one whose error stands still, yet only the second looks steady in an animation.
+// Flicker: how far a technique's change from one frame to the next is from the reference's own
+// change, per pair of consecutive frames (run/scoring.cpp scores it where both were scored). A
+// per-frame error (FLIP, RMSE) misses flicker: a technique whose error is the same size every
+// frame but of a fresh pattern (new photons each frame) scores as well as one whose error stands
+// still, yet only the second looks steady in an animation.
 //
-// For consecutive metric frames p and c, a technique's images T_p, T_c and the references' means
+// For consecutive frames p and c, a technique's images T_p, T_c and the references' means
 // R_p, R_c (linear values, the colour channels of every pixel):
 //
 //   flicker = RMS((T_c - T_p) - (R_c - R_p)) / RMS((R_c + R_p) / 2)

@@ -51,10 +51,13 @@ std::string class_image_name(uint32_t frame, trace::PathClass path_class) {
 }
 
 std::vector<uint32_t> metric_frames(const config::Config& config) {
+  const config::FrameSettings& f = config.frames;
   std::vector<uint32_t> frames;
-  if (config.frames.metrics_every == 0) return frames;
-  for (uint32_t i = 0; i < config.frames.count; i += config.frames.metrics_every)
-    frames.push_back(config.frames.warmup + i);
+  if (f.metrics_every == 0) return frames;
+  // Windows that overlap (metrics_window > metrics_every) score each frame once.
+  for (uint32_t start = 0; start < f.count; start += f.metrics_every)
+    for (uint32_t i = start; i < std::min(f.count, start + f.metrics_window); ++i)
+      if (frames.empty() || frames.back() < f.warmup + i) frames.push_back(f.warmup + i);
   return frames;
 }
 
@@ -75,8 +78,8 @@ namespace {
 
 // metrics.csv's columns after frame, path_class and reference: each score, then its noise floor
 // (metrics/noise_floor.h: what the true image scores against this reference), then the squared
-// errors with the reference's noise taken off, then the flicker since the previous metric frame and
-// its floor (metrics/flicker.h; empty on the first metric frame).
+// errors with the reference's noise taken off, then the flicker since the frame before and its
+// floor (metrics/flicker.h; empty unless that frame was scored too: frames.metrics_window).
 const std::vector<std::string> kScoreColumns = {"flip", "ssim", "psnr", "rmse", "relmse"};
 const std::vector<std::string> kExtraColumns = {"mse_unbiased", "relmse_unbiased", "flicker",
                                                 "flicker_floor"};
@@ -88,8 +91,12 @@ metrics::NoisyReference noisy_reference(const trace::ReferenceImage& reference) 
   return {reference.mean, reference.variance, reference.half[0], reference.half[1]};
 }
 
-// The previous metric frame of one class and reference: what the next frame's flicker compares.
+// The previous metric frame of one class and reference: what the next frame's flicker compares
+// when it is the frame just before (flicker compares consecutive frames only: over a gap of frames,
+// a technique that reuses work across frames would be compared with one that does not after the
+// reuse has been given up).
 struct ScoredFrame {
+  uint32_t frame;
   io::Image test;
   trace::ReferenceImage reference;
 };
@@ -198,8 +205,9 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
         io::Image error_map;
         const bool full = ref.name == "full";
         auto before = previous.find({ref.name, c});
+        const bool consecutive = before != previous.end() && before->second.frame + 1 == f;
         Row row = score_row(reference, test, full ? &error_map : nullptr,
-                            before == previous.end() ? nullptr : &before->second);
+                            consecutive ? &before->second : nullptr);
         std::vector<std::string> fields = {std::to_string(f), name, ref.name};
         for (size_t k = 3; k < header.size(); ++k)
           fields.push_back(csv_value(header[k], row[header[k]]));
@@ -212,7 +220,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
                           io::display_encode(reference.mean));
         }
         rows[ref.name][c].push_back(std::move(row));
-        previous[{ref.name, c}] = {test, reference};
+        previous[{ref.name, c}] = {f, test, reference};
         result.references.push_back({{"frame", f},
                                      {"path_class", name},
                                      {"reference", ref.name},

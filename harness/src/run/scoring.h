@@ -26,7 +26,7 @@ struct ScoreResult {
 };
 
 // The measured frames that are scored: every metrics_every-th, counted from the first measured
-// frame.
+// frame, each with the metrics_window - 1 frames after it.
 std::vector<uint32_t> metric_frames(const config::Config& config);
 // The reference class a technique's declared path class names (by class name or light path
 // expression).
