@@ -402,6 +402,40 @@ TEST(PhotonTracer, RetraceInvalidKeepsValidPathsAndMatchesAFreshTrace) {
   }
 }
 
+// A seed axis' tracer (seed_scramble) traces exactly what a plain tracer traces with the scrambled
+// seed, so its cells get photons of their own; and it keeps its paths across frames as a plain
+// one does (it re-validates them under the same scrambled seed: nothing is re-traced when nothing
+// moved).
+TEST(PhotonTracer, ASeedScrambleTracesOtherPathsAndKeepsThem) {
+  TestScene t;
+  uint32_t white = t.material(scene::MaterialType::diffuse, glm::vec3(0.7f));
+  t.object(box_mesh({-2, 0, -2}, {2, 3, 2}, true), white);
+  t.light(point_light({0, 2.5f, 0}, 1.f));
+  EmbreeScene world(t.scene, t.state);
+  TraceSettings s;
+  s.paths = 2000;
+  s.store = kAllPhotons;
+  s.max_bounces = 4;
+  s.keep_paths = true;
+  s.seed_per_frame = false;  // the kept paths' seed is then compared with the settings'
+  const uint32_t scramble = 77;
+  EmbreePhotonTracer plain(world), seeded(world, scramble);
+  PhotonBatch a, b, c;
+  plain.trace(s, a);
+  seeded.trace(s, b);
+  TraceSettings scrambled = s;
+  scrambled.seed = hash_combine(s.seed, scramble);
+  plain.trace(scrambled, c);
+  ASSERT_EQ(b.photons.size(), c.photons.size());
+  for (size_t i = 0; i < b.photons.size(); ++i)
+    ASSERT_EQ(std::memcmp(&b.photons[i], &c.photons[i], sizeof(PhotonRecord)), 0) << i;
+  EXPECT_NE(a.photons.front().position, b.photons.front().position);
+  TraceStats again = seeded.retrace_invalid(s, b);
+  EXPECT_EQ(again.paths_kept, s.paths);  // a fresh trace would keep none
+  EXPECT_EQ(again.paths_retraced, 0u);
+  EXPECT_EQ(b.photons.size(), c.photons.size());
+}
+
 TEST(PhotonTracer, RetraceInvalidRetracesWholePathsOfAMovedLight) {
   TestScene t;
   t.object(box_mesh({-2, 0, -2}, {2, 3, 2}, true),

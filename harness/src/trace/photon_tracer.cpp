@@ -427,9 +427,10 @@ struct Motion {
   bool moved_object(uint32_t object) const { return object < moved.size() && moved[object]; }
 };
 
-// (Sizes the tracer's per-light density tables to the lights first.)
+// (Sizes the tracer's per-light density tables to the lights first.) `path_seed`: the seed
+// settings would trace new paths with (EmbreePhotonTracer::path_seed).
 Motion find_motion(const EmbreeScene& world, const LightSet& lights, const LightPaths& old,
-                   const TraceSettings& settings,
+                   const TraceSettings& settings, uint32_t path_seed,
                    std::vector<std::shared_ptr<const Distribution2D>>& densities,
                    std::vector<uint32_t>& density_version) {
   densities.resize(std::max<size_t>(densities.size(), lights.size()));
@@ -442,7 +443,7 @@ Motion find_motion(const EmbreeScene& world, const LightSet& lights, const Light
                  old.paths_per_light.size() == n_emitters &&
                  old.object_to_world.size() == world.object_count() &&
                  old.light_state.size() == m.now_state.size() &&
-                 (settings.seed_per_frame || old.seed == settings.seed);
+                 (settings.seed_per_frame || old.seed == path_seed);
   // The split of paths among emitters depends on their power: a power change means a fresh trace.
   for (uint32_t e = 0; m.compatible && e < n_emitters; ++e)
     m.compatible = glm::vec3(old.light_state[e * kLightStateSize + 4]) ==
@@ -779,8 +780,13 @@ struct EmbreePhotonTracer::Scratch {
   TraceStats origin_stats;
 };
 
-EmbreePhotonTracer::EmbreePhotonTracer(const EmbreeScene& world)
-    : world_(world), scratch_(std::make_unique<Scratch>()) {}
+EmbreePhotonTracer::EmbreePhotonTracer(const EmbreeScene& world,
+                                       std::optional<uint32_t> seed_scramble)
+    : world_(world), seed_scramble_(seed_scramble), scratch_(std::make_unique<Scratch>()) {}
+
+uint32_t EmbreePhotonTracer::path_seed(const TraceSettings& settings) const {
+  return seed_scramble_ ? hash_combine(settings.seed, *seed_scramble_) : settings.seed;
+}
 EmbreePhotonTracer::~EmbreePhotonTracer() = default;
 
 uint32_t EmbreePhotonTracer::light_count() const { return LightSet(world_).size(); }
@@ -818,8 +824,8 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   out.photons.clear();
   out.paths = LightPaths{};
   TraceStats stats;
-  uint32_t seed =
-      settings.seed_per_frame ? hash_combine(settings.seed, world_.state().frame) : settings.seed;
+  uint32_t seed = settings.seed_per_frame ? hash_combine(path_seed(settings), world_.state().frame)
+                                          : path_seed(settings);
 
   std::vector<uint32_t> emitted(lights.size(), 0);  // paths emitted so far per light
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
@@ -916,7 +922,8 @@ TraceStats EmbreePhotonTracer::verify_paths(const TraceSettings& settings,
   auto t0 = std::chrono::steady_clock::now();
   LightPaths& old = batch.paths;
   LightSet lights(world_);
-  Motion motion = find_motion(world_, lights, old, settings, densities_, density_version_);
+  Motion motion =
+      find_motion(world_, lights, old, settings, path_seed(settings), densities_, density_version_);
   Scratch& scratch = *scratch_;
   scratch.verify_stats = TraceStats{};
   if (!motion.compatible) {
@@ -976,7 +983,8 @@ TraceStats EmbreePhotonTracer::update_origins(const TraceSettings& settings,
   auto t0 = std::chrono::steady_clock::now();
   LightPaths& old = batch.paths;
   LightSet lights(world_);
-  Motion motion = find_motion(world_, lights, old, settings, densities_, density_version_);
+  Motion motion =
+      find_motion(world_, lights, old, settings, path_seed(settings), densities_, density_version_);
   Scratch& scratch = *scratch_;
   scratch.origins.clear();
   TraceStats stats;
@@ -1324,8 +1332,9 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
   return stats;
 }
 
-std::unique_ptr<PhotonTracer> make_photon_tracer(const EmbreeScene& world) {
-  return std::make_unique<EmbreePhotonTracer>(world);
+std::unique_ptr<PhotonTracer> make_photon_tracer(const EmbreeScene& world,
+                                                 std::optional<uint32_t> seed_scramble) {
+  return std::make_unique<EmbreePhotonTracer>(world, seed_scramble);
 }
 
 }  // namespace pb::trace

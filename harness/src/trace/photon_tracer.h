@@ -20,6 +20,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "photonbench/photons.h"
@@ -30,7 +31,11 @@ namespace pb::trace {
 
 class EmbreePhotonTracer final : public PhotonTracer {
  public:
-  explicit EmbreePhotonTracer(const EmbreeScene& world);
+  // With `seed_scramble`, every trace's seed is hash_combine(settings.seed, *seed_scramble): a seed
+  // axis' cell (run/world.cpp) traces photons independent of the other seeds' while the techniques
+  // keep their own settings. Without, settings.seed is used as it is.
+  explicit EmbreePhotonTracer(const EmbreeScene& world,
+                              std::optional<uint32_t> seed_scramble = std::nullopt);
   ~EmbreePhotonTracer() override;
   uint32_t light_count() const override;
   glm::vec3 light_power(uint32_t light) const override;
@@ -49,7 +54,10 @@ class EmbreePhotonTracer final : public PhotonTracer {
 
  private:
   struct Scratch;
+  // The seed light paths are traced with (before the per-frame hash of seed_per_frame).
+  uint32_t path_seed(const TraceSettings& settings) const;
   const EmbreeScene& world_;
+  std::optional<uint32_t> seed_scramble_;
   std::unique_ptr<Scratch> scratch_;
   std::vector<std::shared_ptr<const Distribution2D>> densities_;
   std::vector<uint32_t> density_version_;
@@ -80,6 +88,7 @@ class GridEmission {
   std::vector<uint32_t> m_;      // Morton position -> m
 };
 
-std::unique_ptr<PhotonTracer> make_photon_tracer(const EmbreeScene& world);
+std::unique_ptr<PhotonTracer> make_photon_tracer(
+    const EmbreeScene& world, std::optional<uint32_t> seed_scramble = std::nullopt);
 
 }  // namespace pb::trace
