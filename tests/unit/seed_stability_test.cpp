@@ -155,11 +155,14 @@ TEST(ZTest, ExactPixelsPassWhenEqualAndRejectWhenNot) {
   const io::Image image = ramp(1), zero = filled(image, 0);
   const metrics::ZTestResult same = metrics::z_test(image, zero, image, zero);
   EXPECT_EQ(same.exact, same.tested);
+  EXPECT_EQ(same.exact_mismatches, 0u);
   EXPECT_EQ(same.p_value, 1.0);
   io::Image other = image;
   other.pixels[5] += 0.001f;
   const metrics::ZTestResult differs = metrics::z_test(image, zero, other, zero);
   EXPECT_EQ(differs.rejected, 1u);
+  EXPECT_EQ(differs.exact_mismatches, 1u);
+  EXPECT_EQ(differs.rejected_share_with_variance(), 0.0);  // no pixel-channel has a variance
   EXPECT_EQ(differs.p_value, 0.0);
   EXPECT_THROW(metrics::z_test(image, zero, image, zero, 1.5), InputError);
   EXPECT_THROW(metrics::z_test(image, filled(image, -1), image, zero), InputError);

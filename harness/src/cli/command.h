@@ -20,4 +20,18 @@ struct CommandRegistration {
   CommandRegistration(const char* name, AddCommand add);
 };
 
+// The options of a command that runs a benchmark's cells (`run`, `stability`): where the run goes,
+// on which device, which config keys are overridden, and whether it resumes or validates.
+template <class RunOptions>
+void add_run_options(CLI::App* cmd, RunOptions& options) {
+  cmd->add_option("--out", options.out_dir, "run folder (default results/<name>-<time>)");
+  cmd->add_option("--device", options.device,
+                  "Vulkan device whose name contains this (default: lavapipe)");
+  cmd->add_option("--set", options.overrides,
+                  "override a config key: key.path=value, or key+=value to append (repeatable)");
+  cmd->add_flag("--resume", options.resume, "continue the run in --out, skipping complete cells");
+  cmd->add_flag("--validation", options.validation,
+                "Vulkan validation layers on; an error fails the cell");
+}
+
 }  // namespace pb::cli

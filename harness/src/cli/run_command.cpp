@@ -14,11 +14,7 @@ void add_run(CLI::App& app, int& exit_code) {
   cmd->add_option("config", options->config_file, "the YAML config")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--out", options->out_dir, "run folder (default results/<name>-<time>)");
-  cmd->add_option("--device", options->device,
-                  "Vulkan device whose name contains this (default: lavapipe)");
-  cmd->add_option("--set", options->overrides,
-                  "override a config key: key.path=value, or key+=value to append (repeatable)");
+  pb::cli::add_run_options(cmd, *options);
   auto plugin_dirs = std::make_shared<std::vector<std::string>>();
   cmd->add_option("--plugin-dir", *plugin_dirs,
                   "also load technique plugins from this folder (repeatable)")
@@ -32,9 +28,6 @@ void add_run(CLI::App& app, int& exit_code) {
                   "K: run every cell with K seeds (config seed + 0 .. K - 1); the same as --set "
                   "seeds=K")
       ->check(CLI::Range(1, 1000));
-  cmd->add_flag("--resume", options->resume, "continue the run in --out, skipping complete cells");
-  cmd->add_flag("--validation", options->validation,
-                "Vulkan validation layers on; an error fails the cell");
   cmd->callback([options, plugin_dirs, shard, seeds, &exit_code] {
     if (!shard->empty()) options->shard = pb::run::parse_shard(*shard);
     if (*seeds > 0) options->overrides.push_back("seeds=" + std::to_string(*seeds));

@@ -17,14 +17,8 @@ void add_stability(CLI::App& app, int& exit_code) {
                   "a stability file: a benchmark config's keys with `stability` and `scenarios`")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--out", options->out_dir, "run folder (default results/<name>-<time>)");
-  cmd->add_option("--device", options->device,
-                  "Vulkan device whose name contains this (default: lavapipe)");
-  cmd->add_option("--set", options->overrides,
-                  "override a key of the generated benchmark config: key.path=value (repeatable)");
-  cmd->add_flag("--resume", options->resume, "continue the run in --out, skipping complete cells");
-  cmd->add_flag("--validation", options->validation,
-                "Vulkan validation layers on; an error fails the cell");
+  // --set overrides keys of the generated benchmark config.
+  pb::cli::add_run_options(cmd, *options);
   cmd->callback([options, &exit_code] {
     if (std::getenv("PB_VALIDATION")) options->validation = true;
     exit_code = pb::run::run_stability(*options);

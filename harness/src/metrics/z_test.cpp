@@ -41,6 +41,7 @@ ZTestResult z_test(const io::Image& mean_a, const io::Image& var_a, const io::Im
         } else {
           ++out.exact;
           p = diff == 0 ? 1.0 : 0.0;
+          out.exact_mismatches += diff != 0;
         }
         out.min_p = std::min(out.min_p, p);
         out.rejected += p < out.sidak_level;

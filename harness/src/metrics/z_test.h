@@ -26,10 +26,17 @@ struct ZTestResult {
   // Pixel-channels with no variance on either side: equal values pass (p_i = 1), different ones
   // reject (p_i = 0): two exact values that differ are not the same image.
   size_t exact = 0;
+  size_t exact_mismatches = 0;  // of those, the ones whose two values differ
   double alpha = 0, sidak_level = 0;
   double min_p = 1;    // the smallest p_i
   double p_value = 1;  // 1 - (1 - min_p)^tested
   bool equal() const { return p_value >= alpha; }
+  // The share of the pixel-channels with a variance that reject (the exact ones left out): for a
+  // check that tolerates a few, as the reference renderer's agreement tests do.
+  double rejected_share_with_variance() const {
+    const size_t with_variance = tested - exact;
+    return with_variance ? double(rejected - exact_mismatches) / double(with_variance) : 0.0;
+  }
 };
 
 // var_a and var_b are the variances of mean_a and mean_b (of the means, not of one sample), with
