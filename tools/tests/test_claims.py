@@ -10,7 +10,7 @@ import tempfile
 import unittest
 
 import common  # noqa: F401  (import paths for pbtools)
-from pbtools.claims import paper1
+from pbtools.claims import paper1, paper2
 from pbtools.rundata import Run
 
 
@@ -58,11 +58,14 @@ def make_run(root):
         json.dump({"config": "resolution: [320, 180]\n", "overrides": [], "device": "test"}, f)
 
 
-class ClaimsPaper1Test(unittest.TestCase):
+class ClaimsCase(unittest.TestCase):
+    """A paper's claims on a hand-made run (make: the run's writer, paper: its claims module)."""
+    make, paper = None, None
+
     def setUp(self):
         self.dir = tempfile.mkdtemp(prefix="pb_claims_")
-        make_run(self.dir)
-        self.text = paper1.claims(Run(self.dir))
+        type(self).make(self.dir)
+        self.text = self.paper.claims(Run(self.dir))
 
     def tearDown(self):
         shutil.rmtree(self.dir)
@@ -72,6 +75,13 @@ class ClaimsPaper1Test(unittest.TestCase):
             if all(n in line for n in needles):
                 return line
         self.fail(f"no line with {needles} in:\n{self.text}")
+
+    def cells(self, *needles):
+        return [c.strip() for c in self.row(*needles).split("|")[1:-1]]
+
+
+class ClaimsPaper1Test(ClaimsCase):
+    make, paper = make_run, paper1
 
     def test_tiled_over_cluster_is_averaged_per_frame_with_its_peak(self):
         # splat + estimate: tiled 60 and 20 ms, cluster 20 and 20 ms -> 3x and 1x: mean 2x, peak 3x.
@@ -100,3 +110,57 @@ class ClaimsPaper1Test(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+def make_paper2_run(root):
+    """Three walker cells, one per reuse variant, over frames 0..3: the baseline traces 100 rays every
+    frame; naive 100, 20, 10, 0 and error_based 100, 10, 10, 0 (the figure stands still in frame 3)."""
+    rays = {"none": [100, 100, 100, 100], "naive": [100, 20, 10, 0], "error_based": [100, 10, 10, 0]}
+    header = ["cell", "scene", "technique", "status", "param.photons", "param.reuse"]
+    rows = []
+    for reuse, per_frame in rays.items():
+        cid = f"walker__pv__{reuse}"
+        rows.append([cid, "walker", "path-verification", "ok", "1000", reuse])
+        d = os.path.join(root, "cells", cid)
+        os.makedirs(d)
+        write_csv(os.path.join(d, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"],
+                  [[f, "photon-trace", 1 + r / 10, 0.1] for f, r in enumerate(per_frame)])
+        write_csv(os.path.join(d, "counters.csv"), ["frame", "name", "value"],
+                  [[f, n, v] for f, r in enumerate(per_frame)
+                   for n, v in (("rays_traced", r), ("paths_kept", 100 - r), ("full_retrace_rays", 100))])
+        relmse = {"none": 0.04, "naive": 0.042, "error_based": 0.044}[reuse]
+        write_csv(os.path.join(d, "metrics.csv"),
+                  ["frame", "path_class", "reference", "relmse", "relmse_floor", "flicker", "flicker_floor"],
+                  [[0, "indirect", "full", relmse, 0.004, "", ""],
+                   [1, "indirect", "full", relmse, 0.004, 0.1 if reuse == "none" else 0.05, 0.01]])
+        with open(os.path.join(d, "cell.json"), "w") as f:
+            json.dump({"status": "ok"}, f)
+    write_csv(os.path.join(root, "summary.csv"), header, rows)
+    with open(os.path.join(root, "run.json"), "w") as f:
+        json.dump({"config": "resolution: [160, 90]\n", "overrides": [], "device": "test"}, f)
+
+
+class ClaimsPaper2Test(ClaimsCase):
+    """Paper II's tables: ratios per frame over the frames after the first (where the variant traced
+    anything), the per-frame rays of every variant, naive over error-based with its peak frame, the
+    errors and flicker against the baseline with their floors."""
+    make, paper = make_paper2_run, paper2
+
+    def test_baseline_over_variant_rays_per_frame_with_the_peak(self):
+        # naive: frames 1, 2 -> 100/20 = 5, 100/10 = 10 (frame 3 traced nothing): mean 7.5, peak 10.
+        self.assertEqual(self.cells("| walker |", "| naive |", "up to 5×")[3], "7.50× (10.00×)")
+        self.assertEqual(self.cells("| walker |", "| error_based |", "up to 5×")[3], "10.00× (10.00×)")
+
+    def test_fig7_rows_hold_every_variant_and_naive_over_error_based(self):
+        self.assertEqual(self.cells("| walker |", "| 0 | 100 |")[3:], ["100", "100", "100", "1.00×"])
+        self.assertEqual(self.cells("| walker |", "| 3 | 100 |")[3:], ["100", "0", "0", "–"])
+
+    def test_naive_over_error_based_and_its_peak_frame(self):
+        c = self.cells("| walker |", "2× near frame 250")
+        self.assertEqual(c[2], "1.50× (2.00×)")  # frames 1, 2: 20/10, 10/10
+        self.assertEqual(c[3], "1")
+
+    def test_errors_and_flicker_beside_their_floors_and_the_baseline(self):
+        c = self.cells("| walker |", "| error_based |", "0.0440")
+        self.assertEqual(c[3:6], ["0.0440", "0.0040", "1.100"])
+        self.assertEqual(c[9:12], ["0.0500", "0.0100", "0.500"])

@@ -3,7 +3,8 @@ measured on a run of configs/paper2.yaml.
 
 The comparisons, with the paper's statements (digest seed002-papers-I-II.md §7.5):
   * rays traced per frame against the baseline (reuse: none): "reduce the number of rays traced by up to
-    5x"; armadillo 5x (naive); merry-go-round "almost half as many rays as the baseline";
+    5x"; armadillo 5x (naive); merry-go-round "almost half as many rays as the baseline"; and the rays of
+    every variant frame by frame (Fig. 7 analogue);
   * error-based against naive: "close to 1.5x as many rays" reused on the merry-go-round, "only half the
     number of rays" near frame 250 of armadillo; villa (a moving light only): "no differences";
   * tracing time (pass photon-trace): "a 3x decrease" for 5x fewer rays;
@@ -11,11 +12,12 @@ The comparisons, with the paper's statements (digest seed002-papers-I-II.md §7.
     compared to the average baseline time of 60 ms"; per-step time (Fig. 8 analogue);
   * memory per structure (Table 1 analogue, MiB);
   * what the paper never measured: the estimate's error against the reference over the animation
-    (relMSE and FLIP of the indirect class, the variant's mean against the baseline's). Flicker is
-    left out: the cells keep no reference image per frame to difference against.
+    (relMSE and FLIP of the indirect class, the variant's mean against the baseline's, with the
+    reference's noise floor beside them) and flicker between consecutive frames (the frame pairs of
+    frames.metrics_window), with its floor.
 A "variant" is a cell's `reuse` (none, naive, error_based); cells are grouped by scene and the other
 parameters (splatter, photons, ...). Ratios are per frame (same frame index), then averaged; "peak" is the
-largest per-frame ratio.
+largest per-frame ratio. The shipped stand-ins: walker for the armadillo, merry-go-round and villa by name.
 """
 
 import math
@@ -47,6 +49,14 @@ TABLE1 = [
 ]
 
 
+# What the paper states per scene: baseline / variant rays, and naive / error-based rays.
+PAPER_RAYS = {"merry-go-round": "about 2×", "walker": "up to 5× (armadillo)", "villa": "–"}
+PAPER_NAIVE_OVER_ERROR = {"merry-go-round": "up to 1.5× more reuse",
+                          "walker": "2× near frame 250 (armadillo)", "villa": "1× (no difference)"}
+FIG7_EVERY = 30  # frames between the rows of the per-frame rays table
+WALKER_PEAK = (240, 260)  # the frames around 250 where the paper's armadillo passes its light
+
+
 class MissingCells(Exception):
     pass
 
@@ -74,6 +84,15 @@ def mean_peak(r: np.ndarray) -> str:
     return f"{np.mean(r):.2f}× ({np.max(r):.2f}×)"
 
 
+def variant_pairs(grid: Dict[Tuple[str, str], Dict[str, Cell]], variants=("naive", "error_based")):
+    """(scene, setting, baseline cell, variant name, variant cell) for every variant with a baseline."""
+    for (scene, setting), kinds in sorted(grid.items()):
+        base = kinds.get("none")
+        for v in variants:
+            if base is not None and kinds.get(v) is not None:
+                yield scene, setting, base, v, kinds[v]
+
+
 def _f(v: Optional[float], digits: int = 2) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
@@ -99,25 +118,38 @@ def claims(run: Run) -> str:
     out += ["## Rays traced and trace time against the baseline",
             "(paper: up to 5× fewer rays; armadillo 5× fewer rays for 3× less trace time; merry-go-round "
             "about 2× fewer)", "",
-            "| scene | setting | variant | baseline / variant rays: mean (peak) | trace time (photon-trace): "
-            "mean (peak) | paths kept per frame | rays a full re-trace would trace / rays traced |",
-            "|---|---|---|---|---|---|---|"]
-    for (scene, setting), kinds in sorted(grid.items()):
-        base = kinds.get("none")
-        if base is None:
-            continue
+            "| scene | setting | variant | baseline / variant rays: mean (peak) | paper | trace time "
+            "(photon-trace): mean (peak) | paths kept per frame | rays a full re-trace would trace / rays "
+            "traced |",
+            "|---|---|---|---|---|---|---|---|"]
+    for scene, setting, base, v, c in variant_pairs(grid):
         b_rays = later(counter_series(base, "rays_traced"))
         b_time = later(pass_series(base, ("photon-trace",)))
-        for v in ("naive", "error_based"):
-            c = kinds.get(v)
-            if c is None:
-                continue
-            rays = later(counter_series(c, "rays_traced"))
-            kept = later(counter_series(c, "paths_kept"))
-            full = later(counter_series(c, "full_retrace_rays"))
-            out.append(f"| {scene} | {setting} | {v} | {mean_peak(frame_ratios(b_rays, rays))} | "
-                       f"{mean_peak(frame_ratios(b_time, later(pass_series(c, ('photon-trace',)))))} | "
-                       f"{_f(kept.mean() if len(kept) else None, 0)} | {mean_peak(frame_ratios(full, rays))} |")
+        rays = later(counter_series(c, "rays_traced"))
+        kept = later(counter_series(c, "paths_kept"))
+        full = later(counter_series(c, "full_retrace_rays"))
+        out.append(f"| {scene} | {setting} | {v} | {mean_peak(frame_ratios(b_rays, rays))} | "
+                   f"{PAPER_RAYS.get(scene, '–')} | "
+                   f"{mean_peak(frame_ratios(b_time, later(pass_series(c, ('photon-trace',)))))} | "
+                   f"{_f(kept.mean() if len(kept) else None, 0)} | {mean_peak(frame_ratios(full, rays))} |")
+    out.append("")
+
+    # -- 1b. rays frame by frame (Fig. 7) ------------------------------------------------------------
+    out += ["## Rays traced per frame (Fig. 7 analogue)",
+            f"(every {FIG7_EVERY}th frame and the last; rays_traced of each variant)", "",
+            "| scene | setting | frame | none | naive | error_based | naive / error_based |",
+            "|---|---|---|---|---|---|---|"]
+    for (scene, setting), kinds in sorted(grid.items()):
+        series = {v: counter_series(kinds[v], "rays_traced") for v in VARIANTS if v in kinds}
+        frames = sorted(set().union(*(s.index for s in series.values()))) if series else []
+        shown = [f for f in frames if f % FIG7_EVERY == 0 or f == frames[-1]]
+        for f in shown:
+            vals = {v: series[v].get(f) for v in series}
+            n, e = vals.get("naive"), vals.get("error_based")
+            ratio = f"{n / e:.2f}×" if n is not None and e else "–"
+            out.append(f"| {scene} | {setting} | {f} | " +
+                       " | ".join(_f(vals.get(v), 0) if vals.get(v) is not None else "–"
+                                  for v in VARIANTS) + f" | {ratio} |")
     out.append("")
 
     # -- 2. error-based against naive ----------------------------------------------------------------
@@ -125,7 +157,8 @@ def claims(run: Run) -> str:
             "(paper: up to 1.5× more reuse on the merry-go-round; half the rays near frame 250 of armadillo; "
             "villa: no difference)", "",
             "| scene | setting | naive / error_based rays: mean (peak) | frame of the peak | "
-            "paths kept: error_based / naive |", "|---|---|---|---|---|"]
+            f"walker, frames {WALKER_PEAK[0]}-{WALKER_PEAK[1]} | paper | paths kept: error_based / naive |",
+            "|---|---|---|---|---|---|---|"]
     for (scene, setting), kinds in sorted(grid.items()):
         n, e = kinds.get("naive"), kinds.get("error_based")
         if n is None or e is None:
@@ -133,7 +166,11 @@ def claims(run: Run) -> str:
         nr, er = later(counter_series(n, "rays_traced")), later(counter_series(e, "rays_traced"))
         r = (nr / er.where(er > 0)).dropna()
         peak = int(r.idxmax()) if len(r) else None
-        out.append(f"| {scene} | {setting} | {mean_peak(r.to_numpy(float))} | {peak if peak is not None else '–'} | "
+        window = r[(r.index >= WALKER_PEAK[0]) & (r.index <= WALKER_PEAK[1])]
+        near_250 = mean_peak(window.to_numpy(float)) if scene == "walker" else "–"
+        out.append(f"| {scene} | {setting} | {mean_peak(r.to_numpy(float))} | "
+                   f"{peak if peak is not None else '–'} | {near_250} | "
+                   f"{PAPER_NAIVE_OVER_ERROR.get(scene, '–')} | "
                    f"{mean_peak(frame_ratios(later(counter_series(e, 'paths_kept')), later(counter_series(n, 'paths_kept'))))} |")
     out.append("")
 
@@ -173,27 +210,26 @@ def claims(run: Run) -> str:
 
     # -- 5. quality and flicker (beyond the paper) ---------------------------------------------------
     out += ["## Error against the reference (the paper measured none)",
-            "(the issue's bar: within 10% of the baseline's relMSE at equal photon count; flicker: the "
-            "temporal metric of metrics.csv, the technique's change between metric frames against the "
-            "reference's own, empty with fewer than two metric frames)", "",
-            "| scene | setting | variant | relMSE (indirect) | / baseline | FLIP (indirect) | / baseline "
-            "| flicker (indirect) | / baseline |",
-            "|---|---|---|---|---|---|---|---|---|"]
+            "(the issue's bar: within 10% of the baseline's relMSE at equal photon count. Floors: what the "
+            "true image would score against these references, the means of metrics.csv's *_floor; a "
+            "ratio of errors far above their floors compares the techniques, not the references' noise. "
+            "Flicker: the technique's change from one frame to the next against the reference's own, over "
+            "the consecutive frame pairs the config scores, with its floor)", "",
+            "| scene | setting | variant | relMSE (indirect) | floor | / baseline | FLIP (indirect) | floor "
+            "| / baseline | flicker (indirect) | floor | / baseline |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for (scene, setting), kinds in sorted(grid.items()):
         base = kinds.get("none")
-        b_err = base.metric_mean("relmse", "indirect", FULL_REFERENCE) if base is not None else math.nan
-        b_flip = base.metric_mean("flip", "indirect", FULL_REFERENCE) if base is not None else math.nan
-        b_flicker = (base.metric_mean("flicker", "indirect", FULL_REFERENCE) if base is not None
-                     else math.nan)
         for v in VARIANTS:
             c = kinds.get(v)
             if c is None:
                 continue
-            err = c.metric_mean("relmse", "indirect", FULL_REFERENCE)
-            flip = c.metric_mean("flip", "indirect", FULL_REFERENCE)
-            flicker = c.metric_mean("flicker", "indirect", FULL_REFERENCE)
-            out.append(f"| {scene} | {setting} | {v} | {_f(err, 4)} | {_f(err / b_err if b_err else math.nan, 3)} | "
-                       f"{_f(flip, 4)} | {_f(flip / b_flip if b_flip else math.nan, 3)} | "
-                       f"{_f(flicker, 4)} | {_f(flicker / b_flicker if b_flicker else math.nan, 3)} |")
+            row = f"| {scene} | {setting} | {v} |"
+            for metric, digits in (("relmse", 4), ("flip", 4), ("flicker", 4)):
+                value = c.metric_mean(metric, "indirect", FULL_REFERENCE)
+                b = base.metric_mean(metric, "indirect", FULL_REFERENCE) if base is not None else math.nan
+                floor = c.metric_mean(metric + "_floor", "indirect", FULL_REFERENCE)
+                row += f" {_f(value, digits)} | {_f(floor, digits)} | {_f(value / b if b else math.nan, 3)} |"
+            out.append(row)
     out.append("")
     return "\n".join(out)
