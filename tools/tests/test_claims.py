@@ -10,7 +10,7 @@ import tempfile
 import unittest
 
 import common  # noqa: F401  (import paths for pbtools)
-from pbtools.claims import paper1, paper2
+from pbtools.claims import aaps, paper1, paper2
 from pbtools.rundata import Run
 
 
@@ -164,3 +164,50 @@ class ClaimsPaper2Test(ClaimsCase):
         c = self.cells("| walker |", "| error_based |", "0.0440")
         self.assertEqual(c[3:6], ["0.0440", "0.0040", "1.100"])
         self.assertEqual(c[9:12], ["0.0500", "0.0100", "0.500"])
+
+
+def make_aaps_run(root):
+    """cornell-glass, A_t 19 and 2 for none, all and all_per_sample: known FLIP, floors, flicker, frame
+    times and counters (one frame each)."""
+    # (msaa, A_t) -> (flip, flicker, ms, noncontributing share, energy)
+    cells = {("none", 19): (0.30, 0.10, 10, 0.30, 100), ("none", 2): (0.35, 0.20, 20, 0.60, 80),
+             ("all", 2): (0.36, 0.15, 30, 0.65, 24), ("all_per_sample", 2): (0.32, 0.12, 40, 0.10, 95)}
+    header = ["cell", "scene", "technique", "status", "param.msaa", "param.target_area"]
+    rows = []
+    for (msaa, area), (flip, flicker, ms, share, energy) in cells.items():
+        cid = f"cornell-glass__aaps__{msaa}_{area}"
+        rows.append([cid, "cornell-glass", "aaps", "ok", msaa, str(area)])
+        d = os.path.join(root, "cells", cid)
+        os.makedirs(d)
+        write_csv(os.path.join(d, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"],
+                  [[12, "photon-trace", ms / 2, 0.1], [12, "rasterize", ms / 2, 0.1]])
+        write_csv(os.path.join(d, "counters.csv"), ["frame", "name", "value"],
+                  [[12, "noncontributing_share", share], [12, "caustic_energy", energy]])
+        write_csv(os.path.join(d, "metrics.csv"),
+                  ["frame", "path_class", "reference", "flip", "flip_floor", "rmse", "flicker", "flicker_floor"],
+                  [[12, "caustics", "full", flip, 0.05, 0.01, "", ""],
+                   [13, "caustics", "full", flip, 0.05, 0.01, flicker, 0.02]])
+        with open(os.path.join(d, "cell.json"), "w") as f:
+            json.dump({"status": "ok"}, f)
+    write_csv(os.path.join(root, "summary.csv"), header, rows)
+    with open(os.path.join(root, "run.json"), "w") as f:
+        json.dump({"config": "resolution: [320, 160]\n", "overrides": [], "device": "test"}, f)
+
+
+class ClaimsAapsTest(ClaimsCase):
+    """AAPS's table (FLIP with its floor, flicker with its floor, time, counters) and the trends at the
+    smallest target area: all's energy against none's, per-sample's cut of the non-contributing share
+    and its cost, flicker per mode."""
+    make, paper = make_aaps_run, aaps
+
+    def test_table_rows_carry_floors_and_flicker(self):
+        self.assertEqual(self.cells("| cornell-glass | all_per_sample | 2 |")[3:9],
+                         ["0.32", "0.05", "0.01", "0.12", "0.02", "40"])
+
+    def test_trends_at_the_smallest_target_area(self):
+        self.assertIn("energy x0.3 of none", self.row("`all` at A_t = 2"))
+        self.assertIn("): non-contributing /6, time x2", self.row("`all_per_sample` at A_t = 2"))
+        self.assertIn("none 0.2, all 0.15, all_per_sample 0.12", self.row("flicker at A_t = 2"))
+
+    def test_quality_against_target_area_needs_three_areas(self):
+        self.assertNotIn("quality vs target area", self.text)
