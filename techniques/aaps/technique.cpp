@@ -58,8 +58,9 @@ const pb_param_spec kParams[] = {
      "largest ratio of the ellipse's principal semi-axes; above it the minor axis grows "
      "(§3.1.2; unspecified)"},
     {"cull_solid_angle", PB_PARAM_FLOAT, 0, 0, 1e6, nullptr, "sr",
-     "cull splats whose ellipse at one unit of emission parameter subtends more than this from "
-     "the light (§3.3.5; 0: no culling, the thesis's setting unless stated)"},
+     "cull splats whose ellipse, sized for the thesis's base sampling (1/512 of the emission "
+     "parameter), subtends more than this from the light (§3.3.5; 0: no culling, the thesis's "
+     "setting unless stated)"},
     {"depth_margin", PB_PARAM_FLOAT, 0.01, 0, 1, nullptr, "",
      "relative depth tolerance of a splat against the G-buffer (§3.3.4: 1%)"},
     {"msaa", PB_PARAM_ENUM, 0, 0, 3, "none|all|all_per_sample|small_per_sample", "",
@@ -90,6 +91,13 @@ constexpr pb::Counter kSamples{"msaa_samples", pb::CounterKind::size, "samples"}
 constexpr pb::Counter kEnergy{"caustic_energy", pb::CounterKind::size, "W/m^2 px"};
 
 enum class Msaa { none, all, all_per_sample, small_per_sample };
+
+// The emission-parameter spacing the culling rule sizes every splat for (§3.3.5): the thesis's
+// base sampling, a 256 x 256 density texture at its floor of 4 photons a texel (2 x 2 each), so
+// its thresholds (the lowest tested: 0.0014 sr) mean here what they meant there. The thesis's own
+// "perturbation size" is unstated; at one unit of the parameter (the first version's choice)
+// every cornell-glass photon subtended more than 0.1 sr, and every threshold it tested culled all.
+constexpr float kCullSpacing = 1.f / 512.f;
 
 // One quad corner: world position and quad barycentric u, barycentric v and the splat's
 // brightness (irradiance, W/m^2 RGB), the splat's index for the contribution flags.
@@ -323,13 +331,15 @@ class Aaps final : public pb::Technique {
       glm::vec2 extent = visible ? glm::abs(s1 - c) + glm::abs(s2 - c) : glm::vec2(0.f);
       bool in_frustum = visible && c.x + extent.x >= 0 && c.x - extent.x <= float(width_) &&
                         c.y + extent.y >= 0 && c.y - extent.y <= float(height_);
-      // §3.3.5: the ellipse at one unit of emission parameter (before the density rescale), as a
-      // solid angle seen from the light.
+      // §3.3.5: the ellipse's solid angle seen from the light, "calculated before scaling the
+      // photon's size based on the density texture resolution and sample count": sized for one
+      // fixed spacing of the emission parameter, whatever this photon's texel holds.
       bool too_big = false;
       if (cull_solid_angle_ > 0) {
         float spacing = 1.f / (float(side_) * float(std::max(1u, leaf.m)));
+        float scale = kCullSpacing / spacing;
         float d2 = light_distance_squared(ctx, p);
-        too_big = world_area / (spacing * spacing) / std::max(d2, 1e-12f) > cull_solid_angle_;
+        too_big = world_area * scale * scale / std::max(d2, 1e-12f) > cull_solid_angle_;
       }
       if (!in_frustum || too_big || !(world_area > 0)) {
         ++culled_;

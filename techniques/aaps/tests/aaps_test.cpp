@@ -290,6 +290,40 @@ TEST(Aaps, PerSampleDepthTestFollowsTheReceiver) {
   EXPECT_GT(kept["all_per_sample"], kept["none"] - 0.05);
 }
 
+// §3.3.5's culling, by a splat's solid angle from the light sized for one fixed sampling (the
+// thesis's base 1/512 of the emission parameter): its thresholds cull a share that falls as they
+// rise, from everything at a vanishing threshold to nothing at 1 sr, and the lowest it tested
+// (0.0014 sr) culls the larger splats, not all (measured on frame 0, before any feedback: 46%,
+// 0.01 sr 7%; sized at one unit of the parameter, 0.0014 sr culled all).
+TEST(Aaps, CullingThresholdsMeanWhatTheThesisTested) {
+  fs::path dir = work_dir("culling");
+  std::string yaml = header(dir, {128, 96, 0, 1, 0}) +
+                     "techniques:\n"
+                     "  - technique: aaps\n"
+                     "    params: {density_resolution: 32, cull_solid_angle: [0, 1e-9, 0.0014, 0.01, "
+                     "1]}\n";
+  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  auto culled = [&](const char* threshold) {
+    fs::path cell = find_cell(dir, "aaps", {{"cull_solid_angle", threshold}});
+    EXPECT_FALSE(cell.empty()) << threshold;
+    return counters(cell);
+  };
+  // Frame 0 emits the same photons in every cell: what cull_solid_angle 0 culls is the frustum's.
+  const auto none = culled("0");
+  const double frustum = none.at("photons_culled"), splats = none.at("photons_recorded") - frustum;
+  ASSERT_GT(splats, 50);
+  auto share = [&](const char* threshold) {
+    return (culled(threshold).at("photons_culled") - frustum) / splats;
+  };
+  std::printf("culled share: 1e-9 sr %.3f, 0.0014 sr %.3f, 0.01 sr %.3f, 1 sr %.3f\n",
+              share("1e-09"), share("0.0014"), share("0.01"), share("1"));
+  EXPECT_EQ(share("1e-09"), 1.0);
+  EXPECT_GT(share("0.0014"), share("0.01"));
+  EXPECT_LT(share("0.0014"), 0.9);
+  EXPECT_GT(share("0.01"), 0.0);
+  EXPECT_LT(share("1"), 0.01);
+}
+
 // §1.4 / §1.10: the sphere covers under 2% of the point light's directions, so a uniform task
 // buffer records few of its photons; the feedback moves density onto the texels whose photons land
 // on screen, and the recorded share of emitted photons rises over the first frames and stays up.
