@@ -179,7 +179,8 @@ struct Frames {
   uint32_t reference_bounces = 0;  // 0: untruncated
 };
 
-std::string header(const fs::path& dir, const Frames& f) {
+// A config of cornell-glass and one aaps entry with `params` (a list sweeps), run in `dir`.
+std::string aaps_config(const fs::path& dir, const Frames& f, const std::string& params) {
   return fmt::format(
       "name: aaps-test\n"
       "resolution: [{}, {}]\n"
@@ -188,9 +189,12 @@ std::string header(const fs::path& dir, const Frames& f) {
       "limits: {{cell_seconds: 300}}\n"
       "frames: {{warmup: {}, count: {}, metrics_every: {}}}\n"
       "metrics: [psnr]\n"
-      "reference: {{samples: {}, max_bounces: {}, cache_dir: {}}}\n",
+      "reference: {{samples: {}, max_bounces: {}, cache_dir: {}}}\n"
+      "techniques:\n"
+      "  - technique: aaps\n"
+      "    params: {{{}}}\n",
       f.width, f.height, f.warmup, f.count, f.metrics_every, kReferenceSamples, f.reference_bounces,
-      (dir / "refs").string());
+      (dir / "refs").string(), params);
 }
 
 double image_sum(const pb::io::Image& image) {
@@ -213,12 +217,11 @@ TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
   fs::path dir = work_dir("energy");
   const Frames frames{256, 192, 10, 8, 1, kAapsPathVertices};
   const char* modes[] = {"none", "all", "all_per_sample", "small_per_sample"};
-  std::string yaml = header(dir, frames) + "techniques:\n";
-  for (const char* mode : modes)
-    yaml += fmt::format(
-        "  - technique: aaps\n    params: {{density_resolution: 32, target_area: 19, msaa: {}}}\n",
-        mode);
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  ASSERT_EQ(run_config(dir, aaps_config(dir, frames,
+                                        "density_resolution: 32, target_area: 19, msaa: [none, "
+                                        "all, all_per_sample, small_per_sample]")),
+            0)
+      << "see " << (dir / "log.txt");
 
   CornellGlass c;
   pb::trace::ReferenceCache cache(dir / "refs");
@@ -269,12 +272,11 @@ TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
 // sample 0.939; with the centre's distance per sample kept 0.576).
 TEST(Aaps, PerSampleDepthTestFollowsTheReceiver) {
   fs::path dir = work_dir("depth");
-  std::string yaml = header(dir, {128, 96, 10, 1, 0}) +
-                     "techniques:\n"
-                     "  - technique: aaps\n"
-                     "    params: {density_resolution: 32, msaa: [none, all_per_sample], "
-                     "depth_margin: [0.01, 0.05]}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  ASSERT_EQ(run_config(dir, aaps_config(dir, {128, 96, 10, 1, 0},
+                                        "density_resolution: 32, msaa: [none, all_per_sample], "
+                                        "depth_margin: [0.01, 0.05]")),
+            0)
+      << "see " << (dir / "log.txt");
   std::map<std::string, double> kept;
   for (const char* mode : {"none", "all_per_sample"}) {
     std::map<std::string, double> energy;
@@ -297,12 +299,11 @@ TEST(Aaps, PerSampleDepthTestFollowsTheReceiver) {
 // 0.01 sr 7%; sized at one unit of the parameter, 0.0014 sr culled all).
 TEST(Aaps, CullingThresholdsMeanWhatTheThesisTested) {
   fs::path dir = work_dir("culling");
-  std::string yaml = header(dir, {128, 96, 0, 1, 0}) +
-                     "techniques:\n"
-                     "  - technique: aaps\n"
-                     "    params: {density_resolution: 32, cull_solid_angle: [0, 1e-9, 0.0014, 0.01, "
-                     "1]}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  ASSERT_EQ(run_config(dir, aaps_config(dir, {128, 96, 0, 1, 0},
+                                        "density_resolution: 32, cull_solid_angle: [0, 1e-9, "
+                                        "0.0014, 0.01, 1]")),
+            0)
+      << "see " << (dir / "log.txt");
   auto culled = [&](const char* threshold) {
     fs::path cell = find_cell(dir, "aaps", {{"cull_solid_angle", threshold}});
     EXPECT_FALSE(cell.empty()) << threshold;
@@ -329,11 +330,10 @@ TEST(Aaps, CullingThresholdsMeanWhatTheThesisTested) {
 // on screen, and the recorded share of emitted photons rises over the first frames and stays up.
 TEST(Aaps, DensityConcentratesOnTheCaustic) {
   fs::path dir = work_dir("adaptivity");
-  std::string yaml = header(dir, {128, 96, 0, 12, 12}) +
-                     "techniques:\n"
-                     "  - technique: aaps\n"
-                     "    params: {density_resolution: 16, target_area: 1}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+  ASSERT_EQ(run_config(dir, aaps_config(dir, {128, 96, 0, 12, 12},
+                                        "density_resolution: 16, target_area: 1")),
+            0)
+      << "see " << (dir / "log.txt");
   fs::path cell = find_cell(dir, "aaps");
   ASSERT_FALSE(cell.empty());
   std::vector<double> share = counter_series(cell, "recorded_share");
