@@ -180,7 +180,8 @@ def make_aaps_run(root):
         d = os.path.join(root, "cells", cid)
         os.makedirs(d)
         write_csv(os.path.join(d, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"],
-                  [[12, "photon-trace", ms / 2, 0.1], [12, "rasterize", ms / 2, 0.1]])
+                  [[12, "photon-trace", ms / 2, 0.1], [12, "rasterize", ms / 2, 0.1],
+                   [12, "task-update/quadtree", ms / 10, 0.1]])
         write_csv(os.path.join(d, "counters.csv"), ["frame", "name", "value"],
                   [[12, "noncontributing_share", share], [12, "caustic_energy", energy]])
         write_csv(os.path.join(d, "metrics.csv"),
@@ -208,6 +209,12 @@ class ClaimsAapsTest(ClaimsCase):
         self.assertIn("energy x0.3 of none", self.row("`all` at A_t = 2"))
         self.assertIn("): non-contributing /6, time x2", self.row("`all_per_sample` at A_t = 2"))
         self.assertIn("none 0.2, all 0.15, all_per_sample 0.12", self.row("flicker at A_t = 2"))
+
+    def test_per_pass_times_at_the_smallest_target_area(self):
+        self.assertIn("| photon-trace | rasterize | task-update/quadtree |",
+                      self.row("| scene | msaa | A_t (px²) |", "photon-trace"))
+        self.assertEqual(self.cells("| cornell-glass | all_per_sample | 2 |", "| 4 |")[3:], ["20", "20", "4"])
+        self.assertNotIn("| cornell-glass | none | 19 | 5 |", self.text)  # only the smallest A_t
 
     def test_quality_against_target_area_needs_three_areas(self):
         self.assertNotIn("quality vs target area", self.text)

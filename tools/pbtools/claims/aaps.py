@@ -11,7 +11,8 @@ The thesis's trends (digest seed004-aaps.md §2, §4), each set beside what the 
     little cost (Fig. 43: above ~3 ms on the RX 6900 XT).
 FLIP and RMSE are the caustics class against the full reference; time is the sum of the technique's own
 passes (photon-trace, rasterize, resolve, apply, task-update), the median frame; shares and energies are
-the counters' means over the measured frames. Cells are grouped by (scene, msaa, target_area); cells
+the counters' means over the measured frames. Per-pass medians at each scene's smallest target area stand
+for Figs. 26/27 (the thesis's time breakdown). Cells are grouped by (scene, msaa, target_area); cells
 of the culling and threshold sweeps are listed in their own tables.
 """
 
@@ -63,6 +64,34 @@ def culled_sweep(cell: Cell) -> bool:
 def is_default_sweep(cell: Cell) -> bool:
     """Cells of the target-area x msaa grid: no culling, the default small-splat threshold."""
     return not culled_sweep(cell) and param(cell, "msaa_threshold", 2.0) == 2.0
+
+
+def pass_medians(cell: Cell) -> Dict[str, float]:
+    """Median ms over frames of each AAPS pass, the task update's nested steps included."""
+    t = cell.pass_times()
+    t = t[t["pass"].isin(AAPS_PASSES) | t["pass"].str.startswith("task-update/")]
+    return t.groupby("pass")["ms"].median().to_dict()
+
+
+def per_pass_table(grid: Dict[Tuple[str, str, float], Cell]) -> List[str]:
+    """Figs. 26/27: where a frame's time goes, per mode, at each scene's smallest target area."""
+    smallest = {}
+    for scene, _, area in grid:
+        smallest[scene] = min(area, smallest.get(scene, area))
+    rows = {(scene, mode): pass_medians(grid[(scene, mode, area)])
+            for scene, area in smallest.items() for mode in MODES if (scene, mode, area) in grid}
+    names = [n for n in AAPS_PASSES if any(n in r for r in rows.values())]
+    names += sorted({n for r in rows.values() for n in r if n.startswith("task-update/")})
+    if not rows:
+        return []
+    out = ["## Per-pass time at the smallest target area (Figs. 26/27)", "",
+           "Median ms over the measured frames; the task update's nested steps are inside its time.", "",
+           "| scene | msaa | A_t (px²) | " + " | ".join(names) + " |",
+           "|---|---|---|" + "---|" * len(names)]
+    for (scene, mode), r in rows.items():
+        out.append(f"| {scene} | {mode} | {fmt(smallest[scene])} | " +
+                   " | ".join(fmt(r.get(n, math.nan), 3) for n in names) + " |")
+    return out + [""]
 
 
 def claims(run: Run) -> str:
@@ -133,6 +162,8 @@ def claims(run: Run) -> str:
                            f"budget, little cost): FLIP {fmt(s.metric_mean('flip', 'caustics'))} vs "
                            f"{fmt(n.metric_mean('flip', 'caustics'))}, time x{fmt(cost, 3)}")
         out.append("")
+
+    out += per_pass_table(grid)
 
     sweeps = defaultdict(list)
     for c in cells:
