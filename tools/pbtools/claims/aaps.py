@@ -66,24 +66,18 @@ def is_default_sweep(cell: Cell) -> bool:
     return not culled_sweep(cell) and param(cell, "msaa_threshold", 2.0) == 2.0
 
 
-def pass_medians(cell: Cell) -> Dict[str, float]:
-    """Median ms over frames of each AAPS pass, the task update's nested steps included."""
-    t = cell.pass_times()
-    t = t[t["pass"].isin(AAPS_PASSES) | t["pass"].str.startswith("task-update/")]
-    return t.groupby("pass")["ms"].median().to_dict()
-
-
 def per_pass_table(grid: Dict[Tuple[str, str, float], Cell]) -> List[str]:
     """Figs. 26/27: where a frame's time goes, per mode, at each scene's smallest target area."""
     smallest = {}
     for scene, _, area in grid:
         smallest[scene] = min(area, smallest.get(scene, area))
-    rows = {(scene, mode): pass_medians(grid[(scene, mode, area)])
+    # summary.csv's medians (Cell.pass_medians): the harness's own, over the measured frames.
+    rows = {(scene, mode): grid[(scene, mode, area)].pass_medians()
             for scene, area in smallest.items() for mode in MODES if (scene, mode, area) in grid}
-    names = [n for n in AAPS_PASSES if any(n in r for r in rows.values())]
-    names += sorted({n for r in rows.values() for n in r if n.startswith("task-update/")})
     if not rows:
         return []
+    names = [n for n in AAPS_PASSES if any(n in r for r in rows.values())]
+    names += sorted({n for r in rows.values() for n in r if n.startswith("task-update/")})
     out = ["## Per-pass time at the smallest target area (Figs. 26/27)", "",
            "Median ms over the measured frames; the task update's nested steps are inside its time.", "",
            "| scene | msaa | A_t (px²) | " + " | ".join(names) + " |",
