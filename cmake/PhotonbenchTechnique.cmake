@@ -26,6 +26,9 @@ function(photonbench_add_technique)
   if(ARG_SHADERS)
     pb_embed_shaders(TARGET ${target} HEADER ${ARG_NAME}_shaders.h SHADERS ${ARG_SHADERS})
   endif()
+  if(COMMAND pb_use_precompiled_headers)  # in tree: the shared precompiled headers
+    pb_use_precompiled_headers(${target})
+  endif()
   if(TARGET photonbench)  # in tree: building the executable builds its plugins
     add_dependencies(photonbench ${target})
   endif()

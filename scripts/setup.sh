@@ -1,14 +1,24 @@
 #!/usr/bin/env bash
-# Installs every Debian package photonbench needs. Idempotent: when all are present it only checks.
+# Installs the Debian packages photonbench needs. Idempotent: when all are present it only checks.
+#
+#   scripts/setup.sh           what the main job needs (scripts/bench.sh): build photonbench and its
+#                              plugins, run a config, write the report
+#   scripts/setup.sh --tests   that and what the tests, the bench programs and CI's checks need
+#                              (scripts/test.sh, .ci/run)
 set -euo pipefail
-packages=(
+main_packages=(
   build-essential cmake ninja-build pkg-config git
-  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc
-  libembree-dev embree-tools
-  libopenimageio-dev openimageio-tools libopenexr-dev
-  libyaml-cpp-dev libglm-dev libtbb-dev libgtest-dev libbenchmark-dev
-  libcli11-dev libfmt-dev libspdlog-dev libtinyobjloader-dev nlohmann-json3-dev
-  python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2
+  libvulkan-dev mesa-vulkan-drivers glslc
+  libembree-dev
+  libopenimageio-dev libopenexr-dev
+  libyaml-cpp-dev libglm-dev libtbb-dev
+  libcli11-dev libfmt-dev libtinyobjloader-dev nlohmann-json3-dev
+  python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2  # the report
+)
+test_packages=(
+  libgtest-dev
+  vulkan-validationlayers  # every test runs with the Vulkan validation layers on
+  embree-tools     # bench/bench_trace: Embree's own pathtracer, the anchor
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
   python3-jsonschema  # tests/e2e/schema.sh checks configs and scenes against `photonbench schema`
   clang-format     # scripts/check_format.sh
@@ -16,6 +26,12 @@ packages=(
   chromium  # tests/e2e/report_html.sh opens the HTML report headless
   slurm-wlm munge  # tests/e2e/slurm_sweep.sh starts a one-node Slurm (slurmctld, slurmd, sbatch)
 )
+packages=("${main_packages[@]}")
+case "${1:-}" in
+  --tests) packages+=("${test_packages[@]}") ;;
+  "") ;;
+  *) echo "usage: scripts/setup.sh [--tests]" >&2; exit 2 ;;
+esac
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

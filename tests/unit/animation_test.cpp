@@ -11,7 +11,7 @@
 #include "scene/shapes.h"
 
 namespace pb::scene {
-namespace {
+namespace animation_test {
 
 constexpr float kEps = 1e-5f;
 
@@ -272,5 +272,5 @@ TEST(SceneAt, AFrameIsReproducibleOnItsOwn) {
   EXPECT_NE(scene.mesh_at(1, 0).positions, scene.mesh_at(1, 0.5f).positions);
 }
 
-}  // namespace
+}  // namespace animation_test
 }  // namespace pb::scene

@@ -15,7 +15,7 @@
 #include "trace/reference.h"
 
 namespace pb::trace {
-namespace {
+namespace area_light_test {
 
 using namespace test_scenes;
 
@@ -249,5 +249,5 @@ TEST(AreaLight, EmissiveMeshMatchesTheQuadLightItCopies) {
   EXPECT_GT(*std::max_element(a.mean.pixels.begin(), a.mean.pixels.end()), 5.f);
 }
 
-}  // namespace
+}  // namespace area_light_test
 }  // namespace pb::trace

@@ -23,7 +23,7 @@
 #include "trace/reference.h"
 
 namespace pb::trace {
-namespace {
+namespace bdpt_test {
 
 struct SceneCase {
   std::string name;
@@ -149,5 +149,5 @@ TEST(AutomaticEstimator, PicksPerSceneAndRendersAsThePickedOne) {
   }
 }
 
-}  // namespace
+}  // namespace bdpt_test
 }  // namespace pb::trace

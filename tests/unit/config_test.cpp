@@ -12,7 +12,7 @@
 #include "photonbench/error.h"
 
 namespace pb::config {
-namespace {
+namespace config_test {
 
 std::string error_of(const std::function<void()>& f) {
   try {
@@ -121,5 +121,5 @@ TEST(Files, AreRegularAndBounded) {
   std::filesystem::remove(file);
 }
 
-}  // namespace
+}  // namespace config_test
 }  // namespace pb::config

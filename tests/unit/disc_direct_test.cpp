@@ -15,7 +15,7 @@
 #include "run_fixture.h"
 
 namespace pb::testing {
-namespace {
+namespace disc_direct_test {
 
 constexpr double kRadiance = 10, kRadius = 0.5, kHeight = 1, kAlbedo = 0.5;
 
@@ -78,5 +78,5 @@ TEST(DiscDirect, ShadesTheClosedFormOnTheAxisAndBeyondTheRim) {
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace disc_direct_test
 }  // namespace pb::testing

@@ -16,7 +16,7 @@
 #include "trace/reference.h"
 
 namespace pb::trace {
-namespace {
+namespace disc_light_test {
 
 using namespace test_scenes;
 
@@ -245,5 +245,5 @@ TEST(DiscLight, IncidentSamplesLieOnTheDiscWithTheDensityOfAHit) {
   EXPECT_TRUE(world.intersect({0, 0, 0}, rim, 10.f, hit) && world.is_light_object(hit.object));
 }
 
-}  // namespace
+}  // namespace disc_light_test
 }  // namespace pb::trace

@@ -20,7 +20,7 @@
 
 #include "gpu_context.h"
 
-namespace {
+namespace hierarchy_test {
 
 using namespace pb;
 using toolkit::Hierarchy;
@@ -253,4 +253,4 @@ TEST(Hierarchy, InvariantsOnRandomGBuffersDefaultLayout) {
 TEST(Hierarchy, InvariantsOnRandomGBuffersShallowLayout) { check_hierarchy("shallow", 4); }
 TEST(Hierarchy, InvariantsOnRandomGBuffersDeepLayout) { check_hierarchy("deep", 5); }
 
-}  // namespace
+}  // namespace hierarchy_test

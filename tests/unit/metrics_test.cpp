@@ -17,7 +17,7 @@
 #include "photonbench/error.h"
 
 namespace pb::metrics {
-namespace {
+namespace metrics_test {
 
 const std::filesystem::path kData = std::filesystem::path(PB_TEST_DATA_DIR) / "metrics";
 
@@ -531,5 +531,5 @@ TEST(Magma, EndsAndRounding) {
   EXPECT_NEAR(m.at(2, 0, 0), 0.716387f, 1e-7);  // round(0.5 * 255) = 128
 }
 
-}  // namespace
+}  // namespace metrics_test
 }  // namespace pb::metrics

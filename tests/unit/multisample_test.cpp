@@ -9,7 +9,7 @@
 #include "multisample_test_shaders.h"
 #include "photonbench/gpu.h"
 
-namespace {
+namespace multisample_test {
 
 using namespace pb;
 
@@ -147,4 +147,4 @@ TEST(Multisample, SampleRateShadingTestsEachSample) {
   EXPECT_GT(mismatched_pixels(rgba, draws, centre_share), partial / 2);
 }
 
-}  // namespace
+}  // namespace multisample_test

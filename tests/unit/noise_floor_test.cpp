@@ -15,7 +15,7 @@
 #include "photonbench/error.h"
 
 namespace pb::metrics {
-namespace {
+namespace noise_floor_test {
 
 constexpr int kWidth = 192, kHeight = 128, kSamples = 32;
 
@@ -243,5 +243,5 @@ TEST(NoiseFloor, BadInputsThrowInputError) {
   EXPECT_THROW(unbiased_errors({t, t, t, t}, small), InputError);
 }
 
-}  // namespace
+}  // namespace noise_floor_test
 }  // namespace pb::metrics

@@ -31,7 +31,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace paper1_analytic_test {
 
 using namespace pb::testing;
 
@@ -201,4 +201,4 @@ TEST_F(Paper1Analytic, DirectionalPaperDepositOverestimates) {
   std::printf("directional deposit: paper        measured / expected %.1f\n", measured / expected);
 }
 
-}  // namespace
+}  // namespace paper1_analytic_test

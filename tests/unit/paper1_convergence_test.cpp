@@ -17,7 +17,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace paper1_convergence_test {
 
 struct Step {
   int photons;
@@ -86,4 +86,4 @@ TEST_P(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
 
 INSTANTIATE_TEST_SUITE_P(Techniques, Paper1Convergence, ::testing::ValuesIn(kTechniques));
 
-}  // namespace
+}  // namespace paper1_convergence_test

@@ -9,7 +9,7 @@
 #include "run/plugins.h"
 
 namespace pb::run {
-namespace {
+namespace plugin_abi_test {
 
 std::string fmt_vulkan(uint32_t module, uint32_t host) {
   return "Vulkan-Hpp headers " + std::to_string(module) + " (photonbench: " + std::to_string(host) +
@@ -102,5 +102,5 @@ TEST(PluginAbi, LoaderFailsOnlyTheModulesThatDoNotFit) {
   EXPECT_EQ(direct->descriptor->api_version, PB_PLUGIN_API_VERSION);
 }
 
-}  // namespace
+}  // namespace plugin_abi_test
 }  // namespace pb::run

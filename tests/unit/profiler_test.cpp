@@ -12,7 +12,7 @@
 #include <vector>
 
 namespace pb {
-namespace {
+namespace profiler_test {
 
 double thread_cpu_ms() {
   timespec ts{};
@@ -95,5 +95,5 @@ TEST(Profiler, SlowPassHookStretchesProcessCpuTimeByTheFactor) {
   EXPECT_GE(samples[0].cpu_ms, samples[1].cpu_ms);
 }
 
-}  // namespace
+}  // namespace profiler_test
 }  // namespace pb

@@ -11,10 +11,10 @@
 #include "run/scoring.h"
 
 namespace pb {
-namespace {
+namespace reference_config_test {
 
 std::filesystem::path write_config(const std::string& reference_block) {
-  auto file = std::filesystem::path(testing::TempDir()) / "pb_reference_config.yaml";
+  auto file = std::filesystem::path(::testing::TempDir()) / "pb_reference_config.yaml";
   std::ofstream(file) << "name: t\nresolution: [64, 36]\nscenes: [" PB_SOURCE_DIR
                          "/scenes/cornell-box.yaml]\ntechniques:\n  - technique: direct\n"
                       << reference_block;
@@ -72,5 +72,5 @@ TEST(ReferenceConfig, BadValuesNameFileLineColumnAndKey) {
   EXPECT_NE(e.find("reference.max_bounces"), std::string::npos) << e;
 }
 
-}  // namespace
+}  // namespace reference_config_test
 }  // namespace pb

@@ -18,7 +18,7 @@
 #include "trace/sampling.h"
 
 namespace pb::trace {
-namespace {
+namespace reference_test {
 
 using namespace test_scenes;
 
@@ -103,7 +103,7 @@ struct EstimatorCase {
 class ReferenceByEstimator : public ::testing::TestWithParam<EstimatorCase> {
  protected:
   ReferenceOptions quick(uint32_t samples) const {
-    ReferenceOptions o = pb::trace::quick(samples);
+    ReferenceOptions o = reference_test::quick(samples);
     o.estimator = GetParam().estimator;
     o.mis_heuristic = GetParam().heuristic;
     return o;
@@ -436,7 +436,7 @@ TEST(Reference, PathClassesPartitionTheImage) {
 // that rule afterwards. It was once refused (an error of 0 read as "not measured"), so every run
 // rendered it again and then failed with "the entry just written cannot be read back".
 TEST(ReferenceCache, ServesABlackReferenceStoppedByTheErrorRule) {
-  auto dir = std::filesystem::path(testing::TempDir()) / "pb_reference_cache_black";
+  auto dir = std::filesystem::path(::testing::TempDir()) / "pb_reference_cache_black";
   std::filesystem::remove_all(dir);
   scene::Scene scene = load("cornell-box.yaml");
   ReferenceCache cache(dir);
@@ -454,7 +454,7 @@ TEST(ReferenceCache, ServesABlackReferenceStoppedByTheErrorRule) {
 }
 
 TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
-  auto dir = std::filesystem::path(testing::TempDir()) / "pb_reference_cache_test";
+  auto dir = std::filesystem::path(::testing::TempDir()) / "pb_reference_cache_test";
   std::filesystem::remove_all(dir);
   scene::Scene scene = load("cornell-box.yaml");
   ReferenceCache cache(dir);
@@ -528,5 +528,5 @@ TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
   std::filesystem::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace reference_test
 }  // namespace pb::trace

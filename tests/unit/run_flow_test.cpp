@@ -15,7 +15,7 @@
 #include "run/plan.h"
 
 namespace pb::run {
-namespace {
+namespace run_flow_test {
 
 namespace fs = std::filesystem;
 
@@ -79,6 +79,39 @@ techniques: [{technique: direct}]
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("config.yaml:2:"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("scenes[1].scene"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(RunPlan, ATechniqueRunsOnlyOnTheScenesItNames) {
+  const fs::path dir = scratch("only");
+  const fs::path config = write_config(dir, R"(name: t
+scenes: [cornell-box, pillars]
+techniques:
+  - technique: direct
+    params: {shadow_map_size: [64, 256]}
+    scenes: [pillars]
+  - technique: tiled
+)");
+  std::multiset<std::string> cells;
+  for (const Cell& cell : plan_run(config, {}).cells)
+    cells.insert(cell.scene + "/" + cell.technique);
+  EXPECT_EQ(cells, (std::multiset<std::string>{"pillars/direct", "pillars/direct",
+                                               "cornell-box/tiled", "pillars/tiled"}));
+  // A name the config's scenes do not list is an error at that name, before any work.
+  const fs::path wrong = write_config(dir, R"(name: t
+scenes: [cornell-box, pillars]
+techniques:
+  - technique: direct
+    scenes: [pillars, cornell]
+)");
+  try {
+    plan_run(wrong, {});
+    FAIL() << "no error for a scene the config does not list";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("config.yaml:5:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("techniques[0].scenes[1]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'cornell'"), std::string::npos) << e.what();
   }
   fs::remove_all(dir);
 }
@@ -162,5 +195,5 @@ TEST(FrameLog, OverheadIsWallTimeLessTopLevelPasses) {
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace run_flow_test
 }  // namespace pb::run

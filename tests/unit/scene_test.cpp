@@ -17,7 +17,7 @@
 #include "trace/embree_scene.h"
 
 namespace pb::scene {
-namespace {
+namespace scene_test {
 
 namespace fs = std::filesystem;
 constexpr double kPi = 3.14159265358979323846;
@@ -670,5 +670,5 @@ TEST(FrameChecks, EmbreeSceneRefusesAFrameItCannotTrace) {
   }
 }
 
-}  // namespace
+}  // namespace scene_test
 }  // namespace pb::scene

@@ -23,9 +23,9 @@
 #include "trace/reference.h"
 
 namespace pb::run {
-namespace {
+namespace scoring_test {
 
-const std::filesystem::path kTemp = std::filesystem::path(testing::TempDir()) / "pb_scoring_test";
+const std::filesystem::path kTemp = std::filesystem::path(::testing::TempDir()) / "pb_scoring_test";
 
 config::Config load(const std::string& reference_block,
                     const std::string& frames = "{warmup: 0, count: 1, metrics_every: 1}") {
@@ -208,5 +208,5 @@ TEST(Scoring, RowsCarryFloorsAndUnbiasedErrorsAgainstBothReferences) {
               record.contains("references"));
 }
 
-}  // namespace
+}  // namespace scoring_test
 }  // namespace pb::run

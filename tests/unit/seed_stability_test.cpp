@@ -16,7 +16,7 @@
 #include "run/plan.h"
 
 namespace pb {
-namespace {
+namespace seed_stability_test {
 
 namespace fs = std::filesystem;
 
@@ -231,5 +231,5 @@ TEST(SeedAxis, BadSeedCountsAreInputErrors) {
   }
 }
 
-}  // namespace
+}  // namespace seed_stability_test
 }  // namespace pb

@@ -16,7 +16,7 @@
 #include "plan_scratch.h"
 
 namespace pb::run {
-namespace {
+namespace shard_test {
 
 namespace fs = std::filesystem;
 
@@ -185,5 +185,5 @@ TEST(Shard, ShardsPartitionThePlanInItsOrder) {
   EXPECT_EQ(second.cells[0].params.at("photons"), "160000");
 }
 
-}  // namespace
+}  // namespace shard_test
 }  // namespace pb::run

@@ -8,7 +8,7 @@
 #include <fstream>
 
 namespace pb::run {
-namespace {
+namespace stability_test {
 
 CellOutcome scored(double flip, std::optional<double> floor = std::nullopt) {
   CellOutcome c;
@@ -135,5 +135,5 @@ TEST(StabilityClassifier, ReadsTheOutcomeOfACellRecord) {
   EXPECT_FALSE(c.flicker);
 }
 
-}  // namespace
+}  // namespace stability_test
 }  // namespace pb::run

@@ -12,7 +12,7 @@
 #include "scene/scene.h"
 
 namespace pb {
-namespace {
+namespace timing_test {
 
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) {
@@ -105,5 +105,5 @@ TEST(Timing, FencedRasterTimingAgreesWithFencedWallTime) {
   EXPECT_LT(m.passes_ms, 1.001 * m.wall_ms);
 }
 
-}  // namespace
+}  // namespace timing_test
 }  // namespace pb

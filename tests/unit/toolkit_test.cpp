@@ -17,7 +17,7 @@
 #include "photonbench/toolkit/technique.h"
 #include "toolkit_test_shaders.h"
 
-namespace {
+namespace toolkit_test {
 
 using namespace pb;
 using toolkit::FluxScale;
@@ -190,4 +190,4 @@ TEST(CountingSort, GroupsItemsByKey) {
     ASSERT_EQ(sorted[i], items[i]) << "item " << i << " lost or changed";
 }
 
-}  // namespace
+}  // namespace toolkit_test

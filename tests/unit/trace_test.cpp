@@ -20,7 +20,7 @@
 #include "trace/sampling.h"
 
 namespace pb::trace {
-namespace {
+namespace trace_test {
 
 using namespace test_scenes;
 
@@ -710,5 +710,5 @@ TEST(Bsdf, GgxEnergyMatchesQuadratureAndPdfNormalises) {
   EXPECT_GT(sampled(glass, glm::vec3(0, 0, -1)).albedo, 0.97);
 }
 
-}  // namespace
+}  // namespace trace_test
 }  // namespace pb::trace

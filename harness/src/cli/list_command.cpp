@@ -71,6 +71,6 @@ void add_list(CLI::App& app, int& exit_code) {
   });
 }
 
-pb::cli::CommandRegistration registration{"list", add_list};
+pb::cli::CommandRegistration list_registration{"list", add_list};
 
 }  // namespace

@@ -18,6 +18,6 @@ void add_merge(CLI::App& app, int& exit_code) {
   cmd->callback([out, shards, &exit_code] { exit_code = pb::run::merge_runs(*out, *shards); });
 }
 
-pb::cli::CommandRegistration registration{"merge", add_merge};
+pb::cli::CommandRegistration merge_registration{"merge", add_merge};
 
 }  // namespace

@@ -105,6 +105,6 @@ void add_metrics(CLI::App& app, int& exit_code) {
   });
 }
 
-pb::cli::CommandRegistration registration{"metrics", add_metrics};
+pb::cli::CommandRegistration metrics_registration{"metrics", add_metrics};
 
 }  // namespace

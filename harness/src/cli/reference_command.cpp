@@ -157,6 +157,6 @@ void add_reference(CLI::App& app, int& exit_code) {
   });
 }
 
-pb::cli::CommandRegistration registration{"reference", add_reference};
+pb::cli::CommandRegistration reference_registration{"reference", add_reference};
 
 }  // namespace

@@ -64,6 +64,11 @@ json sweepable(const json& value) {
 json plugin_defs(pb::run::PluginRegistry& plugins) {
   json defs = json::object();
   json entries = json::array();
+  // An entry's `scenes` as the config's own table checks it (the plugins add nothing to it).
+  const pb::config::Key& scenes_key =
+      pb::config::config_table().key("techniques").type.parts[0].table->key("scenes");
+  json scenes = scenes_key.type.schema();
+  scenes["description"] = scenes_key.doc;
   std::map<std::string, json> scene_params;  // name -> the alternatives of its techniques
   for (const std::string& name : plugins.names()) {
     const pb::run::Plugin* plugin = plugins.find(name);
@@ -90,12 +95,13 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
     }
     std::string params_def = "techniques." + name + ".params";
     defs[params_def] = params;
-    entries.push_back(
-        {{"type", "object"},
-         {"properties",
-          {{"technique", technique}, {"params", {{"$ref", "#/$defs/" + params_def}}}}},
-         {"required", {"technique"}},
-         {"additionalProperties", false}});
+    entries.push_back({{"type", "object"},
+                       {"properties",
+                        {{"technique", technique},
+                         {"params", {{"$ref", "#/$defs/" + params_def}}},
+                         {"scenes", scenes}}},
+                       {"required", {"technique"}},
+                       {"additionalProperties", false}});
   }
   defs["config.technique"] = {
       {"description", "A technique plugin and its parameters; a list of values sweeps one."},
@@ -142,6 +148,6 @@ void add_schema(CLI::App& app, int& exit_code) {
   });
 }
 
-pb::cli::CommandRegistration registration{"schema", add_schema};
+pb::cli::CommandRegistration schema_registration{"schema", add_schema};
 
 }  // namespace

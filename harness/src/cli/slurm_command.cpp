@@ -70,6 +70,6 @@ void add_slurm(CLI::App& app, int& exit_code) {
   });
 }
 
-pb::cli::CommandRegistration registration{"slurm", add_slurm};
+pb::cli::CommandRegistration slurm_registration{"slurm", add_slurm};
 
 }  // namespace

@@ -50,6 +50,6 @@ void add_validate(CLI::App& app, int& exit_code) {
   });
 }
 
-pb::cli::CommandRegistration registration{"validate", add_validate};
+pb::cli::CommandRegistration validate_registration{"validate", add_validate};
 
 }  // namespace

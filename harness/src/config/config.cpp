@@ -172,7 +172,10 @@ const KeyTable kTechniqueTable{
     "A technique plugin and its parameters; a list of values sweeps a parameter.",
     {{"technique", string_type(), true, nullptr, "the plugin's name (photonbench list)"},
      {"params", table_type(kSceneParamsTable), false, nullptr,
-      "parameter values, each one value or a list to sweep"}}};
+      "parameter values, each one value or a list to sweep"},
+     {"scenes", list_type(string_type(), 1, true), false, nullptr,
+      "only these of the config's scenes (as `scenes` names them; default: every scene), for a "
+      "technique whose mechanism shows only on some"}}};
 
 const KeyTable kSceneEntryTable{
     "config.scene",
@@ -284,7 +287,21 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
     techniques.fail("expected a list of {technique: NAME, params: {...}}");
   for (const YamlView& entry : techniques.elements()) {
     kTechniqueTable.allow(entry);
-    config.techniques.push_back({entry["technique"].as_string(), entry});
+    TechniqueEntry technique{entry["technique"].as_string(), entry, {}};
+    if (auto only = entry.get("scenes")) {
+      for (const YamlView& name : only->elements()) {
+        std::string scene = name.as_string();
+        auto listed = std::find_if(config.scenes.begin(), config.scenes.end(),
+                                   [&](const SceneEntry& s) { return s.scene == scene; });
+        if (listed == config.scenes.end())
+          name.fail(
+              fmt::format("technique '{}' names scene '{}', which the config's `scenes` "
+                          "does not list",
+                          technique.technique, scene));
+        technique.scenes.push_back(scene);
+      }
+    }
+    config.techniques.push_back(std::move(technique));
   }
 
   const Key& metrics_key = kConfigTable.key("metrics");

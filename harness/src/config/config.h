@@ -64,6 +64,8 @@ struct SceneEntry {
 struct TechniqueEntry {
   std::string technique;
   YamlView node;  // the entry itself, for error locations
+  // The config's scenes (as `scenes:` names them) this technique runs on; empty: every scene.
+  std::vector<std::string> scenes;
 };
 
 struct Config {

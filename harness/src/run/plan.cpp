@@ -203,6 +203,10 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
   std::unordered_set<std::string> ids;
   for (size_t s = 0; s < config.scenes.size(); ++s)
     for (size_t t = 0; t < config.techniques.size(); ++t) {
+      const std::vector<std::string>& only = config.techniques[t].scenes;
+      if (!only.empty() &&
+          std::find(only.begin(), only.end(), config.scenes[s].scene) == only.end())
+        continue;
       std::vector<ParamMap> scene_combos =
           with_scene_params(config.scenes[s], config, t, combos[t], plugins);
       if (cells.size() + scene_combos.size() > kMaxCells)

@@ -27,7 +27,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace aaps_test {
 
 using namespace pb::testing;
 
@@ -343,4 +343,4 @@ TEST(Aaps, DensityConcentratesOnTheCaustic) {
   for (size_t f = 6; f < share.size(); ++f) EXPECT_GT(share[f], 3 * share[0]) << "frame " << f;
 }
 
-}  // namespace
+}  // namespace aaps_test

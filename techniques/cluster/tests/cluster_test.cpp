@@ -20,7 +20,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace cluster_test {
 
 using namespace pb::testing;
 
@@ -198,4 +198,4 @@ TEST(Cluster, TrivialNodeFluxKeepsAWeakChannel) {
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace cluster_test

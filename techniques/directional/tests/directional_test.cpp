@@ -25,7 +25,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace directional_test {
 
 using namespace pb::testing;
 
@@ -201,4 +201,4 @@ TEST(Directional, BucketsKeepAWeakChannel) {
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace directional_test

@@ -16,7 +16,7 @@
 #include "trace/embree_scene.h"
 #include "trace/photon_tracer.h"
 
-namespace {
+namespace path_verification_test {
 
 using namespace pb;
 using namespace pb::trace;
@@ -533,4 +533,4 @@ TEST(PathVerificationTechnique, MoreSegmentsThanThePathWordHoldsFailAtSetup) {
   EXPECT_NE(WEXITSTATUS(status), 0) << text;
 }
 
-}  // namespace
+}  // namespace path_verification_test

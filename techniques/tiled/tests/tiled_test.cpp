@@ -14,7 +14,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace tiled_test {
 
 using namespace pb::testing;
 
@@ -157,4 +157,4 @@ TEST(Tiled, CountInsertDisagreementIsCountedAndWarned) {
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace tiled_test
