@@ -123,8 +123,18 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
                         gid=f"unresolved:{tech}:{m}")
             if 1 < len(tc) <= 8:
                 for c, x, y in zip(tc, tx, ty):
-                    ax.annotate(run.label(c, with_technique=False), (x, y), xytext=(3, 2),
-                                textcoords="offset points", fontsize=5, color=color)
+                    # Placed after the layout (place_point_labels); a leader line, shown only when
+                    # the label has to move away from its point, ties it back.
+                    label = ax.annotate(run.label(c, with_technique=False), (x, y), xytext=(3, 2),
+                                        textcoords="offset points", fontsize=5, color=color,
+                                        gid=f"point-label:{c.id}:{m}", zorder=2.5,  # under the markers
+                                        # readable over the error bars and lines it may sit on
+                                        bbox={"boxstyle": "square,pad=0.1", "fc": "white", "ec": "none",
+                                              "alpha": 0.75},
+                                        arrowprops={"arrowstyle": "-", "color": color, "lw": 0.3,
+                                                    "alpha": 0.7, "shrinkA": 0.5, "shrinkB": 2.5})
+                    label.set_in_layout(False)
+        ax.margins(0.08, 0.12)  # room inside the axes for the labels of the outermost points
         ax.set_xlabel("median frame time [ms]")
         lower = " (lower is better)" if measures.lower_is_better(m) else ""
         ax.set_ylabel(measures.metric(m).label + lower)
@@ -134,6 +144,8 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
     if note:
         fig.text(0.01, -0.06, _short(note, 160), fontsize=6, color=style.FAILED_COLOR, gid="failed-note")
     fig.tight_layout()
+    for ax in axes[0]:
+        place_point_labels(fig, ax)
     rows = []
     for c in cells:
         rows.append([c.id, c.technique, run.label(c), c.status, c.value("frame_ms_median"),
@@ -151,6 +163,137 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
                     "are not resolved by the reference and may measure its noise.")
     return Figure(f"quality_vs_time_{slug(scene)}", f"{scene}: quality against time", caption, fig, header,
                   rows)
+
+
+# Where a point's label may go, tried in order: offsets in points from the point at growing distance,
+# each with the text alignment that keeps the text on that side of the point (right-above first, as
+# labels sat before any collision).
+_LABEL_DIRECTIONS = [((1, 0.6), "left", "bottom"), ((1, -0.6), "left", "top"), ((-1, 0.6), "right", "bottom"),
+                     ((-1, -0.6), "right", "top"), ((0, 1), "center", "bottom"), ((0, -1), "center", "top"),
+                     ((1, 0), "left", "center"), ((-1, 0), "right", "center")]
+_LABEL_DISTANCES_PT = [3.5, 8, 13, 19, 26, 34, 44, 56]
+_LABEL_GAP_PT = 1.0  # space kept free around a label, so labels never touch at any resolution
+
+
+def _label_extent(label, renderer):
+    """The display box of an annotation's text alone (without its leader line)."""
+    import matplotlib.text
+    label.update_positions(renderer)
+    return matplotlib.text.Text.get_window_extent(label, renderer)
+
+
+def _overlap_area(a, b) -> float:
+    w = min(a.x1, b.x1) - max(a.x0, b.x0)
+    h = min(a.y1, b.y1) - max(a.y0, b.y0)
+    return w * h if w > 0 and h > 0 else 0.0
+
+
+def _distance(box, point) -> float:
+    x, y = point
+    return math.hypot(max(box.x0 - x, 0, x - box.x1), max(box.y0 - y, 0, y - box.y1))
+
+
+def _leader(anchor, box):
+    """The leader line from a point to its label's box (to the box's nearest edge point)."""
+    from matplotlib.path import Path
+    x, y = anchor
+    return Path([(x, y), (min(max(x, box.x0), box.x1), min(max(y, box.y0), box.y1))])
+
+
+def place_point_labels(fig, ax) -> None:
+    """Moves the point labels (gid "point-label:...") of one axes so that none covers another label
+    or a marker and all stay inside the axes. Close settings of one technique (a sweep whose points
+    nearly coincide) would otherwise print their labels over each other.
+
+    Each label has candidate offsets around its point (_LABEL_DIRECTIONS x _LABEL_DISTANCES_PT),
+    measured with the renderer's text extents in the final layout (call after tight_layout). Labels
+    take, one after another, their least bad candidate given the ones placed before: covering a label
+    or a marker, or leaving the axes, is worst; a leader line (drawn only for a label moved away from
+    its point) crossing a label, and a label nearer another point than its own, are lesser faults.
+    Greedy placement depends on the order, so four orders (by x and by y, both ways) are tried and
+    the arrangement with the least total fault is kept."""
+    labels = [t for t in ax.texts if (t.get_gid() or "").startswith("point-label:")]
+    if not labels:
+        return
+    from matplotlib.transforms import Bbox
+    renderer = fig.canvas.get_renderer()
+    to_px = fig.dpi / 72.0
+    gap = _LABEL_GAP_PT * to_px
+    frame = ax.get_window_extent(renderer)
+    markers = []
+    for line in ax.lines:
+        if line.get_marker() in (None, "None", "none", "") or not line.get_visible():
+            continue
+        half = line.get_markersize() * to_px / 2
+        for px, py in line.get_transform().transform(np.asarray(line.get_xydata(), float)):
+            if np.isfinite(px) and np.isfinite(py):
+                markers.append(Bbox.from_extents(px - half, py - half, px + half, py + half))
+    centres = [((b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2) for b in markers]
+    anchors = [ax.transData.transform(t.xy) for t in labels]
+
+    # Per label: (fault independent of the other labels, placement, padded box, leader or None).
+    candidates = []
+    for label, anchor in zip(labels, anchors):
+        options = []
+        for distance in _LABEL_DISTANCES_PT:
+            for (dx, dy), ha, va in _LABEL_DIRECTIONS:
+                placement = ((dx * distance, dy * distance), ha, va)
+                _set_placement(label, placement)
+                box = _label_extent(label, renderer).padded(gap)
+                area = box.width * box.height
+                # Hiding a point even in part is as bad as covering half a label.
+                fault = sum(_overlap_area(box, m) + 0.5 * area * (_overlap_area(box, m) > 0) for m in markers)
+                # Leaving the axes is nearly as bad as covering a label: it may cover the next panel's ticks.
+                fault += 4 * (area - _overlap_area(box, frame))
+                if distance > _LABEL_DISTANCES_PT[0]:
+                    # The leader tells the label's point, unless it passes (near) another point.
+                    leader = _leader(anchor, box)
+                    fault += 0.25 * area * sum(leader.intersects_bbox(m.padded(2 * gap), filled=True)
+                                               for m in markers if _distance(m, anchor) > 0)
+                else:
+                    # Without one, a label nearer another point than its own reads as that point's.
+                    leader = None
+                    own = _distance(box, anchor)
+                    fault += 0.1 * area * any(_distance(box, c) < own - gap for c in centres)
+                options.append((fault, placement, box, leader))
+        candidates.append(options)
+
+    def arrange(order):
+        total, chosen, boxes, leaders = 0.0, {}, [], []
+        for i in order:
+            def fault(option):
+                base, _, box, leader = option
+                area = box.width * box.height
+                crossings = sum(other.intersects_bbox(box, filled=True) for other in leaders)
+                if leader is not None:
+                    crossings += sum(leader.intersects_bbox(other, filled=True) for other in boxes)
+                return base + 8 * sum(_overlap_area(box, other) for other in boxes) + 0.25 * area * crossings
+            faults = [fault(o) for o in candidates[i]]
+            k = int(np.argmin(faults))  # the first of equals: the nearest to the point
+            total += faults[k]
+            chosen[i] = candidates[i][k]
+            boxes.append(chosen[i][2])
+            if chosen[i][3] is not None:
+                leaders.append(chosen[i][3])
+        return total, chosen
+
+    n = range(len(labels))
+    by_x = sorted(n, key=lambda i: (anchors[i][0], anchors[i][1]))
+    by_y = sorted(n, key=lambda i: (anchors[i][1], anchors[i][0]))
+    _, chosen = min((arrange(order) for order in (by_x, by_x[::-1], by_y, by_y[::-1])),
+                    key=lambda result: result[0])
+    for i, label in enumerate(labels):
+        _, placement, _, leader = chosen[i]
+        _set_placement(label, placement)
+        label.arrow_patch.set_visible(leader is not None)
+        label.set_in_layout(True)  # as placed, for the saved figure's tight bounding box
+
+
+def _set_placement(label, placement) -> None:
+    offset, ha, va = placement
+    label.set_position(offset)
+    label.set_horizontalalignment(ha)
+    label.set_verticalalignment(va)
 
 
 def _resolved(cell: Cell, metric: str) -> Optional[bool]:

@@ -88,6 +88,86 @@ def choose_frame(cells: List[Cell]) -> Optional[int]:
     return max(counts, key=lambda f: (len(counts[f]), f))
 
 
+GRID_WSPACE, GRID_HSPACE = 0.04, 0.06  # between columns and rows, in mean column widths and row heights
+TITLE_PT, SETTING_PT = 6.0, 5.5  # the technique; its setting and a failure
+TITLE_FILL = 0.94  # of the column's width a title may take: a margin to the next column's title
+TITLE_MARGIN_PT = 3.0  # above and below a title
+TITLE_CLEARANCE_PT = 10.0  # for the FLIP values printed under the block above
+# Where a title may break, the preferred first: between parameters, after a name's "=", inside a
+# name, and between any two characters when nothing else fits.
+TITLE_BREAKS = (", ", "=", "_", "-", "/", "")
+
+
+def _figure_height_in(row_heights_in: List[float], hspace: float) -> float:
+    """The figure height at which matplotlib's grid gives each row its height in inches (the grid
+    shares the subplot area out in proportion to the ratios, less the gaps between rows): a title row
+    then holds the lines it was sized for, and an image row its image at the column's width."""
+    import matplotlib
+    n, total = len(row_heights_in), sum(row_heights_in)
+    share = matplotlib.rcParams["figure.subplot.top"] - matplotlib.rcParams["figure.subplot.bottom"]
+    return total * (n + hspace * (n - 1)) / (n * share)
+
+
+def _column_width_in(ncols: int, wspace: float) -> float:
+    """The width of one grid column, as matplotlib's subplot parameters will lay it out."""
+    import matplotlib
+    inner = style.TEXT_WIDTH_IN * (matplotlib.rcParams["figure.subplot.right"]
+                                   - matplotlib.rcParams["figure.subplot.left"])
+    return inner / (ncols + wspace * (ncols - 1))
+
+
+def _line_height(size_pt: float) -> float:
+    return 1.25 * size_pt
+
+
+def text_width_pt(text: str, size_pt: float) -> float:
+    """The width of a line of text in the report's font, in points."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import text_to_path
+    import matplotlib
+    prop = FontProperties(family=matplotlib.rcParams["font.family"], size=size_pt)
+    return text_to_path.get_text_width_height_descent(text, prop, ismath=False)[0]
+
+
+def wrap_to_width(text: str, width_pt: float, size_pt: float, breaks=TITLE_BREAKS) -> List[str]:
+    """`text` in lines no wider than width_pt at size_pt, broken at the most preferred break (of
+    `breaks`) that makes the pieces fit, each line filled as far as it goes. Wrapped, not cut short:
+    the end of a setting is what tells two cells of one technique apart."""
+    if not text or text_width_pt(text, size_pt) <= width_pt or not breaks:
+        return [text]
+    sep, finer = breaks[0], breaks[1:]
+    if sep:
+        parts = text.split(sep)
+        pieces = [p + sep for p in parts[:-1]] + [parts[-1]]
+    else:
+        pieces = list(text)
+    if len(pieces) == 1:
+        return wrap_to_width(text, width_pt, size_pt, finer)
+    lines, line = [], ""
+    for piece in pieces:
+        if line and text_width_pt((line + piece).rstrip(), size_pt) <= width_pt:
+            line += piece
+            continue
+        if line:
+            lines.append(line.rstrip())
+        # A piece too wide alone breaks at the next finer break; its last line takes what follows.
+        *whole, line = wrap_to_width(piece.rstrip(), width_pt, size_pt, finer) or [""]
+        lines += whole
+        line += piece[len(piece.rstrip()):]  # the separator's space, should the next piece follow
+    lines.append(line.rstrip())
+    return [line for line in lines if line]
+
+
+def _title_lines(title: str, setting: str, status: Optional[str], width_pt: float) -> List[tuple]:
+    """(text, size, kind) of a panel's title from top to bottom: the technique, its setting, then
+    the failure, each wrapped to the column."""
+    lines = [(t, TITLE_PT, "title") for t in wrap_to_width(title, width_pt, TITLE_PT)]
+    lines += [(t, SETTING_PT, "setting") for t in wrap_to_width(setting, width_pt, SETTING_PT) if t]
+    if status:
+        lines += [(t, SETTING_PT, "status") for t in wrap_to_width(status, width_pt, SETTING_PT)]
+    return lines
+
+
 def image_grid(run: Run, scene: str, crop: Optional[tuple] = None, frame: Optional[int] = None,
                max_cols: int = 6) -> Optional[Figure]:
     cells = run.cells_of(scene)
@@ -114,7 +194,10 @@ def image_grid(run: Run, scene: str, crop: Optional[tuple] = None, frame: Option
     if reference is None:
         return None
     height, width = reference.shape[:2]
-    panels = [("reference" + (f" ({ref_class})" if ref_class else ""), reference, None, None, None)]
+    # (label, title, setting, image, error map, FLIP, status): the title names the technique, the
+    # setting what tells the cell from the technique's other cells in the scene.
+    panels = [("reference" + (f" ({ref_class})" if ref_class else ""), "reference", ref_class or "",
+               reference, None, None, None)]
     for c in cells:
         imgs = c.images()
         out = load(_find(imgs, "frame", frame, None))
@@ -131,22 +214,32 @@ def image_grid(run: Run, scene: str, crop: Optional[tuple] = None, frame: Option
             status = "FAILED" + (f" at frame {c.failed_frame}" if c.failed_frame is not None else "")
         elif out is None:
             status = "no image"
-        panels.append((run.label(c), out, flip, flip_value, status))
-    box = resolve_crop(crop, width, height, [p[2] for p in panels if p[2] is not None])
+        label = run.label(c)
+        setting = "" if label == c.technique else run.label(c, with_technique=False)
+        panels.append((label, c.technique, setting, out, flip, flip_value, status))
+    box = resolve_crop(crop, width, height, [p[4] for p in panels if p[4] is not None])
     x, y, w, h = box
 
     ncols = min(max_cols, len(panels))
     blocks = math.ceil(len(panels) / ncols)
-    col_w = style.TEXT_WIDTH_IN / ncols
+    style.apply()  # the fonts the titles are measured in, the subplot margins the grid is laid out in
+    col_w = _column_width_in(ncols, GRID_WSPACE)
     img_h = col_w * height / width
     crop_h = col_w * h / w
-    title_h = 0.48  # two lines of 5.5 pt titles, and the FLIP value under the block above
-    ratios = [title_h, img_h, crop_h, img_h] * blocks
-    fig, axes = style.new_figure(style.TEXT_WIDTH_IN, sum(ratios) * 1.08, 4 * blocks, ncols,
-                                 gridspec_kw={"height_ratios": ratios, "hspace": 0.06, "wspace": 0.04})
+    title_w_pt = col_w * 72 * TITLE_FILL
+    titles = [_title_lines(title, setting, status, title_w_pt)
+              for _, title, setting, _, _, _, status in panels]
+    # A block's title row is as tall as its longest title, under the FLIP values of the block above.
+    title_h = [(TITLE_MARGIN_PT + (TITLE_CLEARANCE_PT if b else 0)
+                + max(sum(_line_height(size) for _, size, _ in lines)
+                      for lines in titles[b * ncols:(b + 1) * ncols])) / 72 for b in range(blocks)]
+    ratios = [r for b in range(blocks) for r in (title_h[b], img_h, crop_h, img_h)]
+    fig, axes = style.new_figure(style.TEXT_WIDTH_IN, _figure_height_in(ratios, GRID_HSPACE), 4 * blocks,
+                                 ncols, gridspec_kw={"height_ratios": ratios, "hspace": GRID_HSPACE,
+                                                     "wspace": GRID_WSPACE})
     import matplotlib.patches as mpatches
     rows = []
-    for i, (label, img, flip, flip_value, status) in enumerate(panels):
+    for i, (label, _, _, img, flip, flip_value, status) in enumerate(panels):
         b, col = divmod(i, ncols)
         a_title = axes[4 * b][col]
         a_img, a_crop, a_flip = axes[4 * b + 1][col], axes[4 * b + 2][col], axes[4 * b + 3][col]
@@ -158,13 +251,14 @@ def image_grid(run: Run, scene: str, crop: Optional[tuple] = None, frame: Option
             for s in a.spines.values():
                 s.set_visible(True)
                 s.set_linewidth(0.4)
-        # Technique on the first line, its setting (or the failure) on the second.
-        head, _, rest = label.partition(" (")
-        second = status if status else rest.rstrip(")")
-        a_title.text(0.5, 0.36, head, ha="center", va="bottom", fontsize=6, transform=a_title.transAxes)
-        a_title.text(0.5, 0.3, second, ha="center", va="top", fontsize=5.5,
-                     transform=a_title.transAxes,
-                     color=style.FAILED_COLOR if status else "#333333", gid=f"panel-status:{i}")
+        # Stacked up from the bottom of the title row, so every title sits right above its images.
+        rise = TITLE_MARGIN_PT / 2
+        for k, (text, size, kind) in reversed(list(enumerate(titles[i]))):
+            color = {"title": "black", "setting": "#333333", "status": style.FAILED_COLOR}[kind]
+            a_title.annotate(text, (0.5, 0), xycoords="axes fraction", xytext=(0, rise),
+                             textcoords="offset points", ha="center", va="bottom", fontsize=size,
+                             color=color, gid=f"panel-{kind}:{i}:{k}")
+            rise += _line_height(size)
         if img is not None:
             a_img.imshow(img, interpolation="nearest", gid=f"image:{i}")
             a_img.add_patch(mpatches.Rectangle((x - 0.5, y - 0.5), w, h, fill=False, ec="#00FFFF", lw=0.8))

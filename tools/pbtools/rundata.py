@@ -415,7 +415,7 @@ class Run:
         self._by_id: Dict[str, Cell] = {}
         for c in self.cells:
             self._by_id.setdefault(c.id, c)
-        self._swept: Optional[Dict[tuple, List[str]]] = None
+        self._label_params: Optional[Dict[tuple, List[str]]] = None
 
     @property
     def name(self) -> str:
@@ -459,19 +459,27 @@ class Run:
         return [p for p in self.param_columns
                 if rows[PARAM_PREFIX + p].dropna().map(format_param).nunique() > 1]
 
+    def distinguishing_params(self, cells: List[Cell]) -> List[str]:
+        """Parameters that tell `cells` of one technique apart: swept ones, and ones that some of them
+        set and others leave unset (a technique listed twice, once with a parameter and once
+        without, is two settings however few values the parameter takes)."""
+        rows = self.params.iloc[[c.index for c in cells]]
+        return [p for p in self.param_columns
+                if rows[PARAM_PREFIX + p].map(lambda v: "" if v is None else format_param(v)).nunique() > 1]
+
     def _seed_axis(self) -> bool:
         """Whether summary.csv's `seed` column holds more than one seed (a seed axis)."""
         return "seed" in self.columns and self.text["seed"].replace("", np.nan).dropna().nunique() > 1
 
     def label(self, cell: Cell, with_technique: bool = True, with_seed: bool = True) -> str:
-        """A short human label: technique plus the parameters that are swept within its technique
-        (in its scene)."""
-        if self._swept is None:
+        """A short human label: technique plus the parameters that tell the cell from the
+        technique's other cells in its scene (distinguishing_params)."""
+        if self._label_params is None:
             groups = self.summary.groupby(["scene", "technique"], sort=False).indices
-            self._swept = {key: self.swept_params([self.cells[i] for i in rows])
-                           for key, rows in groups.items()}
-        swept = self._swept[(cell.scene, cell.technique)]
-        parts = [f"{p}={format_param(cell.params[p])}" for p in swept if p in cell.params]
+            self._label_params = {key: self.distinguishing_params([self.cells[i] for i in rows])
+                                  for key, rows in groups.items()}
+        named = self._label_params[(cell.scene, cell.technique)]
+        parts = [f"{p}={format_param(cell.params[p])}" for p in named if p in cell.params]
         # `run --seeds K`: K cells of one setting (with_seed False: the setting, for all K)
         if with_seed and cell.text("seed") and self._seed_axis():
             parts.append(f"seed={cell.text('seed')}")

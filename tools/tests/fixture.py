@@ -205,12 +205,18 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
              spike_rate: float = 0.03, images: bool = True, resolution=(96, 54),
              commit: Optional[str] = None, device: str = "llvmpipe (LLVM 15.0.6, 256 bits)",
              scenes: Optional[List[str]] = None, techniques: Optional[List[str]] = None,
-             load: Optional[float] = None, bounce_matched: bool = False) -> str:
+             load: Optional[float] = None, bounce_matched: bool = False,
+             settings: Optional[Dict[str, List[dict]]] = None) -> str:
     """Writes a run directory at out_dir and returns its path. Layout is seed-independent; `seed` drives
-    only the noise, so two seeds are an A/A pair."""
+    only the noise, so two seeds are an A/A pair. `settings` replaces techniques' parameter settings,
+    {technique: [params, ...]} (e.g. direct at two shadow map sizes); new parameter names get their
+    param.<name> columns."""
     slow = slow or {}
     scenes = scenes or SCENES
-    chosen = [t for t in TECHNIQUES if techniques is None or t["technique"] in techniques]
+    chosen = [{**t, "settings": (settings or {}).get(t["technique"], t["settings"])} for t in TECHNIQUES
+              if techniques is None or t["technique"] in techniques]
+    param_names = PARAM_NAMES + [k for k in dict.fromkeys(k for t in chosen for s in t["settings"] for k in s)
+                                 if k not in PARAM_NAMES]
     layout = np.random.default_rng(12345)  # the "build": identical for every seed
     rng = np.random.default_rng(seed)  # the "machine": differs per run
     run_drift = math.exp(rng.normal(0.0, drift))
@@ -268,6 +274,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 base = {}
                 for p, ms in tech["passes"].items():
                     s = setting_scale if p in ("trace", "splat", "cluster") else 1.0
+                    if p == "shadow-map" and "shadow_map_size" in params:  # a sweep given by `settings`
+                        s = (params["shadow_map_size"] / 1024.0) ** 0.5
                     base[p] = ms * scene_scale * s * float(layout.uniform(0.95, 1.05))
                 frame_rows, counter_rows = [], []
                 per_pass: Dict[str, List[float]] = {}
@@ -321,6 +329,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                     flip_level *= 0.85
                 if params.get("variant") == "trivial":
                     flip_level *= 1.3
+                if "shadow_map_size" in params:  # smaller maps alias the shadow edges a little
+                    flip_level *= (1024.0 / params["shadow_map_size"]) ** 0.05
                 flip_level *= 1.0 + 0.1 * scene_i
                 metric_rows = []
                 mframes = [f for f in metric_frames if f < n_frames]
@@ -388,13 +398,13 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
 
     fixed = ["cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
              "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
-    header = fixed + [f"param.{p}" for p in PARAM_NAMES] + [f"pass.{p}.ms_median" for p in pass_columns]
+    header = fixed + [f"param.{p}" for p in param_names] + [f"pass.{p}.ms_median" for p in pass_columns]
     rows = []
     for r in summary_rows:
         out = [r["cell"], r["scene"], r["technique"], r["status"], r["frames"]]
         out += [fmt(r[k]) for k in fixed[5:]]
         out += [fmt(r["params"][p]) if isinstance(r["params"].get(p), float) else
-                str(r["params"].get(p, "")) for p in PARAM_NAMES]
+                str(r["params"].get(p, "")) for p in param_names]
         out += [fmt(r["passes"].get(p)) for p in pass_columns]
         rows.append(out)
     write_csv(os.path.join(out_dir, "summary.csv"), header, rows)

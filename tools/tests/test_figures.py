@@ -197,5 +197,73 @@ class FigureDataTest(unittest.TestCase):
         self.assertTrue(x <= 60 and x + w >= 76 and y <= 30 and y + h >= 38)
 
 
+def _text_boxes(fig, prefix):
+    """{gid: display box} of the texts whose gid starts with prefix, as drawn."""
+    import matplotlib.text
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    boxes = {}
+    for ax in fig.axes:
+        for t in ax.texts:
+            if (t.get_gid() or "").startswith(prefix):
+                boxes[(id(ax), t.get_gid())] = (ax, matplotlib.text.Text.get_window_extent(t, renderer))
+    return boxes
+
+
+def _overlapping(boxes):
+    """The pairs of boxes that share an area (in display coordinates, across all axes)."""
+    items = list(boxes.items())
+    out = []
+    for i, (ka, (axa, a)) in enumerate(items):
+        for kb, (axb, b) in items[i + 1:]:
+            if min(a.x1, b.x1) - max(a.x0, b.x0) > 0 and min(a.y1, b.y1) - max(a.y0, b.y0) > 0:
+                out.append((ka[1], kb[1]))
+    return out
+
+
+class LabelsDoNotOverlapTest(unittest.TestCase):
+    """Two settings of one technique whose points nearly coincide (direct at two shadow map sizes,
+    tiled at three close photon counts): their labels in the quality-against-time plot and their
+    column titles in the image grid are placed apart, never printed over each other."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = TempRuns()
+        settings = {"direct": [{"shadow_map_size": 256}, {"shadow_map_size": 1024}],
+                    "tiled": [{"photons": p, "radius": 0.05} for p in (100000, 101000, 102000)]}
+        cls.rd = Run(cls.tmp.make("run", seed=3, settings=settings, scenes=["cornell-box"],
+                                  techniques=["direct", "tiled", "cluster"]))
+        cls.styles = style.TechniqueStyle(cls.rd.techniques())
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_setting_labels_name_what_tells_the_cells_apart(self):
+        labels = sorted(self.rd.label(c) for c in self.rd.cells_of("cornell-box") if c.technique == "direct")
+        self.assertEqual(labels, ["direct (shadow_map_size=1024)", "direct (shadow_map_size=256)"])
+
+    def test_point_labels_neither_overlap_nor_leave_their_axes(self):
+        fig = F.quality_vs_time(self.rd, "cornell-box", self.styles).fig
+        boxes = _text_boxes(fig, "point-label:")
+        # direct's 2 and tiled's 3 cells labelled in each of the three metric panels (cluster's
+        # variants too, where the fixture gives it more than one cell)
+        self.assertGreaterEqual(len(boxes), 3 * 5)
+        self.assertEqual(_overlapping(boxes), [])
+        for ax, box in boxes.values():
+            frame = ax.get_window_extent()
+            self.assertTrue(frame.x0 - 0.5 <= box.x0 and box.x1 <= frame.x1 + 0.5
+                            and frame.y0 - 0.5 <= box.y0 and box.y1 <= frame.y1 + 0.5, box)
+        style.close(fig)
+
+    def test_image_grid_titles_do_not_overlap(self):
+        fig = I.image_grid(self.rd, "cornell-box").fig
+        boxes = _text_boxes(fig, "panel-")
+        titles = [g for _, g in boxes if g.startswith("panel-setting:")]
+        self.assertGreaterEqual(len(titles), 5)  # each direct and tiled cell's setting is printed
+        self.assertEqual(_overlapping(boxes), [])
+        style.close(fig)
+
+
 if __name__ == "__main__":
     unittest.main()
