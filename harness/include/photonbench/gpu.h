@@ -132,7 +132,7 @@ struct GraphicsPipelineDesc {
   vk::CullModeFlags cull = vk::CullModeFlagBits::eNone;
   bool depth_bias = false;
   vk::SampleCountFlagBits samples = vk::SampleCountFlagBits::e1;
-  std::vector<bool> additive_blend;  // per colour attachment; empty: no blending
+  std::vector<bool> additive_blend{};  // per colour attachment; empty: no blending
   // > 0: sample-rate shading (sampleShadingEnable) with this minSampleShading; 1 runs the fragment
   // shader once per sample.
   float min_sample_shading = 0;

@@ -13,7 +13,6 @@
 namespace pb::trace::detail {
 namespace {
 
-constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // Subpath vertices at most: the camera (or light) vertex plus every scattering vertex a path within
 // the bounce budget can have, plus the emitter a camera subpath may end on.
 constexpr int kMaxVertices = int(kUntruncatedBounces) + 2;
@@ -186,7 +185,7 @@ class PixelSampler {
     for (; n < kMaxVertices && uint32_t(n) <= budget_ + 1; ++n) {
       Hit hit;
       ++rays_;
-      if (!world_.intersect(origin, dir, kInfinity, hit)) break;
+      if (!world_.intersect(origin, dir, kUnboundedRay, hit)) break;
       Vertex& v = z_[n];
       const Vertex& prev = z_[n - 1];
       v = surface_vertex(hit, dir);
@@ -244,7 +243,7 @@ class PixelSampler {
     for (; n < kMaxVertices && uint32_t(n) <= budget_; ++n) {
       Hit hit;
       ++rays_;
-      if (!world_.intersect(origin, dir, kInfinity, hit)) break;
+      if (!world_.intersect(origin, dir, kUnboundedRay, hit)) break;
       if (world_.is_light_object(hit.object)) break;  // a luminaire absorbs what reaches it
       Vertex& v = y_[n];
       const Vertex& prev = y_[n - 1];

@@ -26,6 +26,8 @@
 namespace pb::trace {
 
 inline constexpr uint32_t kNoObject = ~0u;
+// The tmax of a ray that may hit anything in front of it.
+inline constexpr float kUnboundedRay = std::numeric_limits<float>::infinity();
 
 struct Hit {
   float t = 0;

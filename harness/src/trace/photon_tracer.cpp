@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 
+#include "io/clock.h"
 #include "photonbench/error.h"
 #include "trace/bsdf.h"
 #include "trace/lights.h"
@@ -17,7 +18,6 @@ namespace pb::trace {
 namespace {
 
 constexpr uint32_t kBlockSize = 256;  // paths per parallel task; fixed, so output order is fixed
-constexpr float kInfinity = std::numeric_limits<float>::infinity();
 
 float max3(const glm::vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
 float mean3(const glm::vec3& v) { return (v.x + v.y + v.z) / 3.f; }
@@ -161,7 +161,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     bool handed_over = first_hit != nullptr;
     if (handed_over) hit = *first_hit, first_hit = nullptr;
     bool any = handed_over ? hit.object != kNoObject
-                           : world.intersect(spawn_origin(v), dir, kInfinity, hit);
+                           : world.intersect(spawn_origin(v), dir, kUnboundedRay, hit);
     if (!any) {
       verts.back().flags |= PathVertex::kEscapes | PathVertex::kTerminated;
       return rays;
@@ -363,10 +363,6 @@ void check_settings(const TraceSettings& s) {
   if (s.paths < 1) throw InputError("photon tracer: paths must be at least 1");
   if ((s.store & ~uint32_t(kAllPhotons)) != 0 || s.store == 0)
     throw InputError("photon tracer: store must be a non-empty PhotonKind mask");
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace
@@ -593,7 +589,7 @@ OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
     uv = sphere_direction_inverse(d, -1.f);
   }
   // The visibility ray towards the kept primary hit.
-  bool any = world.intersect(light.position, d, kInfinity, hit);
+  bool any = world.intersect(light.position, d, kUnboundedRay, hit);
   if (!any || hit.object != v1.object || std::abs(hit.t - distance) > 1e-4f * (1.f + distance))
     return OriginUpdate::failed;
   v0.position = light.position;
@@ -677,7 +673,7 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     bool last = s + 1 == path.vertex_count;
     if (last && !(a.flags & PathVertex::kEscapes)) break;  // no outgoing segment
     glm::vec3 origin = spawn_origin(a);
-    float length = kInfinity;
+    float length = kUnboundedRay;
     uint32_t dest_object = kNoObject;
     if (!last) {
       dest_object = pv[s + 1].object;
@@ -700,7 +696,7 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     }
     if (!stale && !touched && !origin_moved) continue;
     Hit hit;
-    bool any = world.intersect(origin, a.direction, kInfinity, hit);
+    bool any = world.intersect(origin, a.direction, kUnboundedRay, hit);
     bool same = last ? !any
                      : any && hit.object == dest_object &&
                            std::abs(hit.t - length) <= 1e-4f * (1.f + length);
@@ -906,7 +902,7 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   }
   stats.paths = total;
   stats.photons = out.photons.size();
-  stats.seconds = seconds_since(t0);
+  stats.seconds = io::seconds_since(t0);
   out.stats = stats;
   return stats;
 }
@@ -968,7 +964,7 @@ TraceStats EmbreePhotonTracer::verify_paths(const TraceSettings& settings,
     stats.visibility_rays += visibility[b], stats.paths_moved += moved[b];
   stats.rays = stats.visibility_rays;
   stats.paths = n_paths;
-  stats.seconds = seconds_since(t0);
+  stats.seconds = io::seconds_since(t0);
   if (origins_done) {  // update_origins' rays and time belong to the verification
     stats.seconds += scratch.origin_stats.seconds;
     scratch.origins.clear();
@@ -1014,7 +1010,7 @@ TraceStats EmbreePhotonTracer::update_origins(const TraceSettings& settings,
   for (uint64_t v : visibility) stats.visibility_rays += v;
   stats.rays = stats.visibility_rays;
   stats.paths = n_paths;
-  stats.seconds = seconds_since(t0);
+  stats.seconds = io::seconds_since(t0);
   scratch.origin_stats = stats;
   return stats;
 }
@@ -1102,7 +1098,7 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   stats.paths = n_paths;
   stats.paths_kept = n_paths - stats.paths_retraced;
   stats.photons = next.photons.size();
-  stats.seconds = seconds_since(t0);
+  stats.seconds = io::seconds_since(t0);
   // The verification's rays and time belong to this re-validation too.
   stats.visibility_rays = verified.visibility_rays;
   stats.paths_moved = verified.paths_moved;
@@ -1154,7 +1150,7 @@ uint64_t trace_aaps_photon(const EmbreeScene& world, const PathVertex& start, ui
       const glm::vec3 dir = p.v.direction;
       Hit hit;
       ++rays;
-      if (!world.intersect(spawn_origin(p.v), dir, kInfinity, hit)) break;
+      if (!world.intersect(spawn_origin(p.v), dir, kUnboundedRay, hit)) break;
       if (world.is_light_object(hit.object)) break;
       glm::vec3 ng =
           glm::dot(hit.geometric_normal, dir) > 0 ? -hit.geometric_normal : hit.geometric_normal;
@@ -1327,7 +1323,7 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
   gather(outputs, blocks, 0, false, out, stats);
   stats.paths = total;
   stats.photons = out.photons.size();
-  stats.seconds = seconds_since(t0);
+  stats.seconds = io::seconds_since(t0);
   out.stats = stats;
   return stats;
 }

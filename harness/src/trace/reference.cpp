@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 
+#include "io/clock.h"
 #include "photonbench/error.h"
 #include "trace/bdpt.h"
 #include "trace/bsdf.h"
@@ -24,7 +25,6 @@ namespace {
 
 using namespace detail;
 
-constexpr float kInfinity = std::numeric_limits<float>::infinity();
 
 struct ClassInfo {
   PathClass id;
@@ -63,7 +63,7 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
   for (uint32_t depth = 0;; ++depth) {
     Hit hit;
     ++rays;
-    if (!world.intersect(origin, dir, kInfinity, hit)) break;
+    if (!world.intersect(origin, dir, kUnboundedRay, hit)) break;
     glm::vec3 wo = -dir;
     glm::vec3 le = lights.emitted(hit, wo);
     if (max3(le) > 0 && !photon_mapping_owns(state.anchor, prev_specular) &&
@@ -142,7 +142,7 @@ bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, floa
   for (uint32_t depth = 0; depth < budget; ++depth) {
     Hit hit;
     ++rays;
-    if (!world.intersect(origin, dir, kInfinity, hit)) return false;
+    if (!world.intersect(origin, dir, kUnboundedRay, hit)) return false;
     distance += hit.t;
     if (world.is_light_object(hit.object)) return false;
     Bsdf bsdf(scene.materials[hit.material], hit);
@@ -219,10 +219,6 @@ class PhotonGrid {
   size_t mask_ = 0;
   std::vector<uint32_t> start_, index_;
 };
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool scene_has_specular(const scene::Scene& scene) {
   for (const auto& o : scene.objects) {
@@ -636,7 +632,7 @@ Estimator choose_estimator(const EmbreeScene& world, const LightSet& lights, con
   predict();
   report.ran = true;
   report.iterations = done;
-  report.seconds = seconds_since(t0);
+  report.seconds = io::seconds_since(t0);
   // Within 10%, the pilot's noise decides more than the estimators do; path tracing, the anchor,
   // is the cheaper per iteration and keeps the tie.
   return report.bdpt_cost * kPilotMargin < report.pt_cost ? Estimator::bdpt : Estimator::pt;
@@ -751,7 +747,7 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     acc->add(it, frame, *arena);
     // ---- stop rules: the first reached ends the render ----
     uint32_t done = acc->iterations();
-    double elapsed = seconds_since(t0);
+    double elapsed = io::seconds_since(t0);
     bool stop = false;
     if (done % 2 == 0 && done > 0) {  // the error and time rules stop on even counts
       if (options.rel_error > 0 && done >= std::max(2u, options.min_samples)) {
@@ -779,7 +775,7 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
   result.estimator = estimator;
   result.pilot = report;
   result.rays = total_rays();
-  result.seconds = seconds_since(t0);
+  result.seconds = io::seconds_since(t0);
   for (size_t j = 0; j < acc->classes().size(); ++j) {
     ReferenceImage& img = result.classes[acc->classes()[j]];
     acc->resolve(j, width, height, img);

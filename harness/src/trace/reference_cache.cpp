@@ -15,6 +15,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "io/clock.h"
 #include "photonbench/error.h"
 #include "trace/reference.h"
 
@@ -371,13 +372,13 @@ ReferenceJobReport render_references(const scene::Scene& scene, uint32_t first_f
     report.rendered += rendered;
     report.cached += n_classes - rendered;
     if (log) {
-      double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_t0).count();
+      double s = io::seconds_since(frame_t0);
       log(rendered ? fmt::format("{} frame {}: rendered {} class(es) in {:.1f} s ({})", scene.name,
                                  f, rendered, s, describe_progress(last))
                    : fmt::format("{} frame {}: cached", scene.name, f));
     }
   }
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  report.seconds = io::seconds_since(t0);
   return report;
 }
 
