@@ -1,15 +1,42 @@
 #include "io/image.h"
 
-#include <OpenImageIO/imageio.h>
+#include <dlfcn.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "photonbench/error.h"
 
 namespace pb::io {
+namespace {
+
+// The codec module (ImageCodec) sits beside libphotonbench.so, in the build folder and installed.
+const ImageCodec& codec() {
+  static const ImageCodec* loaded = [] {
+    Dl_info self{};
+    if (dladdr(reinterpret_cast<const void*>(&read_image), &self) == 0 || self.dli_fname == nullptr)
+      throw Error("image codec: cannot locate libphotonbench.so to find its image codec beside it");
+    std::filesystem::path module =
+        std::filesystem::path(self.dli_fname).parent_path() / "libphotonbench_image_io.so";
+    void* handle = dlopen(module.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (handle == nullptr) {
+      const char* error = dlerror();
+      throw Error(fmt::format("image codec: cannot load {}: {}", module.string(),
+                              error ? error : "unknown error"));
+    }
+    auto entry =
+        reinterpret_cast<const ImageCodec* (*)()>(dlsym(handle, "photonbench_image_codec"));
+    if (entry == nullptr)
+      throw Error(fmt::format("image codec: {} has no photonbench_image_codec", module.string()));
+    return entry();
+  }();
+  return *loaded;
+}
+
+}  // namespace
 
 Image read_image(const std::filesystem::path& file) {
   // OpenImageIO reads a device as a stream that never ends (/dev/zero), so only files are opened.
@@ -20,50 +47,14 @@ Image read_image(const std::filesystem::path& file) {
   if (!std::filesystem::is_regular_file(status))
     throw InputError(fmt::format("{}: not a regular file (a folder, device or pipe), not an image",
                                  file.string()));
-  auto in = OIIO::ImageInput::open(file.string());
-  if (!in)
-    throw InputError(fmt::format("{}: cannot read image: {}", file.string(), OIIO::geterror()));
-  const OIIO::ImageSpec& spec = in->spec();
-  // A header may claim any size; a scored image is at most a config's resolution (8192 x 8192).
-  if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxImageSide ||
-      spec.height > kMaxImageSide || spec.nchannels <= 0 || spec.nchannels > 4)
-    throw InputError(fmt::format(
-        "{}: a {} x {} image of {} channels; images are 1 x 1 to {} x {} "
-        "with 1 to 4 channels",
-        file.string(), spec.width, spec.height, spec.nchannels, kMaxImageSide, kMaxImageSide));
-  Image image(spec.width, spec.height, spec.nchannels);
-  image.linear = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
-                 spec.format.basetype == OIIO::TypeDesc::HALF ||
-                 spec.format.basetype == OIIO::TypeDesc::DOUBLE;
-  // OIIO converts integer formats to [0, 1] floats; that is the display-encoded value / 255.
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
-    throw InputError(fmt::format("{}: cannot read image: {}", file.string(), in->geterror()));
-  in->close();
-  return image;
+  return codec().read(file);
 }
 
 void write_image(const std::filesystem::path& file, const Image& image) {
-  // OIIO picks the format from the extension, so the temporary name keeps it.
-  std::filesystem::path tmp_named =
+  std::filesystem::path temporary =
       file.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + file.filename().string());
-  bool is_png = file.extension() == ".png";
-  OIIO::ImageSpec spec(image.width, image.height, image.channels,
-                       is_png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT);
-  if (!is_png) spec.attribute("compression", "zip");
-  auto out = OIIO::ImageOutput::create(tmp_named.string());
-  if (!out || !out->open(tmp_named.string(), spec))
-    throw Error(fmt::format("{}: cannot write image: {}", file.string(), OIIO::geterror()));
-  std::vector<float> clamped;
-  const float* data = image.pixels.data();
-  if (is_png) {
-    clamped.resize(image.pixels.size());
-    std::transform(image.pixels.begin(), image.pixels.end(), clamped.begin(),
-                   [](float v) { return std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : 0.f; });
-    data = clamped.data();
-  }
-  if (!out->write_image(OIIO::TypeDesc::FLOAT, data) || !out->close())
-    throw Error(fmt::format("{}: cannot write image: {}", file.string(), out->geterror()));
-  std::filesystem::rename(tmp_named, file);
+  codec().write(file, temporary, image);
+  std::filesystem::rename(temporary, file);
 }
 
 float srgb_encode(float linear) {

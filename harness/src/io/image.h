@@ -1,6 +1,7 @@
-// Images on disk through OpenImageIO: EXR holds linear (scene-referred) values, PNG display-encoded
-// 8-bit values. Writes are atomic (write to a temporary name, then rename), so a crash never leaves
-// a half-written image that a resumed run would trust.
+// Images on disk through OpenImageIO (in a module loaded on first use: ImageCodec): EXR holds
+// linear (scene-referred) values, PNG display-encoded 8-bit values. Writes are atomic (write to a
+// temporary name, then rename), so a crash never leaves a half-written image that a resumed run
+// would trust.
 #pragma once
 
 #include <filesystem>
@@ -42,5 +43,19 @@ Image display_encode(const Image& linear_image, float exposure = 1.0f);
 
 float srgb_encode(float linear);
 float srgb_decode(float encoded);
+
+// read_image and write_image's OpenImageIO halves, in the module libphotonbench_image_io.so
+// (io/image_codec.cpp) that the library loads beside itself on the first image read or written:
+// Debian's OpenImageIO links every format it knows (FFmpeg, GDCM, libheif, GStreamer, ...), 260
+// shared libraries whose loading took 0.45 s of every process's start (0.7-0.9 s under the
+// sanitizers), about 90% of it, measured against an empty program; most processes of a run or of
+// the tests (validate, schema, list, a cell without metric frames, most unit tests) never touch an
+// image. `file` is a regular file (read), or the destination with `temporary`, a name in its folder
+// with its extension, written first (write).
+struct ImageCodec {
+  Image (*read)(const std::filesystem::path& file);
+  void (*write)(const std::filesystem::path& file, const std::filesystem::path& temporary,
+                const Image& image);
+};
 
 }  // namespace pb::io
