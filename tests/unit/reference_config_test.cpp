@@ -1,6 +1,7 @@
 // The config's reference block (config.h ReferenceSettings): stop rules and truncation, checked
 // like every key (errors name file:line:col and the key), and mapped onto the renderer's options.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -14,7 +15,9 @@ namespace pb {
 namespace reference_config_test {
 
 std::filesystem::path write_config(const std::string& reference_block) {
-  auto file = std::filesystem::path(::testing::TempDir()) / "pb_reference_config.yaml";
+  // Per test process: CTest runs this file's tests side by side.
+  auto file = std::filesystem::path(::testing::TempDir()) /
+              ("pb_reference_config_" + std::to_string(::getpid()) + ".yaml");
   std::ofstream(file) << "name: t\nresolution: [64, 36]\nscenes: [" PB_SOURCE_DIR
                          "/scenes/cornell-box.yaml]\ntechniques:\n  - technique: direct\n"
                       << reference_block;

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -25,7 +26,10 @@
 namespace pb::run {
 namespace scoring_test {
 
-const std::filesystem::path kTemp = std::filesystem::path(::testing::TempDir()) / "pb_scoring_test";
+// One folder per test process: CTest runs this file's tests side by side, and one test's
+// remove_all of the shared reference cache raced another's reads of it.
+const std::filesystem::path kTemp =
+    std::filesystem::path(::testing::TempDir()) / ("pb_scoring_test_" + std::to_string(::getpid()));
 
 config::Config load(const std::string& reference_block,
                     const std::string& frames = "{warmup: 0, count: 1, metrics_every: 1}") {
