@@ -13,6 +13,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -75,10 +76,12 @@ inline fs::path find_cell(const fs::path& dir, const std::string& technique,
   return {};
 }
 
-// counters.csv of a cell, row by row: (frame, counter name, value).
+// counters.csv of a cell, row by row: (frame, counter name, value). A cell without one (not run, or
+// not found: an empty path) throws, so the test that asked fails saying so.
 template <class Row>
 void for_each_counter(const fs::path& cell, Row row) {
   std::ifstream in(cell / "counters.csv");
+  if (!in) throw std::runtime_error("no counters.csv in the cell '" + cell.string() + "'");
   std::string line;
   std::getline(in, line);  // header
   while (std::getline(in, line)) {
@@ -91,12 +94,34 @@ void for_each_counter(const fs::path& cell, Row row) {
   }
 }
 
-// Each counter summed over the measured frames.
-inline std::map<std::string, double> counters(const fs::path& cell) {
-  std::map<std::string, double> sums;
-  for_each_counter(cell, [&](int, const std::string& name, double v) { sums[name] += v; });
-  return sums;
-}
+// Each counter summed over the measured frames. A technique writes each of its counters every frame
+// (zeros too), so a name the cell never wrote is a renamed or lost counter: reading it throws,
+// naming the counters there are, where a std::map's operator[] would read 0 and let
+// EXPECT_EQ(sums["overflows"], 0) pass.
+class CounterSums {
+ public:
+  explicit CounterSums(const fs::path& cell) : cell_(cell) {
+    for_each_counter(cell, [&](int, const std::string& name, double v) { sums_[name] += v; });
+  }
+  double operator[](const std::string& name) const { return at(name); }
+  double at(const std::string& name) const {
+    auto it = sums_.find(name);
+    if (it != sums_.end()) return it->second;
+    std::string written;
+    for (const auto& [n, v] : sums_) written += (written.empty() ? "" : ", ") + n;
+    throw std::out_of_range("no counter '" + name + "' in " + (cell_ / "counters.csv").string() +
+                            " (it has: " + written + ")");
+  }
+  bool contains(const std::string& name) const { return sums_.count(name) != 0; }
+  auto begin() const { return sums_.begin(); }
+  auto end() const { return sums_.end(); }
+
+ private:
+  fs::path cell_;
+  std::map<std::string, double> sums_;
+};
+
+inline CounterSums counters(const fs::path& cell) { return CounterSums(cell); }
 
 // One counter's value per measured frame, in frame order.
 inline std::vector<double> counter_series(const fs::path& cell, const std::string& counter) {

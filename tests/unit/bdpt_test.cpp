@@ -29,6 +29,12 @@ struct SceneCase {
   std::string name;
   uint32_t iterations, pt_iterations;
 };
+// How CTest and GoogleTest print the case (`-N`, failures): its scene and iteration counts, not
+// the struct's bytes.
+void PrintTo(const SceneCase& c, std::ostream* out) {
+  *out << c.name << " (BDPT " << c.iterations << ", path tracing " << c.pt_iterations
+       << " iterations)";
+}
 
 class EstimatorsAgree : public ::testing::TestWithParam<SceneCase> {};
 

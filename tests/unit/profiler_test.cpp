@@ -11,6 +11,8 @@
 #include <thread>
 #include <vector>
 
+#include "command_stream.h"
+
 namespace pb {
 namespace profiler_test {
 
@@ -33,24 +35,11 @@ void burn_cpu_ms(double ms) {
 std::vector<run::PassSample> one_frame(int threads, double ms, const std::string& slow_pass,
                                        double factor) {
   gpu::Device device({"", false});
-  vk::raii::CommandPool pool(
-      device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
-  std::vector<vk::raii::CommandBuffer> buffers;
-  vk::CommandBuffer cmd;
-  vk::raii::Fence fence(device.device(), vk::FenceCreateInfo{});
-  auto begin = [&] {
-    buffers.push_back(std::move(vk::raii::CommandBuffers(
-        device.device(), {*pool, vk::CommandBufferLevel::ePrimary, 1})[0]));
-    cmd = *buffers.back();
-    cmd.begin(vk::CommandBufferBeginInfo{});
-  };
-  auto submit = [&] {
-    cmd.end();
-    device.queue().submit(vk::SubmitInfo{{}, {}, cmd}, *fence);
-    EXPECT_EQ(device.device().waitForFences(*fence, VK_TRUE, UINT64_MAX), vk::Result::eSuccess);
-    device.device().resetFences(*fence);
-  };
-  run::Profiler profiler(device, [&] { return cmd; });
+  testing::CommandStream commands(device);
+  auto begin = [&] { commands.begin(); };
+  auto submit = [&] { commands.submit(); };
+  auto cmd = [&] { return commands.cmd(); };
+  run::Profiler profiler(device, cmd);
   profiler.use_fenced_timing([&] {
     submit();
     begin();

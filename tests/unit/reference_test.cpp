@@ -5,6 +5,7 @@
 #include "trace/reference.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -100,6 +101,7 @@ struct EstimatorCase {
   MisHeuristic heuristic;
   const char* name;
 };
+void PrintTo(const EstimatorCase& c, std::ostream* out) { *out << c.name; }
 class ReferenceByEstimator : public ::testing::TestWithParam<EstimatorCase> {
  protected:
   ReferenceOptions quick(uint32_t samples) const {
@@ -436,7 +438,8 @@ TEST(Reference, PathClassesPartitionTheImage) {
 // that rule afterwards. It was once refused (an error of 0 read as "not measured"), so every run
 // rendered it again and then failed with "the entry just written cannot be read back".
 TEST(ReferenceCache, ServesABlackReferenceStoppedByTheErrorRule) {
-  auto dir = std::filesystem::path(::testing::TempDir()) / "pb_reference_cache_black";
+  auto dir = std::filesystem::path(::testing::TempDir()) /
+             ("pb_reference_cache_black_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   scene::Scene scene = load("cornell-box.yaml");
   ReferenceCache cache(dir);
@@ -454,7 +457,8 @@ TEST(ReferenceCache, ServesABlackReferenceStoppedByTheErrorRule) {
 }
 
 TEST(ReferenceCache, StoresAtomicallyAndReusesByContent) {
-  auto dir = std::filesystem::path(::testing::TempDir()) / "pb_reference_cache_test";
+  auto dir = std::filesystem::path(::testing::TempDir()) /
+             ("pb_reference_cache_test_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   scene::Scene scene = load("cornell-box.yaml");
   ReferenceCache cache(dir);

@@ -7,6 +7,7 @@
 
 #include <chrono>
 
+#include "command_stream.h"
 #include "gpu/shared_passes.h"
 #include "run/profiler.h"
 #include "scene/scene.h"
@@ -29,25 +30,12 @@ struct Measured {
 Measured measure(bool gbuffer, int repeats, bool fenced) {
   scene::Scene scene = scene::load_scene(std::string(PB_SOURCE_DIR) + "/scenes/pillars.yaml");
   gpu::Device device({"", false});
-  vk::raii::CommandPool pool(
-      device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
-  std::vector<vk::raii::CommandBuffer> buffers;
-  vk::CommandBuffer cmd;
-  vk::raii::Fence fence(device.device(), vk::FenceCreateInfo{});
-  auto begin = [&] {
-    buffers.push_back(std::move(vk::raii::CommandBuffers(
-        device.device(), {*pool, vk::CommandBufferLevel::ePrimary, 1})[0]));
-    cmd = *buffers.back();
-    cmd.begin(vk::CommandBufferBeginInfo{});
-  };
-  auto submit = [&] {
-    cmd.end();
-    device.queue().submit(vk::SubmitInfo{{}, {}, cmd}, *fence);
-    EXPECT_EQ(device.device().waitForFences(*fence, VK_TRUE, UINT64_MAX), vk::Result::eSuccess);
-    device.device().resetFences(*fence);
-  };
-  run::Profiler profiler(device, [&] { return cmd; });
-  gpu::ScenePasses passes(device, scene, 640, 360, {}, profiler, [&] { return cmd; });
+  testing::CommandStream commands(device);
+  auto begin = [&] { commands.begin(); };
+  auto submit = [&] { commands.submit(); };
+  auto cmd = [&] { return commands.cmd(); };
+  run::Profiler profiler(device, cmd);
+  gpu::ScenePasses passes(device, scene, 640, 360, {}, profiler, cmd);
   passes.update(scene.at(0));
   // One untimed frame first, so first-use costs (pipeline JIT, page faults) are not measured.
   begin();

@@ -64,7 +64,8 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
 
   const uint64_t harness_gpu_bytes = gpu::DeviceAccounting::allocated_bytes(r.device);
   TechniqueInstance technique = set_up_technique(plugin, cell, r, record);
-  FrameLoop frames(config, r, log, record, dir, reference_class_of(path_class), harness_gpu_bytes);
+  FrameLoop frames(config, r, log, record, dir, trace::reference_class_of(path_class),
+                   harness_gpu_bytes);
   const std::vector<uint32_t> written = frames.run(*technique);
 
   // Scoring against references: after the frames, never on the timed path.

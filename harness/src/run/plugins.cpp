@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "photonbench/error.h"
-#include "run/scoring.h"
 #include "trace/reference.h"
 
 namespace pb::run {
@@ -103,7 +102,7 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
     return fmt::format("plugin {} returned a descriptor without a name or factory",
                        plugin.file.string());
   // A class the references do not have would leave the technique scored on `combined` alone.
-  if (!reference_class_of(descriptor->path_class ? descriptor->path_class : ""))
+  if (!trace::reference_class_of(descriptor->path_class ? descriptor->path_class : ""))
     return fmt::format("plugin {} ('{}') declares path class '{}', which is none of: {}",
                        plugin.file.string(), descriptor->name,
                        descriptor->path_class ? descriptor->path_class : "", known_path_classes());

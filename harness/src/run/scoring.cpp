@@ -16,18 +16,6 @@ namespace pb::run {
 
 using json = nlohmann::json;
 
-std::optional<trace::PathClass> reference_class_of(const std::string& path_class) {
-  // A technique names its class by the reference's name ("caustics") or its light path expression.
-  auto squeeze = [](std::string s) {
-    s.erase(std::remove(s.begin(), s.end(), ' '), s.end());
-    return s;
-  };
-  if (auto by_name = trace::parse_path_class(path_class)) return by_name;
-  for (trace::PathClass c : trace::all_path_classes())
-    if (squeeze(std::string(trace::path_class_expression(c))) == squeeze(path_class)) return c;
-  return std::nullopt;
-}
-
 trace::ReferenceOptions reference_options(const config::Config& config) {
   trace::ReferenceOptions options;
   options.rel_error = float(config.reference.rel_error);
@@ -42,7 +30,7 @@ trace::ReferenceOptions reference_options(const config::Config& config) {
 
 uint32_t reference_classes(const std::string& technique_path_class) {
   uint32_t mask = trace::class_bit(trace::PathClass::combined);
-  if (auto c = reference_class_of(technique_path_class)) mask |= trace::class_bit(*c);
+  if (auto c = trace::reference_class_of(technique_path_class)) mask |= trace::class_bit(*c);
   return mask;
 }
 
@@ -172,7 +160,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
   // emitted plus direct light), else by the estimate it handed to shade(), which the cell runner
   // wrote alone (class_image_name) before the shared direct light was added to it.
   std::vector<trace::PathClass> classes = {trace::PathClass::combined};
-  auto own = reference_class_of(path_class);
+  auto own = trace::reference_class_of(path_class);
   if (!own)
     result.warnings.push_back(
         fmt::format("path class '{}' has no reference image; scored as combined", path_class));

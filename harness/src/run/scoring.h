@@ -28,9 +28,6 @@ struct ScoreResult {
 // The measured frames that are scored: every metrics_every-th, counted from the first measured
 // frame, each with the metrics_window - 1 frames after it.
 std::vector<uint32_t> metric_frames(const config::Config& config);
-// The reference class a technique's declared path class names (by class name or light path
-// expression).
-std::optional<trace::PathClass> reference_class_of(const std::string& path_class);
 // The reference images a technique's cells need: combined, plus its own class.
 uint32_t reference_classes(const std::string& technique_path_class);
 trace::ReferenceOptions reference_options(const config::Config& config);

@@ -25,7 +25,6 @@ namespace {
 
 using namespace detail;
 
-
 struct ClassInfo {
   PathClass id;
   std::string_view name, expression;
@@ -645,6 +644,18 @@ std::string_view path_class_expression(PathClass c) { return kClassInfo[int(c)].
 std::optional<PathClass> parse_path_class(std::string_view name) {
   for (const auto& info : kClassInfo)
     if (info.name == name) return info.id;
+  return std::nullopt;
+}
+
+std::optional<PathClass> reference_class_of(std::string_view name_or_expression) {
+  auto squeeze = [](std::string_view text) {
+    std::string s(text);
+    s.erase(std::remove(s.begin(), s.end(), ' '), s.end());
+    return s;
+  };
+  if (auto by_name = parse_path_class(name_or_expression)) return by_name;
+  for (PathClass c : all_path_classes())
+    if (squeeze(path_class_expression(c)) == squeeze(name_or_expression)) return c;
   return std::nullopt;
 }
 std::vector<PathClass> all_path_classes() {

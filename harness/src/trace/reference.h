@@ -80,6 +80,9 @@ inline constexpr uint32_t class_bit(PathClass c) { return 1u << uint32_t(c); }
 std::string_view path_class_name(PathClass c);        // "direct", "indirect_caustics", ...
 std::string_view path_class_expression(PathClass c);  // "C D S+ L", ...
 std::optional<PathClass> parse_path_class(std::string_view name);
+// The class a technique declares (plugin.h's path_class): a class name ("caustics") or its light
+// path expression ("C D S+ L", spaces ignored).
+std::optional<PathClass> reference_class_of(std::string_view name_or_expression);
 std::vector<PathClass> all_path_classes();
 
 // Bumped whenever a change alters what the renderer converges to or how it samples (part of the

@@ -172,7 +172,7 @@ TEST(Directional, RootLoopStopsAtTheBudget) {
   ASSERT_EQ(found.size(), 1u);
   expect_ok(found[0]);
   auto sums = counters(found[0]);
-  ASSERT_GT(sums.count("profile_top_steps_max"), 0u) << "no profile of the top pass";
+  ASSERT_TRUE(sums.contains("profile_top_steps_max")) << "no profile of the top pass";
   for (const auto& [name, value] : sums)
     if (name.ends_with("_steps_max")) EXPECT_LE(value, 1) << name << " past a budget of 1";
   EXPECT_GE(sums["truncated_traversals"], 1) << "a budget of 1 truncates the walk";
