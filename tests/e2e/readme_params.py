@@ -1,0 +1,118 @@
+"""Each technique README's parameter table against the technique's schema (`photonbench schema
+config`, which the plugins' descriptors generate): the same names, and per name the same type,
+default and range (or choices). A README's table is written by hand; this keeps it the
+descriptor's.
+
+    readme_params.py SCHEMA.json SOURCE_DIR     exit 1 naming every disagreement
+"""
+import json
+import math
+import pathlib
+import re
+import sys
+
+TYPES = {"int": "integer", "float": "number", "bool": "boolean", "enum": "string", "string": "string"}
+
+
+def cells(line: str):
+    return [c.strip().strip("`") for c in line.strip().strip("|").split("|")]
+
+
+def readme_table(text: str):
+    """The rows of the first table under a '## Parameters' heading: {name: {column: value}}."""
+    lines = text.splitlines()
+    start = next((i for i, l in enumerate(lines) if l.startswith("## Parameters")), None)
+    if start is None:
+        return None
+    rows, header = {}, None
+    for line in lines[start + 1:]:
+        if line.startswith("## "):
+            break
+        if not line.startswith("|"):
+            if header is not None and rows:
+                break
+            continue
+        values = cells(line)
+        if header is None:
+            header = [h.lower() for h in values]
+        elif not set(line.replace("|", "").strip()) <= set("-: "):
+            row = dict(zip(header, values))
+            # "`variance_gain` g": the name is the first word; "tile_size, max_list_entries" with
+            # the other columns empty names parameters another technique's table describes.
+            names = [n.strip().strip("`").split("`")[0].split(" ")[0]
+                     for n in row.get("name", row.get("parameter", "")).split(",")]
+            for name in names:
+                rows[name] = row if len(names) == 1 else {}
+    return rows
+
+
+def number(text: str):
+    """A number as a table writes it: 19, 1e-05, 2^24, or followed by a note ("0 (off)", "19 px²")."""
+    match = re.match(r"\s*(-?[0-9.]+(?:e[-+]?[0-9]+)?)(?:\^([0-9]+))?", text)
+    if not match:
+        return None
+    value = float(match.group(1))
+    return value ** int(match.group(2)) if match.group(2) else value
+
+
+def same_value(readme: str, schema) -> bool:
+    if isinstance(schema, bool):
+        return readme.lower() == str(schema).lower()
+    if isinstance(schema, (int, float)):
+        value = number(readme)
+        return value is not None and math.isclose(value, float(schema), rel_tol=1e-9, abs_tol=1e-12)
+    return readme == str(schema)
+
+
+def check(technique: str, rows: dict, properties: dict) -> list:
+    problems = []
+    for name in sorted(set(properties) - set(rows)):
+        problems.append(f"{technique}: '{name}' is in the schema but not in the README's table")
+    for name in sorted(set(rows) - set(properties)):
+        problems.append(f"{technique}: '{name}' is in the README's table but not in the schema")
+    for name in sorted(set(rows) & set(properties)):
+        row, prop = rows[name], properties[name]["anyOf"][0] if "anyOf" in properties[name] else properties[name]
+        if "default" in row and not same_value(row["default"], prop.get("default")):
+            problems.append(f"{technique}.{name}: README default {row['default']!r}, schema {prop.get('default')!r}")
+        if "type" in row and TYPES.get(row["type"], row["type"]) != prop.get("type", "string" if "enum" in prop else None):
+            problems.append(f"{technique}.{name}: README type {row['type']!r}, schema {prop.get('type')!r}")
+        if "range" in row and row["range"] not in ("", "-"):
+            if "enum" in prop:
+                listed = [v.strip() for v in re.split(r"[|,]", row["range"].replace("\\|", "|")) if v.strip()]
+                if listed != [str(v) for v in prop["enum"]]:
+                    problems.append(f"{technique}.{name}: README choices {listed}, schema {prop['enum']}")
+            elif "minimum" in prop:
+                bounds = re.match(r"\[\s*([^,]+),\s*([^\]]+)\]", row["range"])  # a note may follow
+                if not bounds or not (same_value(bounds.group(1), prop["minimum"])
+                                      and same_value(bounds.group(2), prop["maximum"])):
+                    problems.append(f"{technique}.{name}: README range {row['range']!r}, schema "
+                                    f"[{prop['minimum']}, {prop['maximum']}]")
+    return problems
+
+
+def main() -> int:
+    schema = json.load(open(sys.argv[1]))
+    source = pathlib.Path(sys.argv[2])
+    problems, checked = [], 0
+    for key, definition in sorted(schema["$defs"].items()):
+        match = re.fullmatch(r"techniques\.(.+)\.params", key)
+        if not match:
+            continue
+        technique = match.group(1)
+        readme = source / "techniques" / technique / "README.md"
+        if not readme.exists():
+            continue  # a plugin from another folder (tests' plugins, --plugin-dir)
+        rows = readme_table(readme.read_text(encoding="utf-8"))
+        if rows is None:
+            problems.append(f"{readme}: no '## Parameters' table")
+            continue
+        problems += check(technique, rows, definition["properties"])
+        checked += 1
+    for p in problems:
+        print(p)
+    print(f"{checked} technique READMEs checked, {len(problems)} disagreements")
+    return 1 if problems or checked == 0 else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
