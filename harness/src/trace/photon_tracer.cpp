@@ -211,17 +211,19 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       alive = bsdf.sample(-dir, {xi.x, xi.y, xi.z}, Transport::importance, s);
       glm::vec3 power = alive ? v.power * s.weight : glm::vec3(0.f);
       alive = alive && max3(power) > 0 && std::isfinite(max3(power));
+      float survival = 1.f;
       if (alive && k >= c.rr_start) {
         // Paper I §5: survive with R = min(1, Phi'/Phi), then Phi = Phi'/R.
-        float r = std::min(1.f, max3(power) / max3(v.power));
-        if (xi.w >= r)
+        survival = std::min(1.f, max3(power) / max3(v.power));
+        if (xi.w >= survival)
           alive = false;
         else
-          power /= r;
+          power /= survival;
       }
       if (alive) {
         next.direction = s.wi;
         next.power = power;
+        next.survival = survival;
         if (diffuse) {
           // The new direction depends on this bounce's two sample dimensions only: restart the
           // differentials from the cosine map (finite differences) about this point.
@@ -667,7 +669,6 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
       origin_moved = reuse.rule == ReuseRule::error_based;
     }
   }
-  const uint32_t rr_start = old.rr_start;
   for (uint32_t s = first; s < path.vertex_count; ++s) {
     const PathVertex& a = pv[s];
     bool last = s + 1 == path.vertex_count;
@@ -720,13 +721,15 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
       if (!dest_last) next_dir = glm::normalize(pv[s + 2].position - hit.position);
       float pdf = bsdf.pdf(-a.direction, next_dir);
       if (!(pdf > 0)) return restart_with(s, any, hit);
+      // Eq. 2's E_N: the energy reflected at the new hit towards the next vertex, Phi f cos / p,
+      // before the Russian roulette. E_O is the same quantity at the original hit: the power the
+      // path carried on, times the probability with which it survived there (PathVertex::survival;
+      // 1 before rr_start). Comparing the powers after the roulette instead would compare
+      // rho / max(rho) and miss an albedo that changed in magnitude alone (a dark grey hit where a
+      // bright grey one was).
       glm::vec3 energy = a.power * bsdf.eval(-a.direction, next_dir, Transport::importance) / pdf;
-      if (s >= rr_start) {  // the tracer's Russian roulette normalisation, as in continue_path
-        float r = std::min(1.f, max3(energy) / max3(a.power));
-        if (r > 0) energy /= r;
-      }
       // Always against the original energy, so that errors do not accumulate over frames.
-      glm::vec3 original = old_dest.power;
+      glm::vec3 original = old_dest.power * old_dest.survival;
       if (glm::any(
               glm::greaterThan(glm::abs(energy - original), reuse.energy_threshold * original)))
         return restart_with(s, any, hit);

@@ -236,6 +236,86 @@ TEST(PathVerification, ErrorBasedKeepsValidPathsAndNeverTracesMoreThanNaive) {
       (unsigned long long)naive_kept, (unsigned long long)error_kept, (unsigned long long)moved);
 }
 
+// A scene's Embree world and photon tracer, and a first trace of settings() to reuse.
+struct Traced {
+  EmbreeScene world;
+  EmbreePhotonTracer tracer;
+  PhotonBatch batch;
+  explicit Traced(const TestScene& t) : world(t.scene, t.state), tracer(world) {
+    tracer.trace(settings(), batch);
+  }
+};
+
+// A low bright grey room (4 x 1.5 x 4 m, albedo 0.8) lit by a spot light aimed at the ceiling, and
+// a thin dark slab of the same hue (0.2 grey, 3 x 3 m) that the test moves from outside the room
+// onto the floor: the second hits of about half the paths move from the floor onto the slab, 2 cm
+// up. The second hit, as the tracer's Russian roulette starts there (rr_start 1); a grey albedo
+// scatters every channel alike, so only its magnitude tells the two surfaces apart.
+struct BrightFloorDarkSlab {
+  TestScene t;
+  uint32_t slab = 0;
+  BrightFloorDarkSlab() {
+    uint32_t bright = t.material(scene::MaterialType::diffuse, glm::vec3(0.8f));
+    uint32_t dark = t.material(scene::MaterialType::diffuse, glm::vec3(0.2f));
+    t.object(box_mesh({-2, 0, -2}, {2, 1.5f, 2}, true), bright);
+    slab = t.object(box_mesh({-1.5f, 0, -1.5f}, {1.5f, 0.02f, 1.5f}, false), dark,
+                    glm::translate(glm::mat4(1.f), {8.f, 0, 0}));
+    scene::Light spot;
+    spot.type = scene::LightType::spot;
+    spot.position = {0, 0.8f, 0};
+    spot.direction = {0, 1, 0};
+    spot.spot_inner = glm::radians(8.f);
+    spot.spot_outer = glm::radians(10.f);
+    spot.radiant = glm::vec3(10.f);
+    t.light(spot);
+  }
+};
+
+// The indirect estimate (the power of every photon but the first hit's, the mean of RGB) and its
+// standard error, from each path's own sum: paths are independent samples.
+struct IndirectEstimate {
+  double power = 0, standard_error = 0;
+};
+IndirectEstimate indirect_estimate(const PhotonBatch& batch) {
+  std::vector<double> per_path(batch.paths.paths.size(), 0.0);
+  for (const PhotonRecord& p : batch.photons)
+    if (p.bounce > 0) per_path[p.path] += (p.power.x + p.power.y + p.power.z) / 3.0;
+  IndirectEstimate e;
+  double sum2 = 0, n = double(per_path.size());
+  for (double x : per_path) e.power += x, sum2 += x * x;
+  double mean = e.power / n;
+  e.standard_error = std::sqrt(std::max(0.0, sum2 / n - mean * mean) * n);
+  return e;
+}
+
+// Eq. 2 compares the energy reflected towards the next vertex. With the tracer's Russian roulette
+// (survival R = max(rho) for a grey diffuse bounce, power divided by R) a path that survives the
+// dark slab carries as much power as one that survives the bright floor, but survives a quarter as
+// often: the energies compared must include the survival, or every path moved onto the slab is kept
+// with the floor's energy and the indirect light it carries on is 4x too bright.
+TEST(PathVerification, ErrorBasedSeesTheAlbedoOfADarkObjectMovedOntoABrightFloor) {
+  BrightFloorDarkSlab scene;
+  Traced traced(scene.t);
+  scene::FrameState next = scene.t.state;
+  next.object_to_world[scene.slab] = glm::mat4(1.f);  // on the floor
+  next.frame = 1;
+  traced.world.update(next);
+  TraceStats s = reuse(traced.tracer, ReuseRule::error_based, traced.batch);
+  PhotonBatch fresh;  // the baseline: every path traced afresh in the new frame
+  traced.tracer.trace(settings(), fresh);
+  IndirectEstimate reused = indirect_estimate(traced.batch), baseline = indirect_estimate(fresh);
+  ASSERT_GT(baseline.power, 0);
+  EXPECT_GT(s.paths_retraced, settings().paths / 4);  // the second hits moved onto the slab
+  EXPECT_LE(std::abs(reused.power - baseline.power), baseline.standard_error)
+      << "error_based " << reused.power << " W against the baseline's " << baseline.power
+      << " W +- " << baseline.standard_error;
+  std::printf(
+      "dark slab onto a bright floor: indirect %.4f W (error_based) against %.4f +- %.4f W "
+      "(baseline); %llu of %llu paths re-traced\n",
+      reused.power, baseline.power, baseline.standard_error, (unsigned long long)s.paths_retraced,
+      (unsigned long long)s.paths);
+}
+
 // ---- moving lights (§3.1) and the distribution maps
 
 // Re-emits every kept path from its own (updated) emission sample: the tracer's forward map must
