@@ -519,10 +519,12 @@ enum class OriginUpdate {
 // Quad and disc lights: the kept direction met with the moved light's plane, which must fall
 // inside the light.
 // The emission sample (LightPath::emission_uv, emission_dir) follows, so the distribution map
-// can place the path. `hit`: the visibility ray's hit.
+// can place the path. `hit`: the visibility ray's hit; `traced` is set when that ray was traced
+// (whatever the update's outcome: a failed visibility test is a ray traced too).
 OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
                            const std::vector<glm::vec4>& old_state, LightPath& path, PathVertex* pv,
-                           PhotonRecord* photons, Hit& hit) {
+                           PhotonRecord* photons, Hit& hit, bool& traced) {
+  traced = false;
   const Emitter& em = lights.emitter(path.light);
   if (em.type == EmitterType::mesh || em.type == EmitterType::directional)
     return OriginUpdate::failed;
@@ -591,6 +593,7 @@ OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
     uv = sphere_direction_inverse(d, -1.f);
   }
   // The visibility ray towards the kept primary hit.
+  traced = true;
   bool any = world.intersect(light.position, d, kUnboundedRay, hit);
   if (!any || hit.object != v1.object || std::abs(hit.t - distance) > 1e-4f * (1.f + distance))
     return OriginUpdate::failed;
@@ -625,6 +628,7 @@ uint32_t photon_at_vertex(const PathVertex* pv, uint32_t v) {
 struct OriginResult {
   OriginUpdate update = OriginUpdate::failed;
   Hit hit;
+  bool traced = false;  // a visibility ray was traced
 };
 
 // `pre`: the path's origin update, done already (update_origins); null: done here.
@@ -649,16 +653,20 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
       return out;
     }
     Hit hit;
+    bool traced = false;
     OriginUpdate update =
-        pre ? pre->update : update_origin(world, lights, old.light_state, path, pv, photons, hit);
-    if (pre) hit = pre->hit;
+        pre ? pre->update
+            : update_origin(world, lights, old.light_state, path, pv, photons, hit, traced);
+    if (pre) hit = pre->hit, traced = pre->traced;
+    // Every ray traced counts, a failed visibility test's too (Paper II counts rays traced); the
+    // one exception is the ray whose hit starts the re-trace of a non-diffuse primary hit, which
+    // the re-trace counts as its first segment.
+    if (traced && update != OriginUpdate::resample_first) ++out.visibility_rays;
     if (update == OriginUpdate::failed) {
       out.restart = LightPath::kReemit;
       return out;
     }
-    // The visibility ray's hit starts the re-trace of a non-diffuse primary hit (counted there).
     if (update == OriginUpdate::resample_first) return restart_with(0, true, hit);
-    if (update == OriginUpdate::verified) ++out.visibility_rays;
     out.moved_vertex = true;
     if (update == OriginUpdate::verified) first = 1;
     // An area light's path leaves the light's own (moved) box; error_based traces its first segment
@@ -1002,11 +1010,14 @@ TraceStats EmbreePhotonTracer::update_origins(const TraceSettings& settings,
                           path.restart = LightPath::kKeep;
                           if (!motion.light_changed[path.light]) continue;
                           OriginResult& o = scratch.origins[pi];
-                          o.update = update_origin(world_, lights, old.light_state, path,
-                                                   old.vertices.data() + path.first_vertex,
-                                                   batch.photons.data() + path.first_photon, o.hit);
+                          o.update = update_origin(
+                              world_, lights, old.light_state, path,
+                              old.vertices.data() + path.first_vertex,
+                              batch.photons.data() + path.first_photon, o.hit, o.traced);
                           if (o.update == OriginUpdate::failed) path.restart = LightPath::kReemit;
-                          visibility[b] += o.update == OriginUpdate::verified;
+                          // As verify_path counts them (resample_first's ray is a segment).
+                          visibility[b] +=
+                              o.traced && o.update != OriginUpdate::resample_first;
                         }
                       }
                     });
@@ -1081,6 +1092,13 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
           }
         }
       });
+  // A restart segment's visibility ray was traced by verify_paths and handed over; a path the
+  // prune or fill then replaced (kReemit, kRefill) starts from the light instead and does not use
+  // it, so it is counted here, as a visibility ray.
+  uint64_t unused_handovers = 0;
+  for (uint32_t pi = 0; pi < n_paths; ++pi)
+    unused_handovers += scratch.has_handover[pi] && old.paths[pi].restart >= LightPath::kRefill &&
+                        old.paths[pi].restart != LightPath::kKeep;
   PhotonBatch next;
   TraceStats stats;
   gather(outputs, blocks, 0, true, next, stats);
@@ -1103,9 +1121,9 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   stats.photons = next.photons.size();
   stats.seconds = io::seconds_since(t0);
   // The verification's rays and time belong to this re-validation too.
-  stats.visibility_rays = verified.visibility_rays;
+  stats.visibility_rays = verified.visibility_rays + unused_handovers;
   stats.paths_moved = verified.paths_moved;
-  stats.rays += verified.rays;
+  stats.rays += verified.rays + unused_handovers;
   stats.seconds += verified.seconds;
   next.stats = stats;
   batch = std::move(next);

@@ -316,6 +316,50 @@ TEST(PathVerification, ErrorBasedSeesTheAlbedoOfADarkObjectMovedOntoABrightFloor
       (unsigned long long)s.paths);
 }
 
+// Every ray the reuse steps trace is counted (Paper II counts rays traced, visibility rays
+// included). A point light's origin update traces one ray to each kept primary hit, whether the
+// hit is still visible or not (here the moved light sits low beside the block, which now hides
+// part of the floor); a restart segment's visibility ray counts when the re-trace uses it, and
+// also when the prune replaces that path with a new one.
+TEST(PathVerification, EveryVisibilityRayIsCounted) {
+  Room room;
+  Traced traced(room.t);
+  uint64_t primary_hits = 0;
+  for (const LightPath& path : traced.batch.paths.paths) primary_hits += path.vertex_count >= 2;
+  scene::FrameState next = room.t.state;
+  next.lights[0].position = {1.6f, 0.4f, 0.2f};
+  next.frame = 1;
+  traced.world.update(next);
+  ReuseSettings light_reuse{ReuseRule::naive};
+  light_reuse.update_origins = true;
+  traced.tracer.update_origins(settings(), light_reuse, traced.batch);
+  TraceStats v = traced.tracer.verify_paths(settings(), light_reuse, traced.batch);
+  uint64_t lost = 0;
+  for (const LightPath& path : traced.batch.paths.paths) lost += path.restart == LightPath::kReemit;
+  EXPECT_GT(lost, 500u);                       // the failed updates are exercised
+  EXPECT_LT(lost, primary_hits / 2);           // and the kept ones
+  EXPECT_EQ(v.visibility_rays, primary_hits);  // nothing else moved: no other ray is traced
+  TraceStats r = traced.tracer.retrace_marked(settings(), traced.batch);
+  EXPECT_EQ(r.visibility_rays, primary_hits);
+  EXPECT_EQ(r.rays, r.visibility_rays + r.segments_retraced);
+
+  // error_based hands each restart segment's visibility ray to the re-trace; a path the prune then
+  // replaces (kRefill) does not use it, but the ray was traced.
+  scene::FrameState later = next;  // the light stays where it moved; the block moves
+  later.object_to_world[room.block] = glm::translate(glm::mat4(1.f), {0.2f, 0, 0.3f});
+  later.frame = 2;
+  traced.world.update(later);
+  v = traced.tracer.verify_paths(settings(), ReuseSettings{ReuseRule::error_based}, traced.batch);
+  uint64_t handed_over = 0;
+  for (LightPath& path : traced.batch.paths.paths) {
+    handed_over += path.restart < LightPath::kRefill;
+    path.restart = LightPath::kRefill;
+  }
+  EXPECT_GT(handed_over, 500u);
+  r = traced.tracer.retrace_marked(settings(), traced.batch);
+  EXPECT_EQ(r.rays, v.visibility_rays + handed_over + r.segments_retraced);
+}
+
 // ---- moving lights (§3.1) and the distribution maps
 
 // Re-emits every kept path from its own (updated) emission sample: the tracer's forward map must
