@@ -669,13 +669,12 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     if (update == OriginUpdate::resample_first) return restart_with(0, true, hit);
     out.moved_vertex = true;
     if (update == OriginUpdate::verified) first = 1;
-    // An area light's path leaves the light's own (moved) box; error_based traces its first segment
-    // (its origin moved), naive only tests the other boxes, as the paper (the digest's gap).
+    // An area light's path leaves the light's own (moved) box, which its first segment does not
+    // test. Its origin moved along the kept direction, but neither rule traces that segment unless
+    // a moved object touches it: Algorithm 1 skips segments no moved object intersects (line 2),
+    // and §3.1 keeps the direction "to avoid tracing visibility rays towards each primary photon".
     const Emitter& em = lights.emitter(path.light);
-    if (update == OriginUpdate::moved) {
-      own_light = world.light_object(em.source);
-      origin_moved = reuse.rule == ReuseRule::error_based;
-    }
+    if (update == OriginUpdate::moved) own_light = world.light_object(em.source);
   }
   for (uint32_t s = first; s < path.vertex_count; ++s) {
     const PathVertex& a = pv[s];
