@@ -764,6 +764,19 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
   return out;
 }
 
+// Runs f(block, path) over paths [0, n_paths) in the tracer's fixed blocks, blocks in parallel.
+template <class F>
+void for_each_path(uint32_t n_paths, F&& f) {
+  uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1),
+                    [&](const tbb::blocked_range<uint32_t>& r) {
+                      for (uint32_t b = r.begin(); b != r.end(); ++b) {
+                        uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
+                        for (uint32_t pi = b * kBlockSize; pi < end; ++pi) f(b, pi);
+                      }
+                    });
+}
+
 // Segments of a traced path (the rays a fresh trace of it costs).
 uint64_t path_segments(const LightPath& path, const std::vector<PathVertex>& vertices) {
   if (path.vertex_count == 0) return 0;
@@ -951,24 +964,18 @@ TraceStats EmbreePhotonTracer::verify_paths(const TraceSettings& settings,
   scratch.has_handover.assign(n_paths, 0);
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<uint64_t> visibility(blocks, 0), moved(blocks, 0);
-  tbb::parallel_for(
-      tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
-        for (uint32_t b = r.begin(); b != r.end(); ++b) {
-          uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
-          for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
-            LightPath& path = old.paths[pi];
-            const OriginResult* pre = origins_done ? &scratch.origins[pi] : nullptr;
-            PathVerdict v = verify_path(world_, lights, motion, old, reuse, path,
-                                        old.vertices.data() + path.first_vertex,
-                                        batch.photons.data() + path.first_photon, pre);
-            path.restart = v.restart;
-            scratch.has_handover[pi] = v.handover;
-            if (v.handover) scratch.handover_hit[pi] = v.hit;
-            visibility[b] += v.visibility_rays;
-            moved[b] += v.moved_vertex && v.restart == LightPath::kKeep;
-          }
-        }
-      });
+  for_each_path(n_paths, [&](uint32_t b, uint32_t pi) {
+    LightPath& path = old.paths[pi];
+    const OriginResult* pre = origins_done ? &scratch.origins[pi] : nullptr;
+    PathVerdict v = verify_path(world_, lights, motion, old, reuse, path,
+                                old.vertices.data() + path.first_vertex,
+                                batch.photons.data() + path.first_photon, pre);
+    path.restart = v.restart;
+    scratch.has_handover[pi] = v.handover;
+    if (v.handover) scratch.handover_hit[pi] = v.hit;
+    visibility[b] += v.visibility_rays;
+    moved[b] += v.moved_vertex && v.restart == LightPath::kKeep;
+  });
   TraceStats stats;
   for (uint32_t b = 0; b < blocks; ++b)
     stats.visibility_rays += visibility[b], stats.paths_moved += moved[b];
@@ -1000,26 +1007,18 @@ TraceStats EmbreePhotonTracer::update_origins(const TraceSettings& settings,
   scratch.origins_batch = &batch;
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<uint64_t> visibility(blocks, 0);
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1),
-                    [&](const tbb::blocked_range<uint32_t>& r) {
-                      for (uint32_t b = r.begin(); b != r.end(); ++b) {
-                        uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
-                        for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
-                          LightPath& path = old.paths[pi];
-                          path.restart = LightPath::kKeep;
-                          if (!motion.light_changed[path.light]) continue;
-                          OriginResult& o = scratch.origins[pi];
-                          o.update = update_origin(
-                              world_, lights, old.light_state, path,
-                              old.vertices.data() + path.first_vertex,
-                              batch.photons.data() + path.first_photon, o.hit, o.traced);
-                          if (o.update == OriginUpdate::failed) path.restart = LightPath::kReemit;
-                          // As verify_path counts them (resample_first's ray is a segment).
-                          visibility[b] +=
-                              o.traced && o.update != OriginUpdate::resample_first;
-                        }
-                      }
-                    });
+  for_each_path(n_paths, [&](uint32_t b, uint32_t pi) {
+    LightPath& path = old.paths[pi];
+    path.restart = LightPath::kKeep;
+    if (!motion.light_changed[path.light]) return;
+    OriginResult& o = scratch.origins[pi];
+    o.update = update_origin(world_, lights, old.light_state, path,
+                             old.vertices.data() + path.first_vertex,
+                             batch.photons.data() + path.first_photon, o.hit, o.traced);
+    if (o.update == OriginUpdate::failed) path.restart = LightPath::kReemit;
+    // As verify_path counts them (resample_first's ray is a segment).
+    visibility[b] += o.traced && o.update != OriginUpdate::resample_first;
+  });
   for (uint64_t v : visibility) stats.visibility_rays += v;
   stats.rays = stats.visibility_rays;
   stats.paths = n_paths;

@@ -492,6 +492,18 @@ TEST(PathVerification, AQuadLightKeepsItsPathsAlongTheirDirections) {
   expect_area_light_reuse(quad, "quad");
 }
 
+// A 5 W/(m^2 sr) disc light at `centre` spanned by two orthogonal radii; it faces
+// cross(edge_u, edge_v).
+scene::Light disc_light(glm::vec3 centre, glm::vec3 edge_u, glm::vec3 edge_v) {
+  scene::Light disc;
+  disc.type = scene::LightType::disc;
+  disc.position = centre;
+  disc.edge_u = edge_u;
+  disc.edge_v = edge_v;
+  disc.radiant = glm::vec3(5.f);
+  return disc;
+}
+
 TEST(PathVerification, ADiscLightKeepsItsPathsAlongTheirDirections) {
   scene::Light disc;
   disc.type = scene::LightType::disc;
@@ -512,13 +524,7 @@ TEST(PathVerification, ADiscLightKeepsItsPathsAlongTheirDirections) {
 // are kept and leak light. The test counts them.
 TEST(PathVerification, AMovedAreaLightsFirstSegmentsAreNotRetestedByErrorBased) {
   Room room;
-  scene::Light disc;
-  disc.type = scene::LightType::disc;
-  disc.position = {0, 2.3f, 0};
-  disc.edge_u = {0.4f, 0, 0};
-  disc.edge_v = {0, 0, 0.4f};  // facing down: the normal is cross(edge_u, edge_v)
-  disc.radiant = glm::vec3(5.f);
-  room.t.state.lights[0] = disc;
+  room.t.state.lights[0] = disc_light({0, 2.3f, 0}, {0.4f, 0, 0}, {0, 0, 0.4f});  // facing down
   room.t.object(box_mesh({-1, 2.44f, -1}, {0, 2.46f, 1}, false), 0);  // a shelf over half the light
   Traced traced(room.t);
   scene::FrameState next = room.t.state;
@@ -555,12 +561,7 @@ TEST(PathVerification, AMovedAreaLightsFirstSegmentsAreNotRetestedByErrorBased) 
 // 7-18% of its paths were pruned and refilled in the first frame on the walker scene.)
 TEST(PathVerification, AStaticLightIsNeverPruned) {
   Room room;
-  scene::Light disc;
-  disc.type = scene::LightType::disc;
-  disc.position = {0, 2.9f, 0};
-  disc.edge_u = {0, 0, 0.4f};
-  disc.edge_v = {0.4f, 0, 0};
-  disc.radiant = glm::vec3(5.f);
+  scene::Light disc = disc_light({0, 2.9f, 0}, {0, 0, 0.4f}, {0.4f, 0, 0});
   room.t.state.lights[0] = disc;
   EmbreeScene world(room.t.scene, room.t.state);
   EmbreePhotonTracer tracer(world);
