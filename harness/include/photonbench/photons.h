@@ -144,6 +144,10 @@ struct PathVertex {
   glm::vec3 normal{0.0f};      // geometric normal (vertex 0: the light's, or 0 for a point light)
   float spacing = 0;           // photon spacing in the emission domain, 1 / sqrt(N density)
   glm::vec3 dp_du{0.0f}, dp_dv{0.0f}, dd_du{0.0f}, dd_dv{0.0f};  // outgoing ray differentials
+  // The Russian-roulette survival probability R with which the outgoing segment was kept (`power`
+  // is already divided by it; 1 where no roulette was played): power * survival is the energy
+  // reflected towards the next vertex, what Paper II's Eq. 2 compares.
+  float survival = 1.0f;
   static constexpr uint32_t kStored = 1;      // a photon was stored at this vertex
   static constexpr uint32_t kEscapes = 2;     // the outgoing segment left the scene (hit nothing)
   static constexpr uint32_t kTerminated = 4;  // the path ends here (absorbed, roulette, bounce cap)

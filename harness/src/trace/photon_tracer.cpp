@@ -211,17 +211,19 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       alive = bsdf.sample(-dir, {xi.x, xi.y, xi.z}, Transport::importance, s);
       glm::vec3 power = alive ? v.power * s.weight : glm::vec3(0.f);
       alive = alive && max3(power) > 0 && std::isfinite(max3(power));
+      float survival = 1.f;
       if (alive && k >= c.rr_start) {
         // Paper I §5: survive with R = min(1, Phi'/Phi), then Phi = Phi'/R.
-        float r = std::min(1.f, max3(power) / max3(v.power));
-        if (xi.w >= r)
+        survival = std::min(1.f, max3(power) / max3(v.power));
+        if (xi.w >= survival)
           alive = false;
         else
-          power /= r;
+          power /= survival;
       }
       if (alive) {
         next.direction = s.wi;
         next.power = power;
+        next.survival = survival;
         if (diffuse) {
           // The new direction depends on this bounce's two sample dimensions only: restart the
           // differentials from the cosine map (finite differences) about this point.
@@ -517,10 +519,12 @@ enum class OriginUpdate {
 // Quad and disc lights: the kept direction met with the moved light's plane, which must fall
 // inside the light.
 // The emission sample (LightPath::emission_uv, emission_dir) follows, so the distribution map
-// can place the path. `hit`: the visibility ray's hit.
+// can place the path. `hit`: the visibility ray's hit; `traced` is set when that ray was traced
+// (whatever the update's outcome: a failed visibility test is a ray traced too).
 OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
                            const std::vector<glm::vec4>& old_state, LightPath& path, PathVertex* pv,
-                           PhotonRecord* photons, Hit& hit) {
+                           PhotonRecord* photons, Hit& hit, bool& traced) {
+  traced = false;
   const Emitter& em = lights.emitter(path.light);
   if (em.type == EmitterType::mesh || em.type == EmitterType::directional)
     return OriginUpdate::failed;
@@ -589,6 +593,7 @@ OriginUpdate update_origin(const EmbreeScene& world, const LightSet& lights,
     uv = sphere_direction_inverse(d, -1.f);
   }
   // The visibility ray towards the kept primary hit.
+  traced = true;
   bool any = world.intersect(light.position, d, kUnboundedRay, hit);
   if (!any || hit.object != v1.object || std::abs(hit.t - distance) > 1e-4f * (1.f + distance))
     return OriginUpdate::failed;
@@ -623,6 +628,7 @@ uint32_t photon_at_vertex(const PathVertex* pv, uint32_t v) {
 struct OriginResult {
   OriginUpdate update = OriginUpdate::failed;
   Hit hit;
+  bool traced = false;  // a visibility ray was traced
 };
 
 // `pre`: the path's origin update, done already (update_origins); null: done here.
@@ -647,27 +653,29 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
       return out;
     }
     Hit hit;
+    bool traced = false;
     OriginUpdate update =
-        pre ? pre->update : update_origin(world, lights, old.light_state, path, pv, photons, hit);
-    if (pre) hit = pre->hit;
+        pre ? pre->update
+            : update_origin(world, lights, old.light_state, path, pv, photons, hit, traced);
+    if (pre) hit = pre->hit, traced = pre->traced;
+    // Every ray traced counts, a failed visibility test's too (Paper II counts rays traced); the
+    // one exception is the ray whose hit starts the re-trace of a non-diffuse primary hit, which
+    // the re-trace counts as its first segment.
+    if (traced && update != OriginUpdate::resample_first) ++out.visibility_rays;
     if (update == OriginUpdate::failed) {
       out.restart = LightPath::kReemit;
       return out;
     }
-    // The visibility ray's hit starts the re-trace of a non-diffuse primary hit (counted there).
     if (update == OriginUpdate::resample_first) return restart_with(0, true, hit);
-    if (update == OriginUpdate::verified) ++out.visibility_rays;
     out.moved_vertex = true;
     if (update == OriginUpdate::verified) first = 1;
-    // An area light's path leaves the light's own (moved) box; error_based traces its first segment
-    // (its origin moved), naive only tests the other boxes, as the paper (the digest's gap).
+    // An area light's path leaves the light's own (moved) box, which its first segment does not
+    // test. Its origin moved along the kept direction, but neither rule traces that segment unless
+    // a moved object touches it: Algorithm 1 skips segments no moved object intersects (line 2),
+    // and §3.1 keeps the direction "to avoid tracing visibility rays towards each primary photon".
     const Emitter& em = lights.emitter(path.light);
-    if (update == OriginUpdate::moved) {
-      own_light = world.light_object(em.source);
-      origin_moved = reuse.rule == ReuseRule::error_based;
-    }
+    if (update == OriginUpdate::moved) own_light = world.light_object(em.source);
   }
-  const uint32_t rr_start = old.rr_start;
   for (uint32_t s = first; s < path.vertex_count; ++s) {
     const PathVertex& a = pv[s];
     bool last = s + 1 == path.vertex_count;
@@ -720,13 +728,15 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
       if (!dest_last) next_dir = glm::normalize(pv[s + 2].position - hit.position);
       float pdf = bsdf.pdf(-a.direction, next_dir);
       if (!(pdf > 0)) return restart_with(s, any, hit);
+      // Eq. 2's E_N: the energy reflected at the new hit towards the next vertex, Phi f cos / p,
+      // before the Russian roulette. E_O is the same quantity at the original hit: the power the
+      // path carried on, times the probability with which it survived there (PathVertex::survival;
+      // 1 before rr_start). Comparing the powers after the roulette instead would compare
+      // rho / max(rho) and miss an albedo that changed in magnitude alone (a dark grey hit where a
+      // bright grey one was).
       glm::vec3 energy = a.power * bsdf.eval(-a.direction, next_dir, Transport::importance) / pdf;
-      if (s >= rr_start) {  // the tracer's Russian roulette normalisation, as in continue_path
-        float r = std::min(1.f, max3(energy) / max3(a.power));
-        if (r > 0) energy /= r;
-      }
       // Always against the original energy, so that errors do not accumulate over frames.
-      glm::vec3 original = old_dest.power;
+      glm::vec3 original = old_dest.power * old_dest.survival;
       if (glm::any(
               glm::greaterThan(glm::abs(energy - original), reuse.energy_threshold * original)))
         return restart_with(s, any, hit);
@@ -752,6 +762,19 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     origin_moved = true;
   }
   return out;
+}
+
+// Runs f(block, path) over paths [0, n_paths) in the tracer's fixed blocks, blocks in parallel.
+template <class F>
+void for_each_path(uint32_t n_paths, F&& f) {
+  uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1),
+                    [&](const tbb::blocked_range<uint32_t>& r) {
+                      for (uint32_t b = r.begin(); b != r.end(); ++b) {
+                        uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
+                        for (uint32_t pi = b * kBlockSize; pi < end; ++pi) f(b, pi);
+                      }
+                    });
 }
 
 // Segments of a traced path (the rays a fresh trace of it costs).
@@ -941,24 +964,18 @@ TraceStats EmbreePhotonTracer::verify_paths(const TraceSettings& settings,
   scratch.has_handover.assign(n_paths, 0);
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<uint64_t> visibility(blocks, 0), moved(blocks, 0);
-  tbb::parallel_for(
-      tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
-        for (uint32_t b = r.begin(); b != r.end(); ++b) {
-          uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
-          for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
-            LightPath& path = old.paths[pi];
-            const OriginResult* pre = origins_done ? &scratch.origins[pi] : nullptr;
-            PathVerdict v = verify_path(world_, lights, motion, old, reuse, path,
-                                        old.vertices.data() + path.first_vertex,
-                                        batch.photons.data() + path.first_photon, pre);
-            path.restart = v.restart;
-            scratch.has_handover[pi] = v.handover;
-            if (v.handover) scratch.handover_hit[pi] = v.hit;
-            visibility[b] += v.visibility_rays;
-            moved[b] += v.moved_vertex && v.restart == LightPath::kKeep;
-          }
-        }
-      });
+  for_each_path(n_paths, [&](uint32_t b, uint32_t pi) {
+    LightPath& path = old.paths[pi];
+    const OriginResult* pre = origins_done ? &scratch.origins[pi] : nullptr;
+    PathVerdict v = verify_path(world_, lights, motion, old, reuse, path,
+                                old.vertices.data() + path.first_vertex,
+                                batch.photons.data() + path.first_photon, pre);
+    path.restart = v.restart;
+    scratch.has_handover[pi] = v.handover;
+    if (v.handover) scratch.handover_hit[pi] = v.hit;
+    visibility[b] += v.visibility_rays;
+    moved[b] += v.moved_vertex && v.restart == LightPath::kKeep;
+  });
   TraceStats stats;
   for (uint32_t b = 0; b < blocks; ++b)
     stats.visibility_rays += visibility[b], stats.paths_moved += moved[b];
@@ -990,23 +1007,18 @@ TraceStats EmbreePhotonTracer::update_origins(const TraceSettings& settings,
   scratch.origins_batch = &batch;
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<uint64_t> visibility(blocks, 0);
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, blocks, 1),
-                    [&](const tbb::blocked_range<uint32_t>& r) {
-                      for (uint32_t b = r.begin(); b != r.end(); ++b) {
-                        uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
-                        for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
-                          LightPath& path = old.paths[pi];
-                          path.restart = LightPath::kKeep;
-                          if (!motion.light_changed[path.light]) continue;
-                          OriginResult& o = scratch.origins[pi];
-                          o.update = update_origin(world_, lights, old.light_state, path,
-                                                   old.vertices.data() + path.first_vertex,
-                                                   batch.photons.data() + path.first_photon, o.hit);
-                          if (o.update == OriginUpdate::failed) path.restart = LightPath::kReemit;
-                          visibility[b] += o.update == OriginUpdate::verified;
-                        }
-                      }
-                    });
+  for_each_path(n_paths, [&](uint32_t b, uint32_t pi) {
+    LightPath& path = old.paths[pi];
+    path.restart = LightPath::kKeep;
+    if (!motion.light_changed[path.light]) return;
+    OriginResult& o = scratch.origins[pi];
+    o.update = update_origin(world_, lights, old.light_state, path,
+                             old.vertices.data() + path.first_vertex,
+                             batch.photons.data() + path.first_photon, o.hit, o.traced);
+    if (o.update == OriginUpdate::failed) path.restart = LightPath::kReemit;
+    // As verify_path counts them (resample_first's ray is a segment).
+    visibility[b] += o.traced && o.update != OriginUpdate::resample_first;
+  });
   for (uint64_t v : visibility) stats.visibility_rays += v;
   stats.rays = stats.visibility_rays;
   stats.paths = n_paths;
@@ -1078,6 +1090,13 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
           }
         }
       });
+  // A restart segment's visibility ray was traced by verify_paths and handed over; a path the
+  // prune or fill then replaced (kReemit, kRefill) starts from the light instead and does not use
+  // it, so it is counted here, as a visibility ray.
+  uint64_t unused_handovers = 0;
+  for (uint32_t pi = 0; pi < n_paths; ++pi)
+    unused_handovers += scratch.has_handover[pi] && old.paths[pi].restart >= LightPath::kRefill &&
+                        old.paths[pi].restart != LightPath::kKeep;
   PhotonBatch next;
   TraceStats stats;
   gather(outputs, blocks, 0, true, next, stats);
@@ -1100,9 +1119,9 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   stats.photons = next.photons.size();
   stats.seconds = io::seconds_since(t0);
   // The verification's rays and time belong to this re-validation too.
-  stats.visibility_rays = verified.visibility_rays;
+  stats.visibility_rays = verified.visibility_rays + unused_handovers;
   stats.paths_moved = verified.paths_moved;
-  stats.rays += verified.rays;
+  stats.rays += verified.rays + unused_handovers;
   stats.seconds += verified.seconds;
   next.stats = stats;
   batch = std::move(next);
