@@ -22,9 +22,11 @@
 #include <cmath>
 #include <cstring>
 #include <glm/glm.hpp>
+#include <iterator>
 #include <vector>
 
 #include "aaps_shaders.h"
+#include "footprint.h"
 #include "photonbench/error.h"
 #include "photonbench/plugin.h"
 #include "photonbench/scene_layout.h"
@@ -71,6 +73,14 @@ const pb_param_spec kParams[] = {
      "(§5.1.3; swept, unspecified)"},
     {"msaa_samples", PB_PARAM_INT, 8, 2, 64, nullptr, "samples",
      "samples per pixel of the multisampled buffer, lowered to the device's highest (§5.1: 8)"},
+    {"feedback_halves", PB_PARAM_ENUM, 0, 0, 1, "both|refracted", "",
+     "which halves of a split photon give its texel's projected area A (§1.10b): both, energy-"
+     "weighted (A = sum f_p a_p), or the refracted ones alone, so that the dim reflected halves' "
+     "large splats do not set the density of the focused refracted ones (issue 25)"},
+    {"emission_jitter", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
+     "each photon at a fixed pseudo-random point of its grid cell, not the centre (§1.4: the "
+     "thesis does not say; at cell centres the lattice of a focus's tiny splats aliases with "
+     "the pixel grid)"},
     {"max_bounces", PB_PARAM_INT, 8, 1, 31, nullptr, "hits",
      "recursion cap: surface interactions per photon (§1.5, Fig. 2; unspecified)"},
     pb::toolkit::kShadowMapSizeParam,
@@ -87,6 +97,28 @@ constexpr pb::Counter kNonContributing{"splats_noncontributing", pb::CounterKind
 constexpr pb::Counter kNonContributingShare{"noncontributing_share", pb::CounterKind::ratio,
                                             "splats"};
 constexpr pb::Counter kSamples{"msaa_samples", pb::CounterKind::size, "samples"};
+// Issue 25's splat-size question: accepted splats by projected ellipse area (px^2) per split half
+// (§3.3.1), and the reflected halves' share of the projected area the feedback sees
+// (A = sum f_p a_p over a texel's photons, §1.10b), over all texels.
+constexpr double kAreaBins[] = {0.25, 1, 4, 16, 64};  // upper edges; the last bin is open
+constexpr size_t kAreaBinCount = std::size(kAreaBins) + 1;
+// clang-format off
+constexpr pb::Counter kAreaHistogram[2][kAreaBinCount] = {
+    {{"splats_reflected_area_below_0p25", pb::CounterKind::work, "splats"},
+     {"splats_reflected_area_0p25_1", pb::CounterKind::work, "splats"},
+     {"splats_reflected_area_1_4", pb::CounterKind::work, "splats"},
+     {"splats_reflected_area_4_16", pb::CounterKind::work, "splats"},
+     {"splats_reflected_area_16_64", pb::CounterKind::work, "splats"},
+     {"splats_reflected_area_above_64", pb::CounterKind::work, "splats"}},
+    {{"splats_refracted_area_below_0p25", pb::CounterKind::work, "splats"},
+     {"splats_refracted_area_0p25_1", pb::CounterKind::work, "splats"},
+     {"splats_refracted_area_1_4", pb::CounterKind::work, "splats"},
+     {"splats_refracted_area_4_16", pb::CounterKind::work, "splats"},
+     {"splats_refracted_area_16_64", pb::CounterKind::work, "splats"},
+     {"splats_refracted_area_above_64", pb::CounterKind::work, "splats"}}};
+// clang-format on
+constexpr pb::Counter kReflectedAreaShare{"feedback_area_share_reflected", pb::CounterKind::ratio,
+                                          "px^2"};
 // Caustic irradiance luminance summed over the screen: the thesis's "total light" (§5.1.1).
 constexpr pb::Counter kEnergy{"caustic_energy", pb::CounterKind::size, "W/m^2 px"};
 
@@ -114,29 +146,6 @@ struct Accepted {
   uint32_t light, texel;
   float energy_fraction;  // of its texel's share of the light power (§3.1.5)
 };
-
-// The principal semi-axes of the ellipse with conjugate semi-diameters a and b (eigen-decomposition
-// of their 2x2 Gram matrix), the minor one grown to major / max_anisotropy (§3.1.2).
-void principal_axes(const glm::vec3& a, const glm::vec3& b, float max_anisotropy, glm::vec3& major,
-                    glm::vec3& minor) {
-  float aa = glm::dot(a, a), ab = glm::dot(a, b), bb = glm::dot(b, b);
-  float mean = 0.5f * (aa + bb), diff = 0.5f * (aa - bb);
-  float root = std::sqrt(diff * diff + ab * ab);
-  float l1 = mean + root, l2 = std::max(0.f, mean - root);
-  // Eigenvector of l1 in the (a, b) basis.
-  glm::vec2 e = std::abs(ab) > 1e-30f ? glm::vec2(ab, l1 - aa)
-                                      : (aa >= bb ? glm::vec2(1, 0) : glm::vec2(0, 1));
-  glm::vec3 d1 = e.x * a + e.y * b;
-  float len1 = glm::length(d1);
-  glm::vec3 axis1 = len1 > 0 ? d1 / len1 : glm::vec3(0.f);
-  glm::vec3 normal = glm::cross(a, b);
-  glm::vec3 axis2 =
-      glm::length(normal) > 0 ? glm::normalize(glm::cross(normal, axis1)) : glm::vec3(0.f);
-  float major_len = std::sqrt(l1), minor_len = std::sqrt(l2);
-  minor_len = std::max(minor_len, major_len / max_anisotropy);
-  major = axis1 * major_len;
-  minor = axis2 * minor_len;
-}
 
 class Aaps final : public pb::Technique {
  public:
@@ -169,6 +178,8 @@ class Aaps final : public pb::Technique {
     settings_.store = pb::trace::kCausticPhotons;
     settings_.max_bounces = uint32_t(params.integer("max_bounces"));
     settings_.seed_per_frame = false;
+    settings_.aaps_jitter = params.flag("emission_jitter");
+    refracted_area_only_ = params.choice("feedback_halves") == "refracted";
 
     pb::gpu::Device& gpu = ctx.gpu();
     width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
@@ -308,6 +319,8 @@ class Aaps final : public pb::Technique {
       l.variance.assign(size_t(side_) * side_, 0.f);
     }
     culled_ = 0;
+    for (auto& h : area_histogram_) std::fill(std::begin(h), std::end(h), 0);
+    weighted_area_[0] = weighted_area_[1] = 0;
     const glm::mat4& vp = f.camera.view_projection;
     auto to_screen = [&](const glm::vec3& p, glm::vec2& s) {
       glm::vec4 c = vp * glm::vec4(p, 1.f);
@@ -316,14 +329,13 @@ class Aaps final : public pb::Technique {
                     (c.y / c.w * 0.5f + 0.5f) * float(height_));
       return true;
     };
-    pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
     for (uint32_t i = 0; i < batch_.photons.size(); ++i) {
       const pb::trace::PhotonRecord& p = batch_.photons[i];
       LightTasks& light = lights_[p.light];
       aaps::SumQuadtree::Leaf leaf = light.quadtree.walk(p.path);
       glm::vec3 major, minor;
-      principal_axes(p.footprint_u * footprint_scale_, p.footprint_v * footprint_scale_,
-                     max_anisotropy_, major, minor);
+      aaps::principal_axes(p.footprint_u * footprint_scale_, p.footprint_v * footprint_scale_,
+                           max_anisotropy_, major, minor);
       float world_area = float(M_PI) * glm::length(major) * glm::length(minor);
       glm::vec2 c, s1, s2;
       bool visible = to_screen(p.position, c) && to_screen(p.position + major, s1) &&
@@ -348,12 +360,14 @@ class Aaps final : public pb::Technique {
       glm::vec2 d1 = s1 - c, d2 = s2 - c;
       float screen_area = float(M_PI) * std::abs(d1.x * d2.y - d1.y * d2.x);
       glm::vec3 brightness = p.power / world_area;  // §3.2.1: energy / splat area
-      float texel_power = (tracer.light_power(p.light).x + tracer.light_power(p.light).y +
-                           tracer.light_power(p.light).z) /
-                          (3.f * float(side_) * float(side_));
-      float fraction =
-          texel_power > 0 ? (p.power.x + p.power.y + p.power.z) / 3.f / texel_power : 0.f;
-      light.area[leaf.texel] += fraction * screen_area;
+      // The texel's own emitted power (the tracer's): a spot light's texels differ by its falloff.
+      float fraction = aaps::energy_fraction(p.power, batch_.texel_power[p.light][leaf.texel]);
+      const int half = (p.flags & PB_PHOTON_REFRACTED_HALF) ? 1 : 0;
+      if (!refracted_area_only_ || half == 1) light.area[leaf.texel] += fraction * screen_area;
+      size_t bin = 0;
+      while (bin < std::size(kAreaBins) && screen_area >= float(kAreaBins[bin])) ++bin;
+      ++area_histogram_[half][bin];
+      weighted_area_[half] += double(fraction) * screen_area;
       accepted_.push_back({p.position, p.light, leaf.texel, fraction});
       bool per_sample = msaa_ == Msaa::all || msaa_ == Msaa::all_per_sample ||
                         (msaa_ == Msaa::small_per_sample && screen_area < msaa_threshold_);
@@ -435,6 +449,11 @@ class Aaps final : public pb::Technique {
     ctx.count(kNonContributingShare,
               accepted_.empty() ? 0.0 : double(silent) / double(accepted_.size()));
     ctx.count(kSamples, double(samples_));
+    for (int half = 0; half < 2; ++half)
+      for (size_t bin = 0; bin < kAreaBinCount; ++bin)
+        ctx.count(kAreaHistogram[half][bin], double(area_histogram_[half][bin]));
+    const double weighted = weighted_area_[0] + weighted_area_[1];
+    ctx.count(kReflectedAreaShare, weighted > 0 ? weighted_area_[0] / weighted : 0.0);
     const float* luminance = static_cast<const float*>(luminance_.mapped());
     double energy = 0;
     for (size_t i = 0; i < size_t(width_) * height_; ++i) energy += luminance[i];
@@ -447,25 +466,12 @@ class Aaps final : public pb::Technique {
     const float* now = static_cast<const float*>(luminance_.mapped());
     {
       auto scope = ctx.pass("variance");
-      auto pixel = [&](const glm::mat4& vp, const glm::vec3& p, int& x, int& y) {
-        glm::vec4 c = vp * glm::vec4(p, 1.f);
-        if (c.w <= 0) return false;
-        x = int(std::floor((c.x / c.w * 0.5f + 0.5f) * float(width_)));
-        y = int(std::floor((c.y / c.w * 0.5f + 0.5f) * float(height_)));
-        return x >= 0 && y >= 0 && x < int(width_) && y < int(height_);
-      };
-      if (!previous_luminance_.empty())
-        for (const Accepted& a : accepted_) {
-          int x, y, px, py;
-          // "If a difference value for a photon cannot be found ... a value of 0" (§3.1.5).
-          if (!pixel(f.camera.view_projection, a.position, x, y) ||
-              !pixel(previous_view_projection_, a.position, px, py))
-            continue;
-          float c = now[size_t(y) * width_ + x], q = previous_luminance_[size_t(py) * width_ + px];
-          float scale = std::max(c, q);
-          if (scale > 0)
-            lights_[a.light].variance[a.texel] += a.energy_fraction * std::abs(c - q) / scale;
-        }
+      std::vector<std::vector<aaps::VarianceInput>> per_light(lights_.size());
+      for (const Accepted& a : accepted_)
+        per_light[a.light].push_back({a.position, a.texel, a.energy_fraction});
+      for (uint32_t l = 0; l < lights_.size(); ++l)
+        aaps::accumulate_variance(per_light[l], now, f.camera.view_projection, previous_luminance_,
+                                  previous_view_projection_, width_, height_, lights_[l].variance);
       previous_luminance_.assign(now, now + size_t(width_) * height_);
       previous_view_projection_ = f.camera.view_projection;
     }
@@ -486,12 +492,15 @@ class Aaps final : public pb::Technique {
         depth_margin_ = 0.01f;
   float msaa_threshold_ = 2;
   Msaa msaa_ = Msaa::none;
+  bool refracted_area_only_ = false;
   pb::trace::TraceSettings settings_;
   pb::trace::PhotonBatch batch_;
   std::vector<LightTasks> lights_;
   std::vector<Vertex> single_, multi_;
   std::vector<Accepted> accepted_;
   uint64_t culled_ = 0;
+  uint64_t area_histogram_[2][kAreaBinCount] = {};  // [reflected, refracted][bin]
+  double weighted_area_[2] = {};                    // sum of f_p a_p per half
   uint32_t splats_per_sample_ = 0;
   std::vector<float> previous_luminance_;
   glm::mat4 previous_view_projection_{1.f};

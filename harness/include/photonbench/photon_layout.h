@@ -39,8 +39,12 @@ struct PhotonRecord {
   PB_UINT light;          // index of the emitting light (scene lights, then emissive objects)
   PB_VEC3 footprint_v;    // the same for the second emission parameter; |u x v| ~ area per photon,
                           // m^2
-  PB_UINT flags;          // reserved, 0
+  PB_UINT flags;          // AAPS (TraceSettings::aaps): PB_PHOTON_REFRACTED_HALF when the photon
+                          // is the refracted part of its split (seed 004 §3.3.1), clear for the
+                          // reflected part; 0 for other traces
 };
+
+#define PB_PHOTON_REFRACTED_HALF 1u
 
 #undef PB_VEC3
 #undef PB_UINT

@@ -95,6 +95,11 @@ struct TraceSettings {
   // stored at its first diffuse hit only (L S+ D) or lost at max_bounces, the recursion cap.
   // Glossy (rough) surfaces end the photon. keep_paths is refused.
   bool aaps = false;
+  // AAPS: each photon at a fixed pseudo-random point of its grid cell (a hash of texel, cell and
+  // m; the same every frame) instead of the cell centre: still one photon per cell, so evenly
+  // spaced (stratified), but no longer a lattice, whose tiny splats at a focus cover a pixel
+  // centre or sample all together or not at all as the lattice slides over the pixel grid.
+  bool aaps_jitter = false;
 };
 
 // How verify_paths decides that a kept segment is still valid (Paper II §3.2-3.3).
@@ -187,6 +192,11 @@ struct PhotonBatch {
   std::vector<PhotonRecord> photons;  // in path order
   LightPaths paths;                   // filled when TraceSettings::keep_paths
   TraceStats stats;
+  // TraceSettings::aaps: per light, per emission-density texel (row-major), the power its photons
+  // left the light with (mean over RGB, W), the denominator of a photon's energy fraction in its
+  // texel (seed 004 §3.1.5). Equal texels for point and directional lights (power / texels); a
+  // spot light's differ by its falloff. Empty for other traces.
+  std::vector<std::vector<float>> texel_power;
 };
 
 // The tracer of one World. It reads the World's current frame (lights, transforms) at each call, so

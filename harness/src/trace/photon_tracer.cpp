@@ -1151,6 +1151,7 @@ struct AapsPart {
   uint32_t k = 0;  // interactions so far
   Interaction last = Interaction::none;
   bool split = false;
+  bool refracted_half = false;  // the refracted part of the split (PhotonRecord::flags)
 };
 
 // Traces one AAPS photon from `start` by the thesis's rules (TraceSettings::aaps), appending the
@@ -1192,6 +1193,7 @@ uint64_t trace_aaps_photon(const EmbreeScene& world, const PathVertex& start, ui
         r.footprint_u = dp_du * p.v.spacing;
         r.footprint_v = dp_dv * p.v.spacing;
         r.light = light;
+        r.flags = p.refracted_half ? PB_PHOTON_REFRACTED_HALF : 0u;
         photons.push_back(r);
         break;
       }
@@ -1228,6 +1230,7 @@ uint64_t trace_aaps_photon(const EmbreeScene& world, const PathVertex& start, ui
         AapsPart reflected, refracted;
         bool has_reflected = advance(true, reflected), has_refracted = advance(false, refracted);
         reflected.split = refracted.split = true;
+        refracted.refracted_half = refracted.last == Interaction::refract;
         if (has_reflected && has_refracted) stack[waiting++] = reflected;
         if (!has_reflected && !has_refracted) break;
         next = has_refracted ? refracted : reflected;
@@ -1281,6 +1284,14 @@ GridEmission::Task GridEmission::locate(uint32_t task) const {
   return t;
 }
 
+glm::vec2 GridEmission::jittered(const Task& t) const {
+  uint32_t h = hash_combine(t.texel, t.cell, t.m);
+  glm::vec2 u(float(h & 0xffffu) / 65536.f, float(h >> 16) / 65536.f);
+  float x = float(t.texel % side_), y = float(t.texel / side_);
+  return glm::vec2((x + (float(t.cell % t.m) + u.x) / float(t.m)) / float(side_),
+                   (y + (float(t.cell / t.m) + u.y) / float(t.m)) / float(side_));
+}
+
 TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonBatch& out) {
   if (settings.keep_paths)
     throw InputError("photon tracer: TraceSettings::aaps does not keep light paths (keep_paths)");
@@ -1308,6 +1319,9 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
   first_task.push_back(uint32_t(total));
   out.photons.clear();
   out.paths = LightPaths{};
+  // Each task's emitted power (mean over RGB), summed per texel below in task order: a texel's
+  // tasks are consecutive, so the sums are the same whatever the thread count.
+  std::vector<float> task_power(total, 0.f);
   uint32_t blocks = uint32_t((total + kBlockSize - 1) / kBlockSize);
   std::vector<BlockOutput>& outputs = scratch_->blocks;
   reset_blocks(outputs, blocks);
@@ -1323,7 +1337,8 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
             uint32_t task = g - first_task[e];
             const GridEmission& grid = grids[e];
             GridEmission::Task cell = grid.locate(task);
-            EmissionRay ray = lights.emit(e, cell.uv, {0.5f, 0.5f});
+            EmissionRay ray =
+                lights.emit(e, settings.aaps_jitter ? grid.jittered(cell) : cell.uv, {0.5f, 0.5f});
             PathVertex v;
             v.position = ray.origin;
             v.direction = ray.direction;
@@ -1331,6 +1346,7 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
             // §3.2.1: light power / texels / photons in the texel.
             v.power = ray.power /
                       (float(grid.side()) * float(grid.side()) * float(cell.m) * float(cell.m));
+            task_power[g] = mean3(v.power);
             v.spacing = 1.f / (float(grid.side()) * float(cell.m));
             v.dp_du = ray.dp_du, v.dp_dv = ray.dp_dv;
             v.dd_du = ray.dd_du, v.dd_dv = ray.dd_dv;
@@ -1338,6 +1354,12 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
           }
         }
       });
+  out.texel_power.assign(lights.size(), {});
+  for (uint32_t e = 0; e < lights.size(); ++e) {
+    out.texel_power[e].assign(size_t(grids[e].side()) * grids[e].side(), 0.f);
+    for (uint32_t g = first_task[e]; g < first_task[e + 1]; ++g)
+      out.texel_power[e][grids[e].locate(g - first_task[e]).texel] += task_power[g];
+  }
   TraceStats stats;
   gather(outputs, blocks, 0, false, out, stats);
   stats.paths = total;

@@ -80,6 +80,9 @@ class GridEmission {
     glm::vec2 uv;  // the cell centre in the emission domain
   };
   Task locate(uint32_t task) const;  // task < tasks()
+  // A fixed pseudo-random point of the task's cell (a hash of texel, cell and m), in place of its
+  // centre: TraceSettings::aaps_jitter.
+  glm::vec2 jittered(const Task& task) const;
 
  private:
   uint32_t side_ = 0, total_ = 0;

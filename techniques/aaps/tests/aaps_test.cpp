@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "../footprint.h"
 #include "../task_buffer.h"
 #include "io/image.h"
 #include "photonbench/error.h"
@@ -57,6 +58,7 @@ TEST(AapsTaskBuffer, QuadtreeWalkIsTheTracersEmissionOrder) {
     ASSERT_EQ(tree.root(), expected_total);
     ASSERT_EQ(grid.tasks(), expected_total);
     std::set<std::pair<uint32_t, uint32_t>> seen;
+    uint32_t off_centre = 0;
     for (uint32_t t = 0; t < grid.tasks(); ++t) {
       aaps::SumQuadtree::Leaf leaf = tree.walk(t);
       pb::trace::GridEmission::Task task = grid.locate(t);
@@ -72,7 +74,14 @@ TEST(AapsTaskBuffer, QuadtreeWalkIsTheTracersEmissionOrder) {
       EXPECT_LT(task.uv.x * side, float(x + 1));
       EXPECT_GE(task.uv.y * side, float(y));
       EXPECT_LT(task.uv.y * side, float(y + 1));
+      // emission_jitter: a point of the same grid cell, not its centre.
+      glm::vec2 j = grid.jittered(task), cell = glm::vec2(task.uv) * float(side * task.m);
+      glm::vec2 jc = j * float(side * task.m);
+      EXPECT_EQ(std::floor(jc.x), std::floor(cell.x)) << "task " << t;
+      EXPECT_EQ(std::floor(jc.y), std::floor(cell.y)) << "task " << t;
+      off_centre += j != task.uv ? 1 : 0;
     }
+    EXPECT_GT(off_centre, expected_total / 2);
     EXPECT_EQ(seen.size(), expected_total);  // every (texel, cell) once
   }
 }
@@ -95,6 +104,73 @@ TEST(AapsTaskBuffer, DensityUpdateFollowsTheFormula) {
   std::vector<float> high = {100, 100, 100, 100}, none(4, 0.f);
   aaps::update_density(high, std::vector<float>(4, 10.f), none, 2, p);
   EXPECT_EQ(high[0], 6);
+}
+
+// §3.1.2 / §3.3.3: the principal semi-axes of the ellipse whose conjugate semi-diameters are the
+// two scaled differentials describe the same ellipse (every point P + cos t a + sin t b lies on
+// the principal axes' ellipse), are orthogonal, keep its area pi |a x b| and lie in its plane;
+// above max_anisotropy the minor axis grows to major / max_anisotropy along the same direction.
+TEST(AapsFootprint, PrincipalAxesDescribeTheSameEllipse) {
+  const glm::vec3 cases[][2] = {{{0.3f, 0, 0}, {0.1f, 0.2f, 0}},
+                                {{0.02f, 0.05f, -0.01f}, {-0.04f, 0.01f, 0.03f}},
+                                {{0, 0, 0.1f}, {0, 0.1f, 0.1f}},
+                                {{0.1f, 0, 0}, {0, 0.1f, 0}}};
+  for (const auto& c : cases) {
+    const glm::vec3 a = c[0], b = c[1];
+    glm::vec3 major, minor;
+    aaps::principal_axes(a, b, 1e6f, major, minor);
+    const float M = glm::length(major), m = glm::length(minor);
+    SCOPED_TRACE(testing::Message() << "a " << a.x << "," << a.y << "," << a.z);
+    ASSERT_GT(m, 0);
+    EXPECT_GE(M, m * (1 - 1e-5f));
+    EXPECT_NEAR(glm::dot(major, minor) / (M * m), 0, 1e-5);
+    EXPECT_NEAR(M * m / glm::length(glm::cross(a, b)), 1, 1e-4);
+    const glm::vec3 n = glm::normalize(glm::cross(a, b));
+    EXPECT_NEAR(glm::dot(major, n) / M, 0, 1e-5);
+    EXPECT_NEAR(glm::dot(minor, n) / m, 0, 1e-5);
+    for (int k = 0; k < 16; ++k) {
+      float t = float(k) * 0.3927f;
+      glm::vec3 q = std::cos(t) * a + std::sin(t) * b;
+      float x = glm::dot(q, major) / (M * M), y = glm::dot(q, minor) / (m * m);
+      EXPECT_NEAR(x * x + y * y, 1, 1e-4) << "t " << t;
+    }
+  }
+  // Clamped: a 100:1 ellipse at max_anisotropy 16 keeps its major axis and direction.
+  glm::vec3 major, minor;
+  aaps::principal_axes({1, 0, 0}, {0, 0.01f, 0}, 16, major, minor);
+  EXPECT_NEAR(major.x, 1, 1e-6);
+  EXPECT_NEAR(glm::length(minor), 1.f / 16, 1e-6);
+  EXPECT_NEAR(std::abs(minor.y), 1.f / 16, 1e-6);
+}
+
+// §1.10a: the variance term of the feedback by hand on a 4x2 screen. The previous frame's camera
+// is shifted by half the screen's width in NDC (one pixel here is 0.5 NDC), so a photon is looked
+// up at its reprojected pixel, not at its current one; no value where it was off screen.
+TEST(AapsTaskBuffer, VarianceTermReprojectsAndWeighs) {
+  const uint32_t width = 4, height = 2;
+  glm::mat4 now_vp(1.f), prev_vp = glm::mat4(1.f);
+  prev_vp[3][0] = 0.5f;  // NDC x + 0.5 in the previous frame: one pixel to the right
+  // Pixel (x, y) of NDC (-0.75 + 0.5 x, -0.5 + y).
+  const std::vector<float> now = {2, 0, 0, 3, 1, 0, 0, 0};
+  const std::vector<float> prev = {2, 1, 0, 5, 0, 0, 3, 0};
+  std::vector<aaps::VarianceInput> photons = {
+      {{-0.75f, -0.5f, 0}, 0, 0.5f},  // now (0,0) = 2, previously (1,0) = 1: 0.5 * 1/2
+      {{0.75f, -0.5f, 0}, 0, 0.5f},   // previously off screen (x 1.25): nothing
+      {{-0.25f, -0.5f, 0}, 1, 1.0f},  // now (1,0) = 0, previously (2,0) = 0: nothing
+      {{-0.75f, 0.5f, 0}, 2, 0.25f},  // now (0,1) = 1, previously (1,1) = 0: 0.25 * 1
+      {{0.25f, 0.5f, 0}, 3, 1.0f},    // now (2,1) = 0, previously (3,1) = 0: nothing
+      {{0.25f, -0.5f, 0}, 3, 0.5f},   // now (2,0) = 0, previously (3,0) = 5: 0.5 * 1
+  };
+  std::vector<float> variance(4, 0.f);
+  aaps::accumulate_variance(photons, now.data(), now_vp, prev, prev_vp, width, height, variance);
+  EXPECT_NEAR(variance[0], 0.25f, 1e-6);
+  EXPECT_NEAR(variance[1], 0.f, 1e-6);
+  EXPECT_NEAR(variance[2], 0.25f, 1e-6);
+  EXPECT_NEAR(variance[3], 0.5f, 1e-6);
+  // No previous frame: no term.
+  std::vector<float> first(4, 0.f);
+  aaps::accumulate_variance(photons, now.data(), now_vp, {}, prev_vp, width, height, first);
+  EXPECT_EQ(first, std::vector<float>(4, 0.f));
 }
 
 struct CornellGlass {
@@ -145,6 +221,55 @@ TEST(AapsTrace, RulesAndEnergyOnCornellGlass) {
   std::printf("stored caustic power / power reaching the sphere = %.4f\n", ratio);
   EXPECT_GT(ratio, 0.89);  // measured 0.9097 (the grid emission is deterministic)
   EXPECT_LT(ratio, 0.93);
+}
+
+// §3.1.5's energy fractions on a spot light (torus-in-glass-cube: inner 12, outer 20 degrees). The
+// photons leave the cone uniformly, each carrying the uniform cone's power times the falloff in its
+// direction, so the texels do not carry equal power: the tracer's texel powers sum to the light's
+// falloff-integrated power, those wholly inside the inner cone carry the uniform cone's share
+// (1.47x the light's power / texels), and a texel's recorded photons (the cube's first hit: both
+// Fresnel parts, less what the rules drop) have energy fractions that sum to at most one.
+TEST(AapsTrace, SpotTexelEnergiesFollowTheFalloff) {
+  pb::scene::Scene scene = pb::scene::load_scene(PB_SOURCE_DIR "/scenes/torus-in-glass-cube.yaml");
+  pb::scene::FrameState state = scene.at(0);
+  pb::trace::EmbreeScene world{scene, state};
+  pb::trace::EmbreePhotonTracer tracer(world);
+  ASSERT_EQ(tracer.light_count(), 1u);
+  const uint32_t side = 32;
+  pb::trace::EmissionDensity density;
+  density.width = density.height = int(side);
+  density.texels.assign(side * side, 4.f);
+  tracer.set_emission_density(0, &density);
+  pb::trace::TraceSettings s;
+  s.aaps = true;
+  s.store = pb::trace::kCausticPhotons;
+  pb::trace::PhotonBatch batch;
+  tracer.trace(s, batch);
+  ASSERT_EQ(batch.texel_power.size(), 1u);
+  ASSERT_EQ(batch.texel_power[0].size(), size_t(side) * side);
+  const glm::vec3 power = tracer.light_power(0);
+  const double light = (power.x + power.y + power.z) / 3.0;
+  const double sum = std::accumulate(batch.texel_power[0].begin(), batch.texel_power[0].end(), 0.0);
+  EXPECT_NEAR(sum / light, 1.0, 0.005);
+  // The domain's u is 1 - cos(theta) over 1 - cos(outer): the inner cone is u < 0.362.
+  const pb::scene::Light& spot = state.lights[0];
+  const double co = std::cos(spot.spot_outer), ci = std::cos(spot.spot_inner);
+  const double inner_share = (1 - co) / ((1 - ci) + 0.5 * (ci - co));
+  for (uint32_t x = 0; x * (1 - co) < side * (1 - ci) - (1 - co); ++x)
+    EXPECT_NEAR(batch.texel_power[0][x] / (light / (side * side)), inner_share, 1e-3) << x;
+  pb::trace::GridEmission grid(density);
+  std::vector<double> fractions(size_t(side) * side, 0.0);
+  for (const pb::trace::PhotonRecord& p : batch.photons) {
+    uint32_t texel = grid.locate(p.path).texel;
+    fractions[texel] += aaps::energy_fraction(p.power, batch.texel_power[0][texel]);
+  }
+  const double most = *std::max_element(fractions.begin(), fractions.end());
+  std::printf(
+      "spot: texel powers / light power %.4f; inner-cone texel / mean %.3f; largest "
+      "sum of a texel's fractions %.4f\n",
+      sum / light, inner_share, most);
+  EXPECT_GT(most, 0.8);  // the cube's texels keep most of their energy
+  EXPECT_LE(most, 1.0 + 1e-4);
 }
 
 // The rules refuse what they cannot do, naming it.
@@ -205,24 +330,9 @@ double image_sum(const pb::io::Image& image) {
   return sum;
 }
 
-// The thesis's energy finding (§5.1.1) on the paths AAPS models: once the task buffer has
-// converged, the caustics summed over the screen and over 8 frames match the reference's within 5%
-// for the per-sample modes; `all` tests the ellipse at the pixel centre and keeps only the covered
-// samples' share, and is dimmer. The caustic's focus is sub-pixel even at 256x192 (most of its
-// energy lies in a few dozen pixels, drawn by splats far smaller than a pixel), so without MSAA a
-// frame's energy depends on which pixel centres the tiny splats happen to cover: it swings by
-// +-20% from frame to frame as the orbiting light moves the focus (measured 0.81-1.14), and its
-// mean is bounded by three standard errors of its own frames (and never tighter than 5%).
-TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
-  fs::path dir = work_dir("energy");
-  const Frames frames{256, 192, 10, 8, 1, kAapsPathVertices};
-  const char* modes[] = {"none", "all", "all_per_sample", "small_per_sample"};
-  ASSERT_EQ(run_config(dir, aaps_config(dir, frames,
-                                        "density_resolution: 32, target_area: 19, msaa: [none, "
-                                        "all, all_per_sample, small_per_sample]")),
-            0)
-      << "see " << (dir / "log.txt");
-
+// The caustics reference of AAPS's paths summed over the screen, per measured frame (the run has
+// rendered them into its cache).
+std::vector<double> reference_sums(const fs::path& dir, const Frames& frames) {
   CornellGlass c;
   pb::trace::ReferenceCache cache(dir / "refs");
   pb::trace::ReferenceOptions options;
@@ -233,6 +343,29 @@ TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
     reference.push_back(image_sum(cache.get_or_render(c.scene, c.scene.at(uint32_t(f)),
                                                       pb::trace::PathClass::caustics, frames.width,
                                                       frames.height, options)));
+  return reference;
+}
+
+// The thesis's energy finding (§5.1.1) on the paths AAPS models: once the task buffer has
+// converged, the caustics summed over the screen and over 8 frames match the reference's within 5%
+// for the per-sample modes, and so does every single frame within 25%; `all` tests the ellipse at
+// the pixel centre and keeps only the covered samples' share, and is dimmer. The caustic's focus is
+// sub-pixel even at 256x192 (most of its energy lies in a few dozen pixels, drawn by splats far
+// smaller than a pixel), so without MSAA a frame's energy depends on whether the focus falls on
+// pixel centres: it swings from frame to frame as the orbiting light moves it, and its 8-frame
+// mean is held to a bound fixed in advance, 15% (the aliasing §5.1 describes; the first version
+// bounded it by three standard errors of its own frames, which a worse run widens).
+TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
+  fs::path dir = work_dir("energy");
+  const Frames frames{256, 192, 10, 8, 1, kAapsPathVertices};
+  const char* modes[] = {"none", "all", "all_per_sample", "small_per_sample"};
+  ASSERT_EQ(run_config(dir, aaps_config(dir, frames,
+                                        "density_resolution: 32, target_area: 19, msaa: [none, "
+                                        "all, all_per_sample, small_per_sample]")),
+            0)
+      << "see " << (dir / "log.txt");
+
+  const std::vector<double> reference = reference_sums(dir, frames);
   const double reference_sum = std::accumulate(reference.begin(), reference.end(), 0.0);
   ASSERT_GT(reference_sum, 0);
   std::map<std::string, double> ratio, standard_error;
@@ -244,11 +377,13 @@ TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
     EXPECT_EQ(record["validation"], true);
     double sum = 0, square_sum = 0;
     std::string per_frame;
+    const bool per_sample = std::string(mode).find("per_sample") != std::string::npos;
     for (int i = 0; i < frames.count; ++i) {
       double frame_sum = image_sum(frame_image(cell, frames.warmup + i, "caustics"));
       double r = frame_sum / reference[size_t(i)];
       sum += frame_sum, square_sum += r * r;
       per_frame += fmt::format(" {:.3f}", r);
+      if (per_sample) EXPECT_NEAR(r, 1.0, 0.25) << mode << " frame " << frames.warmup + i;
     }
     ratio[mode] = sum / reference_sum;
     double mean_square = square_sum / frames.count;
@@ -260,8 +395,44 @@ TEST(Aaps, ScreenEnergyMatchesTheCausticsReference) {
   }
   EXPECT_NEAR(ratio["all_per_sample"], 1.0, 0.05);
   EXPECT_NEAR(ratio["small_per_sample"], 1.0, 0.05);
-  EXPECT_NEAR(ratio["none"], 1.0, std::max(0.05, 3 * standard_error["none"]));
+  EXPECT_NEAR(ratio["none"], 1.0, 0.15);
   EXPECT_LT(ratio["all"], ratio["none"] - 0.05);
+}
+
+// Issue 25's frame-by-frame energy at 160x90 (warm-up 8, frames 8-13, the shipped density 256^2):
+// the per-sample modes' screen caustics within 25% of the reference in every frame, their mean
+// within 10%. The focus is sub-pixel here, drawn by splats far smaller than a sample; at cell
+// centres (emission_jitter false) the emission grid maps to a regular lattice of them that slides
+// over the sample grid as the light orbits, so a frame's energy swung 0.85-1.55 per sample (and
+// 0.62-1.67 without MSAA). The bounds are the issue's, fixed; the reference's own error on a
+// frame's sum is about 1% (its two halves differ by 2%).
+TEST(Aaps, CausticPowerFrameByFrameAt160x90) {
+  fs::path dir = work_dir("frames");
+  const Frames frames{160, 90, 8, 6, 1, kAapsPathVertices};
+  ASSERT_EQ(run_config(dir, aaps_config(dir, frames,
+                                        "msaa: [none, all_per_sample, "
+                                        "small_per_sample]")),
+            0)
+      << "see " << (dir / "log.txt");
+  const std::vector<double> reference = reference_sums(dir, frames);
+  for (const char* mode : {"none", "all_per_sample", "small_per_sample"}) {
+    fs::path cell = find_cell(dir, "aaps", {{"msaa", mode}});
+    ASSERT_FALSE(cell.empty()) << mode;
+    std::vector<double> ratio;
+    std::string per_frame;
+    for (int i = 0; i < frames.count; ++i) {
+      ratio.push_back(image_sum(frame_image(cell, frames.warmup + i, "caustics")) /
+                      reference[size_t(i)]);
+      per_frame += fmt::format(" {:.3f}", ratio.back());
+    }
+    double mean = std::accumulate(ratio.begin(), ratio.end(), 0.0) / double(ratio.size());
+    std::printf("msaa %-16s 160x90 caustics / reference per frame:%s; mean %.3f\n", mode,
+                per_frame.c_str(), mean);
+    if (std::string(mode) == "none") continue;  // aliased by design (§5.1): printed, not bounded
+    for (size_t i = 0; i < ratio.size(); ++i)
+      EXPECT_NEAR(ratio[i], 1.0, 0.25) << mode << " frame " << frames.warmup + int(i);
+    EXPECT_NEAR(mean, 1.0, 0.10) << mode;
+  }
 }
 
 // §5.1.2's per-sample depth test against the single-sample G-buffer: a sample off the pixel centre
@@ -323,6 +494,59 @@ TEST(Aaps, CullingThresholdsMeanWhatTheThesisTested) {
   EXPECT_LT(share("0.0014"), 0.9);
   EXPECT_GT(share("0.01"), 0.0);
   EXPECT_LT(share("1"), 0.01);
+}
+
+// §5.1.3's split and §4.5.2's non-contributing share, on frame 0 (every cell emits the same
+// photons: the task buffer is uniform before any feedback). small_per_sample at threshold 0 sends
+// no splat to the multisampled list and draws exactly what `none` draws; at a threshold above
+// every splat it sends them all and draws exactly what all_per_sample draws; at 2 px^2 it sends
+// most tiny splats and no large one. The share of splats that reach no pixel centre or sample:
+// near zero for splats of tens of pixels (footprint_scale 5, no depth rejection), most of them for
+// splats far below a pixel (footprint_scale 0.05), and fewer per sample than at the pixel centre
+// there.
+TEST(Aaps, SmallPerSampleSplitAndNonContributingShare) {
+  fs::path dir = work_dir("split");
+  ASSERT_EQ(run_config(dir, aaps_config(dir, {128, 96, 0, 1, 0},
+                                        "density_resolution: 32, depth_margin: 1, "
+                                        "footprint_scale: [0.05, 5], msaa: [none, all_per_sample, "
+                                        "small_per_sample], msaa_threshold: [0, 2, 1000000]")),
+            0)
+      << "see " << (dir / "log.txt");
+  auto cell = [&](const char* scale, const char* mode, const char* threshold) {
+    fs::path c = find_cell(
+        dir, "aaps", {{"footprint_scale", scale}, {"msaa", mode}, {"msaa_threshold", threshold}});
+    EXPECT_FALSE(c.empty()) << scale << " " << mode << " " << threshold;
+    return counters(c);
+  };
+  for (const char* scale : {"0.05", "5"}) {
+    SCOPED_TRACE(scale);
+    auto none = cell(scale, "none", "2"), all = cell(scale, "all_per_sample", "2");
+    auto zero = cell(scale, "small_per_sample", "0"), two = cell(scale, "small_per_sample", "2"),
+         every = cell(scale, "small_per_sample", "1000000");
+    const double splats = none.at("splats_drawn");
+    ASSERT_GT(splats, 50);
+    EXPECT_EQ(zero.at("splats_per_sample"), 0);
+    EXPECT_EQ(zero.at("caustic_energy"), none.at("caustic_energy"));
+    EXPECT_EQ(zero.at("splats_noncontributing"), none.at("splats_noncontributing"));
+    EXPECT_EQ(every.at("splats_per_sample"), splats);
+    EXPECT_NEAR(every.at("caustic_energy") / all.at("caustic_energy"), 1, 1e-5);
+    EXPECT_EQ(every.at("splats_noncontributing"), all.at("splats_noncontributing"));
+    std::printf(
+        "footprint_scale %s: per-sample share at 2 px^2 %.3f; non-contributing none %.3f, "
+        "all_per_sample %.3f\n",
+        scale, two.at("splats_per_sample") / splats, none.at("noncontributing_share"),
+        all.at("noncontributing_share"));
+    if (std::string(scale) == "0.05") {
+      // Most far below 2 px^2 (those clamped in anisotropy grow).
+      EXPECT_GT(two.at("splats_per_sample"), 0.5 * splats);
+      EXPECT_GT(none.at("noncontributing_share"), 0.5);
+      EXPECT_LT(all.at("noncontributing_share"), none.at("noncontributing_share"));
+    } else {
+      EXPECT_LT(two.at("splats_per_sample"), 0.5 * splats);
+      EXPECT_LT(none.at("noncontributing_share"), 0.05);
+      EXPECT_LT(all.at("noncontributing_share"), 0.05);
+    }
+  }
 }
 
 // §1.4 / §1.10: the sphere covers under 2% of the point light's directions, so a uniform task
