@@ -2,6 +2,11 @@
 # it reads or writes an image: its 260 shared libraries were 90% of every process's start
 # (io/image.h, ImageCodec), paid by every validate, schema, list and test process.
 source "$(dirname "$0")/lib.bash"
+# A build with -DPB_IMAGE_CODEC_MODULE=OFF (the sanitized one) links OpenImageIO into the library.
+if [ ! -e "$(dirname "$PB")/libphotonbench_image_io.so" ]; then
+  echo "skipped: this build links the image codec into libphotonbench (PB_IMAGE_CODEC_MODULE=OFF)"
+  exit 77
+fi
 loaded() { printf '%s\n' "$1" | grep -c "calling init: .*libOpenImageIO\.so" || true; }
 cfg="$WORK/config.yaml"
 write_config "$cfg" "scenes: [cornell-box]"

@@ -13,6 +13,15 @@
 namespace pb::io {
 namespace {
 
+#ifdef PB_IMAGE_CODEC_LINKED
+}  // namespace
+}  // namespace pb::io
+extern "C" const pb::io::ImageCodec* photonbench_image_codec();
+namespace pb::io {
+namespace {
+// -DPB_IMAGE_CODEC_MODULE=OFF (the sanitized build): the codec is part of the library.
+const ImageCodec& codec() { return *photonbench_image_codec(); }
+#else
 // The codec module (ImageCodec) sits beside libphotonbench.so, in the build folder and installed.
 const ImageCodec& codec() {
   static const ImageCodec* loaded = [] {
@@ -35,6 +44,7 @@ const ImageCodec& codec() {
   }();
   return *loaded;
 }
+#endif
 
 }  // namespace
 
