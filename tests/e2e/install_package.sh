@@ -7,7 +7,9 @@ source "$(dirname "$0")/lib.bash"
 BUILD="$(dirname "$PB")"
 prefix="$WORK/prefix"
 expect_exit 0 "cmake --install into a temporary prefix" -- cmake --install "$BUILD" --prefix "$prefix"
-codec=$([ -e "$(dirname "$PB")/libphotonbench_image_io.so" ] && echo lib/libphotonbench_image_io.so)
+# The image codec module, unless this build links it into the library (PB_IMAGE_CODEC_MODULE=OFF).
+codec=$(readelf -d "$(dirname "$PB")/libphotonbench.so" | grep -q "NEEDED.*libOpenImageIO" ||
+  echo lib/libphotonbench_image_io.so)
 for file in bin/photonbench lib/libphotonbench.so $codec lib/libphotonbench_toolkit.a \
   include/photonbench/plugin.h include/photonbench/context.h include/photonbench/gpu.h \
   include/photonbench/toolkit/technique.h share/photonbench/shaders/toolkit/gbuffer.glsl \
