@@ -19,12 +19,12 @@
 #include <string>
 #include <vector>
 
+#include "cell/scoring.h"
 #include "config/config.h"
 #include "photonbench/error.h"
-#include "run/scoring.h"
+#include "reference/reference.h"
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
-#include "trace/reference.h"
 
 namespace fs = std::filesystem;
 using namespace pb;

@@ -27,10 +27,10 @@
 
 #include "bench_support.h"
 #include "photonbench/photons.h"
+#include "reference/reference.h"
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
 #include "trace/photon_tracer.h"
-#include "trace/reference.h"
 
 namespace fs = std::filesystem;
 

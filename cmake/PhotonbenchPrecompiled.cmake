@@ -2,7 +2,7 @@
 #
 # Why: measured per translation unit (.ninja_log, gcc -ftime-report), most of the harness's compile
 # time was spent parsing the same few headers again in every file: Vulkan-Hpp's vulkan_raii.hpp
-# (4.2 s alone; every file that reaches photonbench/gpu.h, which run/plan.h does), nlohmann/json
+# (4.2 s alone; every file that reaches photonbench/gpu.h, which plan/plan.h does), nlohmann/json
 # (1.8 s, and more to instantiate its parser), yaml-cpp, fmt, the standard library. A run/ file
 # spent 40-60% of its compile in the parser.
 #

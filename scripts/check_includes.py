@@ -4,7 +4,9 @@
 below it, never those of a folder above; inside a folder, its modules (a header with its .cpp) form
 no cycle. Prints the graph; exits 1 naming each include that goes up and each cycle.
 
-    scripts/check_includes.py [--quiet]
+    scripts/check_includes.py [--quiet] [--floors]
+
+--floors also prints each folder's modules by floor (the include graph inside the folder).
 """
 import pathlib
 import re
@@ -12,14 +14,13 @@ import sys
 
 # Top to bottom: the order in which a run calls them. `photonbench` is the public plugin API
 # (harness/include/photonbench) with the GPU layouts it shares with GLSL (harness/shaders).
-LAYERS = ["cli", "run", "gpu", "trace", "metrics", "scene", "config", "io", "photonbench"]
+# A run (run/) spawns cells; a cell (cell/) plays a plan's cell (plan/) through its plugin; the
+# reference renderer (reference/) is built on the tracing services (trace/).
+LAYERS = ["cli", "run", "cell", "plan", "gpu", "reference", "trace", "metrics", "scene", "config", "io",
+          "photonbench"]
 # Cycles inside a folder that are known and not yet broken, each with what breaks it; any other
 # cycle fails the check, and so does a listed one that is gone (so the list stays true).
-KNOWN_CYCLES = {
-    ("trace/bdpt", "trace/path_space", "trace/reference"):
-        "reference.cpp uses BDPT, whose path space uses reference.h's path classes: the reference "
-        "renderer's own folder, with the classes below it, breaks it (issue 27)",
-}
+KNOWN_CYCLES: dict[tuple[str, ...], str] = {}
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"')
 
 
@@ -69,6 +70,25 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
+def floors(modules: dict[str, set[str]], folder: str) -> list[list[str]]:
+    """The modules of one folder by floor: floor 0 includes none of its folder's modules, floor n
+    includes one of floor n - 1 at most (the longest chain below it). Assumes no cycle."""
+    own = sorted({m for m in modules if m.startswith(folder + "/")} |
+                 {d for deps in modules.values() for d in deps if d.startswith(folder + "/")})
+    depth: dict[str, int] = {}
+
+    def floor_of(module: str, seen: tuple[str, ...] = ()) -> int:
+        if module not in depth:
+            below = [d for d in modules.get(module, ()) if d not in seen]
+            depth[module] = 1 + max((floor_of(d, seen + (module,)) for d in below), default=-1)
+        return depth[module]
+
+    by_floor: dict[int, list[str]] = {}
+    for module in own:
+        by_floor.setdefault(floor_of(module), []).append(module.split("/", 1)[1])
+    return [by_floor[n] for n in sorted(by_floor)]
+
+
 def main() -> int:
     root = pathlib.Path(__file__).resolve().parent.parent
     src = root / "harness" / "src"
@@ -83,6 +103,7 @@ def main() -> int:
         if folder not in LAYERS:
             upward.append(f"{source.relative_to(root)}: folder '{folder}' has no layer")
             continue
+        modules.setdefault(source.relative_to(src).with_suffix("").as_posix(), set())
         for number, line in enumerate(source.read_text(encoding="utf-8").splitlines(), 1):
             match = INCLUDE.match(line)
             if not match:
@@ -104,6 +125,10 @@ def main() -> int:
         for folder in LAYERS:
             below = sorted(edges.get(folder, ()), key=lambda t: LAYERS.index(t) if t in LAYERS else 99)
             print(f"{folder:12s} -> {', '.join(below) if below else '(nothing)'}")
+        if "--floors" in sys.argv:
+            for folder in LAYERS:
+                for number, names in reversed(list(enumerate(floors(modules, folder)))):
+                    print(f"  {folder}/ floor {number}: {' '.join(names)}")
     found = cycles(modules)
     for component in found:
         if tuple(component) not in KNOWN_CYCLES:

@@ -3,7 +3,7 @@
 #   bash tests/manual/compare_real.sh build/photonbench .
 # `photonbench compare` on real runs (the unit tests use synthetic fixtures): two folders of replicate
 # runs of the same build (A/A) are not a regression; runs with one pass made 25% slower by the
-# test-only delay injection (testing.slow_pass / testing.slow_factor, harness/src/run/profiler.h) are,
+# test-only delay injection (testing.slow_pass / testing.slow_factor, harness/src/cell/profiler.h) are,
 # and the table names it. Replicates (PB_COMPARE_RUNS, default 8 per side) are interleaved in time, as
 # compare's docstring asks; on lavapipe compare reads process CPU time (frames.csv process_cpu_ms).
 # PB_COMPARE_FRAMES sets the frame count.

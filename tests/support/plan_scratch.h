@@ -1,4 +1,4 @@
-// A benchmark config written into a scratch folder and planned (run/plan.h) with the build's
+// A benchmark config written into a scratch folder and planned (plan/plan.h) with the build's
 // plugins: for tests of what a plan makes of a config.
 #pragma once
 
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "run/plan.h"
+#include "plan/plan.h"
 
 namespace pb::testing {
 

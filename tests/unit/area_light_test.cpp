@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "metrics/z_test.h"
+#include "reference/reference.h"
 #include "test_scenes.h"
 #include "trace/embree_scene.h"
-#include "trace/reference.h"
 
 namespace pb::trace {
 namespace area_light_test {

@@ -1,4 +1,4 @@
-// Bidirectional path tracing (src/trace/bdpt.h) against path tracing with next-event estimation,
+// Bidirectional path tracing (reference/bdpt.h) against path tracing with next-event estimation,
 // the anchor, and the automatic choice between them (reference.h, Estimator).
 //
 // On every shipped scene and every path class the two means agree pixel by pixel within their
@@ -17,10 +17,10 @@
 #include <string>
 
 #include "metrics/z_test.h"
+#include "reference/reference.h"
 #include "scene/scene.h"
 #include "test_scenes.h"
 #include "trace/embree_scene.h"
-#include "trace/reference.h"
 
 namespace pb::trace {
 namespace bdpt_test {

@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "photonbench/photons.h"
+#include "reference/reference.h"
 #include "test_scenes.h"
 #include "trace/embree_scene.h"
 #include "trace/lights.h"
 #include "trace/photon_tracer.h"
-#include "trace/reference.h"
 
 namespace pb::trace {
 namespace disc_light_test {

@@ -1,4 +1,4 @@
-// The plugin boundary (run/plugins.h): which differences in a module's build record fail it, and
+// The plugin boundary (plan/plugins.h): which differences in a module's build record fail it, and
 // that the message names both sides; and the loader's use of it on the test plugins.
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "photonbench/plugin.h"
-#include "run/plugins.h"
+#include "plan/plugins.h"
 
 namespace pb::run {
 namespace plugin_abi_test {

@@ -3,7 +3,7 @@
 // bounds that hold on any machine, however loaded. Threads that consumed X ms of CPU while a pass
 // was open make the process consume at least X ms in it, and the hook must add at least (factor -
 // 1) x that again.
-#include "run/profiler.h"
+#include "cell/profiler.h"
 
 #include <gtest/gtest.h>
 

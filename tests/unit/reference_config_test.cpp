@@ -7,9 +7,9 @@
 #include <fstream>
 #include <string>
 
+#include "cell/scoring.h"
 #include "config/config.h"
 #include "photonbench/error.h"
-#include "run/scoring.h"
 
 namespace pb {
 namespace reference_config_test {

@@ -1,8 +1,8 @@
-// The reference renderer (src/trace/reference.h): analytic images first (camera model, white
+// The reference renderer (src/reference/reference.h): analytic images first (camera model, white
 // furnace, a point light over a plane, a caustic through a flat mirror), then the statistics of
 // convergence (path tracing at samples^-1/2, SPPM's caustics converging), the path-class partition
 // and the cache.
-#include "trace/reference.h"
+#include "reference/reference.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -8,11 +8,11 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "cell/cell_record.h"
+#include "cell/frame_log.h"
 #include "io/results.h"
 #include "photonbench/error.h"
-#include "run/cell_record.h"
-#include "run/frame_log.h"
-#include "run/plan.h"
+#include "plan/plan.h"
 
 namespace pb::run {
 namespace run_flow_test {

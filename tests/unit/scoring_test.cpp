@@ -1,7 +1,7 @@
-// Scoring (run/scoring.h) with noise floors and bounce-matched references: which references a cell
+// Scoring (cell/scoring.h) with noise floors and bounce-matched references: which references a cell
 // is scored against, and what one scored cell writes (metrics.csv columns and rows, cell.json
 // means), checked against the metrics computed here from the cached reference entries.
-#include "run/scoring.h"
+#include "cell/scoring.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -12,6 +12,7 @@
 #include <map>
 #include <string>
 
+#include "cell/cell_record.h"
 #include "config/config.h"
 #include "io/image.h"
 #include "io/results.h"
@@ -19,9 +20,8 @@
 #include "metrics/metrics.h"
 #include "metrics/noise_floor.h"
 #include "photonbench/error.h"
-#include "run/cell_record.h"
+#include "reference/reference.h"
 #include "scene/scene.h"
-#include "trace/reference.h"
 
 namespace pb::run {
 namespace scoring_test {

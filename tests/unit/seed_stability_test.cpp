@@ -1,5 +1,5 @@
 // Temporal and seed stability: the flicker metric (metrics/flicker.h) on synthetic frame sequences
-// with known answers, and the seed axis of a plan (run/plan.h, `seeds: K`).
+// with known answers, and the seed axis of a plan (plan/plan.h, `seeds: K`).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -12,8 +12,8 @@
 #include "metrics/flicker.h"
 #include "metrics/z_test.h"
 #include "photonbench/error.h"
+#include "plan/plan.h"
 #include "plan_scratch.h"
-#include "run/plan.h"
 
 namespace pb {
 namespace seed_stability_test {

@@ -7,9 +7,9 @@
 
 #include <chrono>
 
+#include "cell/profiler.h"
 #include "command_stream.h"
 #include "gpu/shared_passes.h"
-#include "run/profiler.h"
 #include "scene/scene.h"
 
 namespace pb {

@@ -126,7 +126,7 @@ def robust_sigma(samples) -> float:
 
 def percentile_range(samples, low: float = 5.0, high: float = 95.0) -> Tuple[float, float]:
     """(p5, p95) of the samples by linear interpolation between order statistics, the rule of the
-    harness's summary.csv (harness/src/run/stats.cpp); NaNs when there are none."""
+    harness's summary.csv (harness/src/cell/stats.cpp); NaNs when there are none."""
     x = np.asarray(samples, dtype=float)
     if len(x) == 0:
         return math.nan, math.nan

@@ -96,7 +96,7 @@ class NoiseTest(unittest.TestCase):
         self.assertEqual(history._noise(np.array([1.0, 2.0])), 0.0)
 
     def test_percentile_range_is_the_harness_rule(self):
-        # harness/src/run/stats.cpp: rank p/100 (n - 1), linear between the order statistics.
+        # harness/src/cell/stats.cpp: rank p/100 (n - 1), linear between the order statistics.
         np.testing.assert_allclose(measures.percentile_range([4.0, 1.0, 3.0, 2.0]), (1.15, 3.85))
         self.assertTrue(all(math.isnan(v) for v in measures.percentile_range([])))
 

@@ -7,7 +7,7 @@
 // API version and its build record (compiler, standard library, Vulkan-Hpp version, sizeof of each
 // public class), a layout kept from version 2 on. The entry point honours the host's version: given
 // another version than its own it returns only that opening, never a factory the host cannot use.
-// A mismatch fails only that plugin's cells, with a message naming both sides (run/plugins.cpp).
+// A mismatch fails only that plugin's cells, with a message naming both sides (plan/plugins.cpp).
 //
 //   static const pb_param_spec kParams[] = {
 // {"photons", PB_PARAM_INT, 200000, 1000, 5e7, nullptr, "photons", "photons traced per frame"},

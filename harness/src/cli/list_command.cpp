@@ -5,7 +5,7 @@
 
 #include "cli/command.h"
 #include "gpu/device_accounting.h"
-#include "run/plugins.h"
+#include "plan/plugins.h"
 #include "scene/scene.h"
 
 namespace {

@@ -11,10 +11,10 @@
 #include "cli/command.h"
 #include "config/config.h"
 #include "photonbench/error.h"
-#include "run/plugins.h"
+#include "plan/plugins.h"
+#include "reference/reference.h"
 #include "run/runner.h"
 #include "scene/scene.h"
-#include "trace/reference.h"
 
 namespace {
 

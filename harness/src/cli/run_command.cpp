@@ -2,8 +2,8 @@
 // one cell in its own process.
 #include <filesystem>
 
+#include "cell/cell_runner.h"
 #include "cli/command.h"
-#include "run/cell_runner.h"
 #include "run/runner.h"
 
 namespace {

@@ -2,7 +2,7 @@
 // files, printed from the key tables the readers validate with (config/key_table.h), so a YAML
 // editor completes and checks what `validate` accepts. The config schema also holds what the
 // loaded plugins declare: each technique's parameters ($defs "techniques.<name>.params", from its
-// pb_param_spec rows, as run/plan.cpp checks them; a list of values sweeps), the technique names,
+// pb_param_spec rows, as plan/plan.cpp checks them; a list of values sweeps), the technique names,
 // and the parameters a scene entry may set (any technique's).
 #include <fmt/format.h>
 
@@ -14,13 +14,13 @@
 
 #include "cli/command.h"
 #include "config/key_table.h"
-#include "run/plugins.h"
+#include "plan/plugins.h"
 
 namespace {
 
 using nlohmann::json;
 
-// One parameter's value, as run/plan.cpp's check_param reads it.
+// One parameter's value, as plan/plan.cpp's check_param reads it.
 json param_value_schema(const pb_param_spec& spec) {
   json out;
   switch (spec.type) {

@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "cli/command.h"
-#include "run/plan.h"
+#include "plan/plan.h"
 
 namespace {
 

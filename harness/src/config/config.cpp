@@ -160,7 +160,7 @@ const KeyTable kTestingTable{
     {{"slow_pass", string_type(), false, "", "a pass made slower, to show a regression flagged"},
      {"slow_factor", number_type(1, 100), false, 1.0, "how much slower slow_pass runs"}}};
 
-// The parameters of techniques: what the loaded plugins declare (run/plan.cpp checks them), so
+// The parameters of techniques: what the loaded plugins declare (plan/plan.cpp checks them), so
 // `photonbench schema` replaces these two definitions with the plugins' parameter schemas.
 const KeyTable kSceneParamsTable{
     "config.scene_params",

@@ -1,6 +1,6 @@
 // The benchmark config: loading, --set overrides and validation of the keys the harness owns (every
 // error names file:line:col and key). It only parses and checks: scene names, technique names and
-// parameters are resolved against the scenes and plugins by run/plan.h, which expands the sweeps.
+// parameters are resolved against the scenes and plugins by plan/plan.h, which expands the sweeps.
 #pragma once
 
 #include <filesystem>
@@ -28,9 +28,10 @@ struct FrameSettings {
   uint32_t metrics_window = 1;  // and the frames after it: this many scored in a row (flicker)
 };
 
-// How references are rendered (trace/reference.h): a frame's render stops at the first stop rule
-// reached; 0 turns a rule off, and at least one stays on. A reference block that names any of
-// rel_error, max_seconds and samples uses those alone; one that names none keeps the defaults.
+// How references are rendered (reference/reference.h): a frame's render stops at the first
+// stop rule reached; 0 turns a rule off, and at least one stays on. A reference block that names
+// any of rel_error, max_seconds and samples uses those alone; one that names none keeps the
+// defaults.
 struct ReferenceSettings {
   double rel_error = 0.05;         // estimated relative RMS error of the mean (the default rule)
   double max_seconds = 600;        // per frame, a safety net for a target a scene cannot reach
@@ -89,7 +90,7 @@ struct Config {
 };
 
 // Reads `file`, applies `overrides` ("key.path=value", value parsed as YAML), validates the keys
-// the harness owns. Scene names are checked by run/plan.h, which resolves them. Throws
+// the harness owns. Scene names are checked by plan/plan.h, which resolves them. Throws
 // pb::InputError.
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 // The same from the text of `file` (relative plugin_dirs are resolved against its folder).

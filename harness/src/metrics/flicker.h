@@ -1,5 +1,5 @@
 // Flicker: how far a technique's change from one frame to the next is from the reference's own
-// change, per pair of consecutive frames (run/scoring.cpp scores it where both were scored). A
+// change, per pair of consecutive frames (cell/scoring.cpp scores it where both were scored). A
 // per-frame error (FLIP, RMSE) misses flicker: a technique whose error is the same size every
 // frame but of a fresh pattern (new photons each frame) scores as well as one whose error stands
 // still, yet only the second looks steady in an animation.

@@ -9,9 +9,9 @@
 #include <set>
 #include <string>
 
+#include "cell/cell_runner.h"
 #include "io/results.h"
 #include "photonbench/error.h"
-#include "run/cell_runner.h"
 #include "run/run_record.h"
 #include "run/runner.h"
 

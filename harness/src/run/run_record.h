@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "run/plan.h"
+#include "plan/plan.h"
 
 namespace pb::run {
 

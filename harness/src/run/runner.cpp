@@ -14,17 +14,18 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <thread>
 
+#include "cell/cell_process.h"
+#include "cell/cell_runner.h"
+#include "cell/invocation.h"
+#include "cell/scoring.h"
 #include "io/results.h"
 #include "photonbench/error.h"
-#include "run/cell_process.h"
-#include "run/cell_runner.h"
-#include "run/invocation.h"
+#include "reference/reference.h"
 #include "run/run_record.h"
-#include "run/scoring.h"
 #include "run/seed_stats.h"
 #include "scene/scene.h"
-#include "trace/reference.h"
 
 namespace pb::run {
 
@@ -176,8 +177,14 @@ class RunDirLock {
       throw InputError(fmt::format("--out {}: cannot create {}: {}", run_dir.string(),
                                    file.filename().string(), std::strerror(errno)));
     if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      // The holder writes its pid just after it takes the lock: a run refused in between reads
+      // an empty file, so it looks again for up to 50 ms before it names no pid.
       char holder[32] = {};
       ssize_t n = ::pread(fd_, holder, sizeof(holder) - 1, 0);
+      for (int retry = 0; n <= 0 && retry < 10; ++retry) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        n = ::pread(fd_, holder, sizeof(holder) - 1, 0);
+      }
       ::close(fd_);
       throw InputError(fmt::format(
           "{} is in use by another photonbench run{}; wait for it to end, or use another --out",

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "run/plan.h"
+#include "plan/plan.h"
 #include "run/shard.h"
 
 namespace pb::run {

@@ -6,14 +6,14 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "cell/cell_runner.h"
+#include "cell/scoring.h"
 #include "io/image.h"
 #include "io/results.h"
 #include "metrics/metrics.h"
 #include "metrics/z_test.h"
-#include "run/cell_runner.h"
-#include "run/scoring.h"
+#include "reference/reference.h"
 #include "scene/scene.h"
-#include "trace/reference.h"
 
 namespace pb::run {
 

@@ -15,7 +15,7 @@
 
 #include <filesystem>
 
-#include "run/plan.h"
+#include "plan/plan.h"
 
 namespace pb::run {
 

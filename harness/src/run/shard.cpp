@@ -8,9 +8,9 @@
 #include <cstdlib>
 #include <numeric>
 
+#include "cell/scoring.h"
 #include "io/results.h"
 #include "photonbench/error.h"
-#include "run/scoring.h"
 
 namespace pb::run {
 

@@ -93,6 +93,37 @@ std::string shell_quote(const std::string& text) {
   return quoted + "'";
 }
 
+// The merge job's script: it merges the shards' runs into DIR/run and reports.
+std::string merge_script(const SlurmOptions& options, const RunPlan& plan,
+                         const std::filesystem::path& dir, uint32_t shards) {
+  const std::string dir_text = sbatch_path(dir, "--out");
+  const std::string job = "pb-" + plan.config.name;
+  std::string merge = fmt::format(
+      "#!/bin/bash\n"
+      "# photonbench sweep '{name}': merges the {n} shards into {dir}/run and reports (written by\n"
+      "# `photonbench slurm`; submitted to start after the array). Outside Slurm:\n"
+      "#   bash {file}\n"
+      "#SBATCH --job-name={job}-merge\n"
+      "#SBATCH --output={dir}/slurm/merge.log\n"
+      "{common}"
+      "set -euo pipefail\n"
+      "cd {qdir}\n"
+      "# Merged again (the sweep resubmitted after a failure): the earlier merge is kept beside "
+      "it.\n"
+      "if [ -e {out}/run.json ]; then mv {out} {out}.\"$(date +%Y%m%d-%H%M%S)\"; fi\n"
+      "exec {pb} merge {out}",
+      fmt::arg("name", plan.config.name), fmt::arg("n", shards), fmt::arg("dir", dir_text),
+      fmt::arg("qdir", shell_quote(dir.string())),
+      fmt::arg("file", (dir / "slurm" / "merge.sbatch").string()), fmt::arg("job", job),
+      fmt::arg("common", common_directives(options, dir_text)),
+      fmt::arg("pb", shell_quote(options.executable.string())),
+      fmt::arg("out", shell_quote((dir / "run").string())));
+  for (uint32_t i = 1; i <= shards; ++i)
+    merge += fmt::format(" {}", shell_quote((dir / "shards" / std::to_string(i)).string()));
+  merge += "\n";
+  return merge;
+}
+
 SlurmJobs write_slurm_jobs(const SlurmOptions& options, const RunPlan& plan) {
   const uint32_t cells = uint32_t(plan.cells.size());
   const uint32_t shards = options.shards ? options.shards : cells;
@@ -143,29 +174,7 @@ SlurmJobs write_slurm_jobs(const SlurmOptions& options, const RunPlan& plan) {
       fmt::arg("n", shards), fmt::arg("dir", shell_quote(dir.string())),
       fmt::arg("shards", shell_quote((dir / "shards").string())), fmt::arg("run", run));
 
-  std::string merge = fmt::format(
-      "#!/bin/bash\n"
-      "# photonbench sweep '{name}': merges the {n} shards into {dir}/run and reports (written by\n"
-      "# `photonbench slurm`; submitted to start after the array). Outside Slurm:\n"
-      "#   bash {file}\n"
-      "#SBATCH --job-name={job}-merge\n"
-      "#SBATCH --output={dir}/slurm/merge.log\n"
-      "{common}"
-      "set -euo pipefail\n"
-      "cd {qdir}\n"
-      "# Merged again (the sweep resubmitted after a failure): the earlier merge is kept beside "
-      "it.\n"
-      "if [ -e {out}/run.json ]; then mv {out} {out}.\"$(date +%Y%m%d-%H%M%S)\"; fi\n"
-      "exec {pb} merge {out}",
-      fmt::arg("name", plan.config.name), fmt::arg("n", shards), fmt::arg("dir", dir_text),
-      fmt::arg("qdir", shell_quote(dir.string())),
-      fmt::arg("file", (dir / "slurm" / "merge.sbatch").string()), fmt::arg("job", job),
-      fmt::arg("common", common_directives(options, dir_text)),
-      fmt::arg("pb", shell_quote(options.executable.string())),
-      fmt::arg("out", shell_quote((dir / "run").string())));
-  for (uint32_t i = 1; i <= shards; ++i)
-    merge += fmt::format(" {}", shell_quote((dir / "shards" / std::to_string(i)).string()));
-  merge += "\n";
+  const std::string merge = merge_script(options, plan, dir, shards);
 
   SlurmJobs jobs{dir / "slurm" / "shards.sbatch", dir / "slurm" / "merge.sbatch", shards};
   io::write_text_atomic(jobs.shards_script, array);

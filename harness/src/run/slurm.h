@@ -4,7 +4,7 @@
 //   merge.sbatch   `merge DIR/run DIR/shards/1 .. N`, submitted to start after every task has
 //                  ended (afterany: a failed cell fails its task, and merge still reports it).
 // Every job works in DIR (#SBATCH --chdir), so a relative reference.cache_dir (the default
-// results/reference-cache) is one cache in DIR that the shards share (trace/reference.h: entries
+// results/reference-cache) is one cache in DIR that the shards share (reference.h: entries
 // are content-addressed, written atomically, and rendered once under a lock). DIR, the config and
 // the photonbench executable must be on a filesystem every node sees.
 #pragma once
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "run/plan.h"
+#include "plan/plan.h"
 
 namespace pb::run {
 

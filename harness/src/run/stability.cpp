@@ -10,10 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "cell/cell_runner.h"
 #include "io/results.h"
 #include "photonbench/error.h"
-#include "run/cell_runner.h"
-#include "run/plan.h"
+#include "plan/plan.h"
 #include "run/runner.h"
 #include "scene/scene.h"
 
@@ -177,36 +177,22 @@ size_t add_baseline(StabilitySpec& spec, EntrySpec entry, const std::string& lab
   return spec.baselines.size() - 1;
 }
 
-StabilitySpec read_stability_file(const fs::path& file) {
-  const config::YamlView root = config::YamlView::load_file(file);
-  if (!root.is_map())
-    root.fail("a stability file is a mapping (a benchmark config's keys, stability, scenarios)");
-  if (root.has("scenes"))
-    root["scenes"].fail(
-        "a stability file lists `scenarios` (each a scene entry with its `aims_at`), not `scenes`");
-  root.allow_keys({"name", "resolution", "frames", "seed", "techniques", "metrics", "reference",
-                   "limits", "plugin_dirs", "testing", "stability", "scenarios"});
-  const fs::path dir = fs::absolute(file).parent_path();
-  StabilitySpec spec;
-  spec.name = root.string_or("name", file.stem().string());
-
-  const config::YamlView rules = root["stability"];
+StabilityRules read_rules(const config::YamlView& rules) {
   rules.allow_keys(
       {"degraded_factor", "resolved_floor_factor", "flicker_bound", "no_gi_technique", "baseline"});
-  spec.rules.no_gi_technique = rules.string_or("no_gi_technique", "");
-  spec.rules.degraded_factor = rules.number_or("degraded_factor", 2.0, 1.0, 1e6);
-  spec.rules.resolved_floor_factor = rules.number_or("resolved_floor_factor", 4.0, 0.0, 1e6);
-  if (auto bound = rules.get("flicker_bound")) spec.rules.flicker_bound = bound->as_number(0, 1e6);
-  add_baseline(spec, read_entry(rules["baseline"], dir), "baseline");
+  StabilityRules out;
+  out.no_gi_technique = rules.string_or("no_gi_technique", "");
+  out.degraded_factor = rules.number_or("degraded_factor", 2.0, 1.0, 1e6);
+  out.resolved_floor_factor = rules.number_or("resolved_floor_factor", 4.0, 0.0, 1e6);
+  if (auto bound = rules.get("flicker_bound")) out.flicker_bound = bound->as_number(0, 1e6);
+  return out;
+}
 
-  // Techniques: the entries pass to the generated config as written, less `when_built`; one marked
-  // `when_built: true` whose plugin is not built is left out (it joins the suite when it lands).
-  std::vector<fs::path> plugin_dirs;
-  if (auto dirs = root.get("plugin_dirs"))
-    for (const config::YamlView& d : dirs->elements()) {
-      fs::path p = d.as_string();
-      plugin_dirs.push_back(p.is_relative() ? dir / p : p);
-    }
+// The techniques: the entries pass to the generated config as written, less `when_built`; one
+// marked `when_built: true` whose plugin is not built is left out (it joins the suite when it
+// lands). Returns the entries for the generated config.
+YAML::Node read_techniques(const config::YamlView& root, const std::vector<fs::path>& plugin_dirs,
+                           StabilitySpec& spec) {
   PluginRegistry plugins(plugin_dirs);
   YAML::Node techniques(YAML::NodeType::Sequence);
   for (const config::YamlView& t : root["techniques"].elements()) {
@@ -223,13 +209,14 @@ StabilitySpec read_stability_file(const fs::path& file) {
     spec.techniques.push_back(name);
   }
   if (spec.techniques.empty()) root["techniques"].fail("no technique of the list is built");
-  if (!spec.rules.no_gi_technique.empty() &&
-      std::find(spec.techniques.begin(), spec.techniques.end(), spec.rules.no_gi_technique) ==
-          spec.techniques.end())
-    rules["no_gi_technique"].fail(fmt::format("'{}' is not one of the suite's techniques",
-                                              config::quote(spec.rules.no_gi_technique)));
+  return techniques;
+}
 
-  const config::YamlView scenarios = root["scenarios"];
+bool has_technique(const StabilitySpec& spec, const std::string& name) {
+  return std::find(spec.techniques.begin(), spec.techniques.end(), name) != spec.techniques.end();
+}
+
+void read_scenarios(const config::YamlView& scenarios, const fs::path& dir, StabilitySpec& spec) {
   if (scenarios.elements().empty()) scenarios.fail("at least one scenario is needed");
   std::set<std::string> names;
   for (const config::YamlView& s : scenarios.elements()) {
@@ -247,27 +234,63 @@ StabilitySpec read_stability_file(const fs::path& file) {
       scenario.baseline = add_baseline(spec, read_entry(*own, dir), scenario.name + " baseline");
     if (auto needs = s.get("needs"))
       for (const config::YamlView& n : needs->elements())
-        if (std::find(spec.techniques.begin(), spec.techniques.end(), n.as_string()) ==
-            spec.techniques.end())
+        if (!has_technique(spec, n.as_string()))
           scenario.skip_reason = fmt::format("needs technique '{}', not built", n.as_string());
     spec.scenarios.push_back(std::move(scenario));
   }
+}
 
-  spec.benchmark = YAML::Clone(root.node());
-  spec.benchmark.remove("stability");
-  spec.benchmark.remove("scenarios");
-  spec.benchmark["name"] = spec.name;
-  spec.benchmark["techniques"] = techniques;
+// The stress suite as one benchmark config: the file's own keys less `stability` and
+// `scenarios`, the built techniques, and the baselines' and runnable scenarios' scene entries.
+YAML::Node generated_benchmark(const config::YamlView& root, const StabilitySpec& spec,
+                               const YAML::Node& techniques,
+                               const std::vector<fs::path>& plugin_dirs) {
+  YAML::Node benchmark = YAML::Clone(root.node());
+  benchmark.remove("stability");
+  benchmark.remove("scenarios");
+  benchmark["name"] = spec.name;
+  benchmark["techniques"] = techniques;
   if (root.has("plugin_dirs")) {
     YAML::Node dirs(YAML::NodeType::Sequence);
     for (const fs::path& d : plugin_dirs) dirs.push_back(d.string());
-    spec.benchmark["plugin_dirs"] = dirs;
+    benchmark["plugin_dirs"] = dirs;
   }
   YAML::Node scenes(YAML::NodeType::Sequence);
   for (const EntrySpec& b : spec.baselines) scenes.push_back(b.node);
   for (const ScenarioSpec& s : spec.scenarios)
     if (s.skip_reason.empty()) scenes.push_back(s.entry.node);
-  spec.benchmark["scenes"] = scenes;
+  benchmark["scenes"] = scenes;
+  return benchmark;
+}
+
+StabilitySpec read_stability_file(const fs::path& file) {
+  const config::YamlView root = config::YamlView::load_file(file);
+  if (!root.is_map())
+    root.fail("a stability file is a mapping (a benchmark config's keys, stability, scenarios)");
+  if (root.has("scenes"))
+    root["scenes"].fail(
+        "a stability file lists `scenarios` (each a scene entry with its `aims_at`), not `scenes`");
+  root.allow_keys({"name", "resolution", "frames", "seed", "techniques", "metrics", "reference",
+                   "limits", "plugin_dirs", "testing", "stability", "scenarios"});
+  const fs::path dir = fs::absolute(file).parent_path();
+  StabilitySpec spec;
+  spec.name = root.string_or("name", file.stem().string());
+  const config::YamlView rules = root["stability"];
+  spec.rules = read_rules(rules);
+  add_baseline(spec, read_entry(rules["baseline"], dir), "baseline");
+
+  std::vector<fs::path> plugin_dirs;
+  if (auto dirs = root.get("plugin_dirs"))
+    for (const config::YamlView& d : dirs->elements()) {
+      fs::path p = d.as_string();
+      plugin_dirs.push_back(p.is_relative() ? dir / p : p);
+    }
+  const YAML::Node techniques = read_techniques(root, plugin_dirs, spec);
+  if (!spec.rules.no_gi_technique.empty() && !has_technique(spec, spec.rules.no_gi_technique))
+    rules["no_gi_technique"].fail(fmt::format("'{}' is not one of the suite's techniques",
+                                              config::quote(spec.rules.no_gi_technique)));
+  read_scenarios(root["scenarios"], dir, spec);
+  spec.benchmark = generated_benchmark(root, spec, techniques, plugin_dirs);
   return spec;
 }
 
@@ -345,11 +368,118 @@ void print_matrix(const std::vector<Row>& rows, const std::vector<std::string>& 
   }
 }
 
-}  // namespace
+Row skipped_row(const std::string& scenario, const ScenarioSpec& spec, const std::string& technique,
+                const std::string& reason) {
+  Row row;
+  row.scenario = scenario;
+  row.technique = technique;
+  row.aims_at = spec.aims_at;
+  row.verdict = {StabilityClass::skipped, reason, std::nullopt};
+  return row;
+}
 
-int run_stability(const StabilityOptions& options) {
-  const StabilitySpec spec = read_stability_file(options.stability_file);
-  fs::path out = options.out_dir;
+// The classification reads what the run left: each cell's record, matched to its baseline's.
+class Classifier {
+ public:
+  Classifier(const StabilitySpec& spec, const RunPlan& plan, const fs::path& out)
+      : spec_(spec), plan_(plan), out_(out) {}
+
+  std::vector<Row> rows() {
+    std::vector<Row> rows;
+    for (size_t b = 0; b < spec_.baselines.size(); ++b) {
+      baseline_cells_.push_back(cells_of(b));
+      for (const Cell& cell : baseline_cells_.back()) rows.push_back(baseline_row(b, cell));
+    }
+    size_t scene_index = spec_.baselines.size();
+    for (const ScenarioSpec& scenario : spec_.scenarios) {
+      if (!scenario.skip_reason.empty()) {
+        for (const std::string& t : spec_.techniques)
+          rows.push_back(skipped_row(scenario.name, scenario, t, scenario.skip_reason));
+        continue;
+      }
+      for (Row& row : scenario_rows(scenario, cells_of(scene_index++))) rows.push_back(row);
+    }
+    for (const std::string& t : spec_.absent)
+      for (const ScenarioSpec& scenario : spec_.scenarios)
+        rows.push_back(skipped_row(scenario.name, scenario, t, "technique not built"));
+    return rows;
+  }
+
+ private:
+  // Each scene entry's own cells: the plan of a config holding that entry alone.
+  std::vector<Cell> cells_of(size_t scene_index) const {
+    config::Config one = plan_.config;
+    one.scenes = {plan_.config.scenes[scene_index]};
+    return expand_cells(one, *plan_.plugins);
+  }
+  std::optional<CellOutcome> outcome_of(const Cell& cell) const {
+    const fs::path file = cell_dir(out_, cell.id) / "cell.json";
+    if (!fs::exists(file)) return std::nullopt;
+    return read_cell_outcome(file);
+  }
+
+  Row baseline_row(size_t b, const Cell& cell) const {
+    Row row;
+    row.scenario = spec_.baselines[b].label;
+    row.technique = cell.technique;
+    row.cell = cell.id;
+    row.aims_at = "the scenarios' reference point";
+    const auto outcome = outcome_of(cell);
+    row.verdict = outcome ? classify_cell(*outcome, nullptr, spec_.rules)
+                          : Verdict{StabilityClass::unrated, "no cell record", std::nullopt};
+    if (outcome) row.flip = outcome->flip, row.flip_floor = outcome->flip_floor;
+    return row;
+  }
+
+  std::vector<Row> scenario_rows(const ScenarioSpec& scenario,
+                                 const std::vector<Cell>& cells) const {
+    std::set<std::string> free_keys = param_keys(scenario.entry.node);
+    for (const std::string& k : param_keys(spec_.baselines[scenario.baseline].node))
+      free_keys.insert(k);
+    std::optional<CellOutcome> no_gi;
+    for (const Cell& cell : cells)
+      if (cell.technique == spec_.rules.no_gi_technique) no_gi = outcome_of(cell);
+    std::vector<Row> rows;
+    for (const Cell& cell : cells) {
+      const CellOutcome* no_gi_here =
+          no_gi && cell.technique != spec_.rules.no_gi_technique ? &*no_gi : nullptr;
+      Row row;
+      row.scenario = scenario.name;
+      row.technique = cell.technique;
+      row.cell = cell.id;
+      row.aims_at = scenario.aims_at;
+      const auto outcome = outcome_of(cell);
+      const Cell* base = matching_baseline(cell, baseline_cells_[scenario.baseline], free_keys);
+      const auto base_outcome = base ? outcome_of(*base) : std::nullopt;
+      if (base) row.baseline_cell = base->id;
+      if (base_outcome) row.baseline_flip = base_outcome->flip;
+      if (!outcome) {
+        row.verdict = {StabilityClass::unrated, "no cell record", std::nullopt};
+      } else if (!base_outcome) {
+        // A failure is one with or without a baseline; anything else needs one to compare with.
+        row.verdict = classify_cell(*outcome, nullptr, spec_.rules, no_gi_here);
+        if (row.verdict.verdict == StabilityClass::ok)
+          row.verdict = {StabilityClass::unrated, "no baseline cell to compare with", std::nullopt};
+      } else {
+        row.verdict = classify_cell(*outcome, &*base_outcome, spec_.rules, no_gi_here);
+      }
+      if (outcome) row.flip = outcome->flip, row.flip_floor = outcome->flip_floor;
+      rows.push_back(std::move(row));
+    }
+    return rows;
+  }
+
+  const StabilitySpec& spec_;
+  const RunPlan& plan_;
+  const fs::path& out_;
+  std::vector<std::vector<Cell>> baseline_cells_;
+};
+
+// The stability run's folder (OUT, or results/<name>-<time>), checked to be new unless resumed,
+// with the generated benchmark config written into it; returns that config's path.
+fs::path write_generated_config(const StabilityOptions& options, const StabilitySpec& spec,
+                                fs::path& out) {
+  out = options.out_dir;
   if (out.empty()) {
     if (options.resume) throw InputError("--resume needs --out DIR, the stability run to continue");
     auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
@@ -369,20 +499,29 @@ int run_stability(const StabilityOptions& options) {
       generated, fmt::format("# Generated by `photonbench stability {}`: the stress suite as "
                              "one benchmark config.\n{}\n",
                              options.stability_file.string(), emitter.c_str()));
+  return generated;
+}
 
-  // The classification needs scores: check before anything runs.
-  {
-    const RunPlan plan = plan_run(generated, options.overrides);
-    if (plan.config.frames.metrics_every == 0)
-      throw InputError(
-          fmt::format("{}: frames.metrics_every is 0: stability classifies cells by "
-                      "their scores, so it needs metric frames",
-                      options.stability_file.string()));
-    if (std::find(plan.config.metrics.begin(), plan.config.metrics.end(), "flip") ==
-        plan.config.metrics.end())
-      throw InputError(fmt::format("{}: metrics must include flip (the error stability compares)",
-                                   options.stability_file.string()));
-  }
+// The classification needs scores: checked before anything runs.
+void check_scored(const RunPlan& plan, const StabilityOptions& options) {
+  if (plan.config.frames.metrics_every == 0)
+    throw InputError(
+        fmt::format("{}: frames.metrics_every is 0: stability classifies cells by "
+                    "their scores, so it needs metric frames",
+                    options.stability_file.string()));
+  if (std::find(plan.config.metrics.begin(), plan.config.metrics.end(), "flip") ==
+      plan.config.metrics.end())
+    throw InputError(fmt::format("{}: metrics must include flip (the error stability compares)",
+                                 options.stability_file.string()));
+}
+
+}  // namespace
+
+int run_stability(const StabilityOptions& options) {
+  const StabilitySpec spec = read_stability_file(options.stability_file);
+  fs::path out;
+  const fs::path generated = write_generated_config(options, spec, out);
+  check_scored(plan_run(generated, options.overrides), options);
 
   RunOptions run;
   run.config_file = generated;
@@ -393,97 +532,8 @@ int run_stability(const StabilityOptions& options) {
   run.validation = options.validation;
   run_benchmark(run);  // failed cells are this command's results, not its failure
 
-  // Each scene entry's own cells: the plan of a config holding that entry alone.
   const RunPlan plan = plan_run(generated, options.overrides);
-  auto cells_of = [&plan](size_t scene_index) {
-    config::Config one = plan.config;
-    one.scenes = {plan.config.scenes[scene_index]};
-    return expand_cells(one, *plan.plugins);
-  };
-  auto outcome_of = [&out](const Cell& cell) -> std::optional<CellOutcome> {
-    const fs::path file = cell_dir(out, cell.id) / "cell.json";
-    if (!fs::exists(file)) return std::nullopt;
-    return read_cell_outcome(file);
-  };
-  std::vector<Row> rows;
-  std::vector<std::vector<Cell>> baseline_cells;
-  for (size_t b = 0; b < spec.baselines.size(); ++b) {
-    baseline_cells.push_back(cells_of(b));
-    for (const Cell& cell : baseline_cells.back()) {
-      Row row{spec.baselines[b].label,
-              cell.technique,
-              cell.id,
-              "",
-              "the scenarios' reference point",
-              {},
-              {},
-              {},
-              {}};
-      const auto outcome = outcome_of(cell);
-      row.verdict = outcome ? classify_cell(*outcome, nullptr, spec.rules)
-                            : Verdict{StabilityClass::unrated, "no cell record", std::nullopt};
-      if (outcome) row.flip = outcome->flip, row.flip_floor = outcome->flip_floor;
-      rows.push_back(std::move(row));
-    }
-  }
-  size_t scene_index = spec.baselines.size();
-  for (const ScenarioSpec& scenario : spec.scenarios) {
-    if (!scenario.skip_reason.empty()) {
-      for (const std::string& t : spec.techniques)
-        rows.push_back({scenario.name,
-                        t,
-                        "",
-                        "",
-                        scenario.aims_at,
-                        {StabilityClass::skipped, scenario.skip_reason, std::nullopt},
-                        {},
-                        {},
-                        {}});
-      continue;
-    }
-    std::set<std::string> free_keys = param_keys(scenario.entry.node);
-    for (const std::string& k : param_keys(spec.baselines[scenario.baseline].node))
-      free_keys.insert(k);
-    const std::vector<Cell> cells = cells_of(scene_index);
-    std::optional<CellOutcome> no_gi;
-    for (const Cell& cell : cells)
-      if (cell.technique == spec.rules.no_gi_technique) no_gi = outcome_of(cell);
-    for (const Cell& cell : cells) {
-      const CellOutcome* no_gi_here =
-          no_gi && cell.technique != spec.rules.no_gi_technique ? &*no_gi : nullptr;
-      Row row{scenario.name, cell.technique, cell.id, "", scenario.aims_at, {}, {}, {}, {}};
-      const auto outcome = outcome_of(cell);
-      const Cell* base = matching_baseline(cell, baseline_cells[scenario.baseline], free_keys);
-      const auto base_outcome = base ? outcome_of(*base) : std::nullopt;
-      if (base) row.baseline_cell = base->id;
-      if (base_outcome) row.baseline_flip = base_outcome->flip;
-      if (!outcome) {
-        row.verdict = {StabilityClass::unrated, "no cell record", std::nullopt};
-      } else if (!base_outcome) {
-        // A failure is one with or without a baseline; anything else needs one to compare with.
-        row.verdict = classify_cell(*outcome, nullptr, spec.rules, no_gi_here);
-        if (row.verdict.verdict == StabilityClass::ok)
-          row.verdict = {StabilityClass::unrated, "no baseline cell to compare with", std::nullopt};
-      } else {
-        row.verdict = classify_cell(*outcome, &*base_outcome, spec.rules, no_gi_here);
-      }
-      if (outcome) row.flip = outcome->flip, row.flip_floor = outcome->flip_floor;
-      rows.push_back(std::move(row));
-    }
-    ++scene_index;
-  }
-  for (const std::string& t : spec.absent)
-    for (const ScenarioSpec& scenario : spec.scenarios)
-      rows.push_back({scenario.name,
-                      t,
-                      "",
-                      "",
-                      scenario.aims_at,
-                      {StabilityClass::skipped, "technique not built", std::nullopt},
-                      {},
-                      {},
-                      {}});
-
+  const std::vector<Row> rows = Classifier(spec, plan, out).rows();
   write_stability_csv(out / "stability.csv", rows);
   std::vector<std::string> columns = spec.techniques;
   columns.insert(columns.end(), spec.absent.begin(), spec.absent.end());

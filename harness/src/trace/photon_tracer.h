@@ -29,10 +29,14 @@
 
 namespace pb::trace {
 
+namespace detail {
+struct TracerScratch;  // photon_paths.h
+}
+
 class EmbreePhotonTracer final : public PhotonTracer {
  public:
   // With `seed_scramble`, every trace's seed is hash_combine(settings.seed, *seed_scramble): a seed
-  // axis' cell (run/world.cpp) traces photons independent of the other seeds' while the techniques
+  // axis' cell (cell/world.cpp) traces photons independent of the other seeds' while the techniques
   // keep their own settings. Without, settings.seed is used as it is.
   explicit EmbreePhotonTracer(const EmbreeScene& world,
                               std::optional<uint32_t> seed_scramble = std::nullopt);
@@ -53,12 +57,11 @@ class EmbreePhotonTracer final : public PhotonTracer {
   static std::vector<uint32_t> split_paths(const std::vector<float>& powers, uint32_t paths);
 
  private:
-  struct Scratch;
   // The seed light paths are traced with (before the per-frame hash of seed_per_frame).
   uint32_t path_seed(const TraceSettings& settings) const;
   const EmbreeScene& world_;
   std::optional<uint32_t> seed_scramble_;
-  std::unique_ptr<Scratch> scratch_;
+  std::unique_ptr<detail::TracerScratch> scratch_;
   std::vector<std::shared_ptr<const Distribution2D>> densities_;
   std::vector<uint32_t> density_version_;
   std::vector<EmissionDensity> grid_densities_;  // the counts themselves, for TraceSettings::aaps

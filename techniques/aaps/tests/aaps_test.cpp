@@ -20,11 +20,11 @@
 #include "io/image.h"
 #include "photonbench/error.h"
 #include "photonbench/photons.h"
+#include "reference/reference.h"
 #include "run_fixture.h"
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
 #include "trace/photon_tracer.h"
-#include "trace/reference.h"
 
 namespace fs = std::filesystem;
 

@@ -1,5 +1,5 @@
 // Path verification (Paper II): the photon tracer's re-validation of kept light paths
-// (verify_paths, retrace_marked: harness/src/trace/photon_tracer.cpp), the data layout of §4
+// (verify_paths, retrace_marked: harness/src/trace/path_verification.cpp), the data layout of §4
 // (../path_layout.h) and the technique end to end.
 #include <gtest/gtest.h>
 #include <sys/wait.h>

@@ -1,0 +1,59 @@
+// A cell's record, cell.json: who the cell is, how it ended and what it measured. Both ends of a
+// cell write it through write_cell_record (the child when it finishes, ok or failed; the parent for
+// a child that crashed, hung or exited without one), so every cell.json has the same fields. A
+// field the cell never reached (no device opened, nothing scored) is left out;
+// tools/pbtools/rundata.py reads it.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "plan/plan.h"
+
+namespace pb::run {
+
+// Why a cell failed, and at which frame (none: during set-up or scoring). Thrown by the cell's
+// stages, caught once by run_cell.
+struct CellFailure {
+  std::string reason;
+  std::optional<int64_t> frame;
+};
+
+struct CellRecord {
+  explicit CellRecord(const Cell& cell);
+
+  void fail(const CellFailure& failure);
+  // A technique's warning (ctx.warn) at `frame`, or the harness's about the cell (no frame).
+  void warn(std::optional<uint32_t> frame, const std::string& message);
+
+  Cell cell;
+  std::string status = "ok";  // "ok" or "failed"
+  std::string reason;
+  std::optional<int64_t> failed_frame;
+  nlohmann::json warnings = nlohmann::json::array();  // [{"frame", "message"}]
+
+  std::optional<std::string> path_class;  // the plugin's, once it loaded
+  std::optional<std::string> device;      // once the device opened
+  std::optional<std::string> timing;      // "fenced" or "timestamps"
+  std::optional<nlohmann::json> metrics;  // per path class means (cell/scoring.h), once scored
+  std::optional<nlohmann::json> metrics_bounce_matched;  // the same against bounce-matched refs
+  std::optional<nlohmann::json> references;  // the references scored against (samples, error, ...)
+  // Frame timings, counted over the measured frames so far (cell/frame_log.h).
+  std::optional<uint64_t> frames_measured;
+  std::optional<nlohmann::json> counters;  // each counter counted: name -> {"kind", "unit"}
+  std::optional<nlohmann::json> summary;   // frame_ms, harness_overhead_ms/_pct, pass_ms_median
+  std::optional<nlohmann::json> memory;    // peak_host_bytes, gpu_bytes_technique, gpu_bytes_total
+  std::optional<bool> validation;          // Vulkan validation layers were on
+  std::optional<std::string> log_tail;     // a child that ended without writing its record
+};
+
+nlohmann::json to_json(const CellRecord& record);
+
+// Writes DIR/cell.json atomically: a cell folder either has a whole record or none.
+void write_cell_record(const std::filesystem::path& dir, const CellRecord& record);
+
+}  // namespace pb::run

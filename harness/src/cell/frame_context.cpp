@@ -1,0 +1,74 @@
+#include "cell/frame_context.h"
+
+#include <fmt/format.h>
+
+#include "photonbench/error.h"
+
+namespace pb::run {
+
+FrameCommands::FrameCommands(gpu::Device& device) : device_(device) {
+  pool_ = vk::raii::CommandPool(
+      device.device(), {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, device.queue_family()});
+  fence_ = vk::raii::Fence(device.device(), vk::FenceCreateInfo{});
+}
+
+void FrameCommands::begin() {
+  if (used_ == buffers_.size())
+    buffers_.emplace_back(std::move(vk::raii::CommandBuffers(
+        device_.device(), {*pool_, vk::CommandBufferLevel::ePrimary, 1})[0]));
+  current_ = *buffers_[used_++];
+  current_.begin(vk::CommandBufferBeginInfo{vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+}
+
+void FrameCommands::submit_and_wait() {
+  current_.end();
+  device_.queue().submit(vk::SubmitInfo{{}, {}, current_}, *fence_);
+  if (device_.device().waitForFences(*fence_, VK_TRUE, UINT64_MAX) != vk::Result::eSuccess)
+    throw Error("waiting for the frame's fence failed");
+  device_.device().resetFences(*fence_);
+  current_ = nullptr;
+}
+
+void FrameCommands::flush() {
+  vk::MemoryBarrier to_host{vk::AccessFlagBits::eMemoryWrite, vk::AccessFlagBits::eHostRead};
+  current_.pipelineBarrier(vk::PipelineStageFlagBits::eAllCommands,
+                           vk::PipelineStageFlagBits::eHost, {}, to_host, {}, {});
+  submit_and_wait();
+  begin();
+}
+
+void FrameCommands::end_frame() {
+  pool_.reset();
+  used_ = 0;
+}
+
+void FrameContext::begin_frame(const FrameInfo& frame) {
+  frame_ = frame;
+  counters_.clear();
+  warnings_.clear();
+}
+
+void FrameContext::count(const Counter& counter, double value) {
+  std::string name(counter.name);
+  auto [it, added] =
+      declarations_.try_emplace(name, CounterDeclaration{counter.kind, std::string(counter.unit)});
+  if (!added && (it->second.kind != counter.kind || it->second.unit != counter.unit))
+    throw Error(fmt::format("counter '{}' is declared as {} ({}) and as {} ({})", name,
+                            counter_kind_name(it->second.kind), it->second.unit,
+                            counter_kind_name(counter.kind), counter.unit));
+  counters_.emplace_back(std::move(name), value);
+}
+
+std::string_view counter_kind_name(CounterKind kind) {
+  switch (kind) {
+    case CounterKind::work:
+      return "work";
+    case CounterKind::size:
+      return "size";
+    case CounterKind::ratio:
+      return "ratio";
+  }
+  return "?";
+}
+
+}  // namespace pb::run

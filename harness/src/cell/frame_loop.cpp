@@ -1,0 +1,155 @@
+#include "cell/frame_loop.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "cell/scoring.h"
+#include "gpu/device_accounting.h"
+#include "io/image.h"
+
+namespace pb::run {
+
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+// The technique's indirect estimate alone (what it handed to shade()), written next to the frame so
+// that its path class is scored by itself rather than only inside the combined image. Background
+// pixels are zeroed as shade() zeroes them (a technique need not clear its estimate where there is
+// no surface).
+void write_class_estimate(gpu::Device& device, const gpu::ScenePasses& passes,
+                          const std::filesystem::path& file) {
+  std::vector<float> estimate, position;
+  device.read_image(*passes.indirect_estimate(), estimate);
+  device.read_image(*passes.gbuffer_images().position, position);
+  for (size_t i = 0; i + 3 < estimate.size(); i += 4) {
+    if (position[i + 3] <= 0.f) estimate[i] = estimate[i + 1] = estimate[i + 2] = 0.f;
+    estimate[i + 3] = 1.f;
+  }
+  const auto extent = passes.indirect_estimate()->extent();
+  io::Image image(int(extent.width), int(extent.height), 4);
+  image.pixels = std::move(estimate);
+  io::write_image(file, image);
+}
+
+}  // namespace
+
+Renderer::Renderer(const gpu::Device::Options& options, scene::Scene scene, uint32_t width,
+                   uint32_t height)
+    : device(options),
+      commands(device),
+      profiler(device, [this] { return commands.current(); }),
+      world(device, std::move(scene), width, height, profiler,
+            [this] { return commands.current(); }),
+      ctx(device, commands, profiler, world) {
+  if (device.raster_timestamps_unreliable()) {
+    profiler.use_fenced_timing([this] {
+      const auto start = std::chrono::steady_clock::now();
+      commands.flush();
+      return ms_since(start);
+    });
+  }
+}
+
+FrameLoop::FrameLoop(const config::Config& config, Renderer& renderer, FrameLog& log,
+                     CellRecord& record, const std::filesystem::path& cell_dir,
+                     std::optional<trace::PathClass> own_class, uint64_t technique_gpu_bytes_from)
+    : config_(config),
+      r_(renderer),
+      log_(log),
+      record_(record),
+      images_(cell_dir / "images"),
+      own_class_(own_class),
+      technique_gpu_bytes_from_(technique_gpu_bytes_from) {}
+
+std::vector<uint32_t> FrameLoop::run(Technique& technique) {
+  const uint32_t total = config_.frames.warmup + config_.frames.count;
+  const std::vector<uint32_t> scored = metric_frames(config_);
+  std::vector<uint32_t> written;
+  for (uint32_t f = 0; f < total; ++f) {
+    try {
+      const bool warmup = f < config_.frames.warmup;
+      const FrameTiming timing = render_timed(technique, f, warmup);
+      const uint64_t allocated = gpu::DeviceAccounting::allocated_bytes(r_.device);
+      // The technique's share is what was allocated since it was created; the harness may free
+      // its own staging memory meanwhile, so the total can fall below that mark (then 0, never an
+      // unsigned wrap).
+      const uint64_t technique_bytes =
+          allocated > technique_gpu_bytes_from_ ? allocated - technique_gpu_bytes_from_ : 0;
+      log_.track_gpu_memory(technique_bytes, allocated);
+      if (!warmup) log_.add(timing, r_.ctx.counters());
+      nlohmann::json declarations = nlohmann::json::object();
+      for (const auto& [name, declared] : r_.ctx.counter_declarations())
+        declarations[name] = {{"kind", counter_kind_name(declared.kind)}, {"unit", declared.unit}};
+      if (!declarations.empty()) record_.counters = std::move(declarations);
+      for (const std::string& warning : r_.ctx.warnings()) record_.warn(f, warning);
+      check_output(f);
+      if (std::find(scored.begin(), scored.end(), f) != scored.end()) {
+        write_images(f);
+        written.push_back(f);
+      }
+    } catch (const CellFailure&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw CellFailure{fmt::format("technique error at frame {}: {}", f, e.what()), f};
+    }
+    std::printf("@frame %u %u\n", f + 1, total);
+    std::fflush(stdout);
+  }
+  return written;
+}
+
+FrameTiming FrameLoop::render_timed(Technique& technique, uint32_t f, bool warmup) {
+  FrameTiming timing;
+  timing.frame = f;
+  // ---- timed region: scene-update, the technique's passes, submission and the fence ----
+  const auto start = std::chrono::steady_clock::now();
+  const double process_start = process_cpu_ms();
+  r_.profiler.begin_frame();
+  r_.commands.begin();
+  {
+    auto scope = r_.ctx.pass("scene-update");
+    r_.world.advance_to(f);
+  }
+  r_.ctx.begin_frame(FrameInfo{f, r_.world.state().time, warmup, config_.width, config_.height,
+                               r_.world.passes().camera_view()});
+  technique.render(r_.ctx);
+  r_.commands.submit_and_wait();
+  timing.wall_ms = ms_since(start);
+  timing.process_cpu_ms = process_cpu_ms() - process_start;
+  // ---- end of timed region ----
+  timing.passes = r_.profiler.end_frame();
+  r_.commands.end_frame();
+  return timing;
+}
+
+// Validation errors (counted only with the layers on) fail the cell at the frame that caused them;
+// so does an output holding NaN or Inf, which would poison every metric.
+void FrameLoop::check_output(uint32_t f) {
+  if (r_.device.validation_errors() > 0)
+    throw CellFailure{"Vulkan validation error: " + r_.device.first_validation_error(), f};
+  r_.device.read_image(r_.world.passes().output(), rgba_);
+  const size_t bad =
+      std::count_if(rgba_.begin(), rgba_.end(), [](float v) { return !std::isfinite(v); });
+  if (bad > 0)
+    throw CellFailure{fmt::format("the output image holds {} NaN or Inf values", bad), f};
+}
+
+void FrameLoop::write_images(uint32_t f) {
+  io::Image image(int(config_.width), int(config_.height), 4);
+  image.pixels = rgba_;
+  io::write_image(images_ / fmt::format("frame_{:04d}.exr", f), image);
+  io::write_image(images_ / fmt::format("frame_{:04d}.png", f), io::display_encode(image));
+  const gpu::ScenePasses& passes = r_.world.passes();
+  if (own_class_ && *own_class_ != trace::PathClass::direct && passes.indirect_estimate())
+    write_class_estimate(r_.device, passes, images_ / class_image_name(f, *own_class_));
+}
+
+}  // namespace pb::run

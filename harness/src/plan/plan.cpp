@@ -1,0 +1,226 @@
+#include "plan/plan.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <unordered_set>
+
+#include "photonbench/error.h"
+#include "scene/scene.h"
+
+namespace pb::run {
+
+namespace {
+
+using ParamMap = std::map<std::string, std::string>;
+
+// Checks one value against its spec and returns its canonical text.
+std::string check_param(const pb_param_spec& spec, const config::YamlView& value) {
+  switch (spec.type) {
+    case PB_PARAM_INT:
+      return fmt::format("{}", value.as_int(int64_t(spec.min_value), int64_t(spec.max_value)));
+    case PB_PARAM_FLOAT:
+      return fmt::format("{}", value.as_number(spec.min_value, spec.max_value));
+    case PB_PARAM_BOOL:
+      return value.as_bool() ? "true" : "false";
+    case PB_PARAM_ENUM: {
+      std::string text = value.as_string();
+      std::vector<std::string> choices;
+      std::istringstream stream(spec.choices ? spec.choices : "");
+      for (std::string c; std::getline(stream, c, '|');) choices.push_back(c);
+      for (const auto& c : choices)
+        if (c == text) return text;
+      std::string hint = config::closest_name(text, choices);
+      value.fail(fmt::format("'{}' is not one of: {}{}", config::quote(text),
+                             fmt::join(choices, ", "),
+                             hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint)));
+    }
+  }
+  value.fail("unknown parameter type");
+}
+
+const pb_param_spec* find_spec(const pb_technique_descriptor& d, const std::string& name) {
+  for (uint32_t i = 0; i < d.param_count; ++i)
+    if (name == d.params[i].name) return &d.params[i];
+  return nullptr;
+}
+
+// Every combination times every value of one swept key (a scalar is a one-value list), each value
+// checked once. A scene's value may make combinations equal; expand_cells keeps one cell of each.
+std::vector<ParamMap> sweep(const std::vector<ParamMap>& combos, const std::string& key,
+                            const pb_param_spec& spec, const config::YamlView& value) {
+  std::vector<config::YamlView> values = value.elements();
+  if (values.empty()) value.fail("expected a value or a non-empty list of values to sweep");
+  if (combos.size() > kMaxCells / values.size())
+    value.fail(fmt::format("this sweep makes {} x {} = {} cells, more than the {} a run may have",
+                           combos.size(), values.size(), double(combos.size()) * values.size(),
+                           kMaxCells));
+  std::vector<std::string> texts;
+  for (const config::YamlView& v : values) texts.push_back(check_param(spec, v));
+  std::vector<ParamMap> expanded;
+  expanded.reserve(combos.size() * texts.size());
+  for (const auto& combo : combos)
+    for (const std::string& text : texts) {
+      ParamMap next = combo;
+      next[key] = text;
+      expanded.push_back(std::move(next));
+    }
+  return expanded;
+}
+
+// The parameter maps one technique entry's sweeps expand to, every schema parameter filled in.
+std::vector<ParamMap> technique_combos(const config::TechniqueEntry& entry,
+                                       PluginRegistry& plugins) {
+  config::YamlView name_node = entry.node["technique"];
+  const Plugin* plugin = plugins.find(entry.technique);
+  if (!plugin) {
+    auto names = plugins.names();
+    std::string hint = config::closest_name(entry.technique, names);
+    name_node.fail(fmt::format("unknown technique '{}'{} (available: {})", entry.technique,
+                               hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
+                               fmt::join(names, ", ")));
+  }
+  if (!plugin->loaded()) return {{}};  // fails when it runs, with the loader's error
+  const pb_technique_descriptor& d = *plugin->descriptor;
+  std::vector<std::string> names;
+  ParamMap defaults;
+  for (uint32_t i = 0; i < d.param_count; ++i) {
+    names.push_back(d.params[i].name);
+    defaults[d.params[i].name] = param_default_text(d.params[i]);
+  }
+  std::vector<ParamMap> combos = {defaults};
+  std::optional<config::YamlView> params = entry.node.get("params");
+  if (!params) return combos;
+  params->allow_keys(names);
+  for (const auto& [key, value] : params->entries())
+    combos = sweep(combos, key, *find_spec(d, key), value);
+  return combos;
+}
+
+// A scene entry's `params` replace (and, given a list, sweep) the parameters of the same name of
+// every technique that has them; a name no technique of the config has is an error at its key.
+std::vector<ParamMap> with_scene_params(const config::SceneEntry& scene,
+                                        const config::Config& config, size_t technique,
+                                        const std::vector<ParamMap>& combos,
+                                        PluginRegistry& plugins) {
+  std::optional<config::YamlView> overrides =
+      scene.node.is_map() ? scene.node.get("params") : std::nullopt;
+  if (!overrides) return combos;
+  std::vector<std::string> known;
+  for (const auto& entry : config.techniques)
+    if (const Plugin* plugin = plugins.find(entry.technique); plugin && plugin->loaded())
+      for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
+        if (std::find(known.begin(), known.end(), plugin->descriptor->params[i].name) ==
+            known.end())
+          known.push_back(plugin->descriptor->params[i].name);
+  overrides->allow_keys(known);
+  const Plugin* plugin = plugins.find(config.techniques[technique].technique);
+  if (!plugin || !plugin->loaded()) return combos;
+  std::vector<ParamMap> result = combos;
+  for (const auto& [key, value] : overrides->entries())
+    if (const pb_param_spec* spec = find_spec(*plugin->descriptor, key))
+      result = sweep(result, key, *spec, value);  // else another technique's parameter
+  return result;
+}
+
+Cell make_cell(const std::filesystem::path& scene_file, const std::string& technique,
+               const ParamMap& params) {
+  Cell cell;
+  cell.scene = scene_file.stem().string();
+  cell.scene_file = scene_file;
+  cell.technique = technique;
+  cell.params = params;
+  std::string key;
+  for (const auto& [k, v] : params) key += k + "=" + v + ";";
+  cell.id = fmt::format("{}__{}__{}", cell.scene, technique, config::stable_hash(key).substr(0, 8));
+  return cell;
+}
+
+// Each cell `config.seeds` times, seed index i with seed config.seed + i, next to each other (a
+// shard or an interrupted run then holds whole seed groups as far as it can).
+std::vector<Cell> with_seed_axis(std::vector<Cell> cells, const config::Config& config) {
+  for (Cell& cell : cells) {
+    cell.seed = config.seed;
+    cell.seed_group = cell.id;
+  }
+  if (config.seeds <= 1) return cells;
+  if (cells.size() > kMaxCells / config.seeds)
+    throw InputError(fmt::format(
+        "{}: seeds: {} x {} cells = {} cells, more than the {} a run may have",
+        config.file.string(), config.seeds, cells.size(), cells.size() * config.seeds, kMaxCells));
+  std::vector<Cell> seeded;
+  seeded.reserve(cells.size() * config.seeds);
+  for (const Cell& cell : cells)
+    for (uint32_t i = 0; i < config.seeds; ++i) {
+      Cell copy = cell;
+      copy.seed_index = i;
+      copy.seed = config.seed + i;
+      copy.id = fmt::format("{}__seed{}", cell.id, copy.seed);
+      seeded.push_back(std::move(copy));
+    }
+  return seeded;
+}
+
+}  // namespace
+
+const Cell& RunPlan::cell(const std::string& id) const {
+  auto it = std::find_if(cells.begin(), cells.end(), [&](const Cell& c) { return c.id == id; });
+  if (it == cells.end())
+    throw InputError(fmt::format("no cell '{}' in {}", id, config.file.string()));
+  return *it;
+}
+
+RunPlan plan_run(const std::filesystem::path& config_file,
+                 const std::vector<std::string>& overrides) {
+  RunPlan plan;
+  plan.config = config::load_config(config_file, overrides);
+  plan.plugins = std::make_unique<PluginRegistry>(plan.config.plugin_dirs);
+  plan.cells = expand_cells(plan.config, *plan.plugins);
+  return plan;
+}
+
+std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins) {
+  std::vector<std::filesystem::path> scene_files;
+  std::set<std::filesystem::path> checked;
+  const uint32_t last_frame = config.frames.warmup + config.frames.count - 1;
+  for (const config::SceneEntry& scene : config.scenes) {
+    try {
+      scene_files.push_back(scene::find_scene(scene.scene, config.scene_dirs));
+      if (checked.insert(scene_files.back()).second)
+        scene::check_frames(scene::load_scene(scene_files.back()), 0, last_frame);
+    } catch (const InputError& e) {
+      scene.name_node.fail(e.what());
+    }
+  }
+  std::vector<std::vector<ParamMap>> combos;  // per technique entry
+  for (const config::TechniqueEntry& entry : config.techniques)
+    combos.push_back(technique_combos(entry, plugins));
+
+  std::vector<Cell> cells;
+  std::unordered_set<std::string> ids;
+  for (size_t s = 0; s < config.scenes.size(); ++s)
+    for (size_t t = 0; t < config.techniques.size(); ++t) {
+      const std::vector<std::string>& only = config.techniques[t].scenes;
+      if (!only.empty() &&
+          std::find(only.begin(), only.end(), config.scenes[s].scene) == only.end())
+        continue;
+      std::vector<ParamMap> scene_combos =
+          with_scene_params(config.scenes[s], config, t, combos[t], plugins);
+      if (cells.size() + scene_combos.size() > kMaxCells)
+        config.scenes[s].node.fail(fmt::format(
+            "with technique '{}' the config expands to {} cells or more, more than the {} a run "
+            "may have",
+            config.techniques[t].technique, cells.size() + scene_combos.size(), kMaxCells));
+      for (const ParamMap& params : scene_combos) {
+        Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
+        // Equal values (a scene's override of a swept parameter) make one cell.
+        if (ids.insert(cell.id).second) cells.push_back(std::move(cell));
+      }
+    }
+  return with_seed_axis(std::move(cells), config);
+}
+
+}  // namespace pb::run

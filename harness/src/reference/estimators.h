@@ -1,0 +1,57 @@
+// The reference's unbiased estimators and their switches, below the renderer (reference.h) so that
+// bidirectional path tracing (bdpt.h) and the path-space rule (path_space.h) can name them.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+namespace pb::trace {
+
+// `max_bounces` 0 means untruncated: Russian roulette ends paths, this many scattering vertices
+// at most keeps them finite (the photon tracer stops at 31 on its side).
+inline constexpr uint32_t kUntruncatedBounces = 64;
+
+// How the unbiased estimator reaches emitters: both strategies weighted by MIS (the default), or
+// one alone at full weight (for tests that compare strategies on the same pixel; each alone is
+// unbiased too, only noisier, except that BSDF sampling alone cannot reach delta lights).
+enum class LightStrategies : uint8_t { mis, nee_only, bsdf_only };
+
+// How bidirectional path tracing weights its strategies: the power heuristic (Veach 1997 §9.2.3,
+// the default), or the same weight for every strategy that can sample the path (unbiased too, only
+// noisier; for tests, where every strategy's share should be large enough to be checked).
+enum class MisHeuristic : uint8_t { power, uniform };
+
+// The unbiased estimator for the part of path space photon mapping does not own: path tracing with
+// next-event estimation (the anchor), bidirectional path tracing with MIS (bdpt.h), or automatic:
+// a pilot picks one of them per render (of an image of 18000 pixels or more; smaller ones are
+// bidirectional, since the pilot would cost too much of them). On a grid of about 2000 of the
+// pixels it runs both for kPilotIterations iterations, and photon mapping (with a 32nd of the
+// photons) for kPilotPhotonIterations. From the per-iteration variances measured there, scaled to
+// a full iteration (photon mapping's share included, the same for both), and from the rays each
+// would trace per iteration of the whole image, it predicts the cost of reaching the error target
+// with either, and renders with the cheaper (bidirectional path tracing only when cheaper by
+// kPilotMargin). Equal pilots for both, and not too short: a small bright region that path
+// tracing finds by chance makes its sample variance grow with the samples for a long while (8
+// iterations picked path tracing on cornell-box, whose hotspot makes it 8x slower there). Rays
+// rather than seconds, so that a seed gives one image; a ray of bidirectional path tracing counts
+// kBdptRayCost of path tracing's.
+enum class Estimator : uint8_t { pt, bdpt, automatic };
+inline std::string_view estimator_name(Estimator e) {  // "pt", "bdpt", "auto"
+  return e == Estimator::pt ? "pt" : e == Estimator::bdpt ? "bdpt" : "auto";
+}
+inline std::optional<Estimator> parse_estimator(std::string_view name) {
+  for (Estimator e : {Estimator::pt, Estimator::bdpt, Estimator::automatic})
+    if (estimator_name(e) == name) return e;
+  return std::nullopt;
+}
+inline constexpr uint32_t kPilotIterations = 32;
+inline constexpr uint32_t kPilotPhotonIterations = 8;
+// Bidirectional path tracing is chosen when predicted cheaper by more than this factor.
+inline constexpr double kPilotMargin = 1.1;
+// Bidirectional path tracing's time per ray over path tracing's, measured (bench_reference: on
+// cornell-box and pillars its Mrays/s are 0.74 and 0.76 of path tracing's: vertex bookkeeping and
+// MIS weights around the same Embree queries).
+inline constexpr double kBdptRayCost = 1.3;
+
+}  // namespace pb::trace

@@ -1,0 +1,766 @@
+#include "reference/reference.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "io/clock.h"
+#include "photonbench/error.h"
+#include "reference/bdpt.h"
+#include "reference/path_space.h"
+#include "trace/bsdf.h"
+#include "trace/lights.h"
+#include "trace/photon_tracer.h"
+#include "trace/sampling.h"
+
+namespace pb::trace {
+namespace {
+
+using namespace detail;
+
+constexpr std::string_view kStopRuleNames[] = {"rel_error", "max_seconds", "samples"};
+
+// ---- path tracing ------------------------------------------------------------------------------
+
+// One camera path through pixel position (px, py), its contributions by class into out[0..4].
+// Contributions in photon mapping's part of path space (photon_mapping_owns) are left out, and so
+// are paths with more than `budget` scattering vertices.
+void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig, float px,
+                       float py, Pcg32& rng, uint32_t wanted, uint32_t budget,
+                       LightStrategies strategies, glm::vec3* out, uint64_t& rays) {
+  const bool use_nee = strategies != LightStrategies::bsdf_only;
+  const bool use_hits = strategies != LightStrategies::nee_only;
+  const scene::Scene& scene = world.scene();
+  for (int c = 0; c < kClasses; ++c) out[c] = glm::vec3(0.f);
+  glm::vec3 origin = rig.position, dir = rig.direction(px, py);
+  glm::vec3 beta(1.f);
+  ClassState state;
+  bool prev_delta = true, prev_specular = false;
+  float prev_pdf = 0;
+  glm::vec3 prev_position = origin;
+  // `depth` scattering vertices lie before the vertex this segment reaches.
+  for (uint32_t depth = 0;; ++depth) {
+    Hit hit;
+    ++rays;
+    if (!world.intersect(origin, dir, kUnboundedRay, hit)) break;
+    glm::vec3 wo = -dir;
+    glm::vec3 le = lights.emitted(hit, wo);
+    if (max3(le) > 0 && !photon_mapping_owns(state.anchor, prev_specular) &&
+        (wanted & (1u << state.classify()))) {
+      // A BSDF-sampled hit: weighted against NEE, which could have sampled it unless the last
+      // scattering was a delta lobe (or the camera).
+      float w = 1.f;
+      if (!prev_delta) {
+        if (!use_hits)
+          w = 0.f;
+        else if (use_nee)
+          w = power_heuristic(prev_pdf, lights.pdf_incident(prev_position, hit));
+      }
+      out[state.classify()] += beta * le * w;
+    }
+    if (world.is_light_object(hit.object) || depth + 1 > budget) break;
+    Bsdf bsdf(scene.materials[hit.material], hit);
+    bool diffuse = bsdf.is_diffuse();
+    ClassState next = state.push(diffuse);
+    if ((next.reachable() & wanted) == 0) break;
+    // Next-event estimation (skipped where photon mapping owns the path: a specular vertex next to
+    // the light after the anchor).
+    if (use_nee && bsdf.can_eval() && !photon_mapping_owns(next.anchor, !diffuse) &&
+        (wanted & (1u << next.classify()))) {
+      IncidentSample is;
+      float u_select = rng.next_float();
+      glm::vec2 u = rng.next_2d();
+      if (lights.sample_incident(hit.position, u_select, u, is)) {
+        glm::vec3 f = bsdf.eval(wo, is.wi, Transport::radiance);
+        if (max3(f) > 0) {
+          ++rays;
+          if (std::isinf(is.distance) ? direction_clear(world, hit, is.wi)
+                                      : segment_clear(world, hit, is.point)) {
+            float w = is.delta || !use_hits ? 1.f : power_heuristic(is.pdf, bsdf.pdf(wo, is.wi));
+            out[next.classify()] += beta * f * is.weight * w;
+          }
+        }
+      }
+    }
+    BsdfSample s;
+    glm::vec3 u{rng.next_float(), rng.next_float(), rng.next_float()};
+    if (!bsdf.sample(wo, u, Transport::radiance, s)) break;
+    beta *= s.weight;
+    if (!(max3(beta) > 0) || !std::isfinite(max3(beta))) break;
+    if (depth >= 3) {  // Russian roulette on the throughput
+      float q = std::min(0.95f, max3(beta));
+      if (rng.next_float() >= q) break;
+      beta /= q;
+    }
+    prev_delta = s.delta;
+    prev_pdf = s.pdf;
+    prev_position = hit.position;
+    prev_specular = !diffuse;
+    state = next;
+    origin = offset_origin(hit, s.wi);
+    dir = s.wi;
+  }
+}
+
+// ---- photon mapping ----------------------------------------------------------------------------
+
+struct VisiblePoint {
+  glm::vec3 position{0.0f}, normal{0.0f}, wo{0.0f}, beta{0.0f}, albedo{0.0f};
+  float distance = 0;            // camera path length, for the automatic initial radius
+  uint32_t specular_prefix = 0;  // specular vertices before it (C S^k D)
+  bool valid = false;
+};
+
+// Follows the camera path through specular vertices to the first diffuse one (C S* D).
+bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, float py, Pcg32& rng,
+                        uint32_t budget, VisiblePoint& vp, uint64_t& rays) {
+  const scene::Scene& scene = world.scene();
+  glm::vec3 origin = rig.position, dir = rig.direction(px, py), beta(1.f);
+  float distance = 0;
+  vp.valid = false;
+  for (uint32_t depth = 0; depth < budget; ++depth) {
+    Hit hit;
+    ++rays;
+    if (!world.intersect(origin, dir, kUnboundedRay, hit)) return false;
+    distance += hit.t;
+    if (world.is_light_object(hit.object)) return false;
+    Bsdf bsdf(scene.materials[hit.material], hit);
+    if (bsdf.is_diffuse()) {
+      vp.position = hit.position;
+      vp.wo = -dir;
+      vp.normal =
+          glm::dot(hit.geometric_normal, vp.wo) >= 0 ? hit.geometric_normal : -hit.geometric_normal;
+      vp.beta = beta;
+      vp.albedo = bsdf.albedo();
+      vp.distance = distance;
+      vp.specular_prefix = depth;
+      vp.valid = max3(beta) > 0 && max3(vp.albedo) > 0;
+      return vp.valid;
+    }
+    BsdfSample s;
+    glm::vec3 u{rng.next_float(), rng.next_float(), rng.next_float()};
+    if (!bsdf.sample(-dir, u, Transport::radiance, s)) return false;
+    beta *= s.weight;
+    if (depth >= 3) {
+      float q = std::min(0.95f, max3(beta));
+      if (rng.next_float() >= q) return false;
+      beta /= q;
+    }
+    origin = offset_origin(hit, s.wi);
+    dir = s.wi;
+  }
+  return false;
+}
+
+// A hash grid over one iteration's photons, built in photon order (deterministic).
+class PhotonGrid {
+ public:
+  PhotonGrid(const std::vector<PhotonRecord>& photons, float cell)
+      : photons_(photons), inv_cell_(1.f / cell) {
+    size_t buckets = 1;
+    while (buckets < 2 * photons.size()) buckets <<= 1;
+    mask_ = buckets - 1;
+    start_.assign(buckets + 1, 0);
+    std::vector<uint32_t> key(photons.size());
+    for (size_t i = 0; i < photons.size(); ++i) {
+      key[i] = bucket(cell_of(photons[i].position));
+      ++start_[key[i] + 1];
+    }
+    for (size_t b = 0; b < buckets; ++b) start_[b + 1] += start_[b];
+    index_.resize(photons.size());
+    std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+    for (size_t i = 0; i < photons.size(); ++i) index_[fill[key[i]]++] = uint32_t(i);
+  }
+  template <class F>
+  void for_each_near(const glm::vec3& p, float r, F&& f) const {
+    glm::ivec3 lo = cell_of(p - r), hi = cell_of(p + r);
+    float r2 = r * r;
+    for (int z = lo.z; z <= hi.z; ++z)
+      for (int y = lo.y; y <= hi.y; ++y)
+        for (int x = lo.x; x <= hi.x; ++x) {
+          uint32_t b = bucket({x, y, z});
+          for (uint32_t k = start_[b]; k < start_[b + 1]; ++k) {
+            const PhotonRecord& ph = photons_[index_[k]];
+            glm::vec3 d = ph.position - p;
+            if (glm::dot(d, d) <= r2 && cell_of(ph.position) == glm::ivec3(x, y, z)) f(ph);
+          }
+        }
+  }
+
+ private:
+  glm::ivec3 cell_of(const glm::vec3& p) const { return glm::ivec3(glm::floor(p * inv_cell_)); }
+  uint32_t bucket(const glm::ivec3& c) const {
+    uint32_t h = uint32_t(c.x) * 73856093u ^ uint32_t(c.y) * 19349663u ^ uint32_t(c.z) * 83492791u;
+    return hash_u32(h) & uint32_t(mask_);
+  }
+  const std::vector<PhotonRecord>& photons_;
+  float inv_cell_;
+  size_t mask_ = 0;
+  std::vector<uint32_t> start_, index_;
+};
+
+bool scene_has_specular(const scene::Scene& scene) {
+  for (const auto& o : scene.objects) {
+    auto t = scene.materials[o.material].type;
+    if (t != scene::MaterialType::diffuse && t != scene::MaterialType::emissive) return true;
+  }
+  return false;
+}
+
+// What one iteration of photon mapping needs across iterations: the visible points are redrawn
+// every iteration (new jitter, new specular choices), so nothing but scratch memory is kept and the
+// iterations stay independent.
+struct PhotonPass {
+  const EmbreeScene& world;
+  EmbreePhotonTracer tracer;
+  const Rig& rig;
+  const ReferenceOptions& options;
+  uint32_t wanted, budget;
+  float pixel_angle;  // footprint per metre of distance
+  std::vector<VisiblePoint> vps;
+  std::vector<float> radius2;
+  uint64_t photon_rays = 0, photon_paths = 0;
+
+  PhotonPass(const EmbreeScene& w, const Rig& r, const ReferenceOptions& o, uint32_t wanted_mask,
+             uint32_t bounce_budget)
+      : world(w), tracer(w), rig(r), options(o), wanted(wanted_mask), budget(bounce_budget) {
+    pixel_angle = 2.f * rig.tan_half / rig.height;
+    vps.resize(size_t(rig.width) * rig.height);
+    radius2.resize(vps.size());
+  }
+
+  // Iteration `i` (1-based) of Knaus & Zwicker 2011: an independent photon-map estimate whose
+  // squared radius is r_1^2 prod_{j<i} (j + alpha) / (j + 1) (their eq. 20), so that the variance
+  // grows and the blur bias shrinks just fast enough for the average over iterations to converge.
+  // Adds each pixel's estimate into frame[pixel * kClasses + class].
+  // With stride > 1 only the pilot's grid of pixels (in_grid) gets visible points, and `paths`
+  // (0: options.sppm_photons) photon paths are traced.
+  void run(uint32_t iteration_seed, double radius_scale2, tbb::task_arena& arena,
+           tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame, int stride = 1,
+           uint32_t paths = 0) {
+    const int width = rig.width, height = rig.height;
+    uint32_t vp_seed = hash_combine(iteration_seed, 0x5eedu);
+    arena.execute([&] {
+      tbb::parallel_for(
+          tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+            uint64_t& rays = ray_count.local();
+            for (int y = rows.begin(); y != rows.end(); ++y)
+              for (int x = 0; x < width; ++x) {
+                size_t i = size_t(y) * width + x;
+                VisiblePoint& vp = vps[i];
+                vp.valid = false;
+                if (!in_grid(x, y, stride)) continue;
+                Pcg32 rng(vp_seed, i);
+                glm::vec2 j = rng.next_2d();
+                // A photon path makes at least one specular interaction before it reaches the
+                // visible point, so the camera side may use at most budget - 2 specular vertices.
+                if (find_visible_point(world, rig, x + j.x, y + j.y, rng, budget - 1, vp, rays)) {
+                  float r = options.sppm_radius > 0 ? options.sppm_radius
+                                                    : 3.f * pixel_angle * vp.distance;
+                  radius2[i] = float(double(r) * r * radius_scale2);
+                }
+              }
+          });
+    });
+    double r_sum = 0;
+    size_t r_count = 0;
+    for (size_t i = 0; i < vps.size(); ++i)
+      if (vps[i].valid) r_sum += std::sqrt(radius2[i]), ++r_count;
+    if (r_count == 0) return;
+    PhotonBatch batch;
+    TraceSettings ts;
+    ts.paths = paths ? paths : options.sppm_photons;
+    // L S+ D photons feed caustics and indirect_caustics; L S+ D (D|S)* D ones indirect and
+    // specular.
+    ts.store = 0;
+    if (wanted & (class_bit(PathClass::caustics) | class_bit(PathClass::indirect_caustics)))
+      ts.store |= kCausticPhotons;
+    if (wanted & (class_bit(PathClass::indirect) | class_bit(PathClass::specular)))
+      ts.store |= kCausticIndirectPhotons;
+    ts.max_bounces = std::min(31u, budget);
+    ts.seed = hash_combine(iteration_seed, 0x9407u);
+    ts.seed_per_frame = false;
+    ts.rr_start = 0;
+    arena.execute([&] { tracer.trace(ts, batch); });
+    photon_rays += batch.stats.rays;
+    photon_paths += batch.stats.paths;
+    if (batch.photons.empty()) return;
+    PhotonGrid grid(batch.photons, float(2.0 * r_sum / r_count));
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, vps.size(), 256),
+                        [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i != range.end(); ++i)
+                            gather(grid, i, frame);
+                        });
+    });
+  }
+
+  void gather(const PhotonGrid& grid, size_t i, std::vector<glm::vec3>& frame) const {
+    const VisiblePoint& vp = vps[i];
+    if (!vp.valid) return;
+    float cos_o = glm::dot(vp.wo, vp.normal);
+    if (cos_o <= 0) return;
+    glm::dvec3 phi[2] = {glm::dvec3(0.0), glm::dvec3(0.0)};  // pure caustic, caustic-indirect
+    uint32_t max_photon_hits = budget - vp.specular_prefix;  // scattering vertices left for it
+    float r2 = radius2[i];
+    grid.for_each_near(vp.position, std::sqrt(r2), [&](const PhotonRecord& ph) {
+      glm::vec3 wi = -ph.direction;
+      // Same side of the same surface (no leaks through thin walls), a reflection, and a path short
+      // enough (the photon's hits, the visible point included, plus the camera's specular prefix).
+      if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(wi, vp.normal) <= 0 ||
+          ph.bounce + 1 > max_photon_hits)
+        return;
+      int kind = photon_kind(ph) == kCausticPhotons ? 0 : 1;
+      phi[kind] += glm::dvec3(vp.albedo * kInvPi * ph.power);
+    });
+    double norm = 1.0 / (kPi * double(r2));
+    glm::dvec3 beta(vp.beta);
+    // caustic photons: caustics (C D S+ L) or indirect_caustics (C S+ D S+ L); caustic-indirect
+    // ones: indirect or specular.
+    int pure = int(vp.specular_prefix > 0 ? PathClass::indirect_caustics : PathClass::caustics);
+    int mixed = int(vp.specular_prefix > 0 ? PathClass::specular : PathClass::indirect);
+    frame[i * kClasses + pure] += glm::vec3(beta * phi[0] * norm);
+    frame[i * kClasses + mixed] += glm::vec3(beta * phi[1] * norm);
+  }
+};
+
+// ---- accumulation over iterations ---------------------------------------------------------------
+
+// Per pixel and requested class: sums over iterations of the iteration image, of its square, of
+// the odd iterations' images, and of the squared luminance (for the error estimate).
+struct Moments {
+  glm::dvec3 sum{0.0}, sum2{0.0}, odd{0.0};
+  double lum2 = 0;
+};
+
+class Accumulator {
+ public:
+  Accumulator(size_t pixels, uint32_t class_mask) : pixels_(pixels) {
+    for (int c = 0; c < kPathClassCount; ++c)
+      if (class_mask & (1u << c)) classes_.push_back(c);
+    moments_.resize(pixels * classes_.size());
+  }
+  // Adds iteration `iteration` (0-based) from frame[pixel * kClasses + class].
+  void add(uint32_t iteration, const std::vector<glm::vec3>& frame, tbb::task_arena& arena) {
+    bool odd = iteration % 2 == 1;
+    size_t k = classes_.size();
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels_, 1024),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i != r.end(); ++i) {
+                            const glm::vec3* f = &frame[i * kClasses];
+                            for (size_t j = 0; j < k; ++j) {
+                              int c = classes_[j];
+                              glm::dvec3 v(0.0);
+                              if (c == int(PathClass::combined)) {
+                                for (int q = 0; q < kClasses; ++q) v += glm::dvec3(f[q]);
+                              } else {
+                                v = glm::dvec3(f[c]);
+                              }
+                              Moments& m = moments_[i * k + j];
+                              m.sum += v;
+                              m.sum2 += v * v;
+                              if (odd) m.odd += v;
+                              double l = luminance(glm::vec3(v));
+                              m.lum2 += l * l;
+                            }
+                          }
+                        });
+    });
+    ++iterations_;
+  }
+  uint32_t iterations() const { return iterations_; }
+
+  // Mean luminance over the image of class slot j.
+  double mean_luminance(size_t j) const {
+    if (iterations_ == 0) return 0;
+    double acc = 0;
+    size_t k = classes_.size();
+    for (size_t i = 0; i < pixels_; ++i) acc += luminance(glm::vec3(moments_[i * k + j].sum));
+    return acc / (double(iterations_) * double(pixels_));
+  }
+
+  // reference.h's error estimate over the requested classes; 0 before two iterations.
+  double rel_error() const {
+    if (iterations_ < 2) return 0;
+    double n = iterations_, acc = 0;
+    size_t k = classes_.size(), counted = 0;
+    for (size_t j = 0; j < k; ++j) {
+      double mean_lum = 0;
+      for (size_t i = 0; i < pixels_; ++i)
+        mean_lum += luminance(glm::vec3(moments_[i * k + j].sum));
+      mean_lum /= n * double(pixels_);
+      if (!(mean_lum > 0)) continue;
+      double floor2 = std::pow(0.01 * mean_lum, 2.0);
+      for (size_t i = 0; i < pixels_; ++i) {
+        const Moments& m = moments_[i * k + j];
+        double mean = luminance(glm::vec3(m.sum)) / n;
+        double var_of_mean = std::max(0.0, m.lum2 - n * mean * mean) / (n * (n - 1));
+        acc += var_of_mean / (mean * mean + floor2);
+      }
+      ++counted;
+    }
+    return counted ? std::sqrt(acc / double(counted * pixels_)) : 0.0;
+  }
+
+  // Mean, variance of the mean and the even/odd halves of class slot j.
+  void resolve(size_t j, int width, int height, ReferenceImage& out) const {
+    out.mean = io::Image(width, height, 3);
+    out.variance = io::Image(width, height, 3);
+    out.half[0] = io::Image(width, height, 3);
+    out.half[1] = io::Image(width, height, 3);
+    double n = iterations_;
+    double n_odd = iterations_ / 2, n_even = iterations_ - iterations_ / 2;
+    size_t k = classes_.size();
+    for (size_t i = 0; i < pixels_; ++i) {
+      const Moments& m = moments_[i * k + j];
+      for (int ch = 0; ch < 3; ++ch) {
+        double mean = n > 0 ? m.sum[ch] / n : 0.0;
+        double var = n > 1 ? std::max(0.0, m.sum2[ch] - n * mean * mean) / (n * (n - 1)) : 0.0;
+        out.mean.pixels[i * 3 + ch] = float(mean);
+        out.variance.pixels[i * 3 + ch] = float(var);
+        out.half[0].pixels[i * 3 + ch] = n_even > 0 ? float((m.sum[ch] - m.odd[ch]) / n_even) : 0.f;
+        out.half[1].pixels[i * 3 + ch] = n_odd > 0 ? float(m.odd[ch] / n_odd) : 0.f;
+      }
+    }
+  }
+  const std::vector<int>& classes() const { return classes_; }
+
+ private:
+  size_t pixels_;
+  std::vector<int> classes_;
+  std::vector<Moments> moments_;
+  uint32_t iterations_ = 0;
+};
+
+// Estimator::automatic's pilot (reference.h): on a grid of pixels, per requested class, the
+// luminance moments of path tracing's, bidirectional path tracing's and photon mapping's estimates.
+class Pilot {
+ public:
+  enum Part { path_tracing, bidirectional, splats, photons };
+  Pilot(int width, int height, int stride, const std::vector<int>& classes)
+      : classes_(classes), stride_(stride) {
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        if (in_grid(x, y, stride)) pixels_.push_back(size_t(y) * width + x);
+    for (auto& m : moments_) m.resize(pixels_.size() * classes_.size());
+  }
+  // One iteration of `part`, read from frame[pixel * kClasses + class] at the grid's pixels.
+  void add(Part part, const std::vector<glm::vec3>& frame) {
+    for (size_t p = 0; p < pixels_.size(); ++p) {
+      const glm::vec3* v = &frame[pixels_[p] * kClasses];
+      for (size_t j = 0; j < classes_.size(); ++j) {
+        double l = 0;
+        if (classes_[j] == int(PathClass::combined))
+          for (int c = 0; c < kClasses; ++c) l += luminance(v[c]);
+        else
+          l = luminance(v[classes_[j]]);
+        moments_[part][p * classes_.size() + j].add(l);
+      }
+    }
+    ++iterations_[part];
+  }
+  // The error estimate's square (reference.h) for one full-image iteration of path tracing or of
+  // bidirectional path tracing, plus photon mapping, relative to the pixel means of both unbiased
+  // estimators averaged plus photon mapping's (a short run of path tracing alone can miss the light
+  // of a small bright region at many pixels, and dividing by its low mean there would inflate the
+  // other estimator's relative variance). The grid's variances are scaled to a full iteration's:
+  // light tracing splats by 1 / stride^2 (a full iteration has stride^2 times the light paths),
+  // photon mapping's by photon_scale (its pilot traces fewer photons).
+  double error2(bool bdpt, double photon_scale) const {
+    std::vector<double> class_mean(classes_.size(), 0.0);
+    for (size_t p = 0; p < pixels_.size(); ++p)
+      for (size_t j = 0; j < classes_.size(); ++j) class_mean[j] += mean(p, j) / pixels_.size();
+    double acc = 0;
+    size_t counted = 0;
+    for (size_t p = 0; p < pixels_.size(); ++p)
+      for (size_t j = 0; j < classes_.size(); ++j) {
+        if (!(class_mean[j] > 0)) continue;
+        size_t slot = p * classes_.size() + j;
+        double var = photon_scale * variance(photons, slot);
+        var += bdpt ? variance(bidirectional, slot) +
+                          variance(splats, slot) / (double(stride_) * stride_)
+                    : variance(path_tracing, slot);
+        double m = mean(p, j);
+        acc += var / (m * m + std::pow(0.01 * class_mean[j], 2.0));
+        ++counted;
+      }
+    return counted ? acc / double(counted) : 0.0;
+  }
+
+ private:
+  struct Moment {
+    double s1 = 0, s2 = 0;
+    void add(double v) { s1 += v, s2 += v * v; }
+    double mean(uint32_t n) const { return n ? s1 / n : 0.0; }
+    double variance(uint32_t n) const {
+      return n > 1 ? std::max(0.0, s2 - s1 * s1 / n) / (n - 1) : 0.0;
+    }
+  };
+  double variance(Part part, size_t slot) const {
+    return moments_[part][slot].variance(iterations_[part]);
+  }
+  double mean(Part part, size_t slot) const { return moments_[part][slot].mean(iterations_[part]); }
+  double mean(size_t p, size_t j) const {
+    size_t slot = p * classes_.size() + j;
+    return 0.5 * (mean(path_tracing, slot) + mean(bidirectional, slot) + mean(splats, slot)) +
+           mean(photons, slot);
+  }
+  std::vector<int> classes_;
+  int stride_;
+  std::vector<size_t> pixels_;
+  std::array<std::vector<Moment>, 4> moments_;
+  std::array<uint32_t, 4> iterations_{};
+};
+
+// The pilot's grid: every stride-th pixel in x and y, about 2000 pixels. (1000, which would halve
+// the pilot's cost on short renders, picked path tracing on cornell-box in both rounds of
+// bench_reference at 320x180: too few pixels see its hotspot's paths.)
+int pilot_stride(size_t pixels) { return std::max(1, int(std::sqrt(double(pixels) / 2000.0))); }
+
+// The path-tracing pass over every pixel of the grid of `stride` (every pixel: stride 1).
+void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
+                       const ReferenceOptions& options, uint32_t wanted, uint32_t budget,
+                       uint32_t iteration_seed, int stride, tbb::task_arena& arena,
+                       tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame) {
+  arena.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, rig.height, 1), [&](const tbb::blocked_range<int>& rows) {
+          uint64_t& rays = ray_count.local();
+          for (int y = rows.begin(); y != rows.end(); ++y)
+            for (int x = 0; x < rig.width; ++x) {
+              if (!in_grid(x, y, stride)) continue;
+              size_t i = size_t(y) * rig.width + x;
+              Pcg32 rng(iteration_seed, i);
+              glm::vec2 j = rng.next_2d();
+              trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, budget,
+                                options.light_strategies, &frame[i * kClasses], rays);
+            }
+        });
+  });
+}
+
+// Estimator::automatic (reference.h): the pilot on a grid of about 2000 pixels, then the choice.
+// Each estimator runs kPilotIterations there, photon mapping with a 32nd of the photons and its
+// variance scaled back by that factor (a density estimate's variance goes as 1 / photons at a given
+// radius).
+Estimator choose_estimator(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
+                           const ReferenceOptions& options, uint32_t wanted, uint32_t budget,
+                           const std::vector<int>& classes, BdptPass& bdpt, PhotonPass* photons,
+                           tbb::task_arena& arena, tbb::combinable<uint64_t>& ray_count,
+                           const std::function<uint64_t()>& total_rays,
+                           std::vector<glm::vec3>& frame, PilotReport& report) {
+  auto t0 = std::chrono::steady_clock::now();
+  size_t pixels = size_t(rig.width) * rig.height;
+  int stride = pilot_stride(pixels);
+  double scale = double(stride) * stride;  // full-image rays per grid ray
+  Pilot pilot(rig.width, rig.height, stride, classes);
+  uint32_t seed = hash_combine(options.seed, 0x9170u);
+  std::vector<glm::vec3> splat_frame(frame.size());
+  double pt_rays = 0, bdpt_rays = 0;
+  uint32_t done = 0;
+  auto run_unbiased = [&](uint32_t until) {
+    for (; done < until; ++done) {
+      uint64_t before = total_rays();
+      path_tracing_pass(world, lights, rig, options, wanted, budget, hash_combine(seed, done),
+                        stride, arena, ray_count, frame);
+      pt_rays += scale * double(total_rays() - before);
+      pilot.add(Pilot::path_tracing, frame);
+      uint64_t rays =
+          bdpt.run(hash_combine(seed, done, 1u), arena, ray_count, frame, stride, &splat_frame);
+      bdpt_rays += scale * double(rays);
+      pilot.add(Pilot::bidirectional, frame);
+      pilot.add(Pilot::splats, splat_frame);
+    }
+  };
+  double photon_scale = 0;
+  if (photons) {  // photon mapping's variance is not heavy-tailed: a shorter pilot suffices
+    uint32_t paths = std::max(1000u, options.sppm_photons / 32);
+    photon_scale = double(paths) / double(std::max(1u, options.sppm_photons));
+    double radius_scale2 = 1;
+    for (uint32_t it = 0; it < kPilotPhotonIterations; ++it) {
+      if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
+      std::fill(frame.begin(), frame.end(), glm::vec3(0.f));
+      uint64_t before = total_rays(), photon_before = photons->photon_rays;
+      photons->run(hash_combine(seed, it, 2u), radius_scale2, arena, ray_count, frame, stride,
+                   paths);
+      uint64_t photon = photons->photon_rays - photon_before;
+      uint64_t camera = total_rays() - before - photon;
+      report.photon_rays +=
+          (scale * double(camera) + double(photon) / photon_scale) / kPilotPhotonIterations;
+      pilot.add(Pilot::photons, frame);
+    }
+  }
+  double target2 = double(options.rel_error) * options.rel_error;
+  auto predict = [&] {
+    report.pt_rays = pt_rays / done, report.bdpt_rays = bdpt_rays / done;
+    report.pt_error2 = pilot.error2(false, photon_scale);
+    report.bdpt_error2 = pilot.error2(true, photon_scale);
+    double pt_iteration = report.pt_rays + report.photon_rays;
+    double bdpt_iteration = kBdptRayCost * report.bdpt_rays + report.photon_rays;
+    if (options.rel_error > 0) {  // iterations to the target (error^2 falls as 1 / n) x cost
+      double least = std::max(2u, options.min_samples);
+      report.pt_cost = std::max(least, report.pt_error2 / target2) * pt_iteration;
+      report.bdpt_cost = std::max(least, report.bdpt_error2 / target2) * bdpt_iteration;
+    } else {  // error^2 x cost per iteration: the cost of any given error
+      report.pt_cost = report.pt_error2 * pt_iteration;
+      report.bdpt_cost = report.bdpt_error2 * bdpt_iteration;
+    }
+  };
+  run_unbiased(kPilotIterations);
+  predict();
+  report.ran = true;
+  report.iterations = done;
+  report.seconds = io::seconds_since(t0);
+  // Within 10%, the pilot's noise decides more than the estimators do; path tracing, the anchor,
+  // is the cheaper per iteration and keeps the tie.
+  return report.bdpt_cost * kPilotMargin < report.pt_cost ? Estimator::bdpt : Estimator::pt;
+}
+
+}  // namespace
+
+std::string_view stop_rule_name(StopRule rule) { return kStopRuleNames[int(rule)]; }
+std::optional<StopRule> parse_stop_rule(std::string_view name) {
+  for (int r = 0; r < 3; ++r)
+    if (kStopRuleNames[r] == name) return StopRule(r);
+  return std::nullopt;
+}
+
+CameraRay camera_ray(const scene::Camera& camera, int width, int height, float px, float py) {
+  Rig rig(camera, width, height);
+  return {rig.position, rig.direction(px, py)};
+}
+
+ReferenceResult render_reference_classes(const EmbreeScene& world, int width, int height,
+                                         uint32_t class_mask, const ReferenceOptions& options,
+                                         const ProgressFn& progress) {
+  if (width <= 0 || height <= 0)
+    throw InputError(fmt::format("reference: bad resolution {}x{}", width, height));
+  if (class_mask == 0 || (class_mask & ~kAllPathClasses))
+    throw InputError("reference: no path class requested");
+  if (!(options.rel_error > 0) && !(options.max_seconds > 0) && options.samples == 0)
+    throw InputError("reference: no stop rule (rel_error, max_seconds and samples are all off)");
+  auto t0 = std::chrono::steady_clock::now();
+  const scene::Scene& scene = world.scene();
+  LightSet lights(world);
+  Rig rig(world.state().camera, width, height);
+  uint32_t wanted = class_mask & class_bit(PathClass::combined) ? kAllPathClasses : class_mask;
+  uint32_t budget = bounce_budget(options.max_bounces);
+  // Photon mapping has work when photons can add to a wanted class (any but `direct`) in a scene
+  // with specular surfaces (without them its part of path space is empty), and when paths may have
+  // the two scattering vertices (L S D) its paths need at least.
+  uint32_t photon_classes = class_bit(PathClass::indirect) | class_bit(PathClass::caustics) |
+                            class_bit(PathClass::indirect_caustics) |
+                            class_bit(PathClass::specular);
+  bool use_photons =
+      (wanted & photon_classes) && scene_has_specular(scene) && lights.size() > 0 && budget >= 2;
+
+  size_t pixels = size_t(width) * height;
+  std::vector<glm::vec3> frame(pixels * kClasses);
+  auto acc = std::make_unique<Accumulator>(pixels, class_mask);
+  auto arena = options.threads > 0 ? std::make_unique<tbb::task_arena>(options.threads)
+                                   : std::make_unique<tbb::task_arena>();
+  tbb::combinable<uint64_t> ray_count([] { return uint64_t(0); });
+  std::unique_ptr<PhotonPass> photons;
+  if (use_photons) photons = std::make_unique<PhotonPass>(world, rig, options, wanted, budget);
+  auto total_rays = [&] {
+    uint64_t rays = photons ? photons->photon_rays : 0;
+    ray_count.combine_each([&](uint64_t r) { rays += r; });
+    return rays;
+  };
+  // The automatic choice pilots where the pilot costs a small part of the render: an image of at
+  // least 9 times the pilot's pixels (its 32 iterations then cost about 4 of the render's, or 3
+  // with photon mapping's shorter pilot), and a render not limited to a few iterations. Smaller
+  // renders are bidirectional.
+  Estimator estimator = options.estimator;
+  std::unique_ptr<BdptPass> bdpt;
+  if (estimator != Estimator::pt)
+    bdpt = std::make_unique<BdptPass>(world, lights, rig, wanted, budget, options.mis_heuristic);
+  PilotReport report;
+  if (estimator == Estimator::automatic) {
+    bool worth = (options.samples == 0 || options.samples >= 8 * kPilotIterations) &&
+                 pilot_stride(pixels) >= 3;
+    estimator =
+        worth ? choose_estimator(world, lights, rig, options, wanted, budget, acc->classes(), *bdpt,
+                                 photons.get(), *arena, ray_count, total_rays, frame, report)
+              : Estimator::bdpt;
+  }
+
+  double rel_error = 0, radius_scale2 = 1;
+  StopRule stopped_by = StopRule::samples;
+  for (uint32_t it = 0;; ++it) {
+    uint32_t iteration_seed = hash_combine(options.seed, it);
+    // ---- the unbiased estimator: one camera sample per pixel ----
+    if (estimator == Estimator::bdpt)
+      bdpt->run(iteration_seed, *arena, ray_count, frame);
+    else
+      path_tracing_pass(world, lights, rig, options, wanted, budget, iteration_seed, 1, *arena,
+                        ray_count, frame);
+    // ---- photon mapping: visible points, photons, gather ----
+    if (photons) {
+      if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
+      photons->run(iteration_seed, radius_scale2, *arena, ray_count, frame);
+    }
+    acc->add(it, frame, *arena);
+    // ---- stop rules: the first reached ends the render ----
+    uint32_t done = acc->iterations();
+    double elapsed = io::seconds_since(t0);
+    bool stop = false;
+    if (done % 2 == 0 && done > 0) {  // the error and time rules stop on even counts
+      if (options.rel_error > 0 && done >= std::max(2u, options.min_samples)) {
+        rel_error = acc->rel_error();
+        if (rel_error <= options.rel_error) stop = true, stopped_by = StopRule::rel_error;
+      }
+      if (!stop && options.max_seconds > 0 && elapsed >= options.max_seconds)
+        stop = true, stopped_by = StopRule::max_seconds;
+    }
+    if (!stop && options.samples > 0 && done >= options.samples)
+      stop = true, stopped_by = StopRule::samples;
+    if (progress)
+      progress({done, options.samples, rel_error, options.rel_error, elapsed, options.max_seconds,
+                total_rays()});
+    if (stop) break;
+  }
+
+  // ---- resolve ----
+  ReferenceResult result;
+  result.samples = acc->iterations();
+  result.photon_paths = photons ? photons->photon_paths : 0;
+  result.seed = options.seed;
+  result.rel_error = acc->rel_error();
+  result.stopped_by = stopped_by;
+  result.estimator = estimator;
+  result.pilot = report;
+  result.rays = total_rays();
+  result.seconds = io::seconds_since(t0);
+  for (size_t j = 0; j < acc->classes().size(); ++j) {
+    ReferenceImage& img = result.classes[acc->classes()[j]];
+    acc->resolve(j, width, height, img);
+    img.samples = result.samples;
+    img.seed = options.seed;
+    img.seconds = result.seconds;
+    img.rel_error = result.rel_error;
+    img.stopped_by = stopped_by;
+    img.max_bounces = options.max_bounces;
+    img.estimator = estimator;
+  }
+  return result;
+}
+
+ReferenceImage render_reference(const scene::Scene& scene, const scene::FrameState& state,
+                                PathClass path_class, int width, int height,
+                                const ReferenceOptions& options, const ProgressFn& progress) {
+  EmbreeScene world(scene, state);
+  ReferenceResult r =
+      render_reference_classes(world, width, height, class_bit(path_class), options, progress);
+  return std::move(r.classes[int(path_class)]);
+}
+
+}  // namespace pb::trace
