@@ -36,22 +36,34 @@ cmake --build build-fuzz -j "$(nproc)" >> build-fuzz.log 2>&1 || { cat build-fuz
 # a finding. 64 MiB still holds thousands of recent frees.
 export ASAN_OPTIONS="${ASAN_OPTIONS:-quarantine_size_mb=64}"
 
-status=0
-for target in "${targets[@]}"; do
-  corpus="build-fuzz/corpus/$target" findings="build-fuzz/findings/$target"
+# The targets run side by side, one a core (each fuzzer is one process on one core): N seconds of
+# fuzzing each, in N x ceil(targets / cores) seconds of wall time.
+fuzz_one() {
+  local target=$1 corpus="build-fuzz/corpus/$1" findings="build-fuzz/findings/$1"
+  local log="build-fuzz/$1.log" start=$SECONDS outcome runs
   mkdir -p "$corpus" "$findings"
   cp -n tests/fuzz/corpus/"$target"/* "$corpus"/
-  log="build-fuzz/$target.log"
-  start=$SECONDS
   if "build-fuzz/fuzz_$target" "${limit[@]}" -timeout=30 -rss_limit_mb=4096 -print_final_stats=1 \
     -artifact_prefix="$findings/" "$corpus" > "$log" 2>&1; then
     outcome="no finding"
   else
     outcome="FINDING (see $log, input in $findings/)"
-    status=1
   fi
   runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
   echo "fuzz_$target: $runs runs in $((SECONDS - start)) s, corpus $(ls "$corpus" | wc -l) inputs: $outcome"
-  ((status == 0)) || tail -40 "$log"
+  [[ "$outcome" == "no finding" ]] || { tail -40 "$log"; return 1; }
+}
+
+status=0
+cores=$(nproc)
+pids=()
+for target in "${targets[@]}"; do
+  fuzz_one "$target" &
+  pids+=($!)
+  if ((${#pids[@]} >= cores)); then
+    wait "${pids[0]}" || status=1
+    pids=("${pids[@]:1}")
+  fi
 done
+for pid in "${pids[@]}"; do wait "$pid" || status=1; done
 exit "$status"

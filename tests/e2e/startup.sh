@@ -2,7 +2,7 @@
 # it reads or writes an image: its 260 shared libraries were 90% of every process's start
 # (io/image.h, ImageCodec), paid by every validate, schema, list and test process.
 source "$(dirname "$0")/lib.bash"
-# A build with -DPB_IMAGE_CODEC_MODULE=OFF (the sanitized one) links OpenImageIO into the library.
+# A build with -DPB_IMAGE_CODEC_MODULE=OFF links OpenImageIO into the library.
 if readelf -d "$(dirname "$PB")/libphotonbench.so" | grep -q "NEEDED.*libOpenImageIO"; then
   echo "skipped: this build links the image codec into libphotonbench (PB_IMAGE_CODEC_MODULE=OFF)"
   exit 77
