@@ -20,7 +20,9 @@ const pb_param_spec kParams[] = {
      "uniform incident radiance every diffuse surface reflects; default 0.05"},
 };
 
-const pb::Counter kAmbientPixels{"ambient_pixels", pb::CounterKind::work, "pixels"};
+constexpr pb_counter_spec kAmbientPixels{"ambient_pixels", PB_COUNTER_WORK, "pixels",
+                                         "pixels the ambient pass shaded"};
+const pb_counter_spec kCounters[] = {kAmbientPixels};
 
 struct AmbientPush {
   glm::vec4 ambient_radiance;
@@ -55,7 +57,7 @@ class Ambient final : public pb::Technique {
                          1);
       pb::gpu::full_barrier(ctx.cmd());
     }
-    ctx.count(kAmbientPixels, double(frame.width) * frame.height);
+    pb::count(ctx, kAmbientPixels, double(frame.width) * frame.height);
     ctx.shared().shade(&indirect_);
   }
 
@@ -68,4 +70,5 @@ class Ambient final : public pb::Technique {
 }  // namespace
 
 PB_EXPORT_TECHNIQUE(Ambient, "ambient", "indirect",
-                    "direct light + a constant ambient term (the out-of-tree example)", kParams)
+                    "direct light + a constant ambient term (the out-of-tree example)", kParams,
+                    .counters = kCounters)

@@ -19,10 +19,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <glm/glm.hpp>
 #include <iterator>
+#include <string>
 #include <vector>
 
 #include "aaps_shaders.h"
@@ -81,46 +83,69 @@ const pb_param_spec kParams[] = {
      "each photon at a fixed pseudo-random point of its grid cell, not the centre (§1.4: the "
      "thesis does not say; at cell centres the lattice of a focus's tiny splats aliases with "
      "the pixel grid)"},
-    {"max_bounces", PB_PARAM_INT, 8, 1, 31, nullptr, "hits",
-     "recursion cap: surface interactions per photon (§1.5, Fig. 2; unspecified)"},
+    pb::toolkit::with_range(pb::toolkit::kMaxBouncesParam, 8, 1, 31,
+                            "recursion cap: surface interactions per photon (§1.5, Fig. 2; "
+                            "unspecified); photons are stored at the first diffuse hit"),
     pb::toolkit::kShadowMapSizeParam,
 };
 // clang-format on
 
-constexpr pb::Counter kEmitted{"photons_emitted", pb::CounterKind::work, "photons"};
-constexpr pb::Counter kRecorded{"photons_recorded", pb::CounterKind::work, "photons"};
-constexpr pb::Counter kRecordedShare{"recorded_share", pb::CounterKind::ratio, "photons"};
-constexpr pb::Counter kCulled{"photons_culled", pb::CounterKind::work, "photons"};
-constexpr pb::Counter kSplats{"splats_drawn", pb::CounterKind::work, "splats"};
-constexpr pb::Counter kSplatsPerSample{"splats_per_sample", pb::CounterKind::work, "splats"};
-constexpr pb::Counter kNonContributing{"splats_noncontributing", pb::CounterKind::work, "splats"};
-constexpr pb::Counter kNonContributingShare{"noncontributing_share", pb::CounterKind::ratio,
-                                            "splats"};
-constexpr pb::Counter kSamples{"msaa_samples", pb::CounterKind::size, "samples"};
+// clang-format off
+constexpr pb_counter_spec kEmitted{"photons_emitted", PB_COUNTER_WORK, "photons",
+                                   "photons emitted (the quadtree root)"};
+constexpr pb_counter_spec kRecorded{"photons_recorded", PB_COUNTER_WORK, "photons",
+                                    "photons stored at a diffuse hit"};
+constexpr pb_counter_spec kRecordedShare{"recorded_share", PB_COUNTER_RATIO, "photons",
+                                         "photons_recorded / photons_emitted"};
+constexpr pb_counter_spec kCulled{"photons_culled", PB_COUNTER_WORK, "photons",
+                                  "recorded but not splatted (culled or outside the frustum)"};
+constexpr pb_counter_spec kSplats{"splats_drawn", PB_COUNTER_WORK, "splats", "splats drawn"};
+constexpr pb_counter_spec kSplatsPerSample{"splats_per_sample", PB_COUNTER_WORK, "splats",
+                                           "splats in the multisampled list"};
+constexpr pb_counter_spec kNonContributing{"splats_noncontributing", PB_COUNTER_WORK, "splats",
+                                           "splats that reached no pixel centre or sample"};
+constexpr pb_counter_spec kNonContributingShare{"noncontributing_share", PB_COUNTER_RATIO,
+                                                "splats", "splats_noncontributing / splats_drawn"};
+// A counter named as a parameter is its resolved value (cell.json params_resolved): the samples
+// the device gave (1 without MSAA).
+constexpr pb_counter_spec kSamples{"msaa_samples", PB_COUNTER_SIZE, "samples",
+                                   "samples per pixel of the multisampled buffer (1: none)"};
+// clang-format on
 // Issue 25's splat-size question: accepted splats by projected ellipse area (px^2) per split half
 // (§3.3.1), and the reflected halves' share of the projected area the feedback sees
 // (A = sum f_p a_p over a texel's photons, §1.10b), over all texels.
 constexpr double kAreaBins[] = {0.25, 1, 4, 16, 64};  // upper edges; the last bin is open
 constexpr size_t kAreaBinCount = std::size(kAreaBins) + 1;
 // clang-format off
-constexpr pb::Counter kAreaHistogram[2][kAreaBinCount] = {
-    {{"splats_reflected_area_below_0p25", pb::CounterKind::work, "splats"},
-     {"splats_reflected_area_0p25_1", pb::CounterKind::work, "splats"},
-     {"splats_reflected_area_1_4", pb::CounterKind::work, "splats"},
-     {"splats_reflected_area_4_16", pb::CounterKind::work, "splats"},
-     {"splats_reflected_area_16_64", pb::CounterKind::work, "splats"},
-     {"splats_reflected_area_above_64", pb::CounterKind::work, "splats"}},
-    {{"splats_refracted_area_below_0p25", pb::CounterKind::work, "splats"},
-     {"splats_refracted_area_0p25_1", pb::CounterKind::work, "splats"},
-     {"splats_refracted_area_1_4", pb::CounterKind::work, "splats"},
-     {"splats_refracted_area_4_16", pb::CounterKind::work, "splats"},
-     {"splats_refracted_area_16_64", pb::CounterKind::work, "splats"},
-     {"splats_refracted_area_above_64", pb::CounterKind::work, "splats"}}};
-// clang-format on
-constexpr pb::Counter kReflectedAreaShare{"feedback_area_share_reflected", pb::CounterKind::ratio,
-                                          "px^2"};
+#define AAPS_AREA_BINS(half)                                                                   \
+  {{"splats_" half "_area_below_0p25", PB_COUNTER_WORK, "splats", "accepted " half " splats"}, \
+   {"splats_" half "_area_0p25_1", PB_COUNTER_WORK, "splats", "accepted " half " splats"},     \
+   {"splats_" half "_area_1_4", PB_COUNTER_WORK, "splats", "accepted " half " splats"},        \
+   {"splats_" half "_area_4_16", PB_COUNTER_WORK, "splats", "accepted " half " splats"},       \
+   {"splats_" half "_area_16_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"},      \
+   {"splats_" half "_area_above_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"}}
+constexpr pb_counter_spec kAreaHistogram[2][kAreaBinCount] = {AAPS_AREA_BINS("reflected"),
+                                                              AAPS_AREA_BINS("refracted")};
+#undef AAPS_AREA_BINS
+constexpr pb_counter_spec kReflectedAreaShare{
+    "feedback_area_share_reflected", PB_COUNTER_RATIO, "px^2",
+    "the reflected halves' share of the projected area the density feedback sees"};
 // Caustic irradiance luminance summed over the screen: the thesis's "total light" (§5.1.1).
-constexpr pb::Counter kEnergy{"caustic_energy", pb::CounterKind::size, "W/m^2 px"};
+constexpr pb_counter_spec kEnergy{"caustic_energy", PB_COUNTER_SIZE, "W/m^2 px",
+                                  "caustic irradiance luminance summed over the screen"};
+// clang-format on
+
+// Every counter above, for the descriptor.
+constexpr auto kCounters = [] {
+  std::array<pb_counter_spec, 11 + 2 * kAreaBinCount> all{
+      kEmitted, kRecorded,           kRecordedShare,   kCulled,
+      kSplats,  kSplatsPerSample,    kNonContributing, kNonContributingShare,
+      kSamples, kReflectedAreaShare, kEnergy};
+  for (size_t half = 0; half < 2; ++half)
+    for (size_t bin = 0; bin < kAreaBinCount; ++bin)
+      all[11 + half * kAreaBinCount + bin] = kAreaHistogram[half][bin];
+  return all;
+}();
 
 enum class Msaa { none, all, all_per_sample, small_per_sample };
 
@@ -149,15 +174,23 @@ struct Accepted {
 
 class Aaps final : public pb::Technique {
  public:
+  // What the parameters must be together (the descriptor's check: validate reports it before any
+  // work); what the device must offer (msaa_samples) is setup's to refuse.
+  static std::string check(const pb::Params& params) {
+    const int64_t side = params.integer("density_resolution");
+    if (side & (side - 1))
+      return fmt::format(
+          "density_resolution: {} is not a power of two (the sum quadtree halves it)", side);
+    const double low = params.number("density_min"), high = params.number("density_max");
+    if (high > 0 && high < low)
+      return fmt::format("density_max: {} is below density_min = {} (0: no ceiling)", high, low);
+    return "";
+  }
+
   void setup(pb::Context& ctx, const pb::Params& params) override {
     side_ = uint32_t(params.integer("density_resolution"));
-    if (side_ & (side_ - 1))
-      throw pb::InputError(fmt::format(
-          "aaps: density_resolution {} is not a power of two (the sum quadtree halves it)", side_));
     feedback_.density_min = float(params.number("density_min"));
     feedback_.density_max = float(params.number("density_max"));
-    if (feedback_.density_max > 0 && feedback_.density_max < feedback_.density_min)
-      throw pb::InputError("aaps: density_max is below density_min");
     feedback_.target_area = float(params.number("target_area"));
     feedback_.variance_gain = float(params.number("variance_gain"));
     feedback_.temporal_weight = float(params.number("temporal_weight"));
@@ -439,25 +472,25 @@ class Aaps final : public pb::Technique {
     const uint32_t* flags = static_cast<const uint32_t*>(contributed_.mapped());
     uint64_t silent = 0;
     for (size_t i = 0; i < accepted_.size(); ++i) silent += flags[i] == 0 ? 1 : 0;
-    ctx.count(kEmitted, double(emitted));
-    ctx.count(kRecorded, double(recorded));
-    ctx.count(kRecordedShare, emitted > 0 ? double(recorded) / double(emitted) : 0.0);
-    ctx.count(kCulled, double(culled_));
-    ctx.count(kSplats, double(accepted_.size()));
-    ctx.count(kSplatsPerSample, double(splats_per_sample_));
-    ctx.count(kNonContributing, double(silent));
-    ctx.count(kNonContributingShare,
+    pb::count(ctx, kEmitted, double(emitted));
+    pb::count(ctx, kRecorded, double(recorded));
+    pb::count(ctx, kRecordedShare, emitted > 0 ? double(recorded) / double(emitted) : 0.0);
+    pb::count(ctx, kCulled, double(culled_));
+    pb::count(ctx, kSplats, double(accepted_.size()));
+    pb::count(ctx, kSplatsPerSample, double(splats_per_sample_));
+    pb::count(ctx, kNonContributing, double(silent));
+    pb::count(ctx, kNonContributingShare,
               accepted_.empty() ? 0.0 : double(silent) / double(accepted_.size()));
-    ctx.count(kSamples, double(samples_));
+    pb::count(ctx, kSamples, double(samples_));
     for (int half = 0; half < 2; ++half)
       for (size_t bin = 0; bin < kAreaBinCount; ++bin)
-        ctx.count(kAreaHistogram[half][bin], double(area_histogram_[half][bin]));
+        pb::count(ctx, kAreaHistogram[half][bin], double(area_histogram_[half][bin]));
     const double weighted = weighted_area_[0] + weighted_area_[1];
-    ctx.count(kReflectedAreaShare, weighted > 0 ? weighted_area_[0] / weighted : 0.0);
+    pb::count(ctx, kReflectedAreaShare, weighted > 0 ? weighted_area_[0] / weighted : 0.0);
     const float* luminance = static_cast<const float*>(luminance_.mapped());
     double energy = 0;
     for (size_t i = 0; i < size_t(width_) * height_; ++i) energy += luminance[i];
-    ctx.count(kEnergy, energy);
+    pb::count(ctx, kEnergy, energy);
   }
 
   // §1.10: variance by reprojection against the previous frame's caustics, the density update and
@@ -514,4 +547,4 @@ class Aaps final : public pb::Technique {
 PB_EXPORT_TECHNIQUE(Aaps, "aaps", "caustics",
                     "adaptive anisotropic photon scattering (seed 004): task-buffer emission, "
                     "elliptical splats rasterised with optional (per-sample) MSAA",
-                    kParams)
+                    kParams, .counters = kCounters, .check = &Aaps::check)

@@ -40,4 +40,4 @@ PB_EXPORT_TECHNIQUE(
     Cluster, "cluster", "indirect",
     "Paper I's photon splatting into a view-sample cluster hierarchy: per-node photon lists; "
     "variants plain, cone (normal-cone rejection) and trivial (per-node flux)",
-    kParams)
+    kParams, .counters = Cluster::kCounters, .check = &Cluster::check)

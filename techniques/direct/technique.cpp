@@ -8,18 +8,18 @@
 //
 // Fails (by design) wherever indirect light matters: it estimates only C D L (and emitters seen
 // directly). Shadows of quad and disc lights are hard (one shadow cube at the light's centre).
+#include "photonbench/toolkit/technique.h"
+
 #include "photonbench/context.h"
 #include "photonbench/plugin.h"
 
 namespace {
 
+// The shared passes' shadow rows (their defaults the shared passes' own: photonbench/context.h).
 const pb_param_spec kParams[] = {
-    {"shadow_map_size", PB_PARAM_INT, 512, 16, 4096, nullptr, "texels",
-     "shadow-map tile side; default 512"},
-    {"shadow_bias", PB_PARAM_FLOAT, 0.01, 0, 0.2, nullptr, "fraction",
-     "relative depth bias of the shadow test; default 0.01"},
-    {"shadow_normal_offset", PB_PARAM_FLOAT, 0.01, 0, 1, nullptr, "m",
-     "receiver offset along its normal before the shadow test; default 0.01"},
+    pb::toolkit::kShadowMapSizeParam,
+    pb::toolkit::kShadowBiasParam,
+    pb::toolkit::kShadowNormalOffsetParam,
 };
 
 class Direct final : public pb::Technique {

@@ -45,4 +45,4 @@ PB_EXPORT_TECHNIQUE(
     "Paper I's directional approximation: photons splatted into the view-sample cluster hierarchy "
     "accumulate flux per node in 8 view-space octant buckets; per-sample 2cos-weighted irradiance, "
     "depth- and normal-aware blur",
-    kParams)
+    kParams, .counters = Directional::kCounters, .check = &Directional::check)

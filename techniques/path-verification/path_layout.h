@@ -32,11 +32,11 @@ struct PathInfo {
   static PathInfo unpack(uint32_t word);
 };
 
-// The limits of the packing, checked at setup (Paper II §4: "limited to at most 16 bounces, or to
-// having at most 4 million cells in a distribution map"). `max_segments` is the most segments a
-// path can have (max_bounces: one per surface interaction, the last one possibly escaping).
-// Throws pb::InputError naming the parameter.
-void check_packing_limits(uint32_t max_segments, uint64_t cells_per_map);
+// The limits of the packing, checked by the descriptor's check (Paper II §4: "limited to at most 16
+// bounces, or to having at most 4 million cells in a distribution map"). `max_segments` is the most
+// segments a path can have (max_bounces: one per surface interaction, the last one possibly
+// escaping). "" within them, else "<parameter>: why".
+std::string check_packing_limits(uint32_t max_segments, uint64_t cells_per_map);
 
 // Segments of a kept path (its rays when traced afresh).
 uint32_t path_segments(const trace::LightPath& path, std::span<const trace::PathVertex> vertices);
@@ -77,18 +77,19 @@ inline PathInfo PathInfo::unpack(uint32_t word) {
   return info;
 }
 
-inline void check_packing_limits(uint32_t max_segments, uint64_t cells_per_map) {
+inline std::string check_packing_limits(uint32_t max_segments, uint64_t cells_per_map) {
   if (max_segments > PathInfo::kMaxSegments)
-    throw InputError(fmt::format(
-        "path-verification: max_bounces = {} allows paths of {} segments; the path-information "
-        "word holds at most {} (4 bits, Paper II §4)",
-        max_segments, max_segments, PathInfo::kMaxSegments));
+    return fmt::format(
+        "max_bounces: {} allows paths of {} segments; the path-information word holds at most {} "
+        "(4 bits, Paper II §4)",
+        max_segments, max_segments, PathInfo::kMaxSegments);
   if (cells_per_map > PathInfo::kMaxCells)
-    throw InputError(fmt::format(
-        "path-verification: a distribution map of {} cells (dm_position_cells^2 x "
+    return fmt::format(
+        "dm_position_cells: a distribution map of {} cells (dm_position_cells^2 x "
         "dm_direction_cells^2 for area lights) exceeds the {} cells the path-information word "
         "can name (22 bits, Paper II §4)",
-        cells_per_map, PathInfo::kMaxCells));
+        cells_per_map, PathInfo::kMaxCells);
+  return "";
 }
 
 inline uint32_t path_segments(const trace::LightPath& path,

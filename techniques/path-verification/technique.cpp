@@ -13,8 +13,10 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cstring>
 #include <memory>
+#include <string>
 
 #include "distribution_map.h"
 #include "path_layout.h"
@@ -68,7 +70,12 @@ constexpr pb_param_spec kMaxPhotonsPerPathParam = {
 const pb_param_spec kParams[] = {
     kPhotonsParam,
     kRadiusParam,
-    kMaxBouncesParam,
+    // At most the 15 segments the path-information word holds (4 bits, Paper II §4).
+    with_range(kMaxBouncesParam, kMaxBouncesParam.default_value, kMaxBouncesParam.min_value,
+               pathverification::PathInfo::kMaxSegments,
+               "surface interactions per light path; photons are stored at hits 2 to max_bounces "
+               "(Paper I §4.2); at most 15, the segments a path-information word holds (Paper II "
+               "§4)"),
     kShadowMapSizeParam,
     kSplatterParam,
     kReuseParam,
@@ -97,17 +104,49 @@ const pb_param_spec kParams[] = {
     DirectionalSplat::kDebugIrradianceParam,
 };
 
-// The counters of the reuse steps (Paper II Figs. 7 and 8).
-constexpr Counter kPathsKept{"paths_kept", CounterKind::work, "paths"};
-constexpr Counter kPathsMoved{"paths_moved", CounterKind::work, "paths"};
-constexpr Counter kPathsRetraced{"paths_retraced", CounterKind::work, "paths"};
-constexpr Counter kRaysTraced{"rays_traced", CounterKind::work, "rays"};
-constexpr Counter kSegmentsRetraced{"segments_retraced", CounterKind::work, "rays"};
-constexpr Counter kVisibilityRays{"visibility_rays", CounterKind::work, "rays"};
-constexpr Counter kFullRetraceRays{"full_retrace_rays", CounterKind::work, "rays"};
-constexpr Counter kPathsPruned{"paths_pruned", CounterKind::work, "paths"};
-constexpr Counter kPathsRefilled{"paths_refilled", CounterKind::work, "paths"};
-constexpr Counter kDmDistance{"dm_distance", CounterKind::ratio, "paths"};
+// The counters of the reuse steps (Paper II Figs. 7 and 8) and of the data layout (Table 1).
+// clang-format off
+constexpr pb_counter_spec kPathsKept{"paths_kept", PB_COUNTER_WORK, "paths",
+                                     "paths with no segment re-traced"};
+constexpr pb_counter_spec kPathsMoved{"paths_moved", PB_COUNTER_WORK, "paths",
+                                      "error_based: kept with a vertex or an origin moved"};
+constexpr pb_counter_spec kPathsRetraced{"paths_retraced", PB_COUNTER_WORK, "paths",
+                                         "paths re-traced from a segment or whole"};
+constexpr pb_counter_spec kRaysTraced{"rays_traced", PB_COUNTER_WORK, "rays",
+                                      "every ray: re-traced segments plus visibility rays"};
+constexpr pb_counter_spec kSegmentsRetraced{"segments_retraced", PB_COUNTER_WORK, "rays",
+                                            "re-traced segments"};
+constexpr pb_counter_spec kVisibilityRays{"visibility_rays", PB_COUNTER_WORK, "rays",
+                                          "the reuse steps' rays that are not re-traced segments"};
+constexpr pb_counter_spec kFullRetraceRays{"full_retrace_rays", PB_COUNTER_WORK, "rays",
+                                           "the segments of this frame's paths (tracing all)"};
+constexpr pb_counter_spec kPathsPruned{"paths_pruned", PB_COUNTER_WORK, "paths",
+                                       "paths the prune removed (Eq. 1)"};
+constexpr pb_counter_spec kPathsRefilled{"paths_refilled", PB_COUNTER_WORK, "paths",
+                                         "paths the fill emitted into under-full cells"};
+constexpr pb_counter_spec kDmDistance{"dm_distance", PB_COUNTER_RATIO, "paths",
+                                      "total-variation distance of DM_C from DM_T after the fill"};
+constexpr pb_counter_spec kBytesPathInformation{"bytes_path_information", PB_COUNTER_SIZE,
+                                                "bytes", "one word per path (§4)"};
+constexpr pb_counter_spec kBytesPathOrigins{"bytes_path_origins", PB_COUNTER_SIZE, "bytes",
+                                            "the kept paths' origins"};
+constexpr pb_counter_spec kBytesDistributionMaps{"bytes_distribution_maps", PB_COUNTER_SIZE,
+                                                 "bytes", "DM_T and DM_C of every light"};
+constexpr pb_counter_spec kBytesPrunedPaths{"bytes_pruned_paths", PB_COUNTER_SIZE, "bytes",
+                                            "the pruned-paths array"};
+constexpr pb_counter_spec kBytesPhotonMap{"bytes_photon_map", PB_COUNTER_SIZE, "bytes",
+                                          "the bounce-major photon map (ours, compacted)"};
+constexpr pb_counter_spec kBytesPhotonMapPaper{"bytes_photon_map_paper", PB_COUNTER_SIZE, "bytes",
+                                               "the paper's fixed layout at this path count"};
+// clang-format on
+
+// Its own counters, then every splatter's (each cell emits its splatter's alone).
+constexpr auto kCounters = join_counters(
+    std::array{kPhotonsStoredCounter, kPathsKept, kPathsMoved, kPathsRetraced, kRaysTraced,
+               kSegmentsRetraced, kVisibilityRays, kFullRetraceRays, kPathsPruned, kPathsRefilled,
+               kDmDistance, kBytesPathInformation, kBytesPathOrigins, kBytesDistributionMaps,
+               kBytesPrunedPaths, kBytesPhotonMap, kBytesPhotonMapPaper},
+    TiledSplat::kCounters, ClusterSplat::kCounters, DirectionalSplat::kCounters);
 
 std::unique_ptr<Splatter> make_splatter(const std::string& name) {
   if (name == "tiled") return std::make_unique<TiledSplat>();
@@ -117,6 +156,29 @@ std::unique_ptr<Splatter> make_splatter(const std::string& name) {
 
 class PathVerification final : public Technique {
  public:
+  // The parameters together: the photon map's rows, the path-information word, and the chosen
+  // splatter's own rows.
+  static std::string check(const Params& params) {
+    const PhotonParams photon = PhotonParams::read(params);
+    // Photons are stored at hits 2..max_bounces (Paper I §4.2), one row per stored photon.
+    const uint32_t stored = photon.max_bounces - (photon.store_first_hit ? 0 : 1);
+    const int64_t rows = params.integer(kMaxPhotonsPerPathParam.name);
+    if (stored > rows)
+      return fmt::format(
+          "max_bounces: {} stores up to {} photons per path, more than max_photons_per_path = {}",
+          photon.max_bounces, stored, rows);
+    const uint64_t d = uint64_t(params.integer(kDmDirectionCellsParam.name));
+    const uint64_t p = uint64_t(params.integer(kDmPositionCellsParam.name));
+    if (std::string limits =
+            pathverification::check_packing_limits(photon.max_bounces, d * d * p * p);
+        !limits.empty())
+      return limits;
+    const std::string& splatter = params.choice(kSplatterParam.name);
+    return splatter == "tiled"     ? TiledSplat::check(params)
+           : splatter == "cluster" ? ClusterSplat::check(params)
+                                   : DirectionalSplat::check(params);
+  }
+
   void setup(Context& ctx, const Params& params) override {
     photon_ = PhotonParams::read(params);
     const std::string& reuse = params.choice(kReuseParam.name);
@@ -124,18 +186,9 @@ class PathVerification final : public Technique {
     reuse_.rule = reuse == "naive" ? trace::ReuseRule::naive : trace::ReuseRule::error_based;
     reuse_.energy_threshold = float(params.number(kEnergyThresholdParam.name));
     max_photons_ = uint32_t(params.integer(kMaxPhotonsPerPathParam.name));
-    // Photons are stored at hits 2..max_bounces (Paper I §4.2), one row per stored photon.
-    if (photon_.max_bounces - (photon_.store_first_hit ? 0 : 1) > max_photons_)
-      throw InputError(fmt::format(
-          "path-verification: max_bounces = {} stores up to {} photons per path, more than "
-          "max_photons_per_path = {}",
-          photon_.max_bounces, photon_.max_bounces - (photon_.store_first_hit ? 0 : 1),
-          max_photons_));
     reuse_.update_origins = params.flag(kLightReuseParam.name);
     dm_position_cells_ = uint32_t(params.integer(kDmPositionCellsParam.name));
     dm_direction_cells_ = uint32_t(params.integer(kDmDirectionCellsParam.name));
-    const uint64_t d = dm_direction_cells_, p = dm_position_cells_;
-    pathverification::check_packing_limits(photon_.max_bounces, d * d * p * p);
     settings_ = photon_.trace_settings();
     // Every variant traces the same sample sequence each frame (the paths keep the seed they were
     // first traced with), so that on a static scene the baseline's photons are the reuse's.
@@ -232,17 +285,17 @@ class PathVerification final : public Technique {
   }
 
   void report(Context& ctx, const trace::TraceStats& stats, uint64_t pruned, uint64_t refilled) {
-    ctx.count({"photons_stored", CounterKind::size, "photons"}, double(batch_.photons.size()));
-    ctx.count(kPathsKept, double(stats.paths - stats.paths_retraced));
-    ctx.count(kPathsMoved, double(stats.paths_moved));
-    ctx.count(kPathsRetraced, double(stats.paths_retraced));
-    ctx.count(kRaysTraced, double(stats.rays));
-    ctx.count(kSegmentsRetraced, double(stats.segments_retraced));
-    ctx.count(kVisibilityRays, double(stats.visibility_rays));
-    ctx.count(kFullRetraceRays, double(stats.full_retrace_rays));
+    pb::count(ctx, kPhotonsStoredCounter, double(batch_.photons.size()));
+    pb::count(ctx, kPathsKept, double(stats.paths - stats.paths_retraced));
+    pb::count(ctx, kPathsMoved, double(stats.paths_moved));
+    pb::count(ctx, kPathsRetraced, double(stats.paths_retraced));
+    pb::count(ctx, kRaysTraced, double(stats.rays));
+    pb::count(ctx, kSegmentsRetraced, double(stats.segments_retraced));
+    pb::count(ctx, kVisibilityRays, double(stats.visibility_rays));
+    pb::count(ctx, kFullRetraceRays, double(stats.full_retrace_rays));
     if (reuse_enabled_ && reuse_.update_origins) {
-      ctx.count(kPathsPruned, double(pruned));
-      ctx.count(kPathsRefilled, double(refilled));
+      pb::count(ctx, kPathsPruned, double(pruned));
+      pb::count(ctx, kPathsRefilled, double(refilled));
       // DM_C against DM_T after this frame's fill: the total-variation distance of all lights.
       double distance = 0, weight = 0;
       for (const auto& m : maps_.maps()) {
@@ -250,18 +303,15 @@ class PathVerification final : public Technique {
         for (float t : m.target) paths += t;
         distance += m.distance() * paths, weight += paths;
       }
-      ctx.count(kDmDistance, weight > 0 ? distance / weight : 0);
+      pb::count(ctx, kDmDistance, weight > 0 ? distance / weight : 0);
     }
     LayoutBytes bytes = layout_bytes();
-    ctx.count({"bytes_path_information", CounterKind::size, "bytes"},
-              double(bytes.path_information));
-    ctx.count({"bytes_path_origins", CounterKind::size, "bytes"}, double(bytes.path_origins));
-    ctx.count({"bytes_distribution_maps", CounterKind::size, "bytes"},
-              double(bytes.distribution_maps));
-    ctx.count({"bytes_pruned_paths", CounterKind::size, "bytes"}, double(bytes.pruned_paths));
-    ctx.count({"bytes_photon_map", CounterKind::size, "bytes"}, double(bytes.photon_map));
-    ctx.count({"bytes_photon_map_paper", CounterKind::size, "bytes"},
-              double(bytes.photon_map_paper));
+    pb::count(ctx, kBytesPathInformation, double(bytes.path_information));
+    pb::count(ctx, kBytesPathOrigins, double(bytes.path_origins));
+    pb::count(ctx, kBytesDistributionMaps, double(bytes.distribution_maps));
+    pb::count(ctx, kBytesPrunedPaths, double(bytes.pruned_paths));
+    pb::count(ctx, kBytesPhotonMap, double(bytes.photon_map));
+    pb::count(ctx, kBytesPhotonMapPaper, double(bytes.photon_map_paper));
   }
 
   LayoutBytes layout_bytes() const {
@@ -304,4 +354,4 @@ PB_EXPORT_TECHNIQUE(
     PathVerification, "path-verification", "indirect",
     "Paper II's path verification: light paths kept across frames, re-validated against moving "
     "objects (none | naive | error_based reuse) and splatted by a Paper I splatter",
-    kParams)
+    kParams, .counters = kCounters, .check = &PathVerification::check)

@@ -34,4 +34,4 @@ PB_EXPORT_TECHNIQUE(
     Tiled, "tiled", "indirect",
     "Paper I's tiled photon splatting (Mara et al. 2013): 32x32 tiles with depth bounds, "
     "per-tile photon lists, constant-kernel radiance estimate",
-    kParams)
+    kParams, .counters = Tiled::kCounters, .check = &Tiled::check)

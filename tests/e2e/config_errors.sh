@@ -44,6 +44,17 @@ write "${base[@]}" "    params: {shadow_map_size: [256, 8]}"
 expect_exit 2 "swept value out of the schema's range" -- "$PB" validate "$cfg"
 expect_match "sweep element out of range" "bad.yaml:7:[0-9]+: techniques\[0\].params.shadow_map_size\[1\]: value 8 is out of range \[16, 4096\]" "$OUT"
 
+# A technique's check of its values together (the descriptor's `check`): before any work, at the
+# key it blames, for `validate` and `run` alike.
+write "${base[@]/technique: direct/technique: aaps}" "    params: {density_min: 8, density_max: 4}"
+expect_exit 2 "aaps: a density ceiling below its floor" -- "$PB" validate "$cfg"
+expect_match "aaps's check names file:line:col and the key" "bad.yaml:7:[0-9]+: techniques\[0\].params.density_max: 4 is below density_min = 8 \(0: no ceiling\) \(aaps\)" "$OUT"
+write "${base[@]/technique: direct/technique: tiled}" "    params: {tile_size: [32, 12]}"
+expect_exit 2 "tiled: a tile side that is not a multiple of 8" -- "$PB" validate "$cfg"
+expect_match "the toolkit's check names file:line:col and the key" "bad.yaml:7:[0-9]+: techniques\[0\].params.tile_size: 12 is not a multiple of 8" "$OUT"
+expect_exit 2 "run refuses it too" -- "$PB" run "$cfg" --out "$WORK/refused"
+[ ! -e "$WORK/refused" ] && pass "run wrote nothing (no reference, no cell)" || fail "run wrote $WORK/refused"
+
 scenes="[cornell-box, {scene: pillars, params: {shadow_map_sise: 256}}]"
 write "${base[@]/\[cornell-box\]/$scenes}"
 expect_exit 2 "unknown parameter in a scene's overrides" -- "$PB" validate "$cfg"

@@ -40,7 +40,7 @@ class Paper1Convergence : public ::testing::TestWithParam<std::string> {
     fs::create_directories(g_dir);
     std::string yaml =
         "name: paper1-convergence\nresolution: [96, 54]\nseed: 3\nscenes: [cornell-box]\n"
-        "frames: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [psnr]\n"
+        "frames: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [relmse]\n"
         "limits: {cell_seconds: 600}\n"
         "reference: {samples: 1024, cache_dir: " +
         (g_dir / "refs").string() + "}\ntechniques:\n";

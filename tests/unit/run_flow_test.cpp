@@ -116,6 +116,70 @@ techniques:
   fs::remove_all(dir);
 }
 
+// The InputError plan_run throws for `yaml` ("" when it plans).
+std::string plan_error(const fs::path& dir, const std::string& yaml) {
+  try {
+    plan_run(write_config(dir, yaml), {});
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A technique's descriptor check runs in the plan, before any work: its error names the file, the
+// line and the key it blames (where the config sets it, else the technique entry), and exits 2.
+TEST(RunPlan, ATechniquesCheckRefusesValuesTogetherAtTheirKey) {
+  const fs::path dir = scratch("check");
+  const std::string head = "name: t\nscenes: [cornell-box, pillars]\ntechniques:\n";
+  // AAPS: a density ceiling below the floor, the floor given on another line.
+  std::string e = plan_error(dir, head + R"(  - technique: aaps
+    params:
+      density_min: 8
+      density_max: 4
+)");
+  EXPECT_NE(e.find("config.yaml:7:"), std::string::npos) << e;
+  EXPECT_NE(e.find("techniques[0].params.density_max: 4 is below density_min = 8"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("(aaps)"), std::string::npos) << e;
+  // ... and a density texture that is not a power of two, in a sweep: the element's line.
+  e = plan_error(dir, head + "  - technique: aaps\n    params: {density_resolution: [64, 48]}\n");
+  EXPECT_NE(e.find("config.yaml:5:"), std::string::npos) << e;
+  EXPECT_NE(e.find("techniques[0].params.density_resolution: 48 is not a power of two"),
+            std::string::npos)
+      << e;
+  // The toolkit's: tiled's tile side, set by a scene's override.
+  e = plan_error(dir,
+                 "name: t\nscenes: [cornell-box, {scene: pillars, params: {tile_size: 20}}]\n"
+                 "techniques:\n  - technique: tiled\n");
+  EXPECT_NE(e.find("config.yaml:2:"), std::string::npos) << e;
+  EXPECT_NE(e.find("scenes[1].params.tile_size: 20 is not a multiple of 8"), std::string::npos)
+      << e;
+  // Path verification through its chosen splatter (the toolkit's check again) ...
+  e = plan_error(dir, head + "  - technique: path-verification\n    params: {tile_size: 36}\n");
+  EXPECT_NE(e.find("techniques[0].params.tile_size: 36 is not a multiple of 8 (the 8x8"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(plan_error(dir, head + "  - technique: path-verification\n    params: {tile_size: 36, "
+                                   "splatter: cluster}\n"),
+            "")
+      << "cluster reads no tile_size";
+  // ... and its photon map: the key it blames keeps its default, so the technique entry is named.
+  e = plan_error(
+      dir, head + "  - technique: path-verification\n    params: {max_photons_per_path: 2}\n");
+  EXPECT_NE(e.find("config.yaml:4:"), std::string::npos) << e;
+  EXPECT_NE(e.find("techniques[0].technique: max_bounces: 4 stores up to 3 photons per path, more "
+                   "than max_photons_per_path = 2"),
+            std::string::npos)
+      << e;
+  // Values that go together plan.
+  EXPECT_EQ(plan_error(dir, head + "  - technique: aaps\n    params: {density_min: 4, "
+                                   "density_max: 8, density_resolution: 64}\n  - technique: "
+                                   "tiled\n    params: {tile_size: [16, 32]}\n"),
+            "");
+  fs::remove_all(dir);
+}
+
 Cell test_cell() {
   Cell cell;
   cell.id = "box__mine__0123abcd";
@@ -135,6 +199,7 @@ TEST(CellRecord, WritesWhatTheCellReachedAndNothingElse) {
   EXPECT_EQ(j["schema_version"], io::kResultsSchemaVersion);
   EXPECT_EQ(j["cell"], "box__mine__0123abcd");
   EXPECT_EQ(j["params"]["radius"], "0.5");
+  EXPECT_EQ(j["params_resolved"], j["params"]) << "nothing resolved: the schema's values";
   EXPECT_EQ(j["status"], "failed");
   EXPECT_TRUE(j["failed_frame"].is_null());
   ASSERT_EQ(j["warnings"].size(), 1u);
@@ -143,6 +208,8 @@ TEST(CellRecord, WritesWhatTheCellReachedAndNothingElse) {
     EXPECT_FALSE(j.contains(key)) << key << " written for a cell that never reached it";
 
   CellRecord ok(test_cell());
+  ok.cell.params["blur_radius"] = "-1";
+  ok.resolved_params["blur_radius"] = 16;  // a counter named as the parameter
   ok.device = "llvmpipe";
   ok.warn(3u, "frame warning");
   ok.log_tail = "";
@@ -151,6 +218,9 @@ TEST(CellRecord, WritesWhatTheCellReachedAndNothingElse) {
   EXPECT_EQ(k["status"], "ok");
   EXPECT_EQ(k["device"], "llvmpipe");
   EXPECT_EQ(k["warnings"][0]["frame"], 3);
+  EXPECT_EQ(k["params"]["blur_radius"], "-1");
+  EXPECT_EQ(k["params_resolved"]["blur_radius"], "16");
+  EXPECT_EQ(k["params_resolved"]["radius"], "0.5");
   EXPECT_TRUE(k.contains("log_tail"));
   size_t files = 0;
   for (const auto& entry : fs::directory_iterator(dir)) files += entry.is_regular_file();

@@ -212,5 +212,53 @@ TEST(Scoring, RowsCarryFloorsAndUnbiasedErrorsAgainstBothReferences) {
               record.contains("references"));
 }
 
+// The config's `metrics` names what is scored and written: metrics.csv's columns, cell.json's means
+// and the FLIP error maps; mae is scored (with its floor) when named.
+TEST(Scoring, OnlyTheNamedMetricsAreWritten) {
+  const scene::Scene scene = scene::load_scene(PB_SOURCE_DIR "/scenes/cornell-box.yaml");
+  io::Image output(32, 18, 4);
+  for (size_t i = 0; i < output.pixels.size(); ++i) output.pixels[i] = i % 4 == 3 ? 1.f : 0.3f;
+  const std::string reference =
+      fmt::format("reference: {{samples: 8, cache_dir: {}}}\n", (kTemp / "named").string());
+  auto score = [&](const std::string& metrics, const std::string& name) {
+    const std::filesystem::path dir = kTemp / name;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "images");
+    io::write_image(dir / "images" / "frame_0000.exr", output);
+    const ScoreResult result = score_cell(load("metrics: " + metrics + "\n" + reference), Cell{},
+                                          scene, {0}, "combined", dir);
+    return std::make_pair(io::read_csv(dir / "metrics.csv"), result.means["combined"]);
+  };
+
+  const auto [flip_csv, flip_means] = score("[flip]", "flip");
+  ASSERT_EQ(flip_csv.size(), 2u);
+  EXPECT_EQ(flip_csv[0], (std::vector<std::string>{"frame", "path_class", "reference", "flip",
+                                                   "flip_floor", "flicker", "flicker_floor"}));
+  for (const char* absent :
+       {"ssim", "psnr", "ssim_floor", "psnr_floor", "rmse", "mse_unbiased", "mse_floor"})
+    EXPECT_FALSE(flip_means.contains(absent)) << absent;
+  EXPECT_TRUE(flip_means.contains("flip_floor"));
+  EXPECT_TRUE(std::filesystem::exists(kTemp / "flip" / "images" / "flip_0000_combined.png"));
+
+  const auto [mae_csv, mae_means] = score("[mae, rmse]", "mae");
+  EXPECT_EQ(mae_csv[0], (std::vector<std::string>{"frame", "path_class", "reference", "rmse", "mae",
+                                                  "rmse_floor", "mae_floor", "mse_unbiased",
+                                                  "flicker", "flicker_floor"}));
+  trace::ReferenceCache cache(kTemp / "named");
+  const auto entry = cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18,
+                                     reference_options(load(reference)));
+  ASSERT_TRUE(entry);
+  const metrics::Scores s = metrics::evaluate(entry->mean, output);
+  const metrics::NoiseFloor f =
+      metrics::noise_floor({entry->mean, entry->variance, entry->half[0], entry->half[1]});
+  EXPECT_NEAR(std::stod(mae_csv[1][4]) / s.mae, 1.0, 1e-5);
+  EXPECT_NEAR(std::stod(mae_csv[1][6]) / f.scores.mae, 1.0, 1e-5);
+  EXPECT_NEAR(mae_means["mae"].get<double>() / s.mae, 1.0, 1e-5);
+  EXPECT_TRUE(mae_means.contains("mse_floor"));
+  EXPECT_FALSE(mae_means.contains("flip"));
+  EXPECT_FALSE(std::filesystem::exists(kTemp / "mae" / "images" / "flip_0000_combined.png"))
+      << "no FLIP error map when FLIP is not scored";
+}
+
 }  // namespace scoring_test
 }  // namespace pb::run

@@ -6,8 +6,10 @@
     RUN/cells/<cell>/cell.json       status ok|failed, reason, failed_frame, warnings, params, memory
     RUN/cells/<cell>/frames.csv      frame, pass, gpu_ms, cpu_ms  (pass "frame" is the whole frame)
     RUN/cells/<cell>/counters.csv    frame, name, value
-    RUN/cells/<cell>/metrics.csv     frame, path_class, reference, flip, ssim, psnr, rmse, relmse,
-                                     <metric>_floor..., mse_unbiased, relmse_unbiased
+    RUN/cells/<cell>/metrics.csv     frame, path_class, reference, the config's metrics (flip, ssim,
+                                     psnr, rmse, relmse, mae: those named), <metric>_floor...,
+                                     mse_unbiased, relmse_unbiased, flicker (a metric not named has
+                                     no column: read as empty)
     RUN/cells/<cell>/images/         frame_NNNN.{exr,png}, flip_NNNN_<class>.png, reference_NNNN_<class>.png
 
 The CSV files are read with pandas (read_table): the schema's text columns stay text, param.* are

@@ -84,6 +84,12 @@ struct GBuffer {
   const gpu::Image* depth;
 };
 
+// The shared passes' shadow settings until a technique's setup calls configure_shadows: the one
+// source of the shadow parameter rows' defaults (photonbench/toolkit/technique.h).
+inline constexpr uint32_t kDefaultShadowMapSize = 512;       // texels per tile side
+inline constexpr double kDefaultShadowRelativeBias = 0.01;   // fraction of the light-space depth
+inline constexpr double kDefaultShadowNormalOffsetM = 0.01;  // metres along the normal
+
 // Passes every technique reuses. Each records its own named pass scope.
 class SharedPasses {
  public:

@@ -1,24 +1,30 @@
 // The technique plugin contract. A technique is a shared module exporting one C entry point,
 // `photonbench_technique`, that takes the host's API version and returns a static descriptor table
-// of C types only: API version, build record, name, path class, parameter schema and a factory.
+// of C types only: API version, build record, name, path class, parameter schema, a factory, the
+// counters it emits and, optionally, a check of its parameters taken together.
 //
 // Plugins are built by other compilers on other days (out of tree, against the installed package),
 // so the boundary is checked before anything else is called: the descriptor opens with the module's
 // API version and its build record (compiler, standard library, Vulkan-Hpp version, sizeof of each
-// public class), a layout kept from version 2 on. The entry point honours the host's version: given
-// another version than its own it returns only that opening, never a factory the host cannot use.
+// public class), a layout kept from version 2 on (version 3 added the counters and the check at the
+// end). The entry point honours the host's version: given another version than its own it returns
+// only that opening, never a factory the host cannot use.
 // A mismatch fails only that plugin's cells, with a message naming both sides (plan/plugins.cpp).
 //
 //   static const pb_param_spec kParams[] = {
 // {"photons", PB_PARAM_INT, 200000, 1000, 5e7, nullptr, "photons", "photons traced per frame"},
 //   };
-//   PB_EXPORT_TECHNIQUE(MyTechnique, "mine", "C D S+ L", "one-line summary", kParams)
+//   constexpr pb_counter_spec kRead{"photons_read", PB_COUNTER_WORK, "photons", "entries read"};
+//   const pb_counter_spec kCounters[] = {kRead};  // pb::count(ctx, kRead, n) in render
+//   PB_EXPORT_TECHNIQUE(MyTechnique, "mine", "C D S+ L", "one-line summary", kParams,
+//                       .counters = kCounters, .check = &MyTechnique::check)
+// where `static std::string check(const pb::Params&)` returns "" or "<parameter>: what is wrong".
 #pragma once
 
 #include <cstdint>
 
 #ifndef PB_PLUGIN_API_VERSION  // a test plugin defines another to play a module of another day
-#define PB_PLUGIN_API_VERSION 2u
+#define PB_PLUGIN_API_VERSION 3u
 #endif
 #define PB_TECHNIQUE_ENTRY_SYMBOL "photonbench_technique"
 
@@ -41,6 +47,29 @@ typedef struct pb_param_spec {
   const char* unit;     // "m", "photons", "deg", "" ...
   const char* doc;      // one line
 } pb_param_spec;
+
+// One parameter of a cell as the harness resolved it (its default filled in, its type and range
+// checked against the row): the text pb::Params holds ("8", "0.05", "true", "cone").
+typedef struct pb_param_value {
+  const char* name;
+  const char* value;
+} pb_param_value;
+
+// How a counter's values combine over frames (pb::CounterKind, photonbench/context.h).
+typedef enum pb_counter_kind {
+  PB_COUNTER_WORK = 0,   // done this frame: adds up over frames
+  PB_COUNTER_SIZE = 1,   // held this frame: a level
+  PB_COUNTER_RATIO = 2,  // a fraction of this frame's work: averaged, never added
+} pb_counter_kind;
+
+// A counter the technique emits (ctx.count): the harness fails a cell whose technique counts a
+// name its descriptor does not declare, or declares with another kind or unit.
+typedef struct pb_counter_spec {
+  const char* name;  // snake_case, unique within a technique
+  pb_counter_kind kind;
+  const char* unit;  // "photons", "bytes", "nodes", ...
+  const char* doc;   // one line
+} pb_counter_spec;
 
 typedef struct pb_class_size {
   const char* name;  // "pb::gpu::Device"
@@ -75,6 +104,15 @@ typedef struct pb_technique_descriptor {
   uint32_t param_count;
   void* (*create)(void);  // a new pb::Technique
   void (*destroy)(void*);
+  // From version 3: every counter the technique may emit (photonbench list techniques prints them).
+  const pb_counter_spec* counters;
+  uint32_t counter_count;
+  // From version 3, optional (null: none): the cross-parameter check. The plan calls it for every
+  // cell, before any work (`validate` too), with every parameter resolved; null or "" when the
+  // values go together, else a message opening with the parameter at fault and ": " (e.g.
+  // "density_max: 2 is below density_min = 4"), which the harness reports at that key's file, line
+  // and column. The text stays valid until the next call on the same thread.
+  const char* (*check)(const pb_param_value* values, uint32_t count);
 } pb_technique_descriptor;
 
 typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_version);
@@ -82,7 +120,9 @@ typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_v
 }  // extern "C"
 
 #ifdef __cplusplus
+#include <exception>
 #include <map>
+#include <span>
 #include <string>
 
 #include "photonbench/context.h"
@@ -90,8 +130,8 @@ typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_v
 namespace pb {
 
 // Resolved parameter values of one cell, already checked against the schema (type and range) by the
-// harness. Cross-parameter constraints are the technique's to check in setup (throw
-// pb::InputError).
+// harness, and against each other by the descriptor's check, if it has one. setup throws
+// pb::InputError only for what needs the device (a buffer over maxStorageBufferRange).
 class Params {
  public:
   explicit Params(std::map<std::string, std::string> values) : values_(std::move(values)) {}
@@ -115,7 +155,43 @@ class Technique {
   virtual void render(Context& ctx) = 0;
 };
 
+// Counts `value` for a counter the descriptor declares (pb_counter_spec), as ctx.count does.
+inline void count(Context& ctx, const pb_counter_spec& counter, double value) {
+  ctx.count({counter.name, CounterKind(counter.kind), counter.unit ? counter.unit : ""}, value);
+}
+
+// The cross-parameter check of a technique: "" when the values go together, else "<parameter>:
+// what is wrong" (pb_technique_descriptor::check).
+using ParamCheck = std::string (*)(const Params&);
+
+// What PB_EXPORT_TECHNIQUE's optional arguments set: .counters (an array of pb_counter_spec) and
+// .check.
+struct TechniqueExtras {
+  std::span<const pb_counter_spec> counters;
+  ParamCheck check = nullptr;
+};
+
 namespace detail {
+
+// The C entry of a C++ check: the values as pb::Params, the answer kept in a thread's own text.
+template <ParamCheck check>
+const char* check_entry(const pb_param_value* values, uint32_t count) {
+  if constexpr (check == nullptr) {
+    return nullptr;
+  } else {
+    thread_local std::string message;
+    try {
+      std::map<std::string, std::string> map;
+      for (uint32_t i = 0; i < count; ++i) map[values[i].name] = values[i].value;
+      message = check(Params(std::move(map)));
+    } catch (const std::exception& e) {
+      message = e.what();
+    } catch (...) {
+      message = "the parameter check threw";
+    }
+    return message.empty() ? nullptr : message.c_str();
+  }
+}
 
 #define PB_STRINGIFY_(x) #x
 #define PB_STRINGIFY(x) PB_STRINGIFY_(x)
@@ -174,10 +250,12 @@ namespace detail {
 }  // namespace pb
 
 // The entry point: the whole descriptor for a host of the module's API version, only the opening
-// (version and build record) for any other host.
-#define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params)              \
+// (version and build record) for any other host. After `params`, optionally, designated
+// initializers of pb::TechniqueExtras: `.counters = kCounters, .check = &MyTechnique::check`.
+#define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params, ...)         \
   extern "C" __attribute__((visibility("default"))) const pb_technique_descriptor* \
   photonbench_technique(uint32_t host_api_version) {                               \
+    static constexpr pb::TechniqueExtras extras{__VA_ARGS__};                      \
     static const pb_technique_descriptor descriptor = {                            \
         PB_PLUGIN_API_VERSION,                                                     \
         pb::detail::this_build(),                                                  \
@@ -187,7 +265,10 @@ namespace detail {
         params,                                                                    \
         uint32_t(sizeof(params) / sizeof(params[0])),                              \
         []() -> void* { return static_cast<pb::Technique*>(new Class()); },        \
-        [](void* t) { delete static_cast<pb::Technique*>(t); }};                   \
+        [](void* t) { delete static_cast<pb::Technique*>(t); },                    \
+        extras.counters.data(),                                                    \
+        uint32_t(extras.counters.size()),                                          \
+        extras.check ? &pb::detail::check_entry<extras.check> : nullptr};          \
     static const pb_technique_descriptor opening = {PB_PLUGIN_API_VERSION,         \
                                                     pb::detail::this_build(),      \
                                                     nullptr,                       \
@@ -196,6 +277,9 @@ namespace detail {
                                                     nullptr,                       \
                                                     0,                             \
                                                     nullptr,                       \
+                                                    nullptr,                       \
+                                                    nullptr,                       \
+                                                    0,                             \
                                                     nullptr};                      \
     return host_api_version == PB_PLUGIN_API_VERSION ? &descriptor : &opening;     \
   }

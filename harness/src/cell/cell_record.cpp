@@ -1,5 +1,7 @@
 #include "cell/cell_record.h"
 
+#include <fmt/format.h>
+
 #include "io/results.h"
 
 namespace pb::run {
@@ -19,11 +21,14 @@ void CellRecord::warn(std::optional<uint32_t> frame, const std::string& message)
 }
 
 json to_json(const CellRecord& r) {
+  std::map<std::string, std::string> resolved = r.cell.params;
+  for (const auto& [name, value] : r.resolved_params) resolved[name] = fmt::format("{}", value);
   json j = {{"schema_version", io::kResultsSchemaVersion},
             {"cell", r.cell.id},
             {"scene", r.cell.scene},
             {"technique", r.cell.technique},
             {"params", r.cell.params},
+            {"params_resolved", resolved},
             {"seed", r.cell.seed},
             {"seed_index", r.cell.seed_index},
             {"seed_group", r.cell.seed_group},

@@ -31,6 +31,10 @@ struct CellRecord {
   void warn(std::optional<uint32_t> frame, const std::string& message);
 
   Cell cell;
+  // Parameters as the technique resolved them (an automatic value, -1 or 0, made concrete): each
+  // counter named as a parameter, its last value. cell.json's params_resolved is the cell's params
+  // with these in place.
+  std::map<std::string, double> resolved_params;
   std::string status = "ok";  // "ok" or "failed"
   std::string reason;
   std::optional<int64_t> failed_frame;

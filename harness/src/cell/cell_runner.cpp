@@ -37,6 +37,7 @@ const Plugin& loaded_plugin(PluginRegistry& plugins, const std::string& techniqu
 TechniqueInstance set_up_technique(const Plugin& plugin, const Cell& cell, Renderer& r,
                                    CellRecord& record) {
   TechniqueInstance technique = create_technique(*plugin.descriptor);
+  r.ctx.declare_counters({plugin.descriptor->counters, plugin.descriptor->counter_count});
   r.commands.begin();
   technique->setup(r.ctx, Params(cell.params));
   r.commands.submit_and_wait();

@@ -48,14 +48,25 @@ void FrameContext::begin_frame(const FrameInfo& frame) {
   warnings_.clear();
 }
 
+void FrameContext::declare_counters(std::span<const pb_counter_spec> counters) {
+  declared_.clear();
+  for (const pb_counter_spec& c : counters)
+    declared_.try_emplace(c.name, CounterDeclaration{CounterKind(c.kind), c.unit ? c.unit : ""});
+}
+
 void FrameContext::count(const Counter& counter, double value) {
-  std::string name(counter.name);
-  auto [it, added] =
-      declarations_.try_emplace(name, CounterDeclaration{counter.kind, std::string(counter.unit)});
-  if (!added && (it->second.kind != counter.kind || it->second.unit != counter.unit))
-    throw Error(fmt::format("counter '{}' is declared as {} ({}) and as {} ({})", name,
-                            counter_kind_name(it->second.kind), it->second.unit,
+  auto declared = declared_.find(counter.name);
+  if (declared == declared_.end())
+    throw Error(fmt::format(
+        "counter '{}' ({}, {}) is not declared in the technique's descriptor (its counters)",
+        counter.name, counter_kind_name(counter.kind), counter.unit));
+  const CounterDeclaration& d = declared->second;
+  if (d.kind != counter.kind || d.unit != counter.unit)
+    throw Error(fmt::format("counter '{}' is declared as {} ({}) and counted as {} ({})",
+                            counter.name, counter_kind_name(d.kind), d.unit,
                             counter_kind_name(counter.kind), counter.unit));
+  std::string name(counter.name);
+  declarations_.try_emplace(name, d);
   counters_.emplace_back(std::move(name), value);
 }
 

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <map>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -14,6 +15,7 @@
 #include "cell/profiler.h"
 #include "cell/world.h"
 #include "photonbench/context.h"
+#include "photonbench/plugin.h"
 
 namespace pb::run {
 
@@ -57,6 +59,8 @@ class FrameContext final : public Context {
   const std::map<std::string, CounterDeclaration>& counter_declarations() const {
     return declarations_;
   }
+  // The counters the technique's descriptor declares: the only ones count() accepts.
+  void declare_counters(std::span<const pb_counter_spec> counters);
 
   gpu::Device& gpu() override { return device_; }
   vk::CommandBuffer cmd() override { return commands_.current(); }
@@ -64,8 +68,8 @@ class FrameContext final : public Context {
   PassScope pass(std::string_view name) override {
     return PassScope(&profiler_, profiler_.begin_pass(name));
   }
-  // Records the value and the counter's declaration; a name declared before with another kind or
-  // unit is pb::Error (the cell fails naming both).
+  // Records the value and the counter's declaration; a name the descriptor does not declare, or
+  // declares with another kind or unit, is pb::Error (the cell fails naming both).
   void count(const Counter& counter, double value) override;
   void warn(std::string_view message) override { warnings_.emplace_back(std::string(message)); }
   const FrameInfo& frame() const override { return frame_; }
@@ -81,6 +85,7 @@ class FrameContext final : public Context {
   FrameInfo frame_{};
   std::vector<std::pair<std::string, double>> counters_;
   std::map<std::string, CounterDeclaration> declarations_;
+  std::map<std::string, CounterDeclaration, std::less<>> declared_;  // by the descriptor
   std::vector<std::string> warnings_;
 };
 

@@ -89,6 +89,10 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
       for (const auto& [name, declared] : r_.ctx.counter_declarations())
         declarations[name] = {{"kind", counter_kind_name(declared.kind)}, {"unit", declared.unit}};
       if (!declarations.empty()) record_.counters = std::move(declarations);
+      // A counter named as a parameter is the value the technique resolved it to (blur_radius: -1
+      // is automatic); the last frame's is kept.
+      for (const auto& [name, value] : r_.ctx.counters())
+        if (record_.cell.params.count(name)) record_.resolved_params[name] = value;
       for (const std::string& warning : r_.ctx.warnings()) record_.warn(f, warning);
       check_output(f);
       if (std::find(scored.begin(), scored.end(), f) != scored.end()) {

@@ -64,13 +64,28 @@ std::vector<ScoredReference> scored_references(
 
 namespace {
 
-// metrics.csv's columns after frame, path_class and reference: each score, then its noise floor
-// (metrics/noise_floor.h: what the true image scores against this reference), then the squared
-// errors with the reference's noise taken off, then the flicker since the frame before and its
-// floor (metrics/flicker.h; empty unless that frame was scored too: frames.metrics_window).
-const std::vector<std::string> kScoreColumns = {"flip", "ssim", "psnr", "rmse", "relmse"};
-const std::vector<std::string> kExtraColumns = {"mse_unbiased", "relmse_unbiased", "flicker",
-                                                "flicker_floor"};
+// metrics.csv's columns after frame, path_class and reference: each score the config's `metrics`
+// names, in this order, then their noise floors (metrics/noise_floor.h: what the true image
+// scores against this reference), then the squared errors with the reference's noise taken off
+// (rmse's mse_unbiased, relmse's relmse_unbiased), then the flicker since the frame before and
+// its floor (metrics/flicker.h; empty unless that frame was scored too: frames.metrics_window).
+const std::vector<std::string> kScoreColumns = {"flip", "ssim", "psnr", "rmse", "relmse", "mae"};
+
+// The columns beyond a metric and its floor that it brings: to metrics.csv, and to cell.json's
+// means only.
+std::vector<std::string> unbiased_columns(const std::string& metric) {
+  if (metric == "rmse") return {"mse_unbiased"};
+  if (metric == "relmse") return {"relmse_unbiased"};
+  return {};
+}
+std::vector<std::string> mean_only_columns(const std::string& metric) {
+  if (metric == "rmse") return {"mse_floor", "mse_floor_halves"};
+  return {};
+}
+
+bool named(const std::vector<std::string>& metrics, const std::string& metric) {
+  return std::find(metrics.begin(), metrics.end(), metric) != metrics.end();
+}
 
 // One row's values by column name; PSNR is absent when the images are identical.
 using Row = std::map<std::string, std::optional<double>>;
@@ -103,11 +118,13 @@ Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io:
           {"psnr", s.psnr},
           {"rmse", s.rmse},
           {"relmse", s.relmse},
+          {"mae", s.mae},
           {"flip_floor", f.scores.flip.mean},
           {"ssim_floor", f.scores.ssim},
           {"psnr_floor", f.scores.psnr},
           {"rmse_floor", f.scores.rmse},
           {"relmse_floor", f.scores.relmse},
+          {"mae_floor", f.scores.mae},
           {"mse_unbiased", u.mse},
           {"relmse_unbiased", u.relmse},
           {"mse_floor", f.mse},
@@ -116,12 +133,30 @@ Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io:
           {"flicker_floor", flicker ? std::optional(flicker->floor) : std::nullopt}};
 }
 
-std::vector<std::string> csv_header() {
+std::vector<std::string> csv_header(const std::vector<std::string>& metrics) {
   std::vector<std::string> header = {"frame", "path_class", "reference"};
-  for (const auto& c : kScoreColumns) header.push_back(c);
-  for (const auto& c : kScoreColumns) header.push_back(c + "_floor");
-  for (const auto& c : kExtraColumns) header.push_back(c);
+  for (const auto& c : kScoreColumns)
+    if (named(metrics, c)) header.push_back(c);
+  for (const auto& c : kScoreColumns)
+    if (named(metrics, c)) header.push_back(c + "_floor");
+  for (const auto& c : kScoreColumns)
+    if (named(metrics, c))
+      for (const auto& u : unbiased_columns(c)) header.push_back(u);
+  header.push_back("flicker");
+  header.push_back("flicker_floor");
   return header;
+}
+
+// A row with only the columns the config's metrics write (to metrics.csv and cell.json's means).
+Row written_columns(const Row& row, const std::vector<std::string>& metrics) {
+  std::vector<std::string> columns = csv_header(metrics);
+  for (const auto& c : kScoreColumns)
+    if (named(metrics, c))
+      for (const auto& m : mean_only_columns(c)) columns.push_back(m);
+  Row out;
+  for (const auto& c : columns)
+    if (auto it = row.find(c); it != row.end()) out[c] = it->second;
+  return out;
 }
 
 std::string csv_value(const std::string& column, const std::optional<double>& v) {
@@ -132,13 +167,13 @@ std::string csv_value(const std::string& column, const std::optional<double>& v)
 
 // Per-class means over the frames of every column of the rows (a column missing from a row, as an
 // identical pair's PSNR, is left out of its mean).
-json class_means(const std::vector<Row>& rows) {
+json class_means(const std::vector<Row>& rows, const std::vector<std::string>& metrics) {
   std::map<std::string, std::pair<double, int>> sums;
   for (const Row& r : rows)
     for (const auto& [k, v] : r)
       if (v) sums[k].first += *v, sums[k].second += 1;
   json out = json::object();
-  for (const auto& c : csv_header()) out[c] = nullptr;
+  for (const auto& c : csv_header(metrics)) out[c] = nullptr;
   out.erase("frame"), out.erase("path_class"), out.erase("reference");
   for (const auto& [k, s] : sums) out[k] = s.first / s.second;
   out["frames"] = rows.size();
@@ -151,7 +186,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
                        const std::vector<uint32_t>& frames, const std::string& path_class,
                        const std::filesystem::path& cell_dir) {
   ScoreResult result;
-  std::vector<std::string> header = csv_header();
+  std::vector<std::string> header = csv_header(config.metrics);
   io::CsvAppender metrics_csv(cell_dir / "metrics.csv", header);
   if (frames.empty()) return result;
 
@@ -194,16 +229,19 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
         const bool full = ref.name == "full";
         auto before = previous.find({ref.name, c});
         const bool consecutive = before != previous.end() && before->second.frame + 1 == f;
-        Row row = score_row(reference, test, full ? &error_map : nullptr,
-                            consecutive ? &before->second : nullptr);
+        const bool flip = named(config.metrics, "flip");
+        Row row = written_columns(score_row(reference, test, full && flip ? &error_map : nullptr,
+                                            consecutive ? &before->second : nullptr),
+                                  config.metrics);
         std::vector<std::string> fields = {std::to_string(f), name, ref.name};
         for (size_t k = 3; k < header.size(); ++k)
           fields.push_back(csv_value(header[k], row[header[k]]));
         metrics_csv.row(fields);
         // The report's images show the full reference only.
         if (full) {
-          io::write_image(cell_dir / "images" / fmt::format("flip_{:04d}_{}.png", f, name),
-                          metrics::magma(error_map));
+          if (flip)
+            io::write_image(cell_dir / "images" / fmt::format("flip_{:04d}_{}.png", f, name),
+                            metrics::magma(error_map));
           io::write_image(cell_dir / "images" / fmt::format("reference_{:04d}_{}.png", f, name),
                           io::display_encode(reference.mean));
         }
@@ -223,7 +261,8 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
   for (const ScoredReference& ref : references) {
     json means = json::object();
     for (trace::PathClass c : classes)
-      means[std::string(trace::path_class_name(c))] = class_means(rows[ref.name][c]);
+      means[std::string(trace::path_class_name(c))] =
+          class_means(rows[ref.name][c], config.metrics);
     if (ref.name == "full") {
       result.means = means;
     } else {

@@ -1,7 +1,10 @@
-// `photonbench list techniques|scenes|devices`: what can be named in a config.
+// `photonbench list techniques|scenes|devices`: what can be named in a config (a technique with its
+// parameters and the counters it emits).
 #include <fmt/format.h>
 
 #include <cstdio>
+#include <set>
+#include <string>
 
 #include "cli/command.h"
 #include "gpu/device_accounting.h"
@@ -32,6 +35,14 @@ void list_techniques(const std::vector<std::string>& plugin_dirs) {
                   pb::run::param_type_name(p).c_str(), pb::run::param_default_text(p).c_str(),
                   range.c_str(), p.doc, p.unit && *p.unit ? " (" : "",
                   p.unit && *p.unit ? (std::string(p.unit) + ")").c_str() : "");
+    }
+    if (d.counter_count > 0) std::printf("  counters:\n");
+    std::set<std::string> listed;  // a counter two parts of a technique declare, once
+    for (uint32_t i = 0; i < d.counter_count; ++i) {
+      const auto& c = d.counters[i];
+      if (!listed.insert(c.name).second) continue;
+      std::printf("  %-32s %-5s %-10s %s\n", c.name, pb::run::counter_kind_text(c.kind).c_str(),
+                  c.unit ? c.unit : "", c.doc ? c.doc : "");
     }
     std::printf("\n");
   }

@@ -82,6 +82,14 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
     if (plugin->loaded()) {
       const pb_technique_descriptor& d = *plugin->descriptor;
       technique["description"] = d.summary ? d.summary : "";
+      // The counters its cells write (counters.csv), an annotation: {name: {kind, unit, doc}}.
+      json counters = json::object();
+      for (uint32_t i = 0; i < d.counter_count; ++i)
+        counters[d.counters[i].name] = {
+            {"kind", pb::run::counter_kind_text(d.counters[i].kind)},
+            {"unit", d.counters[i].unit ? d.counters[i].unit : ""},
+            {"description", d.counters[i].doc ? d.counters[i].doc : ""}};
+      technique["x-counters"] = counters;
       params["properties"] = json::object();
       for (uint32_t i = 0; i < d.param_count; ++i) {
         json value = param_value_schema(d.params[i]);

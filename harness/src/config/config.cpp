@@ -200,7 +200,9 @@ const KeyTable kConfigTable{
       true, nullptr, "scene names or paths, or {scene, params}"},
      {"techniques", list_type(table_type(kTechniqueTable), 1, false), true, nullptr, ""},
      {"metrics", list_type(choice_type({"flip", "ssim", "psnr", "rmse", "mae", "relmse"}), 0, true),
-      false, json::array({"flip", "ssim", "psnr"}), "the image metrics scored"},
+      false, json::array({"flip", "ssim", "psnr", "rmse", "relmse"}),
+      "the image metrics scored and written (metrics.csv, cell.json), each with its noise floor; "
+      "the others are left out"},
      {"reference", table_type(kReferenceTable), false, nullptr, ""},
      {"limits", table_type(kLimitsTable), false, nullptr, ""},
      {"plugin_dirs", list_type(string_type(), 0, true), false, nullptr,

@@ -12,9 +12,9 @@
 namespace pb::gpu {
 
 struct SharedPassOptions {
-  uint32_t shadow_map_size = 512;      // texels per tile side
-  float shadow_relative_bias = 0.01f;  // fraction of the light-space depth
-  float shadow_normal_offset = 0.01f;  // metres along the normal
+  uint32_t shadow_map_size = kDefaultShadowMapSize;  // texels per tile side
+  float shadow_relative_bias = float(kDefaultShadowRelativeBias);
+  float shadow_normal_offset = float(kDefaultShadowNormalOffsetM);
 };
 
 class ScenePasses : public SharedPasses {

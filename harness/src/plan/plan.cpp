@@ -126,6 +126,38 @@ std::vector<ParamMap> with_scene_params(const config::SceneEntry& scene,
   return result;
 }
 
+// Where a parameter of one cell is set: the scene entry's params, else the technique entry's, else
+// (its default) nowhere.
+std::optional<config::YamlView> param_node(const config::SceneEntry& scene,
+                                           const config::TechniqueEntry& entry,
+                                           const std::string& key) {
+  if (scene.node.is_map())
+    if (auto params = scene.node.get("params"))
+      if (auto value = params->get(key)) return value;
+  if (auto params = entry.node.get("params"))
+    if (auto value = params->get(key)) return value;
+  return std::nullopt;
+}
+
+// The descriptor's cross-parameter check of one cell's values, before any work: its error is bad
+// input at the key it names (pb_technique_descriptor::check), with the technique's name.
+void check_together(const pb_technique_descriptor& d, const config::SceneEntry& scene,
+                    const config::TechniqueEntry& entry, const ParamMap& params) {
+  if (!d.check) return;
+  std::vector<pb_param_value> values;
+  values.reserve(params.size());
+  for (const auto& [name, value] : params) values.push_back({name.c_str(), value.c_str()});
+  const char* error = d.check(values.data(), uint32_t(values.size()));
+  if (!error || !*error) return;
+  const std::string message = error;
+  const size_t colon = message.find(": ");
+  if (colon != std::string::npos)
+    if (auto node = param_node(scene, entry, message.substr(0, colon)))
+      node->fail(fmt::format("{} ({})", message.substr(colon + 2), d.name));
+  // The key keeps its default (or the message names none): at the technique entry, key and all.
+  entry.node["technique"].fail(fmt::format("{} ({})", message, d.name));
+}
+
 Cell make_cell(const std::filesystem::path& scene_file, const std::string& technique,
                const ParamMap& params) {
   Cell cell;
@@ -214,7 +246,10 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
             "with technique '{}' the config expands to {} cells or more, more than the {} a run "
             "may have",
             config.techniques[t].technique, cells.size() + scene_combos.size(), kMaxCells));
+      const Plugin* plugin = plugins.find(config.techniques[t].technique);
       for (const ParamMap& params : scene_combos) {
+        if (plugin && plugin->loaded())
+          check_together(*plugin->descriptor, config.scenes[s], config.techniques[t], params);
         Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
         // Equal values (a scene's override of a swept parameter) make one cell.
         if (ids.insert(cell.id).second) cells.push_back(std::move(cell));

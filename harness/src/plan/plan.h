@@ -54,10 +54,12 @@ RunPlan plan_run(const std::filesystem::path& config_file,
 
 // Resolves each scene name, loads the scene (every error in it is bad input, at the config's scene
 // entry) and checks its camera and lights at every frame the run plays, then expands the sweeps,
-// checking each technique and parameter against its plugin's schema. Throws pb::InputError for a
-// scene that is not found or does not load, an unknown technique, a plugin built for another API
-// version, an unknown parameter, a value of the wrong type or range, or more than kMaxCells cells
-// (seeds included: each cell is repeated `seeds` times, its seed indices in order).
+// checking each technique and parameter against its plugin's schema, and each cell's values
+// together against the descriptor's check. Throws pb::InputError for a scene that is not found or
+// does not load, an unknown technique, a plugin built for another API version, an unknown
+// parameter, a value of the wrong type or range, values the technique's check refuses (at the key
+// it names), or more than kMaxCells cells (seeds included: each cell is repeated `seeds` times, its
+// seed indices in order).
 // A plugin that exists but fails to load is not an input error: its cells are returned with an
 // empty parameter map, to fail when they run.
 std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins);

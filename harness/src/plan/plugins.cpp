@@ -75,6 +75,23 @@ std::string known_path_classes() {
   return fmt::format("{}", fmt::join(known, ", "));
 }
 
+// What is wrong with the descriptor's counters ("" when nothing): each named, of a known kind, and
+// a name declared twice declared the same way (two parts of a technique may list one counter).
+std::string counter_problem(const pb_technique_descriptor& d) {
+  if (d.counter_count > 0 && !d.counters) return "declares counters but gives none";
+  std::map<std::string, std::pair<int, std::string>> seen;
+  for (uint32_t i = 0; i < d.counter_count; ++i) {
+    const pb_counter_spec& c = d.counters[i];
+    if (!c.name || !*c.name) return fmt::format("declares counter {} without a name", i);
+    if (c.kind < PB_COUNTER_WORK || c.kind > PB_COUNTER_RATIO)
+      return fmt::format("declares counter '{}' of unknown kind {}", c.name, int(c.kind));
+    auto [it, added] = seen.try_emplace(c.name, int(c.kind), c.unit ? c.unit : "");
+    if (!added && it->second != std::pair<int, std::string>(int(c.kind), c.unit ? c.unit : ""))
+      return fmt::format("declares counter '{}' twice, of different kinds or units", c.name);
+  }
+  return "";
+}
+
 // The boundary checks, in the order the descriptor may be read: its version (the opening every
 // version keeps), then its build record, then its contents. Sets plugin.descriptor when all pass;
 // returns the error otherwise.
@@ -101,6 +118,8 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
   if (!descriptor->name || !descriptor->create || !descriptor->destroy)
     return fmt::format("plugin {} returned a descriptor without a name or factory",
                        plugin.file.string());
+  if (std::string problem = counter_problem(*descriptor); !problem.empty())
+    return fmt::format("plugin {} ('{}') {}", plugin.file.string(), descriptor->name, problem);
   // A class the references do not have would leave the technique scored on `combined` alone.
   if (!trace::reference_class_of(descriptor->path_class ? descriptor->path_class : ""))
     return fmt::format("plugin {} ('{}') declares path class '{}', which is none of: {}",
@@ -170,6 +189,18 @@ const Plugin* PluginRegistry::find(const std::string& name) {
 TechniqueInstance create_technique(const pb_technique_descriptor& descriptor) {
   return TechniqueInstance(static_cast<Technique*>(descriptor.create()),
                            TechniqueDeleter{descriptor.destroy});
+}
+
+std::string counter_kind_text(pb_counter_kind kind) {
+  switch (kind) {
+    case PB_COUNTER_WORK:
+      return "work";
+    case PB_COUNTER_SIZE:
+      return "size";
+    case PB_COUNTER_RATIO:
+      return "ratio";
+  }
+  return "?";
 }
 
 std::string param_type_name(const pb_param_spec& spec) {

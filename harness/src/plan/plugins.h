@@ -60,6 +60,9 @@ TechniqueInstance create_technique(const pb_technique_descriptor& descriptor);
 // difference; empty when they match (pb_build_record says what must match).
 std::string build_mismatch(const pb_build_record& host, const pb_build_record& module);
 
+// A counter's kind as a word: "work", "size", "ratio".
+std::string counter_kind_text(pb_counter_kind kind);
+
 // The type of a parameter spec as a word ("int", "float", "bool", "enum") and its default as text.
 std::string param_type_name(const pb_param_spec& spec);
 std::string param_default_text(const pb_param_spec& spec);

@@ -164,29 +164,21 @@ void ClusterSplat::report(Context& ctx, const PhotonSet&) {
   lists_.report(ctx, "cluster: per-node photon lists", kMaxListEntriesParam.name);
   jobs_.report(ctx, "cluster");
   report_truncated(ctx, "cluster", s[kStatTruncated], budget_);
-  ctx.count({"photons_read", CounterKind::work, "photons"}, wide(kStatRead));
-  ctx.count({"photons_rejected", CounterKind::work, "photons"}, wide(kStatRejected));
-  if (variant_ == kTrivial)
-    ctx.count({"trivial_accepts", CounterKind::work, "nodes"}, double(s[kStatTrivial]));
-  if (variant_ != kPlain)
-    ctx.count({"cone_rejects", CounterKind::work, "nodes"}, double(s[kStatCone]));
+  pb::count(ctx, kPhotonsReadCounter, wide(kStatRead));
+  pb::count(ctx, kPhotonsRejectedCounter, wide(kStatRejected));
+  if (variant_ == kTrivial) pb::count(ctx, kTrivialAcceptsCounter, double(s[kStatTrivial]));
+  if (variant_ != kPlain) pb::count(ctx, kConeRejectsCounter, double(s[kStatCone]));
   uint64_t nodes = 0;
   for (uint32_t l = 0; l < hierarchy_.levels(); ++l) nodes += hierarchy_.occupied(l);
-  ctx.count({"hierarchy_nodes", CounterKind::size, "nodes"}, double(nodes));
-  ctx.count({"hierarchy_leaves", CounterKind::size, "nodes"},
-            double(hierarchy_.occupied(hierarchy_.leaf_level())));
+  pb::count(ctx, kHierarchyNodesCounter, double(nodes));
+  pb::count(ctx, kHierarchyLeavesCounter, double(hierarchy_.occupied(hierarchy_.leaf_level())));
   // Memory per Paper I Table 1 row.
-  ctx.count({"bytes_cluster_hierarchy", CounterKind::size, "bytes"},
-            double(hierarchy_.bytes_hierarchy()));
-  ctx.count({"bytes_final_bounds", CounterKind::size, "bytes"},
-            double(hierarchy_.bytes_final_bounds()));
-  ctx.count({"bytes_normal_cone", CounterKind::size, "bytes"},
-            double(hierarchy_.bytes_normal_cone()));
-  ctx.count({"bytes_accum_flux", CounterKind::size, "bytes"},
-            variant_ == kTrivial ? double(node_flux_.bytes()) : 0.0);
-  ctx.count({"bytes_jobs", CounterKind::size, "bytes"}, double(jobs_.bytes()));
-  ctx.count({"bytes_photon_lists", CounterKind::size, "bytes"},
-            double(lists_.bytes() + scan_.scratch_bytes()));
+  pb::count(ctx, kBytesClusterHierarchyCounter, double(hierarchy_.bytes_hierarchy()));
+  pb::count(ctx, kBytesFinalBoundsCounter, double(hierarchy_.bytes_final_bounds()));
+  pb::count(ctx, kBytesNormalConeCounter, double(hierarchy_.bytes_normal_cone()));
+  pb::count(ctx, kBytesAccumFluxCounter, variant_ == kTrivial ? double(node_flux_.bytes()) : 0.0);
+  pb::count(ctx, kBytesJobsCounter, double(jobs_.bytes()));
+  pb::count(ctx, kBytesPhotonListsCounter, double(lists_.bytes() + scan_.scratch_bytes()));
   profile_.report(ctx);
 }
 

@@ -187,8 +187,9 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
     auto scope = ctx.pass("blur");
     auto cmd = ctx.cmd();
     // The blockiness the blur hides has the size of a stop-level node (Paper I §4.7).
-    int32_t radius =
+    const int32_t radius =
         blur_radius_ >= 0 ? blur_radius_ : int32_t(hierarchy_.node_footprint_px(stop) / 2);
+    blur_taps_ = radius;
     BlurPush push{width_, height_, radius, 0, blur_depth_sigma_, blur_normal_sigma_, 0, 0};
     const gpu::Image* source = &irradiance_;
     if (radius > 0) {
@@ -209,18 +210,17 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
 
 void DirectionalSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
-  ctx.count({"node_deposits", CounterKind::work, "deposits"},
+  pb::count(ctx, kNodeDepositsCounter,
             double(uint64_t(s[kStatDeposits]) | (uint64_t(s[kStatDeposits + 1]) << 32)));
-  ctx.count({"photons_missed", CounterKind::work, "photons"}, double(s[kStatMissed]));
+  pb::count(ctx, kPhotonsMissedCounter, double(s[kStatMissed]));
   jobs_.report(ctx, "directional");
   report_truncated(ctx, "directional", s[kStatTruncated], budget_);
-  ctx.count({"bytes_cluster_hierarchy", CounterKind::size, "bytes"},
-            double(hierarchy_.bytes_hierarchy()));
-  ctx.count({"bytes_final_bounds", CounterKind::size, "bytes"},
-            double(hierarchy_.bytes_final_bounds()));
-  ctx.count({"bytes_accum_flux", CounterKind::size, "bytes"}, double(flux_.bytes()));
-  ctx.count({"bytes_leaf_counts", CounterKind::size, "bytes"}, double(leaf_counts_.size()));
-  ctx.count({"bytes_jobs", CounterKind::size, "bytes"}, double(jobs_.bytes()));
+  pb::count(ctx, kBytesClusterHierarchyCounter, double(hierarchy_.bytes_hierarchy()));
+  pb::count(ctx, kBytesFinalBoundsCounter, double(hierarchy_.bytes_final_bounds()));
+  pb::count(ctx, kBytesAccumFluxCounter, double(flux_.bytes()));
+  pb::count(ctx, kBytesLeafCountsCounter, double(leaf_counts_.size()));
+  pb::count(ctx, kBytesJobsCounter, double(jobs_.bytes()));
+  pb::count(ctx, kBlurRadiusCounter, double(blur_taps_));
   profile_.report(ctx);
 }
 

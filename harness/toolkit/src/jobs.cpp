@@ -70,8 +70,8 @@ void JobQueue::append_bindings(std::vector<gpu::Resource>& resources) const {
 }
 
 void JobQueue::report(Context& ctx, std::string_view who) const {
-  ctx.count({"jobs", CounterKind::work, "jobs"}, double(wanted()));
-  ctx.count({"job_overflows", CounterKind::work, "jobs"}, double(overflows()));
+  pb::count(ctx, kJobsCounter, double(wanted()));
+  pb::count(ctx, kJobOverflowsCounter, double(overflows()));
   if (overflows() > 0)
     ctx.warn(fmt::format(
         "{}: the job list overflowed: the top pass emitted {} jobs, {} = {}; {} dropped (their "

@@ -90,9 +90,9 @@ PhotonLists::Stats PhotonLists::stats() const {
 void PhotonLists::report(Context& ctx, std::string_view who,
                          std::string_view capacity_param) const {
   Stats s = stats();
-  ctx.count({"list_entries", CounterKind::size, "entries"}, double(s.written));
-  ctx.count({"list_overflows", CounterKind::work, "entries"}, double(s.overflows));
-  ctx.count({"list_mismatches", CounterKind::work, "bins"}, double(s.mismatched_bins));
+  pb::count(ctx, kListEntriesCounter, double(s.written));
+  pb::count(ctx, kListOverflowsCounter, double(s.overflows));
+  pb::count(ctx, kListMismatchesCounter, double(s.mismatched_bins));
   if (s.overflows > 0)
     ctx.warn(fmt::format(
         "{} overflowed: {} entries wanted, {} = {}; {} entries dropped (indirect light is "

@@ -30,7 +30,8 @@ trace::TraceSettings PhotonParams::trace_settings() const {
 }
 
 void configure_shadows(Context& ctx, uint32_t map_size) {
-  ctx.shared().configure_shadows(map_size, kShadowRelativeBias, kShadowNormalOffsetM);
+  ctx.shared().configure_shadows(map_size, float(kDefaultShadowRelativeBias),
+                                 float(kDefaultShadowNormalOffsetM));
 }
 
 void check_storage_range(const gpu::Device& gpu, uint64_t bytes, std::string_view what) {
@@ -78,8 +79,7 @@ void render_photon_frame(Context& ctx, const PhotonParams& photon, trace::Photon
   // The counters live on the GPU: wait for the frame's work (flush makes them host-visible).
   ctx.flush();
   splatter.report(ctx, set);
-  ctx.count({"bytes_photons", CounterKind::size, "bytes"},
-            double(uint64_t(set.count()) * sizeof(trace::PhotonRecord)));
+  pb::count(ctx, kBytesPhotonsCounter, double(uint64_t(set.count()) * sizeof(trace::PhotonRecord)));
 }
 
 }  // namespace pb::toolkit

@@ -28,15 +28,20 @@ constexpr uint32_t kModeCount = 0, kModeInsert = 1;
 
 }  // namespace
 
+std::string TiledSplat::check(const Params& params) {
+  const int64_t tile_size = params.integer(kTileSizeParam.name);
+  if (tile_size % 8 != 0)
+    return fmt::format(
+        "{}: {} is not a multiple of 8 (the 8x8 work groups of tile-bounds must lie in one tile)",
+        kTileSizeParam.name, tile_size);
+  return "";
+}
+
 void TiledSplat::setup(Context& ctx, const Params& params, const PhotonParams& photon) {
   radius_ = photon.radius;
   tile_size_ = uint32_t(params.integer(kTileSizeParam.name));
   insert_radius_scale_ = float(params.number(kListCheckHookParam.name));
   const uint32_t capacity = uint32_t(params.integer(kMaxListEntriesParam.name));
-  if (tile_size_ % 8 != 0)
-    throw InputError(
-        "tiled: tile_size = " + std::to_string(tile_size_) +
-        " must be a multiple of 8 (the 8x8 work groups of tile-bounds must lie in one tile)");
   auto& gpu = ctx.gpu();
   check_storage_range(gpu, uint64_t(capacity) * 4,
                       fmt::format("tiled: max_list_entries = {} (4 bytes each)", capacity));
@@ -140,10 +145,10 @@ void TiledSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
   auto wide = [&](uint32_t at) { return double(uint64_t(s[at]) | (uint64_t(s[at + 1]) << 32)); };
   lists_.report(ctx, "tiled: per-tile photon lists", kMaxListEntriesParam.name);
-  ctx.count({"photons_read", CounterKind::work, "photons"}, wide(kStatRead));
-  ctx.count({"photons_rejected", CounterKind::work, "photons"}, wide(kStatRejected));
-  ctx.count({"bytes_tile_bounds", CounterKind::size, "bytes"}, double(bounds_.size()));
-  ctx.count({"bytes_photon_lists", CounterKind::size, "bytes"}, double(lists_.bytes()));
+  pb::count(ctx, kPhotonsReadCounter, wide(kStatRead));
+  pb::count(ctx, kPhotonsRejectedCounter, wide(kStatRejected));
+  pb::count(ctx, kBytesTileBoundsCounter, double(bounds_.size()));
+  pb::count(ctx, kBytesPhotonListsCounter, double(lists_.bytes()));
 }
 
 }  // namespace pb::toolkit

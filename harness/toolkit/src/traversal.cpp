@@ -8,7 +8,7 @@
 namespace pb::toolkit {
 
 void report_truncated(Context& ctx, std::string_view who, uint64_t truncated, uint32_t budget) {
-  ctx.count({"truncated_traversals", CounterKind::work, "traversals"}, double(truncated));
+  pb::count(ctx, kTruncatedTraversalsCounter, double(truncated));
   if (truncated > 0)
     ctx.warn(fmt::format(
         "{}: {} hierarchy traversals ran out of their loop budget ({} steps per invocation, kept "

@@ -27,7 +27,27 @@ class ClusterSplat final : public Splatter {
       "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 25, nullptr, "entries",
       "capacity of all per-node photon lists together; overflowing entries are dropped and "
       "counted (list_overflows)"};
+  static constexpr pb_counter_spec kTrivialAcceptsCounter = {
+      "trivial_accepts", PB_COUNTER_WORK, "nodes", "photon-node flux adds (variant trivial)"};
+  static constexpr pb_counter_spec kConeRejectsCounter = {
+      "cone_rejects", PB_COUNTER_WORK, "nodes",
+      "nodes skipped by the normal-cone test (variants cone, trivial)"};
+  static constexpr pb_counter_spec kHierarchyNodesCounter = {
+      "hierarchy_nodes", PB_COUNTER_SIZE, "nodes", "occupied nodes of every level"};
+  static constexpr pb_counter_spec kHierarchyLeavesCounter = {
+      "hierarchy_leaves", PB_COUNTER_SIZE, "nodes", "occupied leaves"};
+  static constexpr pb_counter_spec kBytesNormalConeCounter = {
+      "bytes_normal_cone", PB_COUNTER_SIZE, "bytes", "the nodes' normal cones"};
   // clang-format on
+  static constexpr auto kCounters = join_counters(
+      kPhotonListsCounters, kJobQueueCounters,
+      std::array{kTruncatedTraversalsCounter, kPhotonsReadCounter, kPhotonsRejectedCounter,
+                 kTrivialAcceptsCounter, kConeRejectsCounter, kHierarchyNodesCounter,
+                 kHierarchyLeavesCounter, kBytesClusterHierarchyCounter, kBytesFinalBoundsCounter,
+                 kBytesNormalConeCounter, kBytesAccumFluxCounter, kBytesPhotonListsCounter},
+      PB_TOOLKIT_PROFILE_COUNTERS("top"), PB_TOOLKIT_PROFILE_COUNTERS("count"),
+      PB_TOOLKIT_PROFILE_COUNTERS("insert"));
+  static std::string check(const Params&) { return ""; }
   enum Variant : uint32_t { kPlain = 0, kCone = 1, kTrivial = 2 };
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;

@@ -50,7 +50,26 @@ class DirectionalSplat final : public Splatter {
       "debug_irradiance", PB_PARAM_ENUM, 0, 0, 1, "photons|normal", "",
       "test hook: normal = irradiance is |world normal| instead of the photon estimate (checks "
       "that the blur keeps surfaces apart)"};
+  static constexpr pb_counter_spec kNodeDepositsCounter = {
+      "node_deposits", PB_COUNTER_WORK, "deposits", "bucket adds (64-bit exact)"};
+  static constexpr pb_counter_spec kPhotonsMissedCounter = {
+      "photons_missed", PB_COUNTER_WORK, "photons",
+      "photons whose sphere met no occupied node: no deposit, no job"};
+  static constexpr pb_counter_spec kBytesLeafCountsCounter = {
+      "bytes_leaf_counts", PB_COUNTER_SIZE, "bytes", "the coverage weights"};
+  // The blur's taps: blur_radius as set, or what -1 (automatic) resolved to. A counter named as a
+  // parameter is its resolved value: the harness records it in cell.json's params_resolved.
+  static constexpr pb_counter_spec kBlurRadiusCounter = {
+      "blur_radius", PB_COUNTER_SIZE, "pixels",
+      "the blur's taps on each side: blur_radius, or what -1 resolved to"};
   // clang-format on
+  static constexpr auto kCounters = join_counters(
+      kJobQueueCounters,
+      std::array{kNodeDepositsCounter, kPhotonsMissedCounter, kTruncatedTraversalsCounter,
+                 kBytesClusterHierarchyCounter, kBytesFinalBoundsCounter, kBytesAccumFluxCounter,
+                 kBytesLeafCountsCounter, kBlurRadiusCounter},
+      PB_TOOLKIT_PROFILE_COUNTERS("top"), PB_TOOLKIT_PROFILE_COUNTERS("deposit"));
+  static std::string check(const Params&) { return ""; }
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
   const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;
@@ -62,7 +81,7 @@ class DirectionalSplat final : public Splatter {
   uint32_t stop_level() const;
 
   float radius_ = 0, blur_depth_sigma_ = 0.02f, blur_normal_sigma_ = 0.2f;
-  int32_t blur_radius_ = -1;
+  int32_t blur_radius_ = -1, blur_taps_ = 0;  // as set (-1: automatic); as resolved
   uint32_t flags_ = 0, top_levels_ = 3, budget_ = PB_LOOP_BUDGET, width_ = 0, height_ = 0;
   bool at_leaves_ = false;
   Hierarchy hierarchy_;

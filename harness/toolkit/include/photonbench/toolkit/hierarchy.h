@@ -61,6 +61,15 @@ inline constexpr pb_param_spec kLayoutParam = {
     "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2"};
 // clang-format on
 
+// The hierarchy's memory, per Paper I Table 1 row (cluster and directional report them).
+// clang-format off
+inline constexpr pb_counter_spec kBytesClusterHierarchyCounter = {
+    "bytes_cluster_hierarchy", PB_COUNTER_SIZE, "bytes", "AABBs, child masks and node keys"};
+inline constexpr pb_counter_spec kBytesFinalBoundsCounter = {
+    "bytes_final_bounds", PB_COUNTER_SIZE, "bytes",
+    "key -> id map, leaf bases, per-pixel leaf keys"};
+// clang-format on
+
 struct LevelSplit {
   uint32_t x = 2, y = 2, z = 8;  // children per node along screen x, screen y and depth
 };

@@ -10,6 +10,7 @@
 //              [consumer pipeline bound] jobs.dispatch_consumers(cmd);
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -35,7 +36,18 @@ inline constexpr pb_param_spec kMaxJobsParam = {
     "max_jobs", PB_PARAM_INT, 1 << 22, 1, 1 << 24, nullptr, "jobs",
     "capacity of the (photon, node) job list of the top pass; overflowing jobs are dropped and "
     "counted (job_overflows)"};
+
+// The counters JobQueue::report emits.
+inline constexpr pb_counter_spec kJobsCounter = {
+    "jobs", PB_COUNTER_WORK, "jobs", "(photon, node) jobs the top pass emitted"};
+inline constexpr pb_counter_spec kJobOverflowsCounter = {
+    "job_overflows", PB_COUNTER_WORK, "jobs",
+    "jobs dropped for want of max_jobs (a warning when non-zero)"};
+inline constexpr pb_counter_spec kBytesJobsCounter = {
+    "bytes_jobs", PB_COUNTER_SIZE, "bytes", "both job lists and the sort's per-node counters"};
 // clang-format on
+inline constexpr std::array kJobQueueCounters = {kJobsCounter, kJobOverflowsCounter,
+                                                 kBytesJobsCounter};
 // Jobs one per-node invocation takes (Paper I's persistent threads loop until the list is empty;
 // a bounded run keeps every invocation under llvmpipe's loop limit).
 inline constexpr uint32_t kJobsPerThread = 16;

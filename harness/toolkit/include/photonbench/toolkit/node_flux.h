@@ -20,6 +20,11 @@
 
 namespace pb::toolkit {
 
+// clang-format off
+inline constexpr pb_counter_spec kBytesAccumFluxCounter = {
+    "bytes_accum_flux", PB_COUNTER_SIZE, "bytes", "the per-node flux sums, low and high words"};
+// clang-format on
+
 class NodeFlux {
  public:
   void setup(gpu::Device& gpu);

@@ -8,6 +8,7 @@
 //   estimate: pb_list_range(bin); after ctx.flush(): lists.report(ctx, ...)
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -29,7 +30,28 @@ inline constexpr pb_param_spec kListCheckHookParam = {
     "debug_insert_radius", PB_PARAM_FLOAT, 1, 0.25, 4, nullptr, "",
     "test hook: the insert run's sphere radius relative to the count run's (1: the same); "
     "anything else makes them disagree, which is counted (list_mismatches) and warned about"};
+
+// The counters PhotonLists::report emits.
+inline constexpr pb_counter_spec kListEntriesCounter = {
+    "list_entries", PB_COUNTER_SIZE, "entries", "list entries written"};
+inline constexpr pb_counter_spec kListOverflowsCounter = {
+    "list_overflows", PB_COUNTER_WORK, "entries",
+    "list entries dropped for want of capacity (a warning when non-zero)"};
+inline constexpr pb_counter_spec kListMismatchesCounter = {
+    "list_mismatches", PB_COUNTER_WORK, "bins",
+    "bins whose count and insert runs disagree (a warning when non-zero)"};
+// The constant-kernel estimate over lists (photon_gather.glsl), and the lists' memory.
+inline constexpr pb_counter_spec kPhotonsReadCounter = {
+    "photons_read", PB_COUNTER_WORK, "photons", "list entries the estimate visited (64-bit exact)"};
+inline constexpr pb_counter_spec kPhotonsRejectedCounter = {
+    "photons_rejected", PB_COUNTER_WORK, "photons",
+    "entries read but outside the sphere or arriving from below the tangent plane"};
+inline constexpr pb_counter_spec kBytesPhotonListsCounter = {
+    "bytes_photon_lists", PB_COUNTER_SIZE, "bytes",
+    "lists, counts, offsets, cursors (and the scan's blocks)"};
 // clang-format on
+inline constexpr std::array kPhotonListsCounters = {kListEntriesCounter, kListOverflowsCounter,
+                                                    kListMismatchesCounter};
 
 class PhotonLists {
  public:

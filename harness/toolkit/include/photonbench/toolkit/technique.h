@@ -14,10 +14,12 @@
 // render() with its own PhotonSet instead.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "photonbench/context.h"
@@ -28,6 +30,8 @@ namespace pb::toolkit {
 
 // ---- Parameter rows every photon technique lists first (defaults chosen for lavapipe; Paper I's
 // values in the docs). `photons` counts light paths, not stored photons (Paper I §5 counts stored).
+// Each shared parameter has one row, here; a technique whose paper needs another default or range
+// lists it through with_range (its README gives the reason).
 // clang-format off
 inline constexpr pb_param_spec kPhotonsParam = {
     "photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
@@ -40,14 +44,54 @@ inline constexpr pb_param_spec kMaxBouncesParam = {
     "max_bounces", PB_PARAM_INT, 4, 2, 31, nullptr, "hits",
     "surface interactions per light path; photons are stored at hits 2 to max_bounces, so full "
     "paths of 2 to max_bounces surface vertices are estimated (Paper I §4.2: four bounces)"};
+// The shared passes' shadow settings (photonbench/context.h holds their defaults).
 inline constexpr pb_param_spec kShadowMapSizeParam = {
-    "shadow_map_size", PB_PARAM_INT, 512, 16, 4096, nullptr, "texels",
+    "shadow_map_size", PB_PARAM_INT, kDefaultShadowMapSize, 16, 4096, nullptr, "texels",
     "shadow-map tile side of the direct light"};
+inline constexpr pb_param_spec kShadowBiasParam = {
+    "shadow_bias", PB_PARAM_FLOAT, kDefaultShadowRelativeBias, 0, 0.2, nullptr, "fraction",
+    "relative depth bias of the shadow test"};
+inline constexpr pb_param_spec kShadowNormalOffsetParam = {
+    "shadow_normal_offset", PB_PARAM_FLOAT, kDefaultShadowNormalOffsetM, 0, 1, nullptr, "m",
+    "receiver offset along its normal before the shadow test"};
 inline constexpr pb_param_spec kStoreFirstHitParam = {
     "store_first_hit", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
     "test hook: also store photons at the first hit (L D), so the estimate includes direct light "
     "(checked against closed-form irradiance); Paper I: false"};
 // clang-format on
+
+// A shared row with a technique's own default, range and doc; its name, type and unit stay the
+// row's, so one name means one thing in every schema (aaps's max_bounces: 8 in [1, 31]).
+constexpr pb_param_spec with_range(pb_param_spec row, double default_value, double min_value,
+                                   double max_value, const char* doc) {
+  row.default_value = default_value;
+  row.min_value = min_value;
+  row.max_value = max_value;
+  row.doc = doc;
+  return row;
+}
+
+// ---- Counters the shared frame of a photon technique emits (render_photon_frame): the
+// "photon-trace" pass's (photonbench/context.h, trace_and_upload_photons) and the upload's size.
+// clang-format off
+inline constexpr pb_counter_spec kPhotonsStoredCounter = {
+    "photons_stored", PB_COUNTER_SIZE, "photons", "photons the tracer stored this frame"};
+inline constexpr pb_counter_spec kBytesPhotonsCounter = {
+    "bytes_photons", PB_COUNTER_SIZE, "bytes", "the uploaded photon records (96 bytes each)"};
+// clang-format on
+
+// The counters of several parts of a technique as one array, for its descriptor (a name listed
+// by two parts, with the same kind and unit, is declared twice: the harness takes it once).
+template <size_t... N>
+constexpr std::array<pb_counter_spec, (N + ...)> join_counters(
+    const std::array<pb_counter_spec, N>&... parts) {
+  std::array<pb_counter_spec, (N + ...)> out{};
+  size_t at = 0;
+  ((std::copy(parts.begin(), parts.end(), out.begin() + at), at += N), ...);
+  return out;
+}
+inline constexpr std::array<pb_counter_spec, 2> kPhotonFrameCounters = {kPhotonsStoredCounter,
+                                                                        kBytesPhotonsCounter};
 
 // The shared rows' values of one cell.
 struct PhotonParams {
@@ -65,8 +109,7 @@ struct PhotonParams {
   trace::TraceSettings trace_settings() const;
 };
 
-// The shared passes' default shadow biases (harness/src/gpu/shared_passes.h), with this map size.
-inline constexpr float kShadowRelativeBias = 0.01f, kShadowNormalOffsetM = 0.01f;
+// The shared passes' default shadow biases (photonbench/context.h), with this map size.
 void configure_shadows(Context& ctx, uint32_t map_size);
 
 // ---- Device limits. Throws InputError when one binding of `bytes` exceeds the device's
@@ -120,6 +163,10 @@ void render_photon_frame(Context& ctx, const PhotonParams& photon, trace::Photon
 template <class S>
 class SplatTechnique final : public Technique {
  public:
+  // The descriptor's counters and check: the shared frame's and the splatter's.
+  static constexpr auto kCounters = join_counters(kPhotonFrameCounters, S::kCounters);
+  static std::string check(const Params& params) { return S::check(params); }
+
   void setup(Context& ctx, const Params& params) override {
     photon_ = PhotonParams::read(params);
     configure_shadows(ctx, photon_.shadow_map_size);

@@ -23,7 +23,15 @@ class TiledSplat final : public Splatter {
       "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 28, nullptr, "entries",
       "capacity of all per-tile lists together (photon indices); overflowing entries are dropped "
       "and counted"};
+  static constexpr pb_counter_spec kBytesTileBoundsCounter = {
+      "bytes_tile_bounds", PB_COUNTER_SIZE, "bytes",
+      "2 floats per tile (Paper I Table 1's Tiles z-Bounds)"};
   // clang-format on
+  static constexpr auto kCounters = join_counters(
+      kPhotonListsCounters, std::array{kPhotonsReadCounter, kPhotonsRejectedCounter,
+                                       kBytesTileBoundsCounter, kBytesPhotonListsCounter});
+  // tile_size a multiple of 8 (the 8x8 work groups of tile-bounds must lie in one tile).
+  static std::string check(const Params& params);
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
   const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;

@@ -5,6 +5,7 @@
 // 1), for finding where a splat pass's time goes.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -36,7 +37,29 @@ inline constexpr pb_param_spec kLoopBudgetParam = {
 
 // Counter "truncated_traversals" (walks that ran out of `budget` steps), with a warning when
 // non-zero; `who` names the technique.
+// clang-format off
+inline constexpr pb_counter_spec kTruncatedTraversalsCounter = {
+    "truncated_traversals", PB_COUNTER_WORK, "traversals",
+    "hierarchy walks cut short by the loop budget (a warning when non-zero)"};
+// clang-format on
 void report_truncated(Context& ctx, std::string_view who, uint64_t truncated, uint32_t budget);
+
+// The counters PassProfile::report emits for one pass (profile: true), in its order.
+#define PB_TOOLKIT_PROFILE_COUNTERS(pass)                                                          \
+  std::array<pb_counter_spec, 5> {                                                                 \
+    {                                                                                              \
+      {"profile_" pass "_steps", PB_COUNTER_WORK, "steps", "loop steps of the " pass " pass"},     \
+          {"profile_" pass "_visits", PB_COUNTER_WORK, "nodes", "nodes the " pass " pass tested"}, \
+          {"profile_" pass "_atomics", PB_COUNTER_WORK, "atomics",                                 \
+           "global atomics the " pass " pass issued"},                                             \
+          {"profile_" pass "_lanes_idle", PB_COUNTER_RATIO, "fraction",                            \
+           "share of SIMD lanes idle over the " pass " pass's loop steps"},                        \
+      {                                                                                            \
+        "profile_" pass "_steps_max", PB_COUNTER_SIZE, "steps",                                    \
+            "the most loop steps one invocation of the " pass " pass took"                         \
+      }                                                                                            \
+    }                                                                                              \
+  }
 
 class PassProfile {
  public:
