@@ -1,16 +1,16 @@
 // AAPS's study scenes (configs/aaps.yaml, issue 25): AAPS splats its caustic photons onto the
-// receiver the G-buffer holds, so its MSAA modes can only be compared where the caustic's receiver is
-// seen directly. Measured on the CPU, over the study's 320x160 camera rays at its measured frames
-// (12-19): the share of pixels whose camera ray first meets a diffuse surface from which the
-// segment towards the light first meets a dielectric (a receiver of L S+ D light, seen directly:
-// E D S+ L). `pool` (camera above the water, under the sun) is the negative control: there the
-// caustic lies under the water and is seen only through it.
+// receiver the G-buffer holds, so its MSAA modes can only be compared where the caustic's
+// receiver is seen directly. Measured on the CPU, over the study's 320x160 camera rays at its
+// measured frames (12-19): the share of pixels whose camera ray first meets a diffuse surface
+// from which the segment towards the light first meets a dielectric (a receiver of L S+ D light,
+// seen directly: E D S+ L). `pool` (camera above the water, under the sun) is the negative
+// control: there the caustic lies under the water and is seen only through it.
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <filesystem>
-#include <utility>
 #include <glm/glm.hpp>
+#include <utility>
 
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
@@ -32,7 +32,8 @@ Shares measure(const std::string& name) {
     state = s.at(frame);
     world.update(state);
     const scene::Camera& camera = state.camera;
-    glm::mat4 inverse = glm::inverse(camera.projection(float(kWidth) / float(kHeight)) * camera.view());
+    glm::mat4 inverse =
+        glm::inverse(camera.projection(float(kWidth) / float(kHeight)) * camera.view());
     for (uint32_t y = 0; y < kHeight; ++y)
       for (uint32_t x = 0; x < kWidth; ++x) {
         ++rays;
@@ -55,14 +56,15 @@ Shares measure(const std::string& name) {
           float tmax = trace::kUnboundedRay;
           if (light.type == scene::LightType::directional) {
             to_light = -light.direction;
-          } else if (light.type == scene::LightType::point || light.type == scene::LightType::spot) {
+          } else if (light.type == scene::LightType::point ||
+                     light.type == scene::LightType::spot) {
             to_light = light.position - hit.position;
             tmax = 1.f;
           } else {
             continue;
           }
           glm::vec3 n = glm::dot(hit.geometric_normal, to_light) > 0 ? hit.geometric_normal
-                                                                      : -hit.geometric_normal;
+                                                                     : -hit.geometric_normal;
           glm::vec3 origin = hit.position + n * trace::EmbreeScene::ray_epsilon(hit.position);
           trace::Hit blocker;
           if (world.intersect(origin, to_light, tmax, blocker) &&
