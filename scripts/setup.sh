@@ -11,6 +11,7 @@ main_packages=(
   libvulkan-dev mesa-vulkan-drivers glslc
   libembree-dev
   libopenimageio-dev libopenexr-dev
+  openimageio-tools  # its CMake package names these tools (iconvert...): find_package fails without
   libyaml-cpp-dev libglm-dev libtbb-dev
   libcli11-dev libfmt-dev libtinyobjloader-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2  # the report
