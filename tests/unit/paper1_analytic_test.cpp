@@ -99,38 +99,42 @@ std::vector<Block> blocks_of(const pb::io::Image& image) {
   return blocks;
 }
 
-fs::path g_dir;
-int g_exit = -1;
-
+// Each test runs the cells it reads, and only those (a test is a process of its own: a run shared
+// by the suite would be run again by each of them).
 class Paper1Analytic : public ::testing::Test {
  public:
-  static void SetUpTestSuite() {
-    g_dir = work_dir("analytic", "plane");
-    std::ofstream(g_dir / "point-over-plane.yaml") << kScene;
-    std::string common = "photons: 200000, radius: 0.05, max_bounces: 2, store_first_hit: true";
-    std::string yaml =
-        "name: paper1-analytic\nresolution: [128, 128]\nseed: 1\nscenes: [" +
-        (g_dir / "point-over-plane.yaml").string() +
-        "]\nframes: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [psnr]\n"
-        "limits: {cell_seconds: 300}\nreference: {samples: 2, cache_dir: " +
-        (g_dir / "refs").string() + "}\ntechniques:\n" + "  - {technique: tiled, params: {" +
-        common + "}}\n" + "  - {technique: cluster, params: {" + common +
-        ", variant: [plain, cone, trivial]}}\n" + "  - {technique: cluster, params: {" + common +
-        ", variant: trivial, layout: deep}}\n" + "  - {technique: directional, params: {" + common +
-        ", weighting: [clip, cos2], blur_radius: 0}}\n" + "  - {technique: directional, params: {" +
-        common + ", weighting: clip, blur_radius: 0, layout: deep}}\n" +
-        "  - {technique: directional, params: {" + common +
-        ", weighting: clip, blur_radius: 0, deposit: paper}}\n";
-    g_exit = run_config(g_dir, yaml);
+  void TearDown() override {
+    if (!HasFailure() && !dir_.empty()) fs::remove_all(dir_);
   }
-  static void TearDownTestSuite() {
-    if (!::testing::Test::HasFailure()) fs::remove_all(g_dir);
+
+  // Runs the point light over the plane at 128 x 128 through these technique entries (YAML list
+  // items after "- "), each with the shared photon settings; false (and a failure) if it failed.
+  bool run(const std::vector<std::string>& entries) {
+    dir_ = work_dir("analytic", ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::ofstream(dir_ / "point-over-plane.yaml") << kScene;
+    const std::string common =
+        "photons: 200000, radius: 0.05, max_bounces: 2, store_first_hit: true";
+    std::string yaml = "name: paper1-analytic\nresolution: [128, 128]\nseed: 1\nscenes: [" +
+                       (dir_ / "point-over-plane.yaml").string() +
+                       "]\nframes: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [psnr]\n"
+                       "limits: {cell_seconds: 300}\nreference: {samples: 2, cache_dir: " +
+                       (dir_ / "refs").string() + "}\ntechniques:\n";
+    for (const std::string& entry : entries) {
+      // "technique" or "technique, extra: params": the photon settings go first.
+      size_t comma = entry.find(',');
+      std::string technique = entry.substr(0, comma);
+      std::string extra = comma == std::string::npos ? "" : entry.substr(comma);
+      yaml += "  - {technique: " + technique + ", params: {" + common + extra + "}}\n";
+    }
+    int exit_code = run_config(dir_, yaml);
+    EXPECT_EQ(exit_code, 0) << "see " << (dir_ / "log.txt");
+    return exit_code == 0;
   }
 
   // The technique's indirect image (its estimate alone) of the cell with these parameters.
-  static std::vector<Block> blocks(const std::string& technique,
-                                   const std::map<std::string, std::string>& params) {
-    fs::path cell = find_cell(g_dir, technique, params);
+  std::vector<Block> blocks(const std::string& technique,
+                            const std::map<std::string, std::string>& params) const {
+    fs::path cell = find_cell(dir_, technique, params);
     EXPECT_FALSE(cell.empty()) << technique;
     if (cell.empty()) return {};
     auto record = read_json(cell / "cell.json");
@@ -162,15 +166,19 @@ class Paper1Analytic : public ::testing::Test {
         "deviations off\n",
         what.c_str(), ratio, tolerance, photons, worst);
   }
+
+ private:
+  fs::path dir_;  // this test's run
 };
 
 TEST_F(Paper1Analytic, TiledIrradianceIsTheDiskMean) {
-  ASSERT_EQ(g_exit, 0) << "see " << (g_dir / "log.txt");
+  ASSERT_TRUE(run({"tiled"}));
   expect_matches(blocks("tiled", {}), 1.0, "tiled");
 }
 
 TEST_F(Paper1Analytic, ClusterIrradianceIsTheDiskMean) {
-  ASSERT_EQ(g_exit, 0) << "see " << (g_dir / "log.txt");
+  ASSERT_TRUE(
+      run({"cluster, variant: [plain, cone, trivial]", "cluster, variant: trivial, layout: deep"}));
   for (const char* variant : {"plain", "cone", "trivial"})
     expect_matches(blocks("cluster", {{"variant", variant}, {"layout", "default"}}), 1.0,
                    std::string("cluster ") + variant);
@@ -179,7 +187,8 @@ TEST_F(Paper1Analytic, ClusterIrradianceIsTheDiskMean) {
 }
 
 TEST_F(Paper1Analytic, DirectionalIrradianceIsTheNodeMean) {
-  ASSERT_EQ(g_exit, 0) << "see " << (g_dir / "log.txt");
+  ASSERT_TRUE(run({"directional, weighting: [clip, cos2], blur_radius: 0",
+                   "directional, weighting: clip, blur_radius: 0, layout: deep"}));
   expect_matches(blocks("directional",
                         {{"weighting", "clip"}, {"layout", "default"}, {"deposit", "coverage"}}),
                  1.0, "directional clip");
@@ -190,7 +199,7 @@ TEST_F(Paper1Analytic, DirectionalIrradianceIsTheNodeMean) {
 }
 
 TEST_F(Paper1Analytic, DirectionalPaperDepositOverestimates) {
-  ASSERT_EQ(g_exit, 0) << "see " << (g_dir / "log.txt");
+  ASSERT_TRUE(run({"directional, weighting: clip, blur_radius: 0, deposit: paper"}));
   auto bs = blocks("directional", {{"deposit", "paper"}});
   ASSERT_FALSE(bs.empty());
   double measured = 0, expected = 0;
