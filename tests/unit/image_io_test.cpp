@@ -1,6 +1,7 @@
 // Images written by photonbench read back as written: EXR bit for bit (the float scanline files
 // that io/image_codec.cpp reads as stored), PNG to the 8-bit step.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
@@ -8,8 +9,6 @@
 #include <filesystem>
 #include <limits>
 #include <string>
-
-#include <unistd.h>
 
 #include "io/image.h"
 
