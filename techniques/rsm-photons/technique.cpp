@@ -258,7 +258,7 @@ class RsmPhotons final : public pb::Technique {
     desc.name = "rsm-photons.splat";
     desc.vertex_spirv = krsm_splat_vert_spv;
     desc.fragment_spirv = krsm_splat_frag_spv;
-    desc.bindings = {Binding::storage_buffer, Binding::storage_image};
+    desc.bindings = {Binding::storage_buffer, Binding::storage_image, Binding::storage_image};
     desc.push_bytes = sizeof(SplatPush);
     desc.vertex_stride = sizeof(ProxyVertex);
     desc.vertex_attributes = {kFloat4, kFloat4};
@@ -499,7 +499,7 @@ class RsmPhotons final : public pb::Technique {
       SplatPush push{f.camera.view_projection, glm::vec4(f.camera.position, 1.f),
                      glm::uvec4(width_, height_, scale_, 0)};
       const pb::GBuffer g = ctx.shared().gbuffer_images();
-      splat_.bind(cmd, {&kernel_buffer_, g.position}, push);
+      splat_.bind(cmd, {&kernel_buffer_, g.position, g.normal}, push);
       cmd.bindVertexBuffers(0, proxy_.handle(), vk::DeviceSize(0));
       cmd.draw(proxy_vertices_, uint32_t(kernels_.size()), 0, 0);
     }
