@@ -129,6 +129,17 @@ class HaarPyramid {
     glm::vec2 uv{0.f};   // the point in [0,1)^2 of the whole map
     float density = 0;   // its pdf over [0,1)^2: P(texel) / mean(P)
   };
+  // Which side of [0, 1) split at p the coordinate u falls on (0: below p), and u rescaled to
+  // [0, 1) within that side.
+  static uint32_t split(float& u, float p) {
+    if (u < p) {
+      u /= p;
+      return 0;
+    }
+    u = (u - p) / (1 - p);
+    return 1;
+  }
+
   // §5.3.2: from the coarsest quad to the finest, the point is warped first horizontally (left or
   // right column by the columns' sums), then vertically (top or bottom child within the column),
   // and rescaled into the chosen child. Measure-preserving: uniform points come out distributed
@@ -142,22 +153,9 @@ class HaarPyramid {
       const float c = fine[(2 * y + 1) * s + 2 * x], d = fine[(2 * y + 1) * s + 2 * x + 1];
       const float total = a + b + c + d;
       const float left = total > 0 ? (a + c) / total : 0.5f;
-      uint32_t col = 0;
-      if (u.x < left) {
-        u.x = u.x / left;
-      } else {
-        u.x = (u.x - left) / (1 - left);
-        col = 1;
-      }
+      const uint32_t col = split(u.x, left);
       const float top_sum = col == 0 ? a : b, column = col == 0 ? a + c : b + d;
-      const float top = column > 0 ? top_sum / column : 0.5f;
-      uint32_t row = 0;
-      if (u.y < top) {
-        u.y = u.y / top;
-      } else {
-        u.y = (u.y - top) / (1 - top);
-        row = 1;
-      }
+      const uint32_t row = split(u.y, column > 0 ? top_sum / column : 0.5f);
       u = glm::clamp(u, glm::vec2(0.f), glm::vec2(0x1.fffffep-1f));
       x = 2 * x + col, y = 2 * y + row;
     }
