@@ -1,0 +1,658 @@
+// rsm-photons: real-time global illumination with photon mapping (seed 000, the thesis behind Ray
+// Tracing Gems ch. 24): photons emitted from a reflective shadow map (RSM) by importance sampling,
+// traced one bounce on, splatted in screen space as ellipsoid kernels and filtered in time and
+// space. Per frame, in the groups of the thesis's Fig. 1.2:
+//   rsm           each light's RSM over its emission domain (first hits of a net of rays: depth,
+//                 reflectance, normal, incident power), its probability map (Eq. 4.9's survival
+//                 times the falloff, zero outside the photon near/far range) and its 2D Haar
+//                 transform; the map becomes the light's emission density;
+//   photon-trace  the CPU tracer emits the budget (shared by power) from the maps, Russian
+//                 roulette at each hit, the first hit not stored; photons kept inside the camera
+//                 frustum and facing it, counted per screen tile; one ellipsoid kernel each;
+//   estimate      the kernels splatted (instanced proxies, additive blending) at reduced
+//                 resolution into irradiance and mean light direction;
+//   filters       temporal (alpha = alpha_max w_z w_n) and edge-avoiding a-trous with variance-
+//                 clipped details, each switchable;
+//   gi-shade      E albedo / pi (with the mean-direction term of Eq. 7.10 when asked), to shade().
+// Fails where photon mapping fails: weak or wide lights get few photons (§8.3's moonlight), and a
+// light that sees nothing of the view spends its budget unseen. README.md gives the parameters,
+// every constant the thesis leaves open and each deviation (the RSM is ray cast, not rasterised;
+// the filters run on the CPU; the tracer, not the wavelet warping, draws the photons).
+#include "photonbench/toolkit/technique.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <glm/glm.hpp>
+#include <string>
+#include <vector>
+
+#include "photonbench/error.h"
+#include "photonbench/plugin.h"
+#include "photonbench/scene_layout.h"
+#include "rsm-photons_shaders.h"
+#include "rsm_core.h"
+
+namespace {
+
+using pb::gpu::Binding;
+
+// clang-format off
+const pb_param_spec kParams[] = {
+    pb::toolkit::with_range(pb::toolkit::kPhotonsParam, 100000, 1, 5e7,
+                            "photons emitted per frame from the probability maps, shared among "
+                            "lights by power (the thesis: 1 M at 1080p; kept small for lavapipe)"),
+    pb::toolkit::with_range(pb::toolkit::kMaxBouncesParam, 2, 2, 16,
+                            "surface interactions per photon path; photons are stored at hits 2 "
+                            "to max_bounces (the thesis's one bounce, §8: max_bounces 2)"),
+    {"rsm_resolution", PB_PARAM_INT, 64, 2, 1024, nullptr, "texels",
+     "side of each light's RSM and probability map over its emission domain, a power of two (the "
+     "Haar transform halves it; unspecified in the thesis)"},
+    {"photon_near", PB_PARAM_FLOAT, 0, 0, 1e6, nullptr, "m",
+     "photon near plane: probability 0 for RSM texels closer to the light (§5.2, Fig. 5.3)"},
+    {"photon_far", PB_PARAM_FLOAT, 1000, 0, 1e6, nullptr, "m",
+     "photon far plane: probability 0 for RSM texels farther from the light (§5.2)"},
+    {"sampler", PB_PARAM_ENUM, 0, 0, 1, "wavelet|tracer", "",
+     "wavelet: photons start at Hammersley points warped through the map's Haar pyramid (§5.3); "
+     "tracer: the tracer's own sampling of the same map (CDF inversion of Sobol points)"},
+    {"first_hit_roulette", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+     "sampler tracer: Russian roulette (Eq. 4.9) at the first hit too, as the thesis runs it on "
+     "its sampling points (§5.3.3, p applied twice); false: the map's survival factor alone"},
+    {"tile_size", PB_PARAM_INT, 16, 1, 512, nullptr, "px",
+     "side of the screen tiles whose photon counts size the kernels (§6.1.1; unspecified)"},
+    {"n_tile", PB_PARAM_FLOAT, 3.2, 0.01, 100, nullptr, "",
+     "n_tile of Eq. 6.2, the kernel radius multiplier (§8: 1.25 Sponza, 1.7 Conference room; "
+     "3.2: kernels cover each point about n_tile^2 s_l^2 / 4 times, README)"},
+    {"kernel_min_radius", PB_PARAM_FLOAT, 0.005, 0, 100, nullptr, "m",
+     "r_min of Eq. 6.2, the density radius's lower clamp (unspecified)"},
+    {"kernel_max_radius", PB_PARAM_FLOAT, 0.25, 1e-4, 100, nullptr, "m",
+     "r_max of Eq. 6.2, its upper clamp (unspecified)"},
+    {"ray_length_max", PB_PARAM_FLOAT, 1, 1e-3, 1e4, nullptr, "m",
+     "l_max of Eq. 6.1: a ray this long gets the full kernel, shorter ones down to 0.1 of it "
+     "(unspecified; about the scene's size)"},
+    {"kernel_compress", PB_PARAM_FLOAT, 0.25, 1e-3, 1, nullptr, "",
+     "s_n: the kernel's half-length along the normal over its tangent radius (unspecified)"},
+    {"kernel_max_stretch", PB_PARAM_FLOAT, 5, 1, 100, nullptr, "",
+     "s_max of Eq. 6.3: the largest stretch along the projected light direction (unspecified)"},
+    {"splat_scale", PB_PARAM_ENUM, 1, 0, 2, "full|half|quarter", "",
+     "resolution of the splat targets (§6.2.1: half; quarter had precision issues)"},
+    {"temporal", PB_PARAM_BOOL, 1, 0, 1, nullptr, "", "the temporal filter (§7.2)"},
+    {"temporal_alpha", PB_PARAM_FLOAT, 0.95, 0, 1, nullptr, "",
+     "alpha_max of Eq. 7.4 (the thesis's value)"},
+    {"spatial", PB_PARAM_BOOL, 1, 0, 1, nullptr, "", "the a-trous spatial filter (§7.3)"},
+    {"spatial_iterations", PB_PARAM_INT, 4, 1, 8, nullptr, "iterations",
+     "a-trous iterations, taps 2^i apart (the thesis's F-iter: 4)"},
+    {"detail_clip", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
+     "keep each iteration's detail clipped to +-gamma sigma (§7.3.1); false: S_N alone"},
+    {"detail_gamma", PB_PARAM_FLOAT, 0.05, 0, 100, nullptr, "",
+     "gamma of the detail clip (§8: 0.05 Conference room, 0.04 Sponza)"},
+    {"sigma_z", PB_PARAM_FLOAT, 1, 0, 1000, nullptr, "", "sigma_z of w_z (§7.1: 1)"},
+    {"sigma_n", PB_PARAM_FLOAT, 32, 0, 1000, nullptr, "", "sigma_n of w_n (§7.1: 32)"},
+    {"depth_epsilon", PB_PARAM_FLOAT, 0.01, 1e-6, 1, nullptr, "fraction",
+     "epsilon of w_z as a fraction of the pixel's depth (unspecified; the temporal tolerance)"},
+    {"direction_term", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+     "shade with the filtered mean light direction (Eq. 7.10: its cosine with the shading normal "
+     "over that with the geometric one); off: Eq. 7.9"},
+    {"direction_max_scale", PB_PARAM_FLOAT, 4, 1, 1000, nullptr, "",
+     "sl_max of Eq. 7.10 (unspecified)"},
+    pb::toolkit::kShadowMapSizeParam,
+};
+
+constexpr pb_counter_spec kSamplingPoints{"sampling_points", PB_COUNTER_WORK, "paths",
+                                          "photon paths started from the probability maps"};
+constexpr pb_counter_spec kSurvivors{"sampling_points_survived", PB_COUNTER_WORK, "paths",
+                                     "paths that left their first hit (roulette, Fig. 5.1)"};
+constexpr pb_counter_spec kRsmTexels{"rsm_texels_active", PB_COUNTER_SIZE, "texels",
+                                     "RSM texels of non-zero probability, all lights"};
+constexpr pb_counter_spec kCulled{"photons_culled", PB_COUNTER_WORK, "photons",
+                                  "stored photons outside the camera frustum or facing away"};
+constexpr pb_counter_spec kSplats{"splats", PB_COUNTER_WORK, "splats", "kernels drawn"};
+constexpr pb_counter_spec kTileMax{"tile_photons_max", PB_COUNTER_SIZE, "photons",
+                                   "photons of the fullest screen tile (n_p of Eq. 6.2)"};
+constexpr pb_counter_spec kTileMean{"tile_photons_mean", PB_COUNTER_SIZE, "photons",
+                                    "photons per screen tile that holds any"};
+constexpr pb_counter_spec kTilesEmpty{"tiles_empty", PB_COUNTER_RATIO, "tiles",
+                                      "share of the screen tiles without a photon"};
+constexpr pb_counter_spec kBytesGpu{"bytes_gpu", PB_COUNTER_SIZE, "bytes",
+                                    "the technique's GPU buffers and images"};
+constexpr pb_counter_spec kBytesHost{"bytes_host", PB_COUNTER_SIZE, "bytes",
+                                     "photons, kept paths, RSMs, maps, filter history (host)"};
+// clang-format on
+constexpr pb_counter_spec kCounters[] = {
+    kSamplingPoints, kSurvivors, pb::toolkit::kPhotonsStoredCounter,
+    kRsmTexels,      kCulled,    kSplats,
+    kTileMax,        kTileMean,  kTilesEmpty,
+    kBytesGpu,       kBytesHost};
+
+// The splat proxy: an octahedron circumscribing the unit sphere (vertices at +-sqrt(3) on the
+// axes: its faces are 1 from the centre), 8 faces of 3 vertices, each with its face's outward
+// normal. The thesis draws an icosahedron (60 vertices, circumscribing at 1.26); on lavapipe the
+// splat is bound by vertex work, and 24 vertices cost less than the larger proxy's extra fragments,
+// which the face test discards first.
+struct ProxyVertex {
+  glm::vec4 position, face_normal;
+};
+std::vector<ProxyVertex> proxy_mesh() {
+  const float r = std::sqrt(3.f);
+  std::vector<ProxyVertex> out;
+  for (int face = 0; face < 8; ++face) {
+    const glm::vec3 s{face & 1 ? -1.f : 1.f, face & 2 ? -1.f : 1.f, face & 4 ? -1.f : 1.f};
+    const glm::vec3 corners[3] = {{s.x * r, 0, 0}, {0, s.y * r, 0}, {0, 0, s.z * r}};
+    const glm::vec3 n = glm::normalize(s);
+    for (const glm::vec3& c : corners) out.push_back({glm::vec4(c, 1.f), glm::vec4(n, 0.f)});
+  }
+  return out;
+}
+
+struct SplatPush {
+  glm::mat4 view_projection;
+  glm::vec4 camera;
+  glm::uvec4 size;
+};
+
+class RsmPhotons final : public pb::Technique {
+ public:
+  static std::string check(const pb::Params& params) {
+    const int64_t side = params.integer("rsm_resolution");
+    if (side & (side - 1))
+      return fmt::format("rsm_resolution: {} is not a power of two (the Haar transform halves it)",
+                         side);
+    const double near_m = params.number("photon_near"), far_m = params.number("photon_far");
+    if (far_m <= near_m)
+      return fmt::format("photon_far: {} is not beyond photon_near = {}", far_m, near_m);
+    if (params.flag("first_hit_roulette") && params.choice("sampler") == "wavelet")
+      return "first_hit_roulette: true needs sampler: tracer (the warped points are re-emitted "
+             "from the RSM pass's paths, which play no roulette at their first hit)";
+    const double low = params.number("kernel_min_radius"),
+                 high = params.number("kernel_max_radius");
+    if (high < low)
+      return fmt::format("kernel_max_radius: {} is below kernel_min_radius = {}", high, low);
+    return "";
+  }
+
+  void setup(pb::Context& ctx, const pb::Params& params) override {
+    side_ = uint32_t(params.integer("rsm_resolution"));
+    photon_near_ = float(params.number("photon_near"));
+    photon_far_ = float(params.number("photon_far"));
+    tile_ = uint32_t(params.integer("tile_size"));
+    kernel_.n_tile = float(params.number("n_tile"));
+    kernel_.r_min = float(params.number("kernel_min_radius"));
+    kernel_.r_max = float(params.number("kernel_max_radius"));
+    kernel_.l_max = float(params.number("ray_length_max"));
+    kernel_.s_n = float(params.number("kernel_compress"));
+    kernel_.s_max = float(params.number("kernel_max_stretch"));
+    const std::string& scale = params.choice("splat_scale");
+    scale_ = scale == "full" ? 1 : scale == "half" ? 2 : 4;
+    temporal_ = params.flag("temporal");
+    spatial_ = params.flag("spatial");
+    filter_.alpha_max = float(params.number("temporal_alpha"));
+    filter_.iterations = int(params.integer("spatial_iterations"));
+    filter_.detail_clip = params.flag("detail_clip");
+    filter_.gamma = float(params.number("detail_gamma"));
+    filter_.sigma_z = float(params.number("sigma_z"));
+    filter_.sigma_n = float(params.number("sigma_n"));
+    filter_.epsilon = float(params.number("depth_epsilon"));
+    shade_.direction_term = params.flag("direction_term");
+    shade_.sl_max = float(params.number("direction_max_scale"));
+    pb::toolkit::configure_shadows(ctx, uint32_t(params.integer("shadow_map_size")));
+
+    // The RSM pass: one ray per texel of each light's emission domain (an Owen-scrambled Sobol net
+    // of side^2 points has one point in each texel), kept whole so that its first hit can be read
+    // (the incident power on vertex 0, what leaves the first hit on vertex 1: their ratio is the
+    // reflectance); no roulette at the first hit, so every texel's reflectance is seen. With the
+    // wavelet sampler its paths are then re-emitted from the warped points (photon-trace), so it
+    // traces with the photons' settings.
+    wavelet_ = params.choice("sampler") == "wavelet";
+    rsm_settings_.max_bounces = uint32_t(params.integer("max_bounces"));
+    rsm_settings_.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
+    rsm_settings_.rr_start = 1;
+    rsm_settings_.keep_paths = true;
+    rsm_settings_.seed = 0x52534d;
+    rsm_settings_.seed_per_frame = true;
+    // The photons: the first hit not stored (the photon map holds indirect bounces only, Fig. 4.1),
+    // kept whole for each photon's ray length (Eq. 6.1).
+    trace_.paths = uint32_t(params.integer("photons"));
+    trace_.max_bounces = uint32_t(params.integer("max_bounces"));
+    trace_.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
+    trace_.rr_start = params.flag("first_hit_roulette") ? 0 : 1;
+    trace_.keep_paths = true;
+    trace_.seed = 1;
+    trace_.seed_per_frame = true;
+
+    pb::gpu::Device& gpu = ctx.gpu();
+    width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
+    small_width_ = (width_ + scale_ - 1) / scale_, small_height_ = (height_ + scale_ - 1) / scale_;
+    using Usage = vk::ImageUsageFlagBits;
+    constexpr vk::Format kFloat4 = vk::Format::eR32G32B32A32Sfloat;
+    const vk::Extent2D small{small_width_, small_height_};
+    accumulation_ = gpu.create_image("rsm-photons.accumulation", small, kFloat4,
+                                     Usage::eColorAttachment | Usage::eStorage);
+    direction_ = gpu.create_image("rsm-photons.direction", small, kFloat4,
+                                  Usage::eColorAttachment | Usage::eStorage);
+    radiance_ =
+        gpu.create_image("rsm-photons.radiance", {width_, height_}, kFloat4, Usage::eStorage);
+    auto host = [&](const char* name, uint64_t texels) {
+      return gpu.create_buffer(name, texels * sizeof(glm::vec4),
+                               vk::BufferUsageFlagBits::eStorageBuffer,
+                               pb::gpu::Memory::host_visible);
+    };
+    const uint64_t pixels = uint64_t(width_) * height_,
+                   small_pixels = uint64_t(small.width) * small.height;
+    read_position_ = host("rsm-photons.read_position", pixels);
+    read_normal_ = host("rsm-photons.read_normal", pixels);
+    read_albedo_ = host("rsm-photons.read_albedo", pixels);
+    read_accumulation_ = host("rsm-photons.read_accumulation", small_pixels);
+    read_direction_ = host("rsm-photons.read_direction", small_pixels);
+    write_radiance_ = host("rsm-photons.write_radiance", pixels);
+    const std::vector<ProxyVertex> proxy = proxy_mesh();
+    proxy_vertices_ = uint32_t(proxy.size());
+    proxy_ =
+        gpu.create_buffer("rsm-photons.proxy", proxy.size() * sizeof(ProxyVertex),
+                          vk::BufferUsageFlagBits::eVertexBuffer, pb::gpu::Memory::host_visible);
+    std::memcpy(proxy_.mapped(), proxy.data(), proxy.size() * sizeof(ProxyVertex));
+
+    pb::gpu::GraphicsPipelineDesc desc;
+    desc.name = "rsm-photons.splat";
+    desc.vertex_spirv = krsm_splat_vert_spv;
+    desc.fragment_spirv = krsm_splat_frag_spv;
+    desc.bindings = {Binding::storage_buffer, Binding::storage_image, Binding::storage_image};
+    desc.push_bytes = sizeof(SplatPush);
+    desc.vertex_stride = sizeof(ProxyVertex);
+    desc.vertex_attributes = {kFloat4, kFloat4};
+    desc.color_formats = {kFloat4, kFloat4};
+    desc.additive_blend = {true, true};
+    splat_ = gpu.create_graphics_pipeline(desc);
+    readback_ = gpu.create_compute_pipeline("rsm-photons.readback", krsm_readback_comp_spv,
+                                            {Binding::storage_image, Binding::storage_buffer},
+                                            2 * sizeof(uint32_t));
+    upload_ = gpu.create_compute_pipeline("rsm-photons.upload", krsm_upload_comp_spv,
+                                          {Binding::storage_buffer, Binding::storage_image},
+                                          2 * sizeof(uint32_t));
+    lights_.resize(ctx.photon_tracer().light_count());
+  }
+
+  void render(pb::Context& ctx) override {
+    ctx.shared().gbuffer();
+    ctx.shared().direct_light();
+    const pb::FrameInfo& f = ctx.frame();
+    {
+      auto scope = ctx.pass("rsm");
+      build_rsm(ctx);
+    }
+    {
+      auto scope = ctx.pass("photon-trace");
+      trace_photons(ctx, f);
+      build_kernels(ctx, f);
+    }
+    {
+      auto scope = ctx.pass("estimate");
+      splat(ctx, f);
+      ctx.flush();
+    }
+    {
+      auto scope = ctx.pass("filters");
+      filter(ctx, f);
+    }
+    {
+      auto scope = ctx.pass("gi-shade");
+      shade(ctx);
+    }
+    ctx.shared().shade(&radiance_);
+    count(ctx);
+  }
+
+ private:
+  struct LightMap {
+    std::vector<rsm::RsmTexel> texels;
+    std::vector<float> probability;
+    rsm::HaarPyramid pyramid;
+    pb::trace::EmissionDensity density;
+    bool active = false;  // some texel has a non-zero probability
+  };
+
+  // ---- rsm: the RSM of every light, its probability map and Haar transform (§5.1-5.3)
+  void build_rsm(pb::Context& ctx) {
+    pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
+    const uint32_t n_lights = uint32_t(lights_.size());
+    {
+      auto scope = ctx.pass("cast");
+      for (uint32_t l = 0; l < n_lights; ++l) tracer.set_emission_density(l, nullptr);
+      rsm_settings_.paths = side_ * side_ * std::max(1u, n_lights);
+      tracer.trace(rsm_settings_, rsm_batch_);
+      for (LightMap& m : lights_) m.texels.assign(size_t(side_) * side_, rsm::RsmTexel{});
+      const auto& paths = rsm_batch_.paths;
+      for (const pb::trace::LightPath& path : paths.paths) {
+        if (path.light >= n_lights || path.vertex_count == 0) continue;
+        const glm::vec2 uv = glm::clamp(path.emission_uv, glm::vec2(0.f), glm::vec2(0.99999f));
+        const uint32_t x = uint32_t(uv.x * float(side_)), y = uint32_t(uv.y * float(side_));
+        rsm::RsmTexel& t = lights_[path.light].texels[size_t(y) * side_ + x];
+        if (t.sampled) continue;  // one ray per texel (a second one where lights share the net)
+        t.sampled = true;
+        const pb::trace::PathVertex& v0 = paths.vertices[path.first_vertex];
+        t.incident = v0.power;
+        if (path.vertex_count < 2) continue;  // the ray left the scene
+        const pb::trace::PathVertex& v1 = paths.vertices[path.first_vertex + 1];
+        if (v1.object == ~0u) continue;
+        t.hit = true;
+        t.position = v1.position;
+        t.normal = v1.normal;
+        t.distance = glm::distance(v0.position, v1.position);
+        t.reflectance = glm::vec3(v0.power.x > 0 ? v1.power.x / v0.power.x : 0.f,
+                                  v0.power.y > 0 ? v1.power.y / v0.power.y : 0.f,
+                                  v0.power.z > 0 ? v1.power.z / v0.power.z : 0.f);
+      }
+    }
+    {
+      auto scope = ctx.pass("probability");
+      active_texels_ = 0;
+      for (uint32_t l = 0; l < n_lights; ++l) {
+        LightMap& m = lights_[l];
+        m.probability = rsm::probability_map(m.texels, photon_near_, photon_far_);
+        m.pyramid.build(m.probability, side_);
+        m.active = m.pyramid.mean() > 0;
+        for (float p : m.probability) active_texels_ += p > 0 ? 1 : 0;
+        m.density.width = m.density.height = int(side_);
+        m.density.texels = m.probability;
+        // A light whose map is zero everywhere (it sees nothing within the near/far range) emits
+        // uniformly: a density must not be all zero.
+        tracer.set_emission_density(l, m.active ? &m.density : nullptr);
+        if (!m.active)
+          ctx.warn(
+              fmt::format("rsm-photons: light {} has no RSM texel within the photon near/far "
+                          "range; it emits uniformly",
+                          l));
+      }
+    }
+  }
+
+  // ---- photon-trace: the photons, from the warped points or by the tracer's own sampling
+  void trace_photons(pb::Context& ctx, const pb::FrameInfo& f) {
+    pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
+    photons_.clear();
+    ray_lengths_.clear();
+    survivors_ = 0;
+    emitted_ = 0;
+    if (!wavelet_) {
+      tracer.trace(trace_, batch_);
+      collect(batch_, 1.f);
+      emitted_ = batch_.stats.paths;
+      return;
+    }
+    // §5.3.2: each light's share of the budget as an n-point Hammersley set, shifted each frame,
+    // warped through its map's pyramid. The points start the RSM pass's paths again (their
+    // `kRefill` restart, photons.h: a path emitted from a given emission sample, its power divided
+    // by the light's density there, which is the map's P / P0, §5.3.3), round after round, one
+    // round per RSM ray count; each round is a whole estimate, so its photons carry 1 / rounds.
+    const std::vector<uint32_t>& per_light = rsm_batch_.paths.paths_per_light;
+    uint64_t per_round = 0;
+    for (uint32_t m : per_light) per_round += m;
+    if (per_round == 0) return;
+    const uint32_t rounds =
+        uint32_t(std::max<uint64_t>(1, (trace_.paths + per_round / 2) / per_round));
+    const glm::vec2 shift = rsm::hammersley(f.index % 61u, 61u);
+    pb::trace::ReuseSettings exact;
+    for (uint32_t round = 0; round < rounds; ++round) {
+      tracer.verify_paths(rsm_settings_, exact, rsm_batch_);
+      std::vector<uint32_t> index(lights_.size(), 0);
+      for (pb::trace::LightPath& path : rsm_batch_.paths.paths) {
+        const uint32_t l = path.light;
+        const uint32_t n = per_light[l] * rounds, i = round * per_light[l] + index[l]++;
+        const glm::vec2 u = rsm::hammersley(i, n, shift);
+        path.emission_uv = lights_[l].active ? lights_[l].pyramid.warp(u).uv : u;
+        // A surface emitter's direction (cosine-distributed from this point): the next
+        // Hammersley dimensions would be correlated with the position, so a hash of the index.
+        const uint32_t h = (i + 1) * 0x9e3779b9u ^ (f.index * 0x85ebca6bu);
+        path.emission_dir =
+            glm::vec2(float(h >> 8) * 0x1p-24f, float((h * 0x27d4eb2du) >> 8) * 0x1p-24f);
+        path.restart = pb::trace::LightPath::kRefill;
+      }
+      tracer.retrace_marked(rsm_settings_, rsm_batch_);
+      collect(rsm_batch_, 1.f / float(rounds));
+      emitted_ += per_round;
+    }
+  }
+
+  // The photons of one trace and each one's ray length (from its previous vertex, Eq. 6.1).
+  void collect(const pb::trace::PhotonBatch& batch, float power_scale) {
+    const auto& paths = batch.paths;
+    for (const pb::trace::LightPath& path : paths.paths) survivors_ += path.vertex_count > 2;
+    for (pb::trace::PhotonRecord p : batch.photons) {
+      float length = kernel_.l_max;
+      if (p.path < paths.paths.size()) {
+        const pb::trace::LightPath& path = paths.paths[p.path];
+        if (p.bounce < path.vertex_count)
+          length = glm::distance(p.position, paths.vertices[path.first_vertex + p.bounce].position);
+      }
+      p.power *= power_scale;
+      photons_.push_back(p);
+      ray_lengths_.push_back(length);
+    }
+  }
+
+  // ---- photon-trace: frustum and facing culls, tile densities, one kernel per photon (§4.3, §6.1)
+  void build_kernels(pb::Context& ctx, const pb::FrameInfo& f) {
+    auto scope = ctx.pass("kernels");
+    const glm::mat4& vp = f.camera.view_projection;
+    const uint32_t tiles_x = (width_ + tile_ - 1) / tile_, tiles_y = (height_ + tile_ - 1) / tile_;
+    tile_counts_.assign(size_t(tiles_x) * tiles_y, 0);
+    photon_tile_.assign(photons_.size(), ~0u);
+    culled_ = 0;
+    for (size_t i = 0; i < photons_.size(); ++i) {
+      const pb::trace::PhotonRecord& p = photons_[i];
+      const glm::vec4 c = vp * glm::vec4(p.position, 1.f);
+      const bool in_frustum = c.w > 0 && std::abs(c.x) <= c.w && std::abs(c.y) <= c.w;
+      const bool facing = glm::dot(p.normal, f.camera.position - p.position) > 0;
+      if (!in_frustum || !facing) {
+        ++culled_;
+        continue;
+      }
+      const float sx = (c.x / c.w * 0.5f + 0.5f) * float(width_);
+      const float sy = (c.y / c.w * 0.5f + 0.5f) * float(height_);
+      const uint32_t tx = std::min(uint32_t(sx) / tile_, tiles_x - 1);
+      const uint32_t ty = std::min(uint32_t(sy) / tile_, tiles_y - 1);
+      photon_tile_[i] = ty * tiles_x + tx;
+      ++tile_counts_[photon_tile_[i]];
+    }
+    const float c_tile = rsm::tile_constant(f.camera.fov_y, width_, height_, tile_);
+    kernels_.clear();
+    for (size_t i = 0; i < photons_.size(); ++i) {
+      if (photon_tile_[i] == ~0u) continue;
+      const pb::trace::PhotonRecord& p = photons_[i];
+      const float ray_length = ray_lengths_[i];
+      const float z_view = -(f.camera.view * glm::vec4(p.position, 1.f)).z;
+      kernels_.push_back(rsm::make_kernel(p.position, p.normal, p.direction, p.power, ray_length,
+                                          z_view, tile_counts_[photon_tile_[i]], c_tile, kernel_));
+    }
+    const uint64_t bytes = std::max<uint64_t>(1, kernels_.size()) * sizeof(rsm::Kernel);
+    if (kernel_buffer_.size() < bytes)
+      kernel_buffer_ = ctx.gpu().create_buffer("rsm-photons.kernels", bytes * 3 / 2,
+                                               vk::BufferUsageFlagBits::eStorageBuffer,
+                                               pb::gpu::Memory::host_visible);
+    if (!kernels_.empty())
+      std::memcpy(kernel_buffer_.mapped(), kernels_.data(), kernels_.size() * sizeof(rsm::Kernel));
+  }
+
+  // ---- estimate: the kernels splatted into the accumulation targets (§6.2), read back
+  void splat(pb::Context& ctx, const pb::FrameInfo& f) {
+    vk::CommandBuffer cmd = ctx.cmd();
+    const vk::ClearColorValue zero(std::array<float, 4>{0, 0, 0, 0});
+    auto attachment = [&](const pb::gpu::Image& image) {
+      return vk::RenderingAttachmentInfo{image.view(),
+                                         vk::ImageLayout::eGeneral,
+                                         {},
+                                         {},
+                                         {},
+                                         vk::AttachmentLoadOp::eClear,
+                                         vk::AttachmentStoreOp::eStore,
+                                         zero};
+    };
+    const std::array<vk::RenderingAttachmentInfo, 2> colors{attachment(accumulation_),
+                                                            attachment(direction_)};
+    const vk::Rect2D area{{0, 0}, {small_width_, small_height_}};
+    ctx.gpu().begin_rendering(cmd, vk::RenderingInfo{{}, area, 1, 0, colors});
+    if (!kernels_.empty()) {
+      cmd.setViewport(0, vk::Viewport{0, 0, float(small_width_), float(small_height_), 0, 1});
+      cmd.setScissor(0, area);
+      SplatPush push{f.camera.view_projection, glm::vec4(f.camera.position, 1.f),
+                     glm::uvec4(width_, height_, scale_, 0)};
+      const pb::GBuffer g = ctx.shared().gbuffer_images();
+      splat_.bind(cmd, {&kernel_buffer_, g.position, g.normal}, push);
+      cmd.bindVertexBuffers(0, proxy_.handle(), vk::DeviceSize(0));
+      cmd.draw(proxy_vertices_, uint32_t(kernels_.size()), 0, 0);
+    }
+    ctx.gpu().end_rendering(cmd);
+    pb::gpu::full_barrier(cmd);
+    read_back(cmd, accumulation_, read_accumulation_, small_width_, small_height_);
+    read_back(cmd, direction_, read_direction_, small_width_, small_height_);
+  }
+
+  void read_back(vk::CommandBuffer cmd, const pb::gpu::Image& image, const pb::gpu::Buffer& buffer,
+                 uint32_t width, uint32_t height) {
+    uint32_t push[2] = {width, height};
+    readback_.bind(cmd, {&image, &buffer}, push, sizeof(push));
+    cmd.dispatch(pb::gpu::groups_for(width, 8), pb::gpu::groups_for(height, 8), 1);
+    pb::gpu::full_barrier(cmd);
+  }
+
+  // ---- filters: upsampling, temporal, a-trous (§6.2.1, §7.2-7.3), on the host
+  void filter(pb::Context& ctx, const pb::FrameInfo& f) {
+    {
+      auto scope = ctx.pass("readback");
+      const pb::GBuffer g = ctx.shared().gbuffer_images();
+      vk::CommandBuffer cmd = ctx.cmd();
+      read_back(cmd, *g.position, read_position_, width_, height_);
+      read_back(cmd, *g.normal, read_normal_, width_, height_);
+      read_back(cmd, *g.albedo, read_albedo_, width_, height_);
+      ctx.flush();
+      const size_t n = size_t(width_) * height_;
+      geometry_.width = int(width_), geometry_.height = int(height_);
+      const glm::vec4* position = static_cast<const glm::vec4*>(read_position_.mapped());
+      const glm::vec4* normal = static_cast<const glm::vec4*>(read_normal_.mapped());
+      geometry_.position.assign(position, position + n);
+      geometry_.normal.assign(normal, normal + n);
+      const size_t small = size_t(small_width_) * small_height_;
+      const glm::vec4* acc = static_cast<const glm::vec4*>(read_accumulation_.mapped());
+      const glm::vec4* dir = static_cast<const glm::vec4*>(read_direction_.mapped());
+      std::vector<glm::vec3> e(small), d(small);
+      for (size_t i = 0; i < small; ++i) {
+        e[i] = glm::vec3(acc[i]);
+        d[i] = glm::vec3(acc[i].w, dir[i].x, dir[i].y);
+      }
+      irradiance_ = rsm::upsample(e, int(small_width_), int(small_height_), int(width_),
+                                  int(height_), int(scale_));
+      light_dir_ = rsm::upsample(d, int(small_width_), int(small_height_), int(width_),
+                                 int(height_), int(scale_));
+    }
+    if (temporal_) {
+      auto scope = ctx.pass("temporal");
+      rsm::temporal(geometry_, history_, filter_, irradiance_, light_dir_);
+      history_.valid = true;
+      history_.geometry = geometry_;
+      history_.view_projection = f.camera.view_projection;
+      history_.camera = f.camera.position;
+      history_.irradiance = irradiance_;
+      history_.direction = light_dir_;
+    }
+    if (spatial_) {
+      auto scope = ctx.pass("spatial");
+      rsm::atrous(geometry_, filter_, irradiance_, light_dir_);
+    }
+  }
+
+  // ---- gi-shade: indirect radiance of diffuse receivers (§7.4), uploaded for shade()
+  void shade(pb::Context& ctx) {
+    const glm::vec4* albedo = static_cast<const glm::vec4*>(read_albedo_.mapped());
+    glm::vec4* out = static_cast<glm::vec4*>(write_radiance_.mapped());
+    for (int y = 0; y < int(height_); ++y)
+      for (int x = 0; x < int(width_); ++x) {
+        const size_t i = size_t(y) * width_ + x;
+        const int type = int(albedo[i].w);
+        const bool lit =
+            geometry_.valid(x, y) && (type == PB_MATERIAL_DIFFUSE || type == PB_MATERIAL_EMISSIVE);
+        glm::vec3 l(0.f);
+        if (lit) {
+          const glm::vec3 ns = geometry_.normal_at(x, y);
+          const glm::vec3 ng = shade_.direction_term ? rsm::geometric_normal(geometry_, x, y) : ns;
+          l = rsm::shade(irradiance_[i], glm::vec3(albedo[i]), light_dir_[i], ns, ng, shade_);
+        }
+        out[i] = glm::vec4(l, 1.f);
+      }
+    vk::CommandBuffer cmd = ctx.cmd();
+    uint32_t push[2] = {width_, height_};
+    upload_.bind(cmd, {&write_radiance_, &radiance_}, push, sizeof(push));
+    cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
+    pb::gpu::full_barrier(cmd);
+  }
+
+  void count(pb::Context& ctx) {
+    pb::count(ctx, kSamplingPoints, double(emitted_));
+    pb::count(ctx, kSurvivors, double(survivors_));
+    pb::count(ctx, pb::toolkit::kPhotonsStoredCounter, double(photons_.size()));
+    pb::count(ctx, kRsmTexels, double(active_texels_));
+    pb::count(ctx, kCulled, double(culled_));
+    pb::count(ctx, kSplats, double(kernels_.size()));
+    uint32_t most = 0;
+    uint64_t total = 0, filled = 0;
+    for (uint32_t c : tile_counts_) {
+      most = std::max(most, c);
+      total += c;
+      filled += c > 0;
+    }
+    pb::count(ctx, kTileMax, double(most));
+    pb::count(ctx, kTileMean, filled > 0 ? double(total) / double(filled) : 0.0);
+    pb::count(ctx, kTilesEmpty,
+              tile_counts_.empty() ? 0.0 : 1.0 - double(filled) / double(tile_counts_.size()));
+    const uint64_t gpu = accumulation_.bytes() + direction_.bytes() + radiance_.bytes() +
+                         read_position_.size() + read_normal_.size() + read_albedo_.size() +
+                         read_accumulation_.size() + read_direction_.size() +
+                         write_radiance_.size() + proxy_.size() + kernel_buffer_.size();
+    pb::count(ctx, kBytesGpu, double(gpu));
+    auto vec_bytes = [](const auto& v) { return uint64_t(v.capacity() * sizeof(v[0])); };
+    uint64_t host = vec_bytes(photons_) + vec_bytes(ray_lengths_) + vec_bytes(batch_.photons) +
+                    vec_bytes(batch_.paths.paths) + vec_bytes(batch_.paths.vertices) +
+                    vec_bytes(rsm_batch_.photons) + vec_bytes(rsm_batch_.paths.paths) +
+                    vec_bytes(rsm_batch_.paths.vertices) + vec_bytes(kernels_) +
+                    vec_bytes(geometry_.position) + vec_bytes(geometry_.normal) +
+                    vec_bytes(irradiance_) + vec_bytes(light_dir_) +
+                    vec_bytes(history_.geometry.position) + vec_bytes(history_.geometry.normal) +
+                    vec_bytes(history_.irradiance) + vec_bytes(history_.direction);
+    for (const LightMap& m : lights_) host += vec_bytes(m.texels) + 2 * vec_bytes(m.probability);
+    pb::count(ctx, kBytesHost, double(host));
+  }
+
+  uint32_t side_ = 64, tile_ = 16, scale_ = 2;
+  uint32_t width_ = 0, height_ = 0, small_width_ = 0, small_height_ = 0;
+  float photon_near_ = 0, photon_far_ = 1000;
+  rsm::KernelParams kernel_;
+  rsm::FilterParams filter_;
+  rsm::ShadeParams shade_;
+  bool temporal_ = true, spatial_ = true;
+  pb::trace::TraceSettings rsm_settings_, trace_;
+  pb::trace::PhotonBatch rsm_batch_, batch_;
+  std::vector<LightMap> lights_;
+  std::vector<uint32_t> tile_counts_, photon_tile_;
+  std::vector<rsm::Kernel> kernels_;
+  std::vector<pb::trace::PhotonRecord> photons_;
+  std::vector<float> ray_lengths_;
+  uint64_t culled_ = 0, survivors_ = 0, active_texels_ = 0, emitted_ = 0;
+  bool wavelet_ = true;
+  rsm::Geometry geometry_;
+  rsm::History history_;
+  std::vector<glm::vec3> irradiance_, light_dir_;
+  pb::gpu::Image accumulation_, direction_, radiance_;
+  pb::gpu::Buffer read_position_, read_normal_, read_albedo_, read_accumulation_, read_direction_,
+      write_radiance_, proxy_, kernel_buffer_;
+  uint32_t proxy_vertices_ = 0;
+  pb::gpu::Pipeline splat_, readback_, upload_;
+};
+
+}  // namespace
+
+PB_EXPORT_TECHNIQUE(RsmPhotons, "rsm-photons", "indirect",
+                    "reflective-shadow-map photons (seed 000): RSM probability maps, one bounce "
+                    "traced, ellipsoid kernels splatted at half resolution, temporal and a-trous "
+                    "filters",
+                    kParams, .counters = kCounters, .check = &RsmPhotons::check)
