@@ -134,8 +134,10 @@ void KnnGrid::build(vk::CommandBuffer cmd, pb::gpu::Device& gpu, const pb::gpu::
   args[kArgsCountWord] = photon_count_;
 
   const KnnPush p = push();
+  // The build kernels never touch the debug binding: stats_ stands in, so that a debug gather
+  // recorded after this build may replace debug_ without leaving this recording a freed buffer.
   const std::vector<pb::gpu::Resource> list = {&photons, &items_, &sorted_, &cells_,
-                                               &compact_, &stats_, &debug_};
+                                               &compact_, &stats_, &stats_};
   cmd.fillBuffer(cells_.handle(), 0, uint64_t(layout_.cells()) * 8, 0u);
   cmd.fillBuffer(stats_.handle(), KNN_STAT_OCCUPIED * 4, 4, 0u);
   pb::gpu::full_barrier(cmd);

@@ -166,7 +166,11 @@ class Knn final : public pb::Technique {
   }
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    photon_ = PhotonParams::read(params);
+    // The toolkit's rows but `radius` (PhotonParams::read reads it; the bandwidth here is k's).
+    photon_.paths = uint32_t(params.integer(kPhotonsParam.name));
+    photon_.max_bounces = uint32_t(params.integer(kMaxBouncesParam.name));
+    photon_.shadow_map_size = uint32_t(params.integer(kShadowMapSizeParam.name));
+    photon_.store_first_hit = params.flag(kStoreFirstHitParam.name);
     configure_shadows(ctx, photon_.shadow_map_size);
     settings_.k = uint32_t(params.integer(kKParam.name));
     settings_.r_max = float(params.number(kRMaxParam.name));
