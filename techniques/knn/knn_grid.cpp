@@ -51,10 +51,9 @@ GridLayout plan_grid(std::span<const pb::trace::PhotonRecord> records, const Set
   }
   if (records.empty()) lo = hi = glm::vec3(0.0f);
   const glm::vec3 extent = hi - lo;
-  float cell = settings.cell_size > 0
-                   ? settings.cell_size
-                   : automatic_cell_size(extent, uint32_t(records.size()), settings.k,
-                                         settings.r_max);
+  float cell = settings.cell_size > 0 ? settings.cell_size
+                                      : automatic_cell_size(extent, uint32_t(records.size()),
+                                                            settings.k, settings.r_max);
   cell = std::max(cell, 1e-6f);
   GridLayout layout;
   for (;;) {
@@ -87,10 +86,10 @@ void KnnGrid::setup(pb::gpu::Device& gpu, const Settings& settings) {
   std::vector<Binding> build(kBuildBindings, Binding::storage_buffer);
   std::vector<Binding> gather = build;
   gather.insert(gather.end(), 4, Binding::storage_image);
-  keys_pipeline_ = gpu.create_compute_pipeline("build/keys", kknn_keys_comp_spv, build,
-                                               sizeof(KnnPush));
-  ranges_pipeline_ = gpu.create_compute_pipeline("build/ranges", kknn_ranges_comp_spv, build,
-                                                 sizeof(KnnPush));
+  keys_pipeline_ =
+      gpu.create_compute_pipeline("build/keys", kknn_keys_comp_spv, build, sizeof(KnnPush));
+  ranges_pipeline_ =
+      gpu.create_compute_pipeline("build/ranges", kknn_ranges_comp_spv, build, sizeof(KnnPush));
   gather_pipeline_ =
       gpu.create_compute_pipeline("gather", kknn_gather_comp_spv, gather, sizeof(KnnPush));
 }
@@ -136,7 +135,7 @@ void KnnGrid::build(vk::CommandBuffer cmd, pb::gpu::Device& gpu, const pb::gpu::
   const KnnPush p = push();
   // The build kernels never touch the debug binding: stats_ stands in, so that a debug gather
   // recorded after this build may replace debug_ without leaving this recording a freed buffer.
-  const std::vector<pb::gpu::Resource> list = {&photons, &items_, &sorted_, &cells_,
+  const std::vector<pb::gpu::Resource> list = {&photons,  &items_, &sorted_, &cells_,
                                                &compact_, &stats_, &stats_};
   cmd.fillBuffer(cells_.handle(), 0, uint64_t(layout_.cells()) * 8, 0u);
   cmd.fillBuffer(stats_.handle(), KNN_STAT_OCCUPIED * 4, 4, 0u);
@@ -160,7 +159,7 @@ void KnnGrid::gather(vk::CommandBuffer cmd, pb::gpu::Device& gpu, const pb::GBuf
     p.debug_stride = 2 + settings_.k;
     grow(gpu, debug_, "knn/debug", uint64_t(width) * height * p.debug_stride * 4);
   }
-  std::vector<pb::gpu::Resource> list = {photons_, &items_, &sorted_, &cells_,
+  std::vector<pb::gpu::Resource> list = {photons_,  &items_, &sorted_, &cells_,
                                          &compact_, &stats_, &debug_};
   const auto g = pb::toolkit::gbuffer_resources(gbuffer);
   list.insert(list.end(), g.begin(), g.end());

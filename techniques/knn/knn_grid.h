@@ -26,8 +26,8 @@ namespace knn {
 // The query's settings (the parameters of README.md's table).
 struct Settings {
   uint32_t k = 50;
-  float r_max = 0.25f;      // m
-  float cell_size = 0.0f;   // m; 0: automatic (plan_grid)
+  float r_max = 0.25f;     // m
+  float cell_size = 0.0f;  // m; 0: automatic (plan_grid)
   uint32_t kernel = KNN_KERNEL_UNIFORM;
   uint32_t sparse = KNN_SPARSE_RMAX;
   float bin_width = 0.05f;  // m, the radius histogram's

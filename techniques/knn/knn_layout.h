@@ -15,7 +15,8 @@ using uint = uint32_t;
 #endif
 
 // The largest k a query keeps (its max-heap is an array of this many entries per invocation). 512
-// covers seed 003's largest k_PM (511, its Wall scene, Table 2); the schema's range of `k` ends here.
+// covers seed 003's largest k_PM (511, its Wall scene, Table 2); the schema's range of `k` ends
+// here.
 #define KNN_MAX_K 512u
 
 // Bins of the radius histogram: seed 003 Table 3's, 20 bins of equal width (0.05 there) and one
@@ -24,15 +25,15 @@ using uint = uint32_t;
 
 // Words of the statistics buffer (host-visible, read after the frame). 64-bit counters take two
 // words (low, high: PB_ADD64).
-#define KNN_STAT_VISITED 0u      // photons whose distance a query computed (64-bit)
-#define KNN_STAT_CELLS 2u        // grid cells a query opened (64-bit)
-#define KNN_STAT_FOUND 4u        // sum over queries of the photons found (<= k each) (64-bit)
-#define KNN_STAT_QUERIES 6u      // lit view samples queried
-#define KNN_STAT_SHORT 7u        // queries that found fewer than k photons within r_max
-#define KNN_STAT_TRUNCATED 8u    // queries cut short by the loop budget
-#define KNN_STAT_HISTOGRAM 10u   // KNN_RADIUS_BINS words: queries per radius bin
-#define KNN_STAT_QUERY_WORDS 31u // the words above, cleared before each gather
-#define KNN_STAT_OCCUPIED 31u    // grid cells holding at least one photon (cleared by the build)
+#define KNN_STAT_VISITED 0u       // photons whose distance a query computed (64-bit)
+#define KNN_STAT_CELLS 2u         // grid cells a query opened (64-bit)
+#define KNN_STAT_FOUND 4u         // sum over queries of the photons found (<= k each) (64-bit)
+#define KNN_STAT_QUERIES 6u       // lit view samples queried
+#define KNN_STAT_SHORT 7u         // queries that found fewer than k photons within r_max
+#define KNN_STAT_TRUNCATED 8u     // queries cut short by the loop budget
+#define KNN_STAT_HISTOGRAM 10u    // KNN_RADIUS_BINS words: queries per radius bin
+#define KNN_STAT_QUERY_WORDS 31u  // the words above, cleared before each gather
+#define KNN_STAT_OCCUPIED 31u     // grid cells holding at least one photon (cleared by the build)
 #define KNN_STAT_WORDS 32u
 
 // Modes of the gather's push block.
@@ -43,8 +44,8 @@ using uint = uint32_t;
 
 // The grid and the query settings, one push block for every kernel (96 bytes).
 struct KnnPush {
-  vec3 origin;  // grid corner (the photons' bounds, less half a cell), m
-  float cell;   // cell side, m
+  vec3 origin;    // grid corner (the photons' bounds, less half a cell), m
+  float cell;     // cell side, m
   vec3 grid_max;  // the grid's far corner, m
   uint photon_count;
   uint dims_x, dims_y, dims_z, cell_count;

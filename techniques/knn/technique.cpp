@@ -16,6 +16,8 @@
 // (nothing checks that the scene is static); fewer than k photons within r_max (dark corners, small
 // r_max) give a noisy estimate over the disc of radius r_max; the sphere gathers photons of nearby
 // surfaces (corners, thin walls lit from behind are rejected only by the direction test).
+#include "photonbench/toolkit/technique.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -25,7 +27,6 @@
 
 #include "knn_grid.h"
 #include "photonbench/plugin.h"
-#include "photonbench/toolkit/technique.h"
 #include "photonbench/toolkit/traversal.h"
 
 namespace {
@@ -70,8 +71,8 @@ constexpr pb_param_spec kQueryBudgetParam = with_range(
 // clang-format on
 
 const pb_param_spec kParams[] = {
-    kPhotonsParam,     kKParam,           kRMaxParam,          kRebuildParam,
-    kCellSizeParam,    kKernelParam,      kSparseRadiusParam,  kFreshPhotonsParam,
+    kPhotonsParam,        kKParam,          kRMaxParam,          kRebuildParam,
+    kCellSizeParam,       kKernelParam,     kSparseRadiusParam,  kFreshPhotonsParam,
     kRadiusBinWidthParam, kMaxBouncesParam, kShadowMapSizeParam, kStoreFirstHitParam,
     kQueryBudgetParam,
 };
@@ -83,11 +84,13 @@ constexpr pb_counter_spec kGridCells = {
 constexpr pb_counter_spec kGridCellsOccupied = {
     "grid_cells_occupied", PB_COUNTER_SIZE, "cells", "grid cells holding at least one photon"};
 constexpr pb_counter_spec kCellSize = {
-    "cell_size", PB_COUNTER_SIZE, "m", "the grid's cell side as resolved (cell_size: 0 is automatic)"};
+    "cell_size", PB_COUNTER_SIZE, "m",
+    "the grid's cell side as resolved (cell_size: 0 is automatic)"};
 constexpr pb_counter_spec kGridBuilds = {
     "grid_builds", PB_COUNTER_WORK, "builds", "grids built in this frame (rebuild: static: 0)"};
 constexpr pb_counter_spec kSetupBuilds = {
-    "setup_builds", PB_COUNTER_SIZE, "builds", "grids built in setup, outside the frames (static: 1)"};
+    "setup_builds", PB_COUNTER_SIZE, "builds",
+    "grids built in setup, outside the frames (static: 1)"};
 constexpr pb_counter_spec kSetupTraceMs = {
     "setup_trace_ms", PB_COUNTER_SIZE, "ms",
     "static: wall time of setup's photon trace and upload (outside the frames; 0 otherwise)"};
@@ -175,9 +178,8 @@ class Knn final : public pb::Technique {
     settings_.k = uint32_t(params.integer(kKParam.name));
     settings_.r_max = float(params.number(kRMaxParam.name));
     settings_.cell_size = float(params.number(kCellSizeParam.name));
-    settings_.kernel = params.choice(kKernelParam.name) == "epanechnikov"
-                           ? KNN_KERNEL_EPANECHNIKOV
-                           : KNN_KERNEL_UNIFORM;
+    settings_.kernel = params.choice(kKernelParam.name) == "epanechnikov" ? KNN_KERNEL_EPANECHNIKOV
+                                                                          : KNN_KERNEL_UNIFORM;
     settings_.sparse = params.choice(kSparseRadiusParam.name) == "farthest" ? KNN_SPARSE_FARTHEST
                                                                             : KNN_SPARSE_RMAX;
     settings_.bin_width = float(params.number(kRadiusBinWidthParam.name));
@@ -218,13 +220,13 @@ class Knn final : public pb::Technique {
     ctx.shared().gbuffer();
     ctx.shared().direct_light();
     if (indirect_.extent().width != frame.width || indirect_.extent().height != frame.height)
-      indirect_ = ctx.gpu().create_image("knn/indirect", {frame.width, frame.height},
-                                         vk::Format::eR32G32B32A32Sfloat,
-                                         vk::ImageUsageFlagBits::eStorage);
+      indirect_ =
+          ctx.gpu().create_image("knn/indirect", {frame.width, frame.height},
+                                 vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage);
     {
       auto scope = ctx.pass("gather");
-      grid_.gather(ctx.cmd(), ctx.gpu(), ctx.shared().gbuffer_images(), frame.width,
-                   frame.height, indirect_);
+      grid_.gather(ctx.cmd(), ctx.gpu(), ctx.shared().gbuffer_images(), frame.width, frame.height,
+                   indirect_);
     }
     pb::gpu::full_barrier(ctx.cmd());
     ctx.shared().shade(&indirect_);

@@ -84,7 +84,7 @@ TEST_P(KnnGridSearch, FindsTheBruteForceNearestPhotons) {
       normal[q * 4 + a] = n[a];
       albedo[q * 4 + a] = 0.5f + 0.1f * a;
     }
-    position[q * 4 + 3] = 1.0f;                  // distance to the camera: not background
+    position[q * 4 + 3] = 1.0f;  // distance to the camera: not background
     albedo[q * 4 + 3] = float(PB_MATERIAL_DIFFUSE);
   }
   TestGBuffer::upload(gpu, gbuffer.position, position);
@@ -159,8 +159,8 @@ TEST_P(KnnGridSearch, FindsTheBruteForceNearestPhotons) {
       double flux = 0;
       for (uint32_t j = 0; j < m; ++j) {
         const auto& p = photons[candidates[j].second];
-        double w = c.kernel == KNN_KERNEL_EPANECHNIKOV ? 2.0 * (1.0 - candidates[j].first / r2)
-                                                       : 1.0;
+        double w =
+            c.kernel == KNN_KERNEL_EPANECHNIKOV ? 2.0 * (1.0 - candidates[j].first / r2) : 1.0;
         flux += p.power[ch] * w;
       }
       double expected_l = albedo[q * 4 + ch] / kPi * flux / (kPi * r2);
@@ -177,8 +177,8 @@ TEST_P(KnnGridSearch, FindsTheBruteForceNearestPhotons) {
   EXPECT_GT(stats.occupied, 0u);
   EXPECT_LE(stats.occupied, grid.layout().cells());
   std::printf("%s: %u queries short of k, %.0f photons visited per query, %u cells\n",
-              ::testing::PrintToString(c).c_str(), short_queries,
-              double(stats.visited) / (kW * kH), grid.layout().cells());
+              ::testing::PrintToString(c).c_str(), short_queries, double(stats.visited) / (kW * kH),
+              grid.layout().cells());
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -193,8 +193,8 @@ INSTANTIATE_TEST_SUITE_P(
 fs::path work_dir(const std::string& name) { return pb::testing::work_dir("knn_test", name); }
 
 // A directional light straight down on a 4 m square plane (irradiance E = 2 W/m^2), photons stored
-// at the first hit (store_first_hit), seen head-on from 3 m: everywhere in view the irradiance is E,
-// so the estimate is L = albedo / pi * E. Per 32x32-pixel block the mean must lie within 4
+// at the first hit (store_first_hit), seen head-on from 3 m: everywhere in view the irradiance is
+// E, so the estimate is L = albedo / pi * E. Per 32x32-pixel block the mean must lie within 4
 // standard deviations of its photon count (Poisson, 1 / sqrt(n); the tracer's Sobol points only
 // lower it) plus the k-nearest estimate's own bias, at most 1 / (k - 1) (E[k / (pi r_k^2)] =
 // k / (k - 1) times the density for Poisson points: the k-th photon lies on the disc's edge).
