@@ -25,7 +25,7 @@ namespace knn {
 
 // The query's settings (the parameters of README.md's table).
 struct Settings {
-  uint32_t k = 50;
+  uint32_t k = 100;
   float r_max = 0.25f;     // m
   float cell_size = 0.0f;  // m; 0: automatic (plan_grid)
   uint32_t kernel = KNN_KERNEL_UNIFORM;
