@@ -88,6 +88,10 @@ const pb_param_spec kParams[] = {
                             "unspecified); photons are stored at the first diffuse hit"),
     pb::toolkit::kShadowMapSizeParam,
 };
+
+// The budget knob (match: in a config): a smaller target splat area makes the density feedback emit
+// more photons (§4.5.2), so the cost falls and the error grows as the area grows.
+const pb_budget_knob kBudget[] = {{"target_area", PB_COST_FALLS, PB_ERROR_GROWS, PB_SCALE_LOG}};
 // clang-format on
 
 // clang-format off
@@ -547,4 +551,4 @@ class Aaps final : public pb::Technique {
 PB_EXPORT_TECHNIQUE(Aaps, "aaps", "caustics",
                     "adaptive anisotropic photon scattering (seed 004): task-buffer emission, "
                     "elliptical splats rasterised with optional (per-sample) MSAA",
-                    kParams, .counters = kCounters, .check = &Aaps::check)
+                    kParams, .counters = kCounters, .check = &Aaps::check, .budget = kBudget)

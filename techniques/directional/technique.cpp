@@ -36,6 +36,13 @@ const pb_param_spec kParams[] = {
     D::kDebugIrradianceParam,
 };
 
+// The budget knobs (match: in a config): more light paths cost more and lower the error; a wider
+// radius costs more (each photon touches more pixels) and trades variance for bias.
+const pb_budget_knob kBudget[] = {
+    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
+};
+
 using Directional = SplatTechnique<DirectionalSplat>;
 
 }  // namespace
@@ -45,4 +52,4 @@ PB_EXPORT_TECHNIQUE(
     "Paper I's directional approximation: photons splatted into the view-sample cluster hierarchy "
     "accumulate flux per node in 8 view-space octant buckets; per-sample 2cos-weighted irradiance, "
     "depth- and normal-aware blur",
-    kParams, .counters = Directional::kCounters, .check = &Directional::check)
+    kParams, .counters = Directional::kCounters, .check = &Directional::check, .budget = kBudget)

@@ -104,6 +104,14 @@ const pb_param_spec kParams[] = {
     DirectionalSplat::kDebugIrradianceParam,
 };
 
+// The budget knobs (match: in a config): more light paths (traced, kept and verified) cost more
+// and lower the error; a wider radius costs more (each photon touches more pixels) and trades
+// variance for bias.
+const pb_budget_knob kBudget[] = {
+    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
+};
+
 // The counters of the reuse steps (Paper II Figs. 7 and 8) and of the data layout (Table 1).
 // clang-format off
 constexpr pb_counter_spec kPathsKept{"paths_kept", PB_COUNTER_WORK, "paths",
@@ -354,4 +362,4 @@ PB_EXPORT_TECHNIQUE(
     PathVerification, "path-verification", "indirect",
     "Paper II's path verification: light paths kept across frames, re-validated against moving "
     "objects (none | naive | error_based reuse) and splatted by a Paper I splatter",
-    kParams, .counters = kCounters, .check = &PathVerification::check)
+    kParams, .counters = kCounters, .check = &PathVerification::check, .budget = kBudget)

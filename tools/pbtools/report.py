@@ -21,7 +21,7 @@ import pandas as pd
 
 from . import figures as F
 from . import images as I
-from . import pages, robustness, seeds, stats, style, tables
+from . import matching, pages, robustness, seeds, stats, style, tables
 from .rundata import Run, RunError
 
 def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
@@ -183,6 +183,13 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
     robustness_section = ({"figure": _saved(matrix, fig_dir),
                            "problems": robustness.problem_rows(run.path)} if matrix else None)
 
+    # A match run (`match:`): its equal-time or equal-quality tables and the probes' figures.
+    matched = matching.view(run.path, styles)
+    if matched:
+        shutil.copyfile(os.path.join(run.path, "match.csv"), os.path.join(tab_dir, "match.csv"))
+        for s in matched["scenes"]:
+            s["figure"] = _saved(s["figure"], fig_dir) if s["figure"] else None
+
     page = pages.render(
         "report.html.j2", run_name=run.name,
         scenes=[{"name": s, "slug": F.slug(s)} for s in run.scenes()], run_info=run_info_view(run),
@@ -190,7 +197,7 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         floors=tables.floors_view(run, floor_rows), sections=sections, cells=cells_view(run),
         clock=clock,
         stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k),
-        robustness=robustness_section)
+        robustness=robustness_section, matching=matched)
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"

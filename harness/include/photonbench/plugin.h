@@ -1,14 +1,17 @@
 // The technique plugin contract. A technique is a shared module exporting one C entry point,
 // `photonbench_technique`, that takes the host's API version and returns a static descriptor table
 // of C types only: API version, build record, name, path class, parameter schema, a factory, the
-// counters it emits and, optionally, a check of its parameters taken together.
+// counters it emits and, optionally, a check of its parameters taken together and the budget knobs
+// a match run may turn (the parameters that trade cost for quality).
 //
 // Plugins are built by other compilers on other days (out of tree, against the installed package),
 // so the boundary is checked before anything else is called: the descriptor opens with the module's
 // API version and its build record (compiler, standard library, Vulkan-Hpp version, sizeof of each
 // public class), a layout kept from version 2 on (version 3 added the counters and the check at the
-// end). The entry point honours the host's version: given another version than its own it returns
-// only that opening, never a factory the host cannot use.
+// end, version 4 the budget knobs after them; a host of version 4 still loads a module of version
+// 3, whose descriptor is the first part of version 4's, as one without budget knobs). The entry
+// point honours the host's version: given another version than its own it returns only that
+// opening, never a factory the host cannot use.
 // A mismatch fails only that plugin's cells, with a message naming both sides (plan/plugins.cpp).
 //
 //   static const pb_param_spec kParams[] = {
@@ -16,16 +19,20 @@
 //   };
 //   constexpr pb_counter_spec kRead{"photons_read", PB_COUNTER_WORK, "photons", "entries read"};
 //   const pb_counter_spec kCounters[] = {kRead};  // pb::count(ctx, kRead, n) in render
+//   const pb_budget_knob kBudget[] = {{"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG}};
 //   PB_EXPORT_TECHNIQUE(MyTechnique, "mine", "C D S+ L", "one-line summary", kParams,
-//                       .counters = kCounters, .check = &MyTechnique::check)
+//                       .counters = kCounters, .check = &MyTechnique::check, .budget = kBudget)
 // where `static std::string check(const pb::Params&)` returns "" or "<parameter>: what is wrong".
+// Every extra is optional, and a technique that declares none compiles unchanged.
 #pragma once
 
 #include <cstdint>
 
 #ifndef PB_PLUGIN_API_VERSION  // a test plugin defines another to play a module of another day
-#define PB_PLUGIN_API_VERSION 3u
+#define PB_PLUGIN_API_VERSION 4u
 #endif
+// The oldest module version a host loads: version 3's descriptor is version 4's without the budget.
+#define PB_PLUGIN_API_OLDEST_LOADED 3u
 #define PB_TECHNIQUE_ENTRY_SYMBOL "photonbench_technique"
 
 extern "C" {
@@ -71,6 +78,34 @@ typedef struct pb_counter_spec {
   const char* doc;   // one line
 } pb_counter_spec;
 
+// How a budget knob moves a technique's cost (frame time) or its error as the knob grows.
+typedef enum pb_budget_direction {
+  PB_BUDGET_FALLS = -1,
+  PB_BUDGET_MIXED = 0,  // error only: not monotone (a splat radius trades variance for bias)
+  PB_BUDGET_GROWS = 1,
+} pb_budget_direction;
+#define PB_COST_GROWS PB_BUDGET_GROWS
+#define PB_COST_FALLS PB_BUDGET_FALLS
+#define PB_ERROR_GROWS PB_BUDGET_GROWS
+#define PB_ERROR_FALLS PB_BUDGET_FALLS
+#define PB_ERROR_MIXED PB_BUDGET_MIXED
+
+// How cost and error follow the knob, roughly: in proportion to it, or to its logarithm (a photon
+// count: a match run brackets such a knob by factors of 2 and bisects it geometrically).
+typedef enum pb_budget_scale {
+  PB_SCALE_LINEAR = 0,
+  PB_SCALE_LOG = 1,
+} pb_budget_scale;
+
+// A parameter that trades cost for quality: what `match:` turns to reach an equal frame time or an
+// equal error (plan/match_plan.h). It names an int or float parameter of the schema.
+typedef struct pb_budget_knob {
+  const char* param;          // the parameter's name
+  pb_budget_direction cost;   // GROWS or FALLS: frame time as the knob grows
+  pb_budget_direction error;  // GROWS, FALLS or MIXED: the error as the knob grows
+  pb_budget_scale scale;
+} pb_budget_knob;
+
 typedef struct pb_class_size {
   const char* name;  // "pb::gpu::Device"
   uint32_t bytes;
@@ -113,6 +148,10 @@ typedef struct pb_technique_descriptor {
   // "density_max: 2 is below density_min = 4"), which the harness reports at that key's file, line
   // and column. The text stays valid until the next call on the same thread.
   const char* (*check)(const pb_param_value* values, uint32_t count);
+  // From version 4, optional (none: the technique cannot be matched): its budget knobs, the first
+  // the default knob of a match (photonbench list techniques prints them).
+  const pb_budget_knob* budget;
+  uint32_t budget_count;
 } pb_technique_descriptor;
 
 typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_version);
@@ -164,11 +203,12 @@ inline void count(Context& ctx, const pb_counter_spec& counter, double value) {
 // what is wrong" (pb_technique_descriptor::check).
 using ParamCheck = std::string (*)(const Params&);
 
-// What PB_EXPORT_TECHNIQUE's optional arguments set: .counters (an array of pb_counter_spec) and
-// .check.
+// What PB_EXPORT_TECHNIQUE's optional arguments set, each optional, in this order: .counters (an
+// array of pb_counter_spec), .check and .budget (an array of pb_budget_knob).
 struct TechniqueExtras {
   std::span<const pb_counter_spec> counters;
   ParamCheck check = nullptr;
+  std::span<const pb_budget_knob> budget;
 };
 
 namespace detail {
@@ -252,7 +292,8 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
 
 // The entry point: the whole descriptor for a host of the module's API version, only the opening
 // (version and build record) for any other host. After `params`, optionally, designated
-// initializers of pb::TechniqueExtras: `.counters = kCounters, .check = &MyTechnique::check`.
+// initializers of pb::TechniqueExtras: `.counters = kCounters, .check = &MyTechnique::check,
+// .budget = kBudget`.
 #define PB_EXPORT_TECHNIQUE(Class, name, path_class, summary, params, ...)         \
   extern "C" __attribute__((visibility("default"))) const pb_technique_descriptor* \
   photonbench_technique(uint32_t host_api_version) {                               \
@@ -269,7 +310,9 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
         [](void* t) { delete static_cast<pb::Technique*>(t); },                    \
         extras.counters.data(),                                                    \
         uint32_t(extras.counters.size()),                                          \
-        extras.check ? &pb::detail::check_entry<extras.check> : nullptr};          \
+        extras.check ? &pb::detail::check_entry<extras.check> : nullptr,           \
+        extras.budget.data(),                                                      \
+        uint32_t(extras.budget.size())};                                           \
     static const pb_technique_descriptor opening = {PB_PLUGIN_API_VERSION,         \
                                                     pb::detail::this_build(),      \
                                                     nullptr,                       \
@@ -281,7 +324,9 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
                                                     nullptr,                       \
                                                     nullptr,                       \
                                                     0,                             \
-                                                    nullptr};                      \
+                                                    nullptr,                       \
+                                                    nullptr,                       \
+                                                    0};                            \
     return host_api_version == PB_PLUGIN_API_VERSION ? &descriptor : &opening;     \
   }
 #endif

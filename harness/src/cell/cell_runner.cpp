@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "cell/cell_record.h"
+#include "cell/extra_cells.h"
 #include "cell/frame_log.h"
 #include "cell/frame_loop.h"
 #include "cell/invocation.h"
@@ -83,7 +84,10 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
 int run_cell(const CellRunOptions& options) {
   const Invocation invocation = read_invocation(options.run_dir);
   const RunPlan plan = plan_run(invocation.config_file, invocation.overrides);
-  const Cell& cell = plan.cell(options.cell_id);
+  // A match run's probe, seed or round cell is not in the plan: the run folder lists it.
+  const std::optional<Cell> extra =
+      plan.find(options.cell_id) ? std::nullopt : find_extra_cell(options.run_dir, options.cell_id);
+  const Cell& cell = extra ? *extra : plan.cell(options.cell_id);
 
   const std::filesystem::path dir = partial_cell_dir(options.run_dir, cell.id);
   std::filesystem::remove_all(dir);

@@ -1,5 +1,5 @@
 // `photonbench list techniques|scenes|devices`: what can be named in a config (a technique with its
-// parameters and the counters it emits).
+// parameters, the counters it emits and its budget knobs).
 #include <fmt/format.h>
 
 #include <cstdio>
@@ -35,6 +35,15 @@ void list_techniques(const std::vector<std::string>& plugin_dirs) {
                   pb::run::param_type_name(p).c_str(), pb::run::param_default_text(p).c_str(),
                   range.c_str(), p.doc, p.unit && *p.unit ? " (" : "",
                   p.unit && *p.unit ? (std::string(p.unit) + ")").c_str() : "");
+    }
+    if (d.budget_count > 0) std::printf("  budget knobs (match:):\n");
+    for (uint32_t i = 0; i < d.budget_count; ++i) {
+      const auto& k = d.budget[i];
+      std::printf("  %-22s cost %-5s error %-5s %s scale%s\n", k.param,
+                  pb::run::budget_direction_text(k.cost).c_str(),
+                  pb::run::budget_direction_text(k.error).c_str(),
+                  pb::run::budget_scale_text(k.scale).c_str(),
+                  i == 0 ? "  (the default knob)" : "");
     }
     if (d.counter_count > 0) std::printf("  counters:\n");
     std::set<std::string> listed;  // a counter two parts of a technique declare, once

@@ -69,6 +69,14 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
       pb::config::config_table().key("techniques").type.parts[0].table->key("scenes");
   json scenes = scenes_key.type.schema();
   scenes["description"] = scenes_key.doc;
+  // An entry's match keys as the config's table has them; `knob` is one of the plugin's knobs.
+  const pb::config::KeyTable& entry_table =
+      *pb::config::config_table().key("techniques").type.parts[0].table;
+  auto entry_key = [&](const char* key) {
+    json value = entry_table.key(key).type.schema();
+    value["description"] = entry_table.key(key).doc;
+    return value;
+  };
   std::map<std::string, json> scene_params;  // name -> the alternatives of its techniques
   for (const std::string& name : plugins.names()) {
     const pb::run::Plugin* plugin = plugins.find(name);
@@ -79,6 +87,7 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
     }
     json params = {{"type", "object"}, {"additionalProperties", false}};
     json technique = {{"const", name}};
+    json knob = entry_key("knob");
     if (plugin->loaded()) {
       const pb_technique_descriptor& d = *plugin->descriptor;
       technique["description"] = d.summary ? d.summary : "";
@@ -90,6 +99,17 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
             {"unit", d.counters[i].unit ? d.counters[i].unit : ""},
             {"description", d.counters[i].doc ? d.counters[i].doc : ""}};
       technique["x-counters"] = counters;
+      // The budget knobs a match may turn (the first is the default): {name: {cost, error, scale}}.
+      json budget = json::object();
+      json knobs = json::array();
+      for (uint32_t i = 0; i < d.budget_count; ++i) {
+        budget[d.budget[i].param] = {{"cost", pb::run::budget_direction_text(d.budget[i].cost)},
+                                     {"error", pb::run::budget_direction_text(d.budget[i].error)},
+                                     {"scale", pb::run::budget_scale_text(d.budget[i].scale)}};
+        knobs.push_back(d.budget[i].param);
+      }
+      technique["x-budget"] = budget;
+      knob["enum"] = knobs;
       params["properties"] = json::object();
       for (uint32_t i = 0; i < d.param_count; ++i) {
         json value = param_value_schema(d.params[i]);
@@ -107,7 +127,10 @@ json plugin_defs(pb::run::PluginRegistry& plugins) {
                        {"properties",
                         {{"technique", technique},
                          {"params", {{"$ref", "#/$defs/" + params_def}}},
-                         {"scenes", scenes}}},
+                         {"scenes", scenes},
+                         {"match", entry_key("match")},
+                         {"knob", knob},
+                         {"knob_range", entry_key("knob_range")}}},
                        {"required", {"technique"}},
                        {"additionalProperties", false}});
   }

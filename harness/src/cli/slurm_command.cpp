@@ -44,6 +44,10 @@ void add_slurm(CLI::App& app, int& exit_code) {
       options->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     options->executable = std::filesystem::read_symlink("/proc/self/exe");
     const pb::run::RunPlan plan = pb::run::plan_run(options->config_file, options->overrides);
+    if (plan.config.match)
+      plan.config.match->node.fail(
+          "a match run cannot be sharded into Slurm tasks: each probe's knob value comes from the "
+          "probes before it; run it whole");
     const pb::run::SlurmJobs jobs = pb::run::write_slurm_jobs(*options, plan);
     // The split every task will compute, so that the user sees the balance before submitting.
     double largest = 0;

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "cli/command.h"
+#include "plan/match_plan.h"
 #include "plan/plan.h"
 
 namespace {
@@ -27,9 +28,20 @@ void add_validate(CLI::App& app, int& exit_code) {
     for (const auto& dir : *plugin_dirs)
       args->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     const pb::run::RunPlan plan = pb::run::plan_run(args->config, args->overrides);
+    const pb::run::MatchPlan matches = pb::run::plan_matches(plan);
     const auto& [config, plugins, cells] = plan;
     std::printf("%s: valid, %zu cells (config hash %s)\n", args->config.c_str(), cells.size(),
                 config.hash.c_str());
+    // A match run's cells are its searches' probes: each match starts at its first probe.
+    for (const pb::run::MatchTarget& m : matches.matches)
+      if (!m.knob.empty())
+        std::printf("  match %s %s: %s in [%s, %s], first probe %s\n", m.start.scene.c_str(),
+                    m.start.technique.c_str(), m.knob.c_str(),
+                    pb::run::knob_text(m.space, m.space.lo).c_str(),
+                    pb::run::knob_text(m.space, m.space.hi).c_str(),
+                    m.start.params.at(m.knob).c_str());
+    for (const pb::run::Cell& cell : matches.unmatched)
+      std::printf("  baseline (unmatched) %s\n", cell.id.c_str());
     size_t will_fail = 0;
     for (const auto& cell : cells) {
       std::printf("  %s", cell.id.c_str());

@@ -175,7 +175,38 @@ const KeyTable kTechniqueTable{
       "parameter values, each one value or a list to sweep"},
      {"scenes", list_type(string_type(), 1, true), false, nullptr,
       "only these of the config's scenes (as `scenes` names them; default: every scene), for a "
-      "technique whose mechanism shows only on some"}}};
+      "technique whose mechanism shows only on some"},
+     {"match", boolean_type(), false, true,
+      "with the config's `match`: false runs this technique at its config values, unmatched (a "
+      "baseline without a budget knob)"},
+     {"knob", string_type(), false, nullptr,
+      "with `match`: the budget knob searched for this technique (default: match.knob, else the "
+      "technique's first budget knob)"},
+     {"knob_range", tuple_type({number_type(-1e300, 1e300), number_type(-1e300, 1e300)}), false,
+      nullptr, "with `match`: [lo, hi], the part of the knob's range the search may probe"}}};
+
+// The comparison papers make by hand: plan/match_plan.h.
+const KeyTable kMatchTable{
+    "config.match",
+    "Equal time or equal quality: per scene and technique, the budget knob value that reaches one "
+    "frame time (at: time) or one error (at: quality), found by a bracketing search over measured "
+    "probe cells, each a cell of the run.",
+    {{"at", choice_type({"time", "quality"}), true, nullptr,
+      "time: a median frame time (frame_ms); quality: an error (metric, value)"},
+     {"frame_ms", number_type(1e-3, 1e7), false, nullptr,
+      "at: time, the target median frame time in ms (the whole timed region of a frame)"},
+     {"metric", choice_type({"flip", "rmse", "relmse", "mae"}), false, nullptr,
+      "at: quality, the error metric (of `metrics`) on the combined image"},
+     {"value", number_type(0, 1e30), false, nullptr,
+      "at: quality, the target mean error; at least 4x the reference's noise floor"},
+     {"tolerance", number_type(1e-4, 1), false, 0.05,
+      "relative: a probe within tolerance x target of the target matches"},
+     {"knob", string_type(), false, nullptr,
+      "the budget knob searched for every technique (default: each technique's first)"},
+     {"max_probes", integer_type(1, 64), false, 12, "probe cells per scene and technique at most"},
+     {"rounds", integer_type(0, 50), false, 3,
+      "re-measurements of each scene's found cells, in alternating order, for the achieved "
+      "times"}}};
 
 const KeyTable kSceneEntryTable{
     "config.scene",
@@ -207,13 +238,59 @@ const KeyTable kConfigTable{
      {"limits", table_type(kLimitsTable), false, nullptr, ""},
      {"plugin_dirs", list_type(string_type(), 0, true), false, nullptr,
       "more folders to load technique plugins from (relative to the config's folder)"},
-     {"testing", table_type(kTestingTable), false, nullptr, ""}}};
+     {"testing", table_type(kTestingTable), false, nullptr, ""},
+     {"match", table_type(kMatchTable), false, nullptr, ""}}};
 
 // The mapping at `key`, or an empty one when it is absent: its keys take the table's defaults
 // (and no error can arise in it, so it needs no position).
 YamlView section(const YamlView& root, std::string_view key) {
   if (auto found = root.get(key)) return *found;
   return YamlView::parse("", root.source());
+}
+
+// The match block: each mode's own keys present, the other's absent; a quality metric the run
+// scores (with its floor), at metric frames; a time over enough measured frames for a median.
+MatchSettings read_match(const YamlView& block, const Config& config) {
+  kMatchTable.allow(block);
+  MatchSettings m{block};
+  m.at = kMatchTable.string(block, "at") == "time" ? MatchSettings::At::time
+                                                   : MatchSettings::At::quality;
+  const char* mode = m.at == MatchSettings::At::time ? "time" : "quality";
+  const std::vector<std::string> own = m.at == MatchSettings::At::time
+                                           ? std::vector<std::string>{"frame_ms"}
+                                           : std::vector<std::string>{"metric", "value"};
+  const std::vector<std::string> other = m.at == MatchSettings::At::time
+                                             ? std::vector<std::string>{"metric", "value"}
+                                             : std::vector<std::string>{"frame_ms"};
+  for (const std::string& key : own)
+    if (!block.has(key)) block.fail(fmt::format("at: {} needs '{}'", mode, key));
+  for (const std::string& key : other)
+    if (auto node = block.get(key))
+      node->fail(fmt::format("'{}' is not a key of at: {}", key, mode));
+  if (m.at == MatchSettings::At::time) {
+    m.frame_ms = kMatchTable.number(block, "frame_ms");
+    // A probe's time is the median of its measured frames: with fewer than 5, one slow frame moves
+    // it.
+    if (config.frames.count < kMinMatchFrames)
+      block["at"].fail(fmt::format(
+          "at: time takes each probe's median frame time, over at least {} measured frames; "
+          "frames.count is {}",
+          kMinMatchFrames, config.frames.count));
+  } else {
+    m.metric = kMatchTable.string(block, "metric");
+    m.value = kMatchTable.number(block, "value");
+    if (std::find(config.metrics.begin(), config.metrics.end(), m.metric) == config.metrics.end())
+      block["metric"].fail(fmt::format("'{}' is not scored by this run (metrics: {})", m.metric,
+                                       fmt::join(config.metrics, ", ")));
+    if (config.frames.metrics_every == 0)
+      block["at"].fail("at: quality needs scored frames; frames.metrics_every is 0");
+    if (!(m.value > 0)) block["value"].fail("a target error above 0");
+  }
+  m.tolerance = kMatchTable.number(block, "tolerance");
+  if (auto knob = block.get("knob")) m.knob = knob->as_string();
+  m.max_probes = uint32_t(kMatchTable.integer(block, "max_probes"));
+  m.rounds = uint32_t(kMatchTable.integer(block, "rounds"));
+  return m;
 }
 
 }  // namespace
@@ -303,6 +380,17 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
         technique.scenes.push_back(scene);
       }
     }
+    technique.matched = kTechniqueTable.boolean(entry, "match");
+    if (auto knob = entry.get("knob")) technique.knob = knob->as_string();
+    if (auto range = entry.get("knob_range")) {
+      const Key& key = kTechniqueTable.key("knob_range");
+      if (!range->is_sequence() || range->size() != 2) range->fail("expected [lo, hi]");
+      for (size_t i = 0; i < 2; ++i)
+        technique.knob_range.push_back(key.type.parts[i].number((*range)[i]));
+      if (!(technique.knob_range[0] < technique.knob_range[1]))
+        range->fail(fmt::format("lo {} is not below hi {}", technique.knob_range[0],
+                                technique.knob_range[1]));
+    }
     config.techniques.push_back(std::move(technique));
   }
 
@@ -354,6 +442,13 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   kTestingTable.allow(testing);
   config.testing.slow_pass = kTestingTable.string(testing, "slow_pass");
   config.testing.slow_factor = kTestingTable.number(testing, "slow_factor");
+
+  if (auto match = root.get("match")) config.match = read_match(*match, config);
+  for (const TechniqueEntry& t : config.techniques)
+    if (!config.match)
+      for (const char* key : {"match", "knob", "knob_range"})
+        if (auto node = t.node.get(key))
+          node->fail(fmt::format("'{}' of a technique needs the config's `match` block", key));
 
   config.resolved = tree;
   YAML::Emitter emitter;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,9 @@ inline constexpr uint32_t kMaxFrames = kMaxWarmupFrames + kMaxMeasuredFrames;
 // A config's `name` names its run folder (results/<name>-<time>): letters, digits, '.', '_' and
 // '-', starting with a letter or digit, at most kMaxNameLength characters.
 inline constexpr size_t kMaxNameLength = 100;
+
+// A match at a frame time takes each probe's median over at least this many measured frames.
+inline constexpr uint32_t kMinMatchFrames = 5;
 
 struct FrameSettings {
   uint32_t warmup = 4;
@@ -56,6 +60,22 @@ struct TestingHooks {
   double slow_factor = 1.0;
 };
 
+// `match:` (plan/match_plan.h): find, per scene and technique, the budget knob value at which the
+// technique reaches one frame time or one error, by a bracketing search over measured cells. The
+// knob itself is checked against the plugins by the plan; these are the harness's keys alone.
+struct MatchSettings {
+  enum class At { time, quality };
+  YamlView node;  // the block, for errors about it
+  At at = At::time;
+  double frame_ms = 0;       // at: time, the target median frame time
+  std::string metric;        // at: quality, an error metric of `metrics` (flip, rmse, relmse, mae)
+  double value = 0;          // at: quality, the target error (the mean over the metric frames)
+  double tolerance = 0.05;   // relative: |achieved - target| <= tolerance x target
+  std::string knob;          // every technique's knob (empty: each technique's first budget knob)
+  uint32_t max_probes = 12;  // probe cells per match, the first at the config's value
+  uint32_t rounds = 3;       // re-measurements of each scene's matched cells, alternating order
+};
+
 struct SceneEntry {
   std::string scene;   // a name under the scene folders, or a path
   YamlView node;       // the entry itself: a name, or {scene, params}
@@ -67,6 +87,12 @@ struct TechniqueEntry {
   YamlView node;  // the entry itself, for error locations
   // The config's scenes (as `scenes:` names them) this technique runs on; empty: every scene.
   std::vector<std::string> scenes;
+  // With `match:`: false runs the technique at its config values, unmatched (a baseline such as
+  // direct, which has no budget knob); `knob` replaces match.knob for this technique; `knob_range`
+  // narrows the knob's schema range for the search ([lo, hi]; empty: the schema's).
+  bool matched = true;
+  std::string knob;
+  std::vector<double> knob_range;
 };
 
 struct Config {
@@ -84,6 +110,7 @@ struct Config {
   Limits limits;
   std::vector<std::filesystem::path> plugin_dirs;
   TestingHooks testing;
+  std::optional<MatchSettings> match;
   YAML::Node resolved;    // the whole config after --set overrides
   std::string canonical;  // `resolved` emitted as text: what the config hash is over
   std::string hash;       // 16 hex digits

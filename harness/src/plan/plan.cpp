@@ -158,19 +158,6 @@ void check_together(const pb_technique_descriptor& d, const config::SceneEntry& 
   entry.node["technique"].fail(fmt::format("{} ({})", message, d.name));
 }
 
-Cell make_cell(const std::filesystem::path& scene_file, const std::string& technique,
-               const ParamMap& params) {
-  Cell cell;
-  cell.scene = scene_file.stem().string();
-  cell.scene_file = scene_file;
-  cell.technique = technique;
-  cell.params = params;
-  std::string key;
-  for (const auto& [k, v] : params) key += k + "=" + v + ";";
-  cell.id = fmt::format("{}__{}__{}", cell.scene, technique, config::stable_hash(key).substr(0, 8));
-  return cell;
-}
-
 // Each cell `config.seeds` times, seed index i with seed config.seed + i, next to each other (a
 // shard or an interrupted run then holds whole seed groups as far as it can).
 std::vector<Cell> with_seed_axis(std::vector<Cell> cells, const config::Config& config) {
@@ -198,11 +185,27 @@ std::vector<Cell> with_seed_axis(std::vector<Cell> cells, const config::Config& 
 
 }  // namespace
 
-const Cell& RunPlan::cell(const std::string& id) const {
+Cell make_cell(const std::filesystem::path& scene_file, const std::string& technique,
+               const ParamMap& params) {
+  Cell cell;
+  cell.scene = scene_file.stem().string();
+  cell.scene_file = scene_file;
+  cell.technique = technique;
+  cell.params = params;
+  std::string key;
+  for (const auto& [k, v] : params) key += k + "=" + v + ";";
+  cell.id = fmt::format("{}__{}__{}", cell.scene, technique, config::stable_hash(key).substr(0, 8));
+  return cell;
+}
+
+const Cell* RunPlan::find(const std::string& id) const {
   auto it = std::find_if(cells.begin(), cells.end(), [&](const Cell& c) { return c.id == id; });
-  if (it == cells.end())
-    throw InputError(fmt::format("no cell '{}' in {}", id, config.file.string()));
-  return *it;
+  return it == cells.end() ? nullptr : &*it;
+}
+
+const Cell& RunPlan::cell(const std::string& id) const {
+  if (const Cell* found = find(id)) return *found;
+  throw InputError(fmt::format("no cell '{}' in {}", id, config.file.string()));
 }
 
 RunPlan plan_run(const std::filesystem::path& config_file,
@@ -251,6 +254,7 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
         if (plugin && plugin->loaded())
           check_together(*plugin->descriptor, config.scenes[s], config.techniques[t], params);
         Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
+        cell.entry = t;
         // Equal values (a scene's override of a swept parameter) make one cell.
         if (ids.insert(cell.id).second) cells.push_back(std::move(cell));
       }

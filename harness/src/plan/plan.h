@@ -32,6 +32,7 @@ struct Cell {
   uint64_t seed = 1;
   uint32_t seed_index = 0;
   std::string seed_group;  // the id without the seed: the same for the K cells of one seed axis
+  size_t entry = 0;        // the config's technique entry (config.techniques[entry]) it comes from
 };
 
 // A run has at most this many cells: a sweep beyond it is a slip of the keyboard or of a script
@@ -45,7 +46,14 @@ struct RunPlan {
 
   // The cell named `id`; pb::InputError when the config expands to no such cell.
   const Cell& cell(const std::string& id) const;
+  // The same, null when there is none (a match run's probes are not in the plan: extra_cells.h).
+  const Cell* find(const std::string& id) const;
 };
+
+// The cell of `scene_file`, `technique` and `params` (every schema parameter), with the id the plan
+// gives it ("<scene>__<technique>__<8 hex of the values>"), seed index 0, no seed suffix.
+Cell make_cell(const std::filesystem::path& scene_file, const std::string& technique,
+               const std::map<std::string, std::string>& params);
 
 // Loads the config with its --set overrides, opens its plugin folders and expands its cells.
 // Throws pb::InputError (file:line:col: key) for anything expand_cells or load_config rejects.

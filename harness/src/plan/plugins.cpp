@@ -92,12 +92,66 @@ std::string counter_problem(const pb_technique_descriptor& d) {
   return "";
 }
 
+// What is wrong with the descriptor's budget knobs ("" when nothing): each names an int or float
+// parameter of the schema, once, with a cost that grows or falls, and a known error direction and
+// scale.
+std::string budget_problem(const pb_technique_descriptor& d) {
+  if (d.budget_count > 0 && !d.budget) return "declares budget knobs but gives none";
+  for (uint32_t i = 0; i < d.budget_count; ++i) {
+    const pb_budget_knob& k = d.budget[i];
+    if (!k.param || !*k.param) return fmt::format("declares budget knob {} without a parameter", i);
+    const pb_param_spec* spec = nullptr;
+    for (uint32_t j = 0; j < d.param_count; ++j)
+      if (std::string_view(d.params[j].name) == k.param) spec = &d.params[j];
+    if (!spec || (spec->type != PB_PARAM_INT && spec->type != PB_PARAM_FLOAT))
+      return fmt::format(
+          "declares budget knob '{}', which is no int or float parameter of its "
+          "schema",
+          k.param);
+    for (uint32_t j = 0; j < i; ++j)
+      if (std::string_view(d.budget[j].param) == k.param)
+        return fmt::format("declares budget knob '{}' twice", k.param);
+    if (k.cost != PB_BUDGET_GROWS && k.cost != PB_BUDGET_FALLS)
+      return fmt::format("declares budget knob '{}' with a cost that neither grows nor falls",
+                         k.param);
+    if (k.error < PB_BUDGET_FALLS || k.error > PB_BUDGET_GROWS ||
+        (k.scale != PB_SCALE_LINEAR && k.scale != PB_SCALE_LOG))
+      return fmt::format("declares budget knob '{}' of unknown error direction or scale", k.param);
+    if (k.scale == PB_SCALE_LOG && !(spec->min_value > 0))
+      return fmt::format("declares budget knob '{}' logarithmic, but its range starts at {}",
+                         k.param, spec->min_value);
+  }
+  return "";
+}
+
 // The boundary checks, in the order the descriptor may be read: its version (the opening every
 // version keeps), then its build record, then its contents. Sets plugin.descriptor when all pass;
-// returns the error otherwise.
-std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* descriptor) {
+// returns the error otherwise. A module of an older version the host still loads is asked again for
+// its own version's descriptor (`entry`), copied into the host's layout.
+std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* descriptor,
+                             pb_technique_entry entry) {
   if (!descriptor) return "the entry point returned no descriptor";
   const pb_build_record& host = *detail::this_build();
+  if (descriptor->api_version >= PB_PLUGIN_API_OLDEST_LOADED &&
+      descriptor->api_version < PB_PLUGIN_API_VERSION) {
+    // Version 3 ends at `check`; the budget knobs after it stay empty.
+    const pb_technique_descriptor* own = entry(descriptor->api_version);
+    if (!own || !own->name) return "the entry point returned no descriptor for its own version";
+    plugin.upgraded = {};
+    plugin.upgraded.api_version = PB_PLUGIN_API_VERSION;
+    plugin.upgraded.build = own->build;
+    plugin.upgraded.name = own->name;
+    plugin.upgraded.path_class = own->path_class;
+    plugin.upgraded.summary = own->summary;
+    plugin.upgraded.params = own->params;
+    plugin.upgraded.param_count = own->param_count;
+    plugin.upgraded.create = own->create;
+    plugin.upgraded.destroy = own->destroy;
+    plugin.upgraded.counters = own->counters;
+    plugin.upgraded.counter_count = own->counter_count;
+    plugin.upgraded.check = own->check;
+    descriptor = &plugin.upgraded;
+  }
   if (descriptor->api_version != PB_PLUGIN_API_VERSION) {
     // Version 1 descriptors had no build record; from 2 on it follows the version.
     const std::string built_with = descriptor->api_version >= 2 && descriptor->build
@@ -119,6 +173,8 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
     return fmt::format("plugin {} returned a descriptor without a name or factory",
                        plugin.file.string());
   if (std::string problem = counter_problem(*descriptor); !problem.empty())
+    return fmt::format("plugin {} ('{}') {}", plugin.file.string(), descriptor->name, problem);
+  if (std::string problem = budget_problem(*descriptor); !problem.empty())
     return fmt::format("plugin {} ('{}') {}", plugin.file.string(), descriptor->name, problem);
   // A class the references do not have would leave the technique scored on `combined` alone.
   if (!trace::reference_class_of(descriptor->path_class ? descriptor->path_class : ""))
@@ -178,7 +234,7 @@ const Plugin* PluginRegistry::find(const std::string& name) {
       plugin->load_error =
           fmt::format("dlsym({}) failed: {}", PB_TECHNIQUE_ENTRY_SYMBOL, error ? error : "null");
     } else {
-      plugin->load_error = check_descriptor(*plugin, entry(PB_PLUGIN_API_VERSION));
+      plugin->load_error = check_descriptor(*plugin, entry(PB_PLUGIN_API_VERSION), entry);
     }
   }
   const Plugin* result = plugin.get();
@@ -189,6 +245,28 @@ const Plugin* PluginRegistry::find(const std::string& name) {
 TechniqueInstance create_technique(const pb_technique_descriptor& descriptor) {
   return TechniqueInstance(static_cast<Technique*>(descriptor.create()),
                            TechniqueDeleter{descriptor.destroy});
+}
+
+const pb_budget_knob* find_budget_knob(const pb_technique_descriptor& d, const std::string& param) {
+  for (uint32_t i = 0; i < d.budget_count; ++i)
+    if (param == d.budget[i].param) return &d.budget[i];
+  return nullptr;
+}
+
+std::string budget_direction_text(pb_budget_direction direction) {
+  switch (direction) {
+    case PB_BUDGET_FALLS:
+      return "falls";
+    case PB_BUDGET_MIXED:
+      return "mixed";
+    case PB_BUDGET_GROWS:
+      return "grows";
+  }
+  return "?";
+}
+
+std::string budget_scale_text(pb_budget_scale scale) {
+  return scale == PB_SCALE_LOG ? "log" : "linear";
 }
 
 std::string counter_kind_text(pb_counter_kind kind) {

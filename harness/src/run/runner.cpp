@@ -23,6 +23,8 @@
 #include "io/results.h"
 #include "photonbench/error.h"
 #include "reference/reference.h"
+#include "run/cell_runs.h"
+#include "run/match.h"
 #include "run/run_record.h"
 #include "run/seed_stats.h"
 #include "scene/scene.h"
@@ -261,62 +263,25 @@ RunDir open_run_dir(const RunOptions& options, const config::Config& config) {
   return result;
 }
 
-// With --resume, a cell that failed is run again: its folder and log move to
-// failed-attempts/<cell>/ (replacing an older attempt's), so the failure stays readable.
-void set_failed_attempt_aside(const std::filesystem::path& run_dir, const Cell& cell) {
-  namespace fs = std::filesystem;
-  const fs::path aside = run_dir / "failed-attempts" / cell.id;
-  fs::remove_all(aside);
-  fs::create_directories(aside.parent_path());
-  fs::rename(cell_dir(run_dir, cell.id), aside);
-  const fs::path log = run_dir / "logs" / (cell.id + ".log");
-  std::error_code ec;
-  if (fs::exists(log, ec)) fs::rename(log, aside / "cell.log", ec);
-}
-
-struct CellTally {
-  int failed = 0, skipped = 0;
-};
-
 // Every cell in its own child process, in order; with --resume a cell whose folder is complete is
 // skipped. summary.csv is rewritten after each cell, so an interrupted run has one.
 CellTally run_cells(const RunPlan& plan, const RunOptions& options,
                     const std::filesystem::path& run_dir) {
-  const CellProcessOptions process{options.device, options.validation,
-                                   plan.config.limits.cell_seconds};
-  Progress progress(plan.cells.size());
-  CellTally tally;
-  for (size_t i = 0; i < plan.cells.size(); ++i) {
-    const Cell& cell = plan.cells[i];
-    const std::filesystem::path done = cell_dir(run_dir, cell.id) / "cell.json";
-    if (options.resume && std::filesystem::exists(done)) {
-      const json previous = json::parse(io::read_text(done), nullptr, false);
-      if (!previous.is_discarded() && previous.value("status", "") == "ok") {
-        ++tally.skipped;
-        progress.finish(i, cell.id, "complete already, skipped");
-        continue;
-      }
-      set_failed_attempt_aside(run_dir, cell);
-    }
-    const ChildOutcome outcome = run_cell_process(run_dir, cell, process, progress, i);
-    if (!wrote_record(run_dir, cell, outcome))
-      record_abnormal_end(run_dir, cell, outcome, process.limit_s);
-    const json record = json::parse(io::read_text(done));
-    const bool ok = record["status"] == "ok";
-    tally.failed += !ok;
-    progress.finish(i, cell.id,
-                    ok ? fmt::format("ok, frame median {:.2f} ms",
-                                     record["summary"]["frame_ms"].value("median", 0.0))
-                       : "FAILED: " + record.value("reason", std::string("?")));
-    write_summary(run_dir);
-  }
-  return tally;
+  CellRuns runs(run_dir, {options.device, options.validation, plan.config.limits.cell_seconds},
+                options.resume, plan.cells.size(), [&] { write_summary(run_dir); });
+  for (const Cell& cell : plan.cells) runs.run(cell);
+  return runs.tally();
 }
 
 }  // namespace
 
 int run_benchmark(const RunOptions& options) {
   RunPlan plan = plan_run(options.config_file, options.overrides);
+  const MatchPlan matches = plan_matches(plan);  // bad match input: before any work
+  if (plan.config.match && options.shard.sharded())
+    plan.config.match->node.fail(
+        "a match run cannot be sharded (--shard): each probe's knob value comes from the probes "
+        "before it; run it whole, or split it into one config per scene");
   // A shard runs its own cells only; each cell's child rebuilds the whole plan and finds its cell.
   const ShardSelection shard = select_shard(plan, options.shard);
   plan.cells = shard.cells;
@@ -331,28 +296,49 @@ int run_benchmark(const RunOptions& options) {
                  "photonbench: shard %s, %zu of %zu cells (%.1f%% of the estimated work) -> %s\n",
                  options.shard.text().c_str(), plan.cells.size(), shard.every.size(),
                  100 * shard.share(), run_dir.string().c_str());
+  else if (plan.config.match)
+    std::fprintf(stderr,
+                 "photonbench: %zu matches and %zu baseline cells (at most %zu cells) -> %s\n",
+                 matches.matches.size(), matches.unmatched.size(),
+                 match_cell_bound(plan.config, matches), run_dir.string().c_str());
   else
     std::fprintf(stderr, "photonbench: %zu cells -> %s\n", plan.cells.size(),
                  run_dir.string().c_str());
 
   render_needed_references(plan.config, plan.cells, *plan.plugins);
-  const CellTally tally = run_cells(plan, options, run_dir);
+  // A match run starts the cells its searches ask for (run/match.h); a plain run every cell.
+  int unmatched = 0;
+  CellTally tally;
+  if (plan.config.match) {
+    CellRuns runs(run_dir, {options.device, options.validation, plan.config.limits.cell_seconds},
+                  options.resume, match_cell_bound(plan.config, matches),
+                  [&] { write_summary(run_dir); });
+    const MatchOutcome outcome = run_matches(plan, matches, runs);
+    tally = outcome.tally;
+    unmatched = outcome.unmatched;
+  } else {
+    tally = run_cells(plan, options, run_dir);
+  }
 
   write_summary(run_dir);
   // A shard holds only some of a seed group's cells; a merged run is summarised by the tools' own
-  // seed spread (tools/pbtools/seeds.py), without the per-pixel images.
-  if (!options.shard.sharded() && plan.config.seeds > 1) {
+  // seed spread (tools/pbtools/seeds.py), without the per-pixel images. A match run's seed cells
+  // are its found cells' (match.csv gives their spread), not the plan's.
+  if (!options.shard.sharded() && plan.config.seeds > 1 && !plan.config.match) {
     std::fprintf(stderr, "photonbench: seed statistics of %zu cells -> %s\n", plan.cells.size(),
                  (run_dir / "seeds").string().c_str());
     write_seed_statistics(plan, run_dir);
   }
   run["end"] = now_iso();
   io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
-  std::fprintf(stderr, "photonbench: %zu cells, %d failed%s. Summary: %s\n", plan.cells.size(),
-               tally.failed,
+  std::fprintf(stderr, "photonbench: %zu cells, %d failed%s. Summary: %s\n",
+               plan.config.match ? size_t(tally.run) : plan.cells.size(), tally.failed,
                tally.skipped ? fmt::format(", {} already complete", tally.skipped).c_str() : "",
                (run_dir / "summary.csv").string().c_str());
-  return tally.failed ? 1 : 0;
+  if (plan.config.match)
+    std::fprintf(stderr, "photonbench: %zu matches, %d not matched. Matches: %s\n",
+                 matches.matches.size(), unmatched, (run_dir / "match.csv").string().c_str());
+  return tally.failed || unmatched ? 1 : 0;
 }
 
 }  // namespace pb::run
