@@ -31,6 +31,7 @@ struct Context {
   uint32_t seed = 0, max_bounces = 0, store = 0, rr_start = 0;
   const std::vector<uint32_t>* emission_count =
       nullptr;  // N used for each emitter's power and spacing
+  bool photon_differentials = false;  // TraceSettings::photon_differentials (seed 003 §4)
 };
 
 struct PathTask {
