@@ -28,7 +28,7 @@ constexpr float kPi = 3.14159265358979f;
 
 // §4.3 and §7's post-processing of one footprint, parameters as the technique reads them.
 struct PostProcess {
-  float smoothing = 10;           // s (Table 2: 10 to 60 per scene)
+  float smoothing = 5;            // s (Table 2: 10 to 60 per scene)
   float smoothing_specular = 5;   // §7: photons with only specular interactions
   float exponent = -0.75f;        // §4.3's nonlinear compression
   bool compress_semiaxis = false; // factor |Delta dp|^e (the semi-axis) instead of |dp|^e
