@@ -28,12 +28,12 @@ constexpr float kPi = 3.14159265358979f;
 
 // §4.3 and §7's post-processing of one footprint, parameters as the technique reads them.
 struct PostProcess {
-  float smoothing = 5;            // s (Table 2: 10 to 60 per scene)
-  float smoothing_specular = 5;   // §7: photons with only specular interactions
-  float exponent = -0.75f;        // §4.3's nonlinear compression
-  bool compress_semiaxis = false; // factor |Delta dp|^e (the semi-axis) instead of |dp|^e
-  float r_max = 0.7f;             // §7's clamp, per semi-axis, m
-  float normal_extent = 1;        // h = normal_extent sqrt(|a1| |a2|)
+  float smoothing = 5;             // s (Table 2: 10 to 60 per scene)
+  float smoothing_specular = 5;    // §7: photons with only specular interactions
+  float exponent = -0.75f;         // §4.3's nonlinear compression
+  bool compress_semiaxis = false;  // factor |Delta dp|^e (the semi-axis) instead of |dp|^e
+  float r_max = 0.7f;              // §7's clamp, per semi-axis, m
+  float normal_extent = 1;         // h = normal_extent sqrt(|a1| |a2|)
 };
 
 // The photon has had only specular interactions before its hit (L S* D: caustic or direct).

@@ -17,6 +17,8 @@
 // README.md gives the parameters, every choice the paper leaves open, the deviations and the
 // measured figures. When it fails: large footprints (high s, r_max, sparse photons) make queries
 // slow and blur, and a query walk is cut at llvmpipe's loop limit (counted, warned).
+#include "photonbench/toolkit/technique.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -33,7 +35,6 @@
 #include "photonbench/plugin.h"
 #include "photonbench/scene_layout.h"
 #include "photonbench/toolkit/radix_sort.h"
-#include "photonbench/toolkit/technique.h"
 
 namespace {
 
@@ -140,12 +141,32 @@ constexpr pb_counter_spec kHistogram[PD_RADIUS_BINS] = {
 #undef PD_BIN
 // clang-format on
 
-constexpr std::array<pb_counter_spec, 26> kMain = {
-    kHits,  kThreshold, kTAuto,     kRuns,       kNodes,          kInner,    kLeaves,
-    kQueries, kTested,  kContributing, kVisited, kPerQuery,       kTestedPerQuery,
-    kTruncated, kDegenerate, kClamped, kLongRuns, kArea,          kSurface,  kBytes,
-    kBytesBvh, kViolations, kMismatches, kChecked, tk::kPhotonsStoredCounter,
-    tk::kBytesPhotonsCounter};
+constexpr std::array<pb_counter_spec, 26> kMain = {kHits,
+                                                   kThreshold,
+                                                   kTAuto,
+                                                   kRuns,
+                                                   kNodes,
+                                                   kInner,
+                                                   kLeaves,
+                                                   kQueries,
+                                                   kTested,
+                                                   kContributing,
+                                                   kVisited,
+                                                   kPerQuery,
+                                                   kTestedPerQuery,
+                                                   kTruncated,
+                                                   kDegenerate,
+                                                   kClamped,
+                                                   kLongRuns,
+                                                   kArea,
+                                                   kSurface,
+                                                   kBytes,
+                                                   kBytesBvh,
+                                                   kViolations,
+                                                   kMismatches,
+                                                   kChecked,
+                                                   tk::kPhotonsStoredCounter,
+                                                   tk::kBytesPhotonsCounter};
 constexpr auto kCounters = [] {
   std::array<pb_counter_spec, kMain.size() + PD_RADIUS_BINS> all{};
   std::copy(kMain.begin(), kMain.end(), all.begin());
@@ -154,7 +175,7 @@ constexpr auto kCounters = [] {
 }();
 
 constexpr uint32_t kGroup = 256;
-constexpr uint32_t kMortonBits = 30;  // §6.2
+constexpr uint32_t kMortonBits = 30;      // §6.2
 constexpr uint32_t kBottomUpPasses = 32;  // > the radix tree's depth over distinct 30-bit codes
 
 class PhotonDifferentials final : public pb::Technique {
@@ -268,11 +289,9 @@ class PhotonDifferentials final : public pb::Technique {
     push.budget = PB_LOOP_BUDGET;
     const pb::GBuffer g = ctx.shared().gbuffer_images();
     const std::vector<pb::gpu::Resource> resources = {
-        &photons_,     &footprints_, &boxes_,    &sorted_, &keys_,      &values_,
-        &heads_,       &run_index_,  &unique_,   &nodes_,  &control_,   &partials_,
-        g.position,    g.normal,     g.albedo,   &radiance_};
-    auto dispatch = [&](vk::CommandBuffer cmd, const pb::gpu::Pipeline& pipeline,
-                        uint32_t groups) {
+        &photons_, &footprints_, &boxes_,   &sorted_,   &keys_,     &values_, &heads_,  &run_index_,
+        &unique_,  &nodes_,      &control_, &partials_, g.position, g.normal, g.albedo, &radiance_};
+    auto dispatch = [&](vk::CommandBuffer cmd, const pb::gpu::Pipeline& pipeline, uint32_t groups) {
       if (groups == 0) return;
       pipeline.bind(cmd, std::span<const pb::gpu::Resource>(resources), push);
       cmd.dispatch(groups, 1, 1);
@@ -351,7 +370,8 @@ class PhotonDifferentials final : public pb::Technique {
       tk::check_storage_range(gpu, bytes, fmt::format("photon-differentials: {} hits", count));
       return tk::storage_buffer(gpu, std::string("photon-differentials/") + name, bytes, memory);
     };
-    photons_ = buffer("photons", n * sizeof(pb::trace::PhotonRecord), pb::gpu::Memory::host_visible);
+    photons_ =
+        buffer("photons", n * sizeof(pb::trace::PhotonRecord), pb::gpu::Memory::host_visible);
     footprints_ = buffer("footprints", n * sizeof(pd::PdFootprint), pb::gpu::Memory::device_local);
     boxes_ = buffer("boxes", n * sizeof(pd::PdBox), readable);
     sorted_ = buffer("sorted-footprints", n * sizeof(pd::PdFootprint), readable);
@@ -447,8 +467,8 @@ class PhotonDifferentials final : public pb::Technique {
       int type = int(a[3]);
       if (p[3] <= 0 || !(type == PB_MATERIAL_DIFFUSE || type == PB_MATERIAL_EMISSIVE)) continue;
       if (lit++ % 41 != 0) continue;
-      const glm::vec3 x(p[0], p[1], p[2]), n(normal[4 * px], normal[4 * px + 1],
-                                              normal[4 * px + 2]);
+      const glm::vec3 x(p[0], p[1], p[2]),
+          n(normal[4 * px], normal[4 * px + 1], normal[4 * px + 2]);
       glm::vec3 e(0.f);
       for (uint32_t j = 0; j < count; ++j)
         e += pd::contribution(sorted[j], x, n, epanechnikov_, normal_gate_);
@@ -456,9 +476,10 @@ class PhotonDifferentials final : public pb::Technique {
         const double expected = a[k] / pd::kPi * e[k], got = estimate[4 * px + k];
         if (std::abs(got - expected) > 1e-3 * std::abs(expected) + 1e-6) {
           if (mismatches == 0)
-            ctx.warn(fmt::format("photon-differentials verify: pixel {} channel {}: query {}, "
-                                 "brute force {}",
-                                 px, k, got, expected));
+            ctx.warn(
+                fmt::format("photon-differentials verify: pixel {} channel {}: query {}, "
+                            "brute force {}",
+                            px, k, got, expected));
           ++mismatches;
           break;
         }

@@ -108,9 +108,9 @@ struct TraceSettings {
   // bounce, and the same Delta; a photon surviving Russian roulette with probability p has all four
   // differentials scaled by 1 / sqrt(p) (§4.2). Specular transfer is the tracer's own (Igehy
   // 1999). Each record's footprint_u / footprint_v are then Delta times the positional
-  // differentials (the footprint's semi-axes before the technique's post-processing) and its flags
-  // hold the bits of the float Delta. Area lights keep their (u, v) differentials. Refused with aaps
-  // and keep_paths.
+  // differentials (the footprint's semi-axes before the technique's post-processing) and its
+  // flags hold the bits of the float Delta. Area lights keep their (u, v) differentials. Refused
+  // with aaps and keep_paths.
   bool photon_differentials = false;
 };
 

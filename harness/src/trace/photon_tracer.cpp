@@ -463,8 +463,15 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   std::vector<uint32_t> emitted(lights.size(), 0);  // paths emitted so far per light
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
   for (auto& n : emission_count) n = std::max(n, 1u);
-  Context c{&world_,        &lights,           &densities_,    seed, settings.max_bounces,
-            settings.store, settings.rr_start, &emission_count, settings.photon_differentials};
+  Context c{&world_,
+            &lights,
+            &densities_,
+            seed,
+            settings.max_bounces,
+            settings.store,
+            settings.rr_start,
+            &emission_count,
+            settings.photon_differentials};
   bool keep = settings.keep_paths;
   uint32_t wave = settings.paths, total = 0;
   for (;;) {

@@ -30,8 +30,8 @@ void RadixSort::setup(gpu::Device& gpu, std::string_view name) {
   std::vector<gpu::Binding> bindings(6, gpu::Binding::storage_buffer);
   count_pipeline_ = gpu.create_compute_pipeline(name_ + "/radix-count", kradix_count_comp_spv,
                                                 bindings, sizeof(RadixPush));
-  scatter_pipeline_ = gpu.create_compute_pipeline(
-      name_ + "/radix-scatter", kradix_scatter_comp_spv, bindings, sizeof(RadixPush));
+  scatter_pipeline_ = gpu.create_compute_pipeline(name_ + "/radix-scatter", kradix_scatter_comp_spv,
+                                                  bindings, sizeof(RadixPush));
   reserve(kBlock);
 }
 
@@ -49,8 +49,8 @@ void RadixSort::reserve(uint32_t count) {
 void RadixSort::record(vk::CommandBuffer cmd, const gpu::Buffer& keys, const gpu::Buffer& values,
                        uint32_t count, uint32_t key_bits) const {
   if (count > capacity_)
-    throw Error(fmt::format("{}: radix sort of {} pairs, only {} reserved", name_, count,
-                            capacity_));
+    throw Error(
+        fmt::format("{}: radix sort of {} pairs, only {} reserved", name_, count, capacity_));
   if (count < 2) return;
   const uint32_t blocks = gpu::groups_for(count, kBlock);
   const uint32_t passes = (std::min(key_bits, 32u) + kDigitBits - 1) / kDigitBits;

@@ -6,13 +6,13 @@
 #include "photonbench/toolkit/limits.h"
 
 layout(std430, binding = 0) readonly buffer Photons { PhotonRecord photons[]; };
-layout(std430, binding = 1) buffer Footprints { PdFootprint footprints[]; };  // photon order
-layout(std430, binding = 2) buffer Boxes { PdBox boxes[]; };                  // photon order
+layout(std430, binding = 1) buffer Footprints { PdFootprint footprints[]; };     // photon order
+layout(std430, binding = 2) buffer Boxes { PdBox boxes[]; };                     // photon order
 layout(std430, binding = 3) buffer Sorted { PdFootprint sorted_footprints[]; };  // Morton order
-layout(std430, binding = 4) buffer Keys { uint keys[]; };        // Morton codes (sorted in place)
-layout(std430, binding = 5) buffer Values { uint values[]; };    // photon index of each key
-layout(std430, binding = 6) buffer Heads { uint heads[]; };      // 1 where a run of a code starts
-layout(std430, binding = 7) buffer RunIndex { uint run_index[]; };  // exclusive scan of heads
+layout(std430, binding = 4) buffer Keys { uint keys[]; };      // Morton codes (sorted in place)
+layout(std430, binding = 5) buffer Values { uint values[]; };  // photon index of each key
+layout(std430, binding = 6) buffer Heads { uint heads[]; };    // 1 where a run of a code starts
+layout(std430, binding = 7) buffer RunIndex { uint run_index[]; };      // exclusive scan of heads
 layout(std430, binding = 8) buffer UniqueKeys { uint unique_keys[]; };  // code of each run
 layout(std430, binding = 9) coherent buffer Nodes { PdNode nodes[]; };
 layout(std430, binding = 10) coherent buffer Control { uint control[]; };

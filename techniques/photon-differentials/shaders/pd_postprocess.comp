@@ -22,7 +22,8 @@ uint photon_kind(PhotonRecord p) {  // pb::trace::photon_kind
 }
 vec3 compressed(vec3 a, float delta) {
   float len = length(a);
-  float base = (push.flags & PD_FLAG_COMPRESS_SEMIAXIS) != 0u ? len : (delta > 0.0 ? len / delta : 0.0);
+  float base =
+      (push.flags & PD_FLAG_COMPRESS_SEMIAXIS) != 0u ? len : (delta > 0.0 ? len / delta : 0.0);
   return base > 0.0 ? a * pow(base, push.exponent) : a;
 }
 vec3 clamped(vec3 a) {
@@ -51,8 +52,10 @@ void main() {
     float s = specular ? push.smoothing_specular : push.smoothing;
     a1 *= s;
     a2 *= s;
-    atomicAdd(group_histogram[min(PD_RADIUS_BINS - 1u, uint(length(a1) / PD_RADIUS_BIN_WIDTH))], 1u);
-    atomicAdd(group_histogram[min(PD_RADIUS_BINS - 1u, uint(length(a2) / PD_RADIUS_BIN_WIDTH))], 1u);
+    atomicAdd(group_histogram[min(PD_RADIUS_BINS - 1u, uint(length(a1) / PD_RADIUS_BIN_WIDTH))],
+              1u);
+    atomicAdd(group_histogram[min(PD_RADIUS_BINS - 1u, uint(length(a2) / PD_RADIUS_BIN_WIDTH))],
+              1u);
     a1 = clamped(a1);
     a2 = clamped(a2);
     PdFootprint f;

@@ -14,7 +14,8 @@ void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   uint id = gl_LocalInvocationIndex;
   vec3 x, n, albedo;
-  bool lit = pb_in_frame(pixel, uvec2(push.width, push.height)) && pb_lit_sample(pixel, x, n, albedo);
+  bool lit =
+      pb_in_frame(pixel, uvec2(push.width, push.height)) && pb_lit_sample(pixel, x, n, albedo);
   vec3 irradiance = vec3(0.0);
   uint tested = 0u, contributing = 0u, visited = 0u, steps = 0u;
   bool truncated = false;
@@ -64,7 +65,8 @@ void main() {
     }
   }
   if (pb_in_frame(pixel, uvec2(push.width, push.height)))
-    imageStore(radiance, pixel, vec4(lit ? albedo * float(1.0 / PD_PI) * irradiance : vec3(0.0), 1.0));
+    imageStore(radiance, pixel,
+               vec4(lit ? albedo * float(1.0 / PD_PI) * irradiance : vec3(0.0), 1.0));
   group_tested[id] = tested;
   group_contributing[id] = contributing;
   group_nodes[id] = visited;

@@ -91,10 +91,13 @@ TEST(PhotonDifferentials, PointLightFootprintOnAPlaneIsTheClosedForm) {
     const glm::dvec3 w = glm::normalize(glm::dvec3(to)), n(0, 1, 0);
     const double sin_theta = std::sqrt(w.x * w.x + w.y * w.y);
     const double cos_phi = w.x / sin_theta, sin_phi = w.y / sin_theta;
-    const glm::dvec3 e_theta(-cos_phi * w.z, -sin_phi * w.z, sin_theta), e_phi(-sin_phi, cos_phi, 0);
-    for (const auto& [axis, e] : {std::pair{p.footprint_u, e_theta}, std::pair{p.footprint_v, e_phi}}) {
+    const glm::dvec3 e_theta(-cos_phi * w.z, -sin_phi * w.z, sin_theta),
+        e_phi(-sin_phi, cos_phi, 0);
+    for (const auto& [axis, e] :
+         {std::pair{p.footprint_u, e_theta}, std::pair{p.footprint_v, e_phi}}) {
       const glm::dvec3 want = delta * d * (e - w * (glm::dot(e, n) / glm::dot(w, n)));
-      ASSERT_LT(glm::length(glm::dvec3(axis) - want), 2e-3 * glm::length(want)) << "at " << p.position.x;
+      ASSERT_LT(glm::length(glm::dvec3(axis) - want), 2e-3 * glm::length(want))
+          << "at " << p.position.x;
     }
     ASSERT_NEAR(area_of(p) / (delta * delta * d * d / cos_theta), 1, 2e-3);
     ASSERT_NEAR(p.footprint_u.y, 0, 1e-5);
