@@ -41,6 +41,10 @@ namespace {
 using pb::gpu::Binding;
 namespace tk = pb::toolkit;
 
+// c of T_auto, measured (README "Measured": on cornell-box the fastest fixed T were 16 and 64 in
+// two rounds, where c = 1 gave T_auto = 303 and half their speed; 0.15 puts T_auto at about 45).
+constexpr double kTAutoConstant = 0.15;
+
 // clang-format off
 const pb_param_spec kParams[] = {
     tk::kPhotonsParam,
@@ -68,7 +72,7 @@ const pb_param_spec kParams[] = {
      "leave out photons arriving from behind the query's surface (unspecified)"},
     {"leaf_threshold", PB_PARAM_INT, 0, 0, 65536, nullptr, "hits",
      "T: nodes of at most T hits are leaves (Table 1 sweeps 1 to 512); 0: T_auto"},
-    {"t_auto_constant", PB_PARAM_FLOAT, 1, 1e-4, 1e4, nullptr, "",
+    {"t_auto_constant", PB_PARAM_FLOAT, kTAutoConstant, 1e-4, 1e4, nullptr, "",
      "c of T_auto = c sum(footprint areas) / surface area (§5.3 gives none; README: the sweep)"},
     {"surface_area", PB_PARAM_FLOAT, 0, 0, 1e9, nullptr, "m^2",
      "the scene's surface area for T_auto; 0: the area the light's first hits cover, from their "
@@ -181,7 +185,7 @@ constexpr uint32_t kBottomUpPasses = 32;  // > the radix tree's depth over disti
 class PhotonDifferentials final : public pb::Technique {
  public:
   static std::string check(const pb::Params& params) {
-    if (params.integer("leaf_threshold") > 0 && params.number("t_auto_constant") != 1)
+    if (params.integer("leaf_threshold") > 0 && params.number("t_auto_constant") != kTAutoConstant)
       return fmt::format(
           "t_auto_constant: {} has no effect with leaf_threshold = {} (a fixed T; 0 for T_auto)",
           params.number("t_auto_constant"), params.integer("leaf_threshold"));
@@ -492,7 +496,7 @@ class PhotonDifferentials final : public pb::Technique {
   pd::PostProcess post_;
   bool epanechnikov_ = false, normal_gate_ = true, verify_ = false;
   uint32_t fixed_threshold_ = 0;
-  float t_constant_ = 1, surface_area_param_ = 0;
+  float t_constant_ = float(kTAutoConstant), surface_area_param_ = 0;
   double lit_area_ = 0;
   uint32_t width_ = 0, height_ = 0, capacity_ = 0;
   pb::trace::TraceSettings settings_;
