@@ -41,7 +41,11 @@ struct PhotonRecord {
                           // m^2
   PB_UINT flags;          // AAPS (TraceSettings::aaps): PB_PHOTON_REFRACTED_HALF when the photon
                           // is the refracted part of its split (seed 004 §3.3.1), clear for the
-                          // reflected part; 0 for other traces
+                          // reflected part; photon differentials
+                          // (TraceSettings::photon_differentials): the bits of the float spacing
+                          // Delta the footprint was scaled by (uintBitsToFloat in GLSL), so that
+                          // |footprint_u| / Delta is the positional differential's length; 0 for
+                          // other traces
 };
 
 #define PB_PHOTON_REFRACTED_HALF 1u

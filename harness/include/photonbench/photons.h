@@ -100,6 +100,18 @@ struct TraceSettings {
   // spaced (stratified), but no longer a lattice, whose tiny splats at a focus cover a pixel
   // centre or sample all together or not at all as the lattice slides over the pixel grid.
   bool aaps_jitter = false;
+  // Photon differentials (seed 003, Fabianowski and Dingliana 2009, §4): a point or spot light
+  // emits with the isotropic differentials of Eq. 8, unit vectors orthogonal to the direction, and
+  // one spacing Delta = sqrt(solid angle per photon) (Eq. 9: 2 sqrt(pi / n) for a point light); a
+  // diffuse bounce is an absorption and re-emission (§4.3): Eq. 8's vectors in the surface's frame,
+  // positional differentials v times them with v of Eq. 13, so the footprint keeps its area at the
+  // bounce, and the same Delta; a photon surviving Russian roulette with probability p has all four
+  // differentials scaled by 1 / sqrt(p) (§4.2). Specular transfer is the tracer's own (Igehy
+  // 1999). Each record's footprint_u / footprint_v are then Delta times the positional
+  // differentials (the footprint's semi-axes before the technique's post-processing) and its
+  // flags hold the bits of the float Delta. Area lights keep their (u, v) differentials. Refused
+  // with aaps and keep_paths.
+  bool photon_differentials = false;
 };
 
 // How verify_paths decides that a kept segment is still valid (Paper II §3.2-3.3).

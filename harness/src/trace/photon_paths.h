@@ -30,7 +30,8 @@ struct Context {
   const std::vector<std::shared_ptr<const Distribution2D>>* densities = nullptr;
   uint32_t seed = 0, max_bounces = 0, store = 0, rr_start = 0;
   const std::vector<uint32_t>* emission_count =
-      nullptr;  // N used for each emitter's power and spacing
+      nullptr;                        // N used for each emitter's power and spacing
+  bool photon_differentials = false;  // TraceSettings::photon_differentials (seed 003 §4)
 };
 
 struct PathTask {

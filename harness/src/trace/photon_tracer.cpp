@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -47,8 +48,16 @@ bool storable_later(uint32_t mask, uint32_t k, uint32_t store) {
   return (store & (kCausticIndirectPhotons | (all_specular ? uint32_t(kCausticPhotons) : 0u))) != 0;
 }
 
-// Vertex 0 of path `task`: emission. `fixed`: the emission sample (uv, direction point) to use
-// instead of the path's own (Paper II's fill step); it is taken as drawn uniformly, so a light with
+// Seed 003 Eq. 8: the directional differentials of direction d = (cos phi sin theta, sin phi sin
+// theta, cos theta) with respect to cos theta and phi, pre-scaled by sin theta and 1 / sin theta:
+// unit vectors orthogonal to d and to each other (in the frame d is given in).
+void isotropic_differentials(const glm::vec3& d, glm::vec3& d_cos_theta, glm::vec3& d_phi) {
+  float sin_theta = std::sqrt(std::max(0.f, d.x * d.x + d.y * d.y));
+  float cos_phi = 1, sin_phi = 0;
+  if (sin_theta > 1e-6f) cos_phi = d.x / sin_theta, sin_phi = d.y / sin_theta;
+  d_cos_theta = {-cos_phi * d.z, -sin_phi * d.z, sin_theta};
+  d_phi = {-sin_phi, cos_phi, 0.f};
+}
 
 }  // namespace
 
@@ -112,6 +121,14 @@ PathVertex emit(const Context& c, const PathTask& task, glm::vec2* uv_out, glm::
   v.power = pdf > 0 ? r.power / (n * pdf) : glm::vec3(0.f);
   v.spacing = pdf > 0 ? 1.f / std::sqrt(n * pdf) : 0.f;
   v.dp_du = r.dp_du, v.dp_dv = r.dp_dv, v.dd_du = r.dd_du, v.dd_dv = r.dd_dv;
+  if (c.photon_differentials && r.dp_du == glm::vec3(0.f) && r.dp_dv == glm::vec3(0.f)) {
+    // Seed 003 §4.1: a point (or spot) light's photons share one spacing Delta, the square root of
+    // the solid angle per photon (Eq. 9: 2 sqrt(pi / n) over the sphere), along Eq. 8's unit
+    // differentials; the footprint is unchanged in area, and round where the (u, v) one was not.
+    float solid_angle = glm::length(glm::cross(r.dd_du, r.dd_dv)) * v.spacing * v.spacing;
+    v.spacing = std::sqrt(solid_angle);
+    isotropic_differentials(r.direction, v.dd_du, v.dd_dv);
+  }
   if (!(max3(v.power) > 0)) v.flags = PathVertex::kTerminated;
   if (uv_out) *uv_out = uv;
   if (dir_out) *dir_out = {xi.z, xi.w};
@@ -177,7 +194,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       p.footprint_u = dp_du * v.spacing;
       p.footprint_v = dp_dv * v.spacing;
       p.light = task.light;
-      p.flags = 0;
+      p.flags = c.photon_differentials ? std::bit_cast<uint32_t>(v.spacing) : 0u;
       photons.push_back(p);
       next.flags |= PathVertex::kStored;
     }
@@ -203,7 +220,20 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
         next.direction = s.wi;
         next.power = power;
         next.survival = survival;
-        if (diffuse) {
+        if (diffuse && c.photon_differentials) {
+          // Seed 003 §4.3: absorption and re-emission. New directional differentials by Eq. 8 in
+          // the surface's frame, the same Delta, and a virtual origin v behind the hit (Eq. 11)
+          // chosen so that the footprint keeps its area (Eqs. 10-13; Eq. 8's vectors are unit and
+          // orthogonal, so Eq. 13 is v = sqrt |dp_du x dp_dv| with the arriving differentials).
+          Frame f(s.normal);
+          glm::vec3 d1, d2;
+          isotropic_differentials(f.to_local(s.wi), d1, d2);
+          next.dd_du = f.to_world(d1);
+          next.dd_dv = f.to_world(d2);
+          float v_origin = std::sqrt(glm::length(glm::cross(dp_du, dp_dv)));
+          next.dp_du = v_origin * next.dd_du;
+          next.dp_dv = v_origin * next.dd_dv;
+        } else if (diffuse) {
           // The new direction depends on this bounce's two sample dimensions only: restart the
           // differentials from the cosine map (finite differences) about this point.
           const float h = 1e-3f;
@@ -223,6 +253,11 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
           next.dp_dv = dp_dv;
           next.dd_du = scatter_differential(tri, hit, s, dir, dp_du, v.dd_du);
           next.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, v.dd_dv);
+        }
+        if (c.photon_differentials && survival < 1.f) {
+          // Seed 003 §4.2: footprints grow with the inverse of the survival probability.
+          float grow = 1.f / std::sqrt(survival);
+          next.dp_du *= grow, next.dp_dv *= grow, next.dd_du *= grow, next.dd_dv *= grow;
         }
         verts.push_back(next);
         continue;
@@ -338,6 +373,8 @@ void check_settings(const TraceSettings& s) {
   if (s.paths < 1) throw InputError("photon tracer: paths must be at least 1");
   if ((s.store & ~uint32_t(kAllPhotons)) != 0 || s.store == 0)
     throw InputError("photon tracer: store must be a non-empty PhotonKind mask");
+  if (s.photon_differentials && (s.aaps || s.keep_paths))
+    throw InputError("photon tracer: photon_differentials goes with neither aaps nor keep_paths");
 }
 
 }  // namespace detail
@@ -426,8 +463,15 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   std::vector<uint32_t> emitted(lights.size(), 0);  // paths emitted so far per light
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
   for (auto& n : emission_count) n = std::max(n, 1u);
-  Context c{&world_,        &lights,           &densities_,    seed, settings.max_bounces,
-            settings.store, settings.rr_start, &emission_count};
+  Context c{&world_,
+            &lights,
+            &densities_,
+            seed,
+            settings.max_bounces,
+            settings.store,
+            settings.rr_start,
+            &emission_count,
+            settings.photon_differentials};
   bool keep = settings.keep_paths;
   uint32_t wave = settings.paths, total = 0;
   for (;;) {
@@ -477,8 +521,11 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     float power_scale = float(emission_count[e]) / emitted[e];
     float spacing_scale = std::sqrt(power_scale);
     for (auto& p : out.photons)
-      if (p.light == e)
+      if (p.light == e) {
         p.power *= power_scale, p.footprint_u *= spacing_scale, p.footprint_v *= spacing_scale;
+        if (settings.photon_differentials)
+          p.flags = std::bit_cast<uint32_t>(std::bit_cast<float>(p.flags) * spacing_scale);
+      }
     for (auto& path : out.paths.paths) {
       if (path.light != e) continue;
       for (uint32_t v = 0; v < path.vertex_count; ++v) {

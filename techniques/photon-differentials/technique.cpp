@@ -1,0 +1,519 @@
+// photon-differentials: Fabianowski and Dingliana 2009, "Interactive Global Photon Mapping" (seed
+// 003). Every photon hit carries its own footprint from photon differentials, the photon map is a
+// linear BVH over the footprints' ellipsoids rebuilt on the GPU each frame, and a query sums every
+// footprint that contains the shading point, with no k-nearest search. Per frame:
+//   photon-trace   the CPU tracer with TraceSettings::photon_differentials (Eqs. 2-9 at the light,
+//                  Igehy's transfer at specular hits, re-emission with a virtual origin at diffuse
+//                  ones, Eqs. 10-13, Russian roulette's 1 / sqrt(p), §4.2); the first hits (direct
+//                  light is shaded, not estimated) only give the lit surface area for T_auto;
+//   photon-upload  the stored hits into a storage buffer;
+//   postprocess    per hit the compressed (|dp|^-3/4), smoothed (s, or 5 for specular-only
+//                  paths) and clamped (r_max) semi-axes, the skewed ellipsoid and its box, Table
+//                  3's radius histogram; the footprint areas summed and T_auto (§4.3, §5.3, §7);
+//   build          30-bit Morton codes, the toolkit's stable radix sort, runs of equal codes as
+//                  leaves, the radix tree over the runs, bottom-up boxes and counts with leaves of
+//                  at most T hits fused (§5.2, §6.2);
+//   query          per G-buffer sample the BVH walk and Eq. 1's sum, radiance albedo / pi x E.
+// README.md gives the parameters, every choice the paper leaves open, the deviations and the
+// measured figures. When it fails: large footprints (high s, r_max, sparse photons) make queries
+// slow and blur, and a query walk is cut at llvmpipe's loop limit (counted, warned).
+#include "photonbench/toolkit/technique.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "footprint.h"
+#include "photon-differentials_shaders.h"
+#include "photonbench/error.h"
+#include "photonbench/plugin.h"
+#include "photonbench/scene_layout.h"
+#include "photonbench/toolkit/radix_sort.h"
+
+namespace {
+
+using pb::gpu::Binding;
+namespace tk = pb::toolkit;
+
+// c of T_auto, measured (README "Measured": on cornell-box the fastest fixed T were 16 and 64 in
+// two rounds, where c = 1 gave T_auto = 303 and half their speed; 0.15 puts T_auto at about 45).
+constexpr double kTAutoConstant = 0.15;
+
+// clang-format off
+const pb_param_spec kParams[] = {
+    tk::kPhotonsParam,
+    tk::with_range(tk::kMaxBouncesParam, 3, 2, 31,
+                   "surface interactions per light path; photons are stored at hits 2 to "
+                   "max_bounces (seed 003 §7: two indirect bounces, so 3)"),
+    {"smoothing", PB_PARAM_FLOAT, 5, 0.01, 1000, nullptr, "",
+     "s: every semi-axis of a diffusely reflected photon's footprint times s (Table 2: 10 to 60 "
+     "per scene; 5 puts k_PD on cornell-box in Table 2's range)"},
+    {"smoothing_specular", PB_PARAM_FLOAT, 5, 0.01, 1000, nullptr, "",
+     "s for photons with only specular interactions before the hit (§7: 5, sharp caustics)"},
+    {"compression_exponent", PB_PARAM_FLOAT, -0.75, -2, 1, nullptr, "",
+     "e of the nonlinear compression: each semi-axis of a diffusely reflected photon times "
+     "|dp|^e (§4.3: -3/4; 0: none)"},
+    {"compression_base", PB_PARAM_ENUM, 0, 0, 1, "differential|semiaxis", "",
+     "what |.|^e is taken of: the positional differential dp (§4.3, literally) or the semi-axis "
+     "Delta dp"},
+    {"r_max", PB_PARAM_FLOAT, 0.7, 1e-4, 100, nullptr, "m",
+     "each semi-axis clamped to this length (§7: 0.7 in every scene)"},
+    {"normal_extent", PB_PARAM_FLOAT, 1, 0.01, 10, nullptr, "",
+     "the ellipsoid's semi-axis along the hit's normal, times sqrt(|a1| |a2|) (unspecified in §4)"},
+    {"kernel", PB_PARAM_ENUM, 0, 0, 1, "uniform|epanechnikov", "",
+     "K of Eq. 1, normalised by the footprint's area pi |a1 x a2| (Fig. 4: both)"},
+    {"normal_gate", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
+     "leave out photons arriving from behind the query's surface (unspecified)"},
+    {"leaf_threshold", PB_PARAM_INT, 0, 0, 65536, nullptr, "hits",
+     "T: nodes of at most T hits are leaves (Table 1 sweeps 1 to 512); 0: T_auto"},
+    {"t_auto_constant", PB_PARAM_FLOAT, kTAutoConstant, 1e-4, 1e4, nullptr, "",
+     "c of T_auto = c sum(footprint areas) / surface area (§5.3 gives none; README: the sweep)"},
+    {"surface_area", PB_PARAM_FLOAT, 0, 0, 1e9, nullptr, "m^2",
+     "the scene's surface area for T_auto; 0: the area the light's first hits cover, from their "
+     "differentials, each frame"},
+    {"caustics", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+     "also store L S+ D photons (the paper's one map; the technique's class is then more than "
+     "`indirect`, so only the combined score is fair)"},
+    tk::kStoreFirstHitParam,
+    {"verify", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+     "test hook: read the BVH back and check it, and check sampled queries against a brute-force "
+     "sum over every footprint (counters bvh_violations, query_mismatches)"},
+    tk::kShadowMapSizeParam,
+};
+
+constexpr pb_counter_spec kHits{"hits", PB_COUNTER_SIZE, "hits", "photon hits in the map"};
+constexpr pb_counter_spec kThreshold{"leaf_threshold", PB_COUNTER_SIZE, "hits",
+                                     "T used this frame (cell.json params_resolved)"};
+constexpr pb_counter_spec kTAuto{"t_auto", PB_COUNTER_SIZE, "hits", "T_auto of this frame"};
+constexpr pb_counter_spec kRuns{"morton_runs", PB_COUNTER_SIZE, "runs",
+                                "distinct Morton codes (the leaves before fusion)"};
+constexpr pb_counter_spec kNodes{"bvh_nodes", PB_COUNTER_SIZE, "nodes",
+                                 "inner nodes plus the leaves below them, after fusion"};
+constexpr pb_counter_spec kInner{"bvh_inner_nodes", PB_COUNTER_SIZE, "nodes",
+                                 "nodes of more than T hits"};
+constexpr pb_counter_spec kLeaves{"bvh_leaves", PB_COUNTER_SIZE, "nodes",
+                                  "leaves (runs and fused nodes)"};
+constexpr pb_counter_spec kQueries{"queries", PB_COUNTER_WORK, "samples",
+                                   "G-buffer samples on diffuse surfaces queried"};
+constexpr pb_counter_spec kTested{"hits_tested", PB_COUNTER_WORK, "hits",
+                                  "footprints tested in the leaves the queries reached"};
+constexpr pb_counter_spec kContributing{"hits_contributing", PB_COUNTER_WORK, "hits",
+                                        "footprints that contained their query point"};
+constexpr pb_counter_spec kVisited{"nodes_visited", PB_COUNTER_WORK, "nodes",
+                                   "nodes whose box contained the query point"};
+constexpr pb_counter_spec kPerQuery{"hits_per_query", PB_COUNTER_RATIO, "hits",
+                                    "hits_contributing / queries (Table 2's k_PD)"};
+constexpr pb_counter_spec kTestedPerQuery{"hits_tested_per_query", PB_COUNTER_RATIO, "hits",
+                                          "hits_tested / queries"};
+constexpr pb_counter_spec kTruncated{"truncated_queries", PB_COUNTER_WORK, "samples",
+                                     "queries cut short by the loop budget"};
+constexpr pb_counter_spec kDegenerate{"footprints_degenerate", PB_COUNTER_WORK, "hits",
+                                      "footprints dropped as singular"};
+constexpr pb_counter_spec kClamped{"semiaxes_clamped", PB_COUNTER_WORK, "semi-axes",
+                                   "semi-axes clamped to r_max"};
+constexpr pb_counter_spec kLongRuns{"long_runs", PB_COUNTER_WORK, "runs",
+                                    "runs longer than the loop budget"};
+constexpr pb_counter_spec kArea{"footprint_area", PB_COUNTER_SIZE, "m^2",
+                                "sum of the footprints' areas pi |a1 x a2|"};
+constexpr pb_counter_spec kSurface{"surface_area", PB_COUNTER_SIZE, "m^2",
+                                   "the surface area T_auto used (params_resolved)"};
+constexpr pb_counter_spec kBytes{"bytes_total", PB_COUNTER_SIZE, "bytes",
+                                 "GPU memory of the technique's buffers"};
+constexpr pb_counter_spec kBytesBvh{"bytes_bvh", PB_COUNTER_SIZE, "bytes",
+                                    "the BVH's nodes and sorted footprints"};
+constexpr pb_counter_spec kViolations{"bvh_violations", PB_COUNTER_WORK, "checks",
+                                      "verify: BVH invariants broken (footprint.h check_bvh)"};
+constexpr pb_counter_spec kMismatches{"query_mismatches", PB_COUNTER_WORK, "samples",
+                                      "verify: sampled queries off the brute-force sum"};
+constexpr pb_counter_spec kChecked{"query_checked", PB_COUNTER_WORK, "samples",
+                                   "verify: sampled queries compared"};
+
+#define PD_BIN(name) {"radius_" name, PB_COUNTER_WORK, "semi-axes", "Table 3's semi-axis bins"}
+constexpr pb_counter_spec kHistogram[PD_RADIUS_BINS] = {
+    PD_BIN("0p00_0p05"), PD_BIN("0p05_0p10"), PD_BIN("0p10_0p15"), PD_BIN("0p15_0p20"),
+    PD_BIN("0p20_0p25"), PD_BIN("0p25_0p30"), PD_BIN("0p30_0p35"), PD_BIN("0p35_0p40"),
+    PD_BIN("0p40_0p45"), PD_BIN("0p45_0p50"), PD_BIN("0p50_0p55"), PD_BIN("0p55_0p60"),
+    PD_BIN("0p60_0p65"), PD_BIN("0p65_0p70"), PD_BIN("0p70_0p75"), PD_BIN("0p75_0p80"),
+    PD_BIN("0p80_0p85"), PD_BIN("0p85_0p90"), PD_BIN("0p90_0p95"), PD_BIN("0p95_1p00"),
+    PD_BIN("above_1p00")};
+#undef PD_BIN
+// clang-format on
+
+constexpr std::array<pb_counter_spec, 26> kMain = {kHits,
+                                                   kThreshold,
+                                                   kTAuto,
+                                                   kRuns,
+                                                   kNodes,
+                                                   kInner,
+                                                   kLeaves,
+                                                   kQueries,
+                                                   kTested,
+                                                   kContributing,
+                                                   kVisited,
+                                                   kPerQuery,
+                                                   kTestedPerQuery,
+                                                   kTruncated,
+                                                   kDegenerate,
+                                                   kClamped,
+                                                   kLongRuns,
+                                                   kArea,
+                                                   kSurface,
+                                                   kBytes,
+                                                   kBytesBvh,
+                                                   kViolations,
+                                                   kMismatches,
+                                                   kChecked,
+                                                   tk::kPhotonsStoredCounter,
+                                                   tk::kBytesPhotonsCounter};
+constexpr auto kCounters = [] {
+  std::array<pb_counter_spec, kMain.size() + PD_RADIUS_BINS> all{};
+  std::copy(kMain.begin(), kMain.end(), all.begin());
+  std::copy(std::begin(kHistogram), std::end(kHistogram), all.begin() + kMain.size());
+  return all;
+}();
+
+constexpr uint32_t kGroup = 256;
+constexpr uint32_t kMortonBits = 30;      // §6.2
+constexpr uint32_t kBottomUpPasses = 32;  // > the radix tree's depth over distinct 30-bit codes
+
+class PhotonDifferentials final : public pb::Technique {
+ public:
+  static std::string check(const pb::Params& params) {
+    if (params.integer("leaf_threshold") > 0 && params.number("t_auto_constant") != kTAutoConstant)
+      return fmt::format(
+          "t_auto_constant: {} has no effect with leaf_threshold = {} (a fixed T; 0 for T_auto)",
+          params.number("t_auto_constant"), params.integer("leaf_threshold"));
+    if (params.flag("caustics") && params.flag("store_first_hit"))
+      return "store_first_hit: goes with caustics = false only (the closed-form check of direct "
+             "light)";
+    return "";
+  }
+
+  void setup(pb::Context& ctx, const pb::Params& params) override {
+    // The shared rows this schema lists (it has no `radius`: every footprint has its own).
+    photon_.paths = uint32_t(params.integer("photons"));
+    photon_.max_bounces = uint32_t(params.integer("max_bounces"));
+    photon_.shadow_map_size = uint32_t(params.integer("shadow_map_size"));
+    photon_.store_first_hit = params.flag("store_first_hit");
+    tk::configure_shadows(ctx, photon_.shadow_map_size);
+    post_.smoothing = float(params.number("smoothing"));
+    post_.smoothing_specular = float(params.number("smoothing_specular"));
+    post_.exponent = float(params.number("compression_exponent"));
+    post_.compress_semiaxis = params.choice("compression_base") == "semiaxis";
+    post_.r_max = float(params.number("r_max"));
+    post_.normal_extent = float(params.number("normal_extent"));
+    epanechnikov_ = params.choice("kernel") == "epanechnikov";
+    normal_gate_ = params.flag("normal_gate");
+    fixed_threshold_ = uint32_t(params.integer("leaf_threshold"));
+    t_constant_ = float(params.number("t_auto_constant"));
+    surface_area_param_ = float(params.number("surface_area"));
+    verify_ = params.flag("verify");
+
+    settings_ = photon_.trace_settings();
+    settings_.photon_differentials = true;
+    // First hits give the lit surface area (T_auto) and are dropped before the upload, unless the
+    // test hook keeps them in the map.
+    settings_.store |= pb::trace::kDirectPhotons;
+    if (params.flag("caustics")) settings_.store |= pb::trace::kCausticPhotons;
+
+    pb::gpu::Device& gpu = ctx.gpu();
+    width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
+    radiance_ = gpu.create_image("photon-differentials/radiance", {width_, height_},
+                                 vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage);
+    control_ = tk::storage_buffer(gpu, "photon-differentials/control", PD_CTL_WORDS * 4,
+                                  pb::gpu::Memory::host_visible);
+    sort_.setup(gpu, "photon-differentials/morton");
+    scan_.setup(gpu);
+    std::vector<Binding> bindings(12, Binding::storage_buffer);
+    bindings.insert(bindings.end(), 4, Binding::storage_image);
+    auto make = [&](const char* name, std::span<const uint32_t> spirv) {
+      return gpu.create_compute_pipeline(std::string("photon-differentials/") + name, spirv,
+                                         bindings, sizeof(pd::PdPush));
+    };
+    postprocess_ = make("postprocess", kpd_postprocess_comp_spv);
+    reduce_ = make("reduce", kpd_reduce_comp_spv);
+    morton_ = make("morton", kpd_morton_comp_spv);
+    gather_ = make("gather", kpd_gather_comp_spv);
+    runs_ = make("runs", kpd_runs_comp_spv);
+    karras_ = make("hierarchy", kpd_karras_comp_spv);
+    bottom_up_ = make("bottom-up", kpd_bottomup_comp_spv);
+    query_ = make("query", kpd_query_comp_spv);
+    reserve(ctx, 1024);
+  }
+
+  void render(pb::Context& ctx) override {
+    uint32_t count = 0;
+    {
+      auto scope = ctx.pass("photon-trace");
+      ctx.photon_tracer().trace(settings_, batch_);
+      // The first hits' differential parallelograms |Delta dp_u x Delta dp_v| are the surface
+      // each emitted photon covers where it lands: summed, the area the light sees.
+      lit_area_ = 0;
+      kept_.clear();
+      for (const pb::trace::PhotonRecord& p : batch_.photons) {
+        if (p.bounce == 0) {
+          lit_area_ += glm::length(glm::cross(p.footprint_u, p.footprint_v));
+          if (!photon_.store_first_hit) continue;
+        }
+        kept_.push_back(&p - batch_.photons.data());
+      }
+      count = uint32_t(kept_.size());
+    }
+    {
+      auto scope = ctx.pass("photon-upload");
+      reserve(ctx, count);
+      auto* out = static_cast<pb::trace::PhotonRecord*>(photons_.mapped());
+      for (uint32_t i = 0; i < count; ++i) out[i] = batch_.photons[kept_[i]];
+    }
+    ctx.shared().gbuffer();
+    ctx.shared().direct_light();
+
+    const float surface = surface_area_param_ > 0 ? surface_area_param_ : float(lit_area_);
+    pd::PdPush push{};
+    push.count = count;
+    push.groups = pb::gpu::groups_for(count, kGroup);
+    push.width = width_, push.height = height_;
+    push.smoothing = post_.smoothing;
+    push.smoothing_specular = post_.smoothing_specular;
+    push.exponent = post_.exponent;
+    push.r_max = post_.r_max;
+    push.normal_extent = post_.normal_extent;
+    push.flags = (post_.compress_semiaxis ? PD_FLAG_COMPRESS_SEMIAXIS : 0u) |
+                 (epanechnikov_ ? PD_FLAG_EPANECHNIKOV : 0u) |
+                 (normal_gate_ ? PD_FLAG_NORMAL_GATE : 0u);
+    push.surface_area = surface;
+    push.t_constant = t_constant_;
+    push.fixed_threshold = fixed_threshold_;
+    push.budget = PB_LOOP_BUDGET;
+    const pb::GBuffer g = ctx.shared().gbuffer_images();
+    const std::vector<pb::gpu::Resource> resources = {
+        &photons_, &footprints_, &boxes_,   &sorted_,   &keys_,     &values_, &heads_,  &run_index_,
+        &unique_,  &nodes_,      &control_, &partials_, g.position, g.normal, g.albedo, &radiance_};
+    auto dispatch = [&](vk::CommandBuffer cmd, const pb::gpu::Pipeline& pipeline, uint32_t groups) {
+      if (groups == 0) return;
+      pipeline.bind(cmd, std::span<const pb::gpu::Resource>(resources), push);
+      cmd.dispatch(groups, 1, 1);
+      pb::gpu::full_barrier(cmd);
+    };
+    const uint32_t groups = push.groups;
+    {
+      auto scope = ctx.pass("postprocess");
+      vk::CommandBuffer cmd = ctx.cmd();
+      cmd.fillBuffer(control_.handle(), 0, VK_WHOLE_SIZE, 0u);
+      pb::gpu::full_barrier(cmd);
+      cmd.fillBuffer(control_.handle(), 0, 3 * sizeof(uint32_t), 0xffffffffu);
+      pb::gpu::full_barrier(cmd);
+      dispatch(cmd, postprocess_, groups);
+      dispatch(cmd, reduce_, 1);
+    }
+    {
+      auto scope = ctx.pass("build");
+      {
+        auto step = ctx.pass("morton");
+        dispatch(ctx.cmd(), morton_, groups);
+      }
+      {
+        auto step = ctx.pass("sort");
+        vk::CommandBuffer cmd = ctx.cmd();
+        sort_.record(cmd, keys_, values_, count, kMortonBits);
+        pb::gpu::full_barrier(cmd);
+      }
+      {
+        auto step = ctx.pass("runs");
+        vk::CommandBuffer cmd = ctx.cmd();
+        dispatch(cmd, gather_, groups);
+        if (count > 0) {
+          scan_.record(cmd, heads_, run_index_, count, &control_, PD_CTL_RUNS);
+          pb::gpu::full_barrier(cmd);
+        }
+        dispatch(cmd, runs_, groups);
+      }
+      {
+        auto step = ctx.pass("hierarchy");
+        vk::CommandBuffer cmd = ctx.cmd();
+        dispatch(cmd, karras_, groups);
+        // One level a dispatch (pd_bottomup.comp): at most 30 internal levels over 30-bit codes.
+        pd::PdPush level = push;
+        for (uint32_t pass = 1; pass <= kBottomUpPasses && groups > 0; ++pass) {
+          level.budget = pass;
+          bottom_up_.bind(cmd, std::span<const pb::gpu::Resource>(resources), level);
+          cmd.dispatch(groups, 1, 1);
+          pb::gpu::full_barrier(cmd);
+        }
+      }
+    }
+    {
+      auto scope = ctx.pass("query");
+      vk::CommandBuffer cmd = ctx.cmd();
+      query_.bind(cmd, std::span<const pb::gpu::Resource>(resources), push);
+      cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
+      pb::gpu::full_barrier(cmd);
+    }
+    ctx.shared().shade(&radiance_);
+    ctx.flush();
+    report(ctx, count, surface);
+  }
+
+ private:
+  // Buffers for `count` hits (grown by half again when short; before any of the frame's work is
+  // recorded, since recorded work refers to the old ones).
+  void reserve(pb::Context& ctx, uint32_t count) {
+    if (count <= capacity_ && photons_) return;
+    capacity_ = std::max<uint32_t>(1024, std::max(count, capacity_ + capacity_ / 2));
+    pb::gpu::Device& gpu = ctx.gpu();
+    const uint64_t n = capacity_;
+    // The verify hook reads the BVH on the host: its buffers are host-visible then.
+    const auto readable = verify_ ? pb::gpu::Memory::host_visible : pb::gpu::Memory::device_local;
+    auto buffer = [&](const char* name, uint64_t bytes, pb::gpu::Memory memory) {
+      tk::check_storage_range(gpu, bytes, fmt::format("photon-differentials: {} hits", count));
+      return tk::storage_buffer(gpu, std::string("photon-differentials/") + name, bytes, memory);
+    };
+    photons_ =
+        buffer("photons", n * sizeof(pb::trace::PhotonRecord), pb::gpu::Memory::host_visible);
+    footprints_ = buffer("footprints", n * sizeof(pd::PdFootprint), pb::gpu::Memory::device_local);
+    boxes_ = buffer("boxes", n * sizeof(pd::PdBox), readable);
+    sorted_ = buffer("sorted-footprints", n * sizeof(pd::PdFootprint), readable);
+    keys_ = buffer("keys", n * 4, pb::gpu::Memory::device_local);
+    values_ = buffer("values", n * 4, readable);
+    heads_ = buffer("heads", n * 4, pb::gpu::Memory::device_local);
+    run_index_ = buffer("run-index", n * 4, pb::gpu::Memory::device_local);
+    unique_ = buffer("unique-keys", n * 4, pb::gpu::Memory::device_local);
+    nodes_ = buffer("nodes", 2 * n * sizeof(pd::PdNode), readable);
+    partials_ = buffer("partials", uint64_t(pb::gpu::groups_for(capacity_, kGroup)) * 4,
+                       pb::gpu::Memory::device_local);
+    sort_.reserve(capacity_);
+    scan_.reserve(capacity_);
+  }
+
+  uint64_t bytes_total() const {
+    uint64_t b = sort_.bytes() + scan_.scratch_bytes() + control_.size() + radiance_.bytes();
+    for (const pb::gpu::Buffer* x : {&photons_, &footprints_, &boxes_, &sorted_, &keys_, &values_,
+                                     &heads_, &run_index_, &unique_, &nodes_, &partials_})
+      b += x->size();
+    return b;
+  }
+
+  void report(pb::Context& ctx, uint32_t count, float surface) {
+    const uint32_t* c = static_cast<const uint32_t*>(control_.mapped());
+    auto wide = [&](uint32_t at) { return double(c[at]) + double(c[at + 1]) * 4294967296.0; };
+    const uint32_t runs = count > 0 ? c[PD_CTL_RUNS] : 0;
+    uint32_t inner = c[PD_CTL_INNER], leaves = c[PD_CTL_LEAVES];
+    if (inner == 0 && runs > 0) leaves = 1;  // the root alone, a leaf
+    const double queries = c[PD_CTL_QUERIES];
+    pb::count(ctx, kHits, count);
+    pb::count(ctx, tk::kPhotonsStoredCounter, double(batch_.photons.size()));
+    pb::count(ctx, tk::kBytesPhotonsCounter, double(count) * sizeof(pb::trace::PhotonRecord));
+    pb::count(ctx, kThreshold, c[PD_CTL_THRESHOLD]);
+    pb::count(ctx, kTAuto, c[PD_CTL_T_AUTO]);
+    pb::count(ctx, kRuns, runs);
+    pb::count(ctx, kNodes, double(inner) + leaves);
+    pb::count(ctx, kInner, inner);
+    pb::count(ctx, kLeaves, leaves);
+    pb::count(ctx, kQueries, queries);
+    pb::count(ctx, kTested, wide(PD_CTL_TESTED));
+    pb::count(ctx, kContributing, wide(PD_CTL_CONTRIBUTING));
+    pb::count(ctx, kVisited, wide(PD_CTL_NODES_VISITED));
+    pb::count(ctx, kPerQuery, queries > 0 ? wide(PD_CTL_CONTRIBUTING) / queries : 0.0);
+    pb::count(ctx, kTestedPerQuery, queries > 0 ? wide(PD_CTL_TESTED) / queries : 0.0);
+    pb::count(ctx, kTruncated, c[PD_CTL_TRUNCATED]);
+    pb::count(ctx, kDegenerate, c[PD_CTL_DEGENERATE]);
+    pb::count(ctx, kClamped, c[PD_CTL_CLAMPED]);
+    pb::count(ctx, kLongRuns, c[PD_CTL_LONG_RUNS]);
+    pb::count(ctx, kArea, count > 0 ? std::bit_cast<float>(c[PD_CTL_AREA]) : 0.0);
+    pb::count(ctx, kSurface, surface);
+    pb::count(ctx, kBytes, double(bytes_total()));
+    pb::count(ctx, kBytesBvh, double(nodes_.size() + sorted_.size()));
+    for (uint32_t b = 0; b < PD_RADIUS_BINS; ++b)
+      pb::count(ctx, kHistogram[b], c[PD_CTL_HISTOGRAM + b]);
+    if (c[PD_CTL_TRUNCATED] > 0)
+      ctx.warn(fmt::format("photon-differentials: {} queries cut short by the loop budget",
+                           c[PD_CTL_TRUNCATED]));
+    if (c[PD_CTL_LONG_RUNS] > 0)
+      ctx.warn(fmt::format("photon-differentials: {} Morton runs longer than the loop budget",
+                           c[PD_CTL_LONG_RUNS]));
+    size_t violations = 0, mismatches = 0, checked = 0;
+    if (verify_ && count > 0) verify(ctx, count, runs, violations, mismatches, checked);
+    pb::count(ctx, kViolations, double(violations));
+    pb::count(ctx, kMismatches, double(mismatches));
+    pb::count(ctx, kChecked, double(checked));
+  }
+
+  // The verify hook: the BVH's invariants (footprint.h check_bvh), and every 41st lit pixel's
+  // irradiance against the sum over every footprint.
+  void verify(pb::Context& ctx, uint32_t count, uint32_t runs, size_t& violations,
+              size_t& mismatches, size_t& checked) {
+    const auto* nodes = static_cast<const pd::PdNode*>(nodes_.mapped());
+    const auto* boxes = static_cast<const pd::PdBox*>(boxes_.mapped());
+    const auto* values = static_cast<const uint32_t*>(values_.mapped());
+    const auto* sorted = static_cast<const pd::PdFootprint*>(sorted_.mapped());
+    std::vector<pd::PdNode> tree(nodes, nodes + (runs > 0 ? 2 * size_t(runs) - 1 : 0));
+    std::vector<pd::PdBox> sorted_boxes(count);
+    for (uint32_t j = 0; j < count; ++j) sorted_boxes[j] = boxes[values[j]];
+    std::string first;
+    violations = pd::check_bvh(tree, runs, count, sorted_boxes, &first);
+    if (violations > 0) ctx.warn("photon-differentials verify: " + first);
+    std::vector<float> position, normal, albedo, estimate;
+    const pb::GBuffer g = ctx.shared().gbuffer_images();
+    ctx.gpu().read_image(*g.position, position);
+    ctx.gpu().read_image(*g.normal, normal);
+    ctx.gpu().read_image(*g.albedo, albedo);
+    ctx.gpu().read_image(radiance_, estimate);
+    size_t lit = 0;
+    for (size_t px = 0; px < size_t(width_) * height_; ++px) {
+      const float* p = &position[4 * px];
+      const float* a = &albedo[4 * px];
+      int type = int(a[3]);
+      if (p[3] <= 0 || !(type == PB_MATERIAL_DIFFUSE || type == PB_MATERIAL_EMISSIVE)) continue;
+      if (lit++ % 41 != 0) continue;
+      const glm::vec3 x(p[0], p[1], p[2]),
+          n(normal[4 * px], normal[4 * px + 1], normal[4 * px + 2]);
+      glm::vec3 e(0.f);
+      for (uint32_t j = 0; j < count; ++j)
+        e += pd::contribution(sorted[j], x, n, epanechnikov_, normal_gate_);
+      for (int k = 0; k < 3; ++k) {
+        const double expected = a[k] / pd::kPi * e[k], got = estimate[4 * px + k];
+        if (std::abs(got - expected) > 1e-3 * std::abs(expected) + 1e-6) {
+          if (mismatches == 0)
+            ctx.warn(
+                fmt::format("photon-differentials verify: pixel {} channel {}: query {}, "
+                            "brute force {}",
+                            px, k, got, expected));
+          ++mismatches;
+          break;
+        }
+      }
+      ++checked;
+    }
+  }
+
+  tk::PhotonParams photon_;
+  pd::PostProcess post_;
+  bool epanechnikov_ = false, normal_gate_ = true, verify_ = false;
+  uint32_t fixed_threshold_ = 0;
+  float t_constant_ = float(kTAutoConstant), surface_area_param_ = 0;
+  double lit_area_ = 0;
+  uint32_t width_ = 0, height_ = 0, capacity_ = 0;
+  pb::trace::TraceSettings settings_;
+  pb::trace::PhotonBatch batch_;
+  std::vector<size_t> kept_;
+  tk::RadixSort sort_;
+  tk::PrefixSum scan_;
+  pb::gpu::Image radiance_;
+  pb::gpu::Buffer photons_, footprints_, boxes_, sorted_, keys_, values_, heads_, run_index_,
+      unique_, nodes_, control_, partials_;
+  pb::gpu::Pipeline postprocess_, reduce_, morton_, gather_, runs_, karras_, bottom_up_, query_;
+};
+
+}  // namespace
+
+PB_EXPORT_TECHNIQUE(PhotonDifferentials, "photon-differentials", "indirect",
+                    "photon differentials (seed 003): per-hit ellipsoidal footprints, a linear "
+                    "BVH photon map built on the GPU each frame, a query summing every footprint "
+                    "containing the point",
+                    kParams, .counters = kCounters, .check = &PhotonDifferentials::check)
