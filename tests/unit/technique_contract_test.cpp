@@ -22,8 +22,15 @@ namespace pb::run::technique_contract {
 
 // The techniques of this repository (techniques/<name>/): each must be among the built plugins,
 // so that the contract below cannot pass by finding none.
-const std::vector<std::string> kShippedTechniques = {
-    "aaps", "cluster", "direct", "directional", "knn", "path-verification", "rsm-photons", "tiled"};
+const std::vector<std::string> kShippedTechniques = {"aaps",
+                                                     "cluster",
+                                                     "direct",
+                                                     "directional",
+                                                     "knn",
+                                                     "path-verification",
+                                                     "photon-differentials",
+                                                     "rsm-photons",
+                                                     "tiled"};
 
 // The technique plugins the build made (PB_BINARY_DIR/plugins: the techniques, not the test
 // plugins of tests/plugins).
