@@ -42,8 +42,8 @@ Image read_with_oiio(const std::filesystem::path& file) {
   bool read = false;
   if (stored_as_float) {
     std::lock_guard<OIIO::ImageInput> lock(*in);  // the native reads expect the caller to hold it
-    read = in->read_native_scanlines(0, 0, spec.y, spec.y + spec.height, spec.z, 0,
-                                     spec.nchannels, image.pixels.data());
+    read = in->read_native_scanlines(0, 0, spec.y, spec.y + spec.height, spec.z, 0, spec.nchannels,
+                                     image.pixels.data());
   } else {
     read = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data());
   }
