@@ -279,10 +279,17 @@ class Knn final : public pb::Technique {
   double setup_trace_ms_ = 0, setup_build_ms_ = 0;
 };
 
+// The budget knobs (match: in a config): more light paths cost more and lower the error; more
+// neighbours cost more per query (a longer search, a larger heap) and trade variance for bias.
+const pb_budget_knob kBudget[] = {
+    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+    {"k", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
+};
+
 }  // namespace
 
 PB_EXPORT_TECHNIQUE(Knn, "knn", "indirect",
                     "classic k-nearest-neighbour photon mapping (seed 003's baseline): k nearest "
                     "within r_max from a GPU uniform grid, radius from their bounding sphere; "
                     "rebuilt every frame or built once (static light)",
-                    kParams, .counters = kCounters, .check = &Knn::check)
+                    kParams, .counters = kCounters, .check = &Knn::check, .budget = kBudget)

@@ -510,10 +510,19 @@ class PhotonDifferentials final : public pb::Technique {
   pb::gpu::Pipeline postprocess_, reduce_, morton_, gather_, runs_, karras_, bottom_up_, query_;
 };
 
+// The budget knobs (match: in a config): more light paths cost more to trace and build and lower
+// the error; a larger smoothing s widens every footprint, so each query sums more of them (the
+// query dominates the frame) and trades variance for bias.
+const pb_budget_knob kBudget[] = {
+    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+    {"smoothing", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
+};
+
 }  // namespace
 
 PB_EXPORT_TECHNIQUE(PhotonDifferentials, "photon-differentials", "indirect",
                     "photon differentials (seed 003): per-hit ellipsoidal footprints, a linear "
                     "BVH photon map built on the GPU each frame, a query summing every footprint "
                     "containing the point",
-                    kParams, .counters = kCounters, .check = &PhotonDifferentials::check)
+                    kParams, .counters = kCounters, .check = &PhotonDifferentials::check,
+                    .budget = kBudget)

@@ -649,10 +649,16 @@ class RsmPhotons final : public pb::Technique {
   pb::gpu::Pipeline splat_, readback_, upload_;
 };
 
+// The budget knob (match: in a config): more photons cost more to trace and to splat and lower
+// the error.
+const pb_budget_knob kBudget[] = {
+    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+};
+
 }  // namespace
 
 PB_EXPORT_TECHNIQUE(RsmPhotons, "rsm-photons", "indirect",
                     "reflective-shadow-map photons (seed 000): RSM probability maps, one bounce "
                     "traced, ellipsoid kernels splatted at half resolution, temporal and a-trous "
                     "filters",
-                    kParams, .counters = kCounters, .check = &RsmPhotons::check)
+                    kParams, .counters = kCounters, .check = &RsmPhotons::check, .budget = kBudget)
