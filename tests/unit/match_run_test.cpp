@@ -141,7 +141,16 @@ match: {at: time, frame_ms: 1, rounds: 0}
   EXPECT_NE(rows[0].at("reason").find("no value in [1, 4] reaches 1: the probes reached "),
             std::string::npos)
       << rows[0].at("reason");
-  EXPECT_EQ(rows[0].at("knob_value"), "1") << "the closest probe is kept";
+  // The closest probe is kept: the one whose measured median frame time is nearest the target
+  // (knob 1 on a quiet machine; on a loaded one the three probes' 5-frame medians may cross, so
+  // the test reads which one measured closest instead of assuming it).
+  const auto probes = csv(dir / "run" / "match_probes.csv");
+  ASSERT_EQ(probes.size(), 3u);
+  auto closest = std::min_element(probes.begin(), probes.end(), [](const auto& a, const auto& b) {
+    return std::abs(std::stod(a.at("frame_ms_median")) - 1.0) <
+           std::abs(std::stod(b.at("frame_ms_median")) - 1.0);
+  });
+  EXPECT_EQ(rows[0].at("knob_value"), closest->at("knob_value")) << "the closest probe is kept";
   fs::remove_all(dir);
 }
 
