@@ -80,9 +80,14 @@ match: {at: time, frame_ms: 40, tolerance: 0.1, rounds: 1}
   for (const auto& [name, ms] : record["summary"]["pass_ms_median"].items())
     if (name.find('/') == std::string::npos) passes += ms.get<double>();
   const double spin_ms = samples * 0.5;
-  EXPECT_LT(passes, spin_ms) << "the passes' medians hold no spin";
-  EXPECT_GE(record["summary"]["frame_ms"]["median"].get<double>(), spin_ms)
-      << "the frame time holds the CPU work outside any pass";
+  // Every frame spins at least spin_ms of wall time beside its passes (the fixed passes alone took
+  // 24 ms under the sanitizers, more than the spin, so only the difference is read): the frame's
+  // median less the passes' holds most of the spin, which it would not if a pass held it.
+  const double frame_median = record["summary"]["frame_ms"]["median"].get<double>();
+  EXPECT_GE(frame_median, spin_ms) << "the frame time holds the CPU work outside any pass";
+  EXPECT_GE(frame_median - passes, 0.75 * spin_ms)
+      << "the spin is outside every pass (frame " << frame_median << " ms, passes " << passes
+      << " ms)";
   fs::remove_all(dir);
 }
 
