@@ -54,8 +54,8 @@ TEST(MatchRun, AFrameTimeIsMatchedWithinTheToleranceCountingCpuWorkOutsidePasses
 frames: {warmup: 1, count: 5, metrics_every: 0}
 techniques:
   - technique: budget_knob
-    params: {sample_us: 500}
-match: {at: time, frame_ms: 40, tolerance: 0.1, rounds: 1}
+    params: {samples: 20, sample_us: 10000}
+match: {at: time, frame_ms: 400, tolerance: 0.15, rounds: 1}
 )");
   ASSERT_EQ(exit_code(status), 0) << "see " << (dir / "log.txt");
   const auto rows = csv(dir / "run" / "match.csv");
@@ -63,26 +63,31 @@ match: {at: time, frame_ms: 40, tolerance: 0.1, rounds: 1}
   const auto& m = rows[0];
   EXPECT_EQ(m.at("status"), "matched") << m.at("reason");
   EXPECT_EQ(m.at("knob"), "samples");
-  EXPECT_NEAR(std::stod(m.at("probe_frame_ms")), 40, 4);
+  EXPECT_NEAR(std::stod(m.at("probe_frame_ms")), 400, 60);
   EXPECT_EQ(m.at("rounds"), "1");
   EXPECT_EQ(m.at("frame_ms_n"), "5") << "the round's 5 frames";
   EXPECT_FALSE(m.at("frame_ms_p95").empty());
-  // The cost is known: samples x 0.5 ms of it is the CPU spin, so the knob found lies below 80 and
-  // above what the fixed cost leaves (40 ms less at most 30 of it).
+  // The cost is known: samples x 10 ms of it is the CPU spin (on the steady clock, so the machine's
+  // load does not stretch it), so the knob found is at most what the target's upper tolerance
+  // (460 ms) holds of spin alone, and above what the fixed cost leaves (400 ms less at most 200 of
+  // it). The spin is most of the frame: the fixed passes took 20 ms here and 24 ms under the
+  // sanitizers, and 46 ms on a loaded CI machine, a swing the 60 ms tolerance holds (at 40 ms with
+  // a 4 ms tolerance, a first probe measured 46 ms where the same knob later measured 20 and the
+  // search ended unconverged).
   const int samples = std::stoi(m.at("knob_value"));
-  EXPECT_LT(samples, 80);
+  EXPECT_LE(samples, 46);
   EXPECT_GT(samples, 20);
-  EXPECT_GE(std::stoi(m.at("probes")), 2) << "16 samples (8 ms of work) cannot be 40 ms";
+  EXPECT_GE(std::stoi(m.at("probes")), 2) << "the first probe, 20 samples (200 ms), is short";
   expect_probes_are_cells(dir);
   // The spin is in no pass, yet in the frame time the match read.
   const auto record = read_json(dir / "run" / "cells" / m.at("cell") / "cell.json");
   double passes = 0;
   for (const auto& [name, ms] : record["summary"]["pass_ms_median"].items())
     if (name.find('/') == std::string::npos) passes += ms.get<double>();
-  const double spin_ms = samples * 0.5;
-  // Every frame spins at least spin_ms of wall time beside its passes (the fixed passes alone took
-  // 24 ms under the sanitizers, more than the spin, so only the difference is read): the frame's
-  // median less the passes' holds most of the spin, which it would not if a pass held it.
+  const double spin_ms = samples * 10.0;
+  // Every frame spins at least spin_ms of wall time beside its passes (whose own time varies with
+  // the machine's load and the sanitizers, so only the difference is read): the frame's median less
+  // the passes' holds most of the spin, which it would not if a pass held it.
   const double frame_median = record["summary"]["frame_ms"]["median"].get<double>();
   EXPECT_GE(frame_median, spin_ms) << "the frame time holds the CPU work outside any pass";
   EXPECT_GE(frame_median - passes, 0.75 * spin_ms)
