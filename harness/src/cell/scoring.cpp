@@ -180,6 +180,47 @@ json class_means(const std::vector<Row>& rows, const std::vector<std::string>& m
   return out;
 }
 
+// The classes a cell is scored in: the combined reference always, and the reference of the
+// technique's own class: by the output itself when that class is the whole of it (direct: emitted
+// plus direct light), else by the estimate it handed to shade(), which the cell runner wrote alone
+// (class_image_name) before the shared direct light was added to it.
+std::vector<trace::PathClass> scored_classes(const std::string& path_class,
+                                             std::vector<std::string>& warnings) {
+  std::vector<trace::PathClass> classes = {trace::PathClass::combined};
+  auto own = trace::reference_class_of(path_class);
+  if (!own)
+    warnings.push_back(
+        fmt::format("path class '{}' has no reference image; scored as combined", path_class));
+  else if (*own != trace::PathClass::combined)
+    classes.push_back(*own);
+  return classes;
+}
+
+// The full reference of one frame and class as the report shows it, with its FLIP error map when
+// FLIP is scored (error_map non-null).
+void write_report_images(const std::filesystem::path& cell_dir, uint32_t frame,
+                         const std::string& class_name, const trace::ReferenceImage& reference,
+                         const io::Image* error_map) {
+  if (error_map)
+    io::write_image(cell_dir / "images" / fmt::format("flip_{:04d}_{}.png", frame, class_name),
+                    metrics::magma(*error_map));
+  io::write_image(cell_dir / "images" / fmt::format("reference_{:04d}_{}.png", frame, class_name),
+                  io::display_encode(reference.mean));
+}
+
+// cell.json's record of a reference a frame was scored against: how it was rendered and stopped.
+json reference_entry(uint32_t frame, const std::string& class_name,
+                     const std::string& reference_name, const trace::ReferenceImage& reference) {
+  return {{"frame", frame},
+          {"path_class", class_name},
+          {"reference", reference_name},
+          {"samples", reference.samples},
+          {"seconds", reference.seconds},
+          {"rel_error", reference.rel_error},
+          {"stopped_by", trace::stop_rule_name(reference.stopped_by)},
+          {"max_bounces", reference.max_bounces}};
+}
+
 }  // namespace
 
 ScoreResult score_cell(const config::Config& config, const Cell& cell, const scene::Scene& scene,
@@ -190,18 +231,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
   io::CsvAppender metrics_csv(cell_dir / "metrics.csv", header);
   if (frames.empty()) return result;
 
-  // The technique's output is scored against the combined reference always, and against the
-  // reference of its own class: by the output itself when that class is the whole of it (direct:
-  // emitted plus direct light), else by the estimate it handed to shade(), which the cell runner
-  // wrote alone (class_image_name) before the shared direct light was added to it.
-  std::vector<trace::PathClass> classes = {trace::PathClass::combined};
-  auto own = trace::reference_class_of(path_class);
-  if (!own)
-    result.warnings.push_back(
-        fmt::format("path class '{}' has no reference image; scored as combined", path_class));
-  else if (*own != trace::PathClass::combined)
-    classes.push_back(*own);
-
+  const std::vector<trace::PathClass> classes = scored_classes(path_class, result.warnings);
   trace::ReferenceCache cache(config.reference.cache_dir);
   const std::vector<ScoredReference> references = scored_references(config, cell.params);
   // reference name -> class -> rows
@@ -238,23 +268,10 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
           fields.push_back(csv_value(header[k], row[header[k]]));
         metrics_csv.row(fields);
         // The report's images show the full reference only.
-        if (full) {
-          if (flip)
-            io::write_image(cell_dir / "images" / fmt::format("flip_{:04d}_{}.png", f, name),
-                            metrics::magma(error_map));
-          io::write_image(cell_dir / "images" / fmt::format("reference_{:04d}_{}.png", f, name),
-                          io::display_encode(reference.mean));
-        }
+        if (full) write_report_images(cell_dir, f, name, reference, flip ? &error_map : nullptr);
         rows[ref.name][c].push_back(std::move(row));
         previous[{ref.name, c}] = {f, test, reference};
-        result.references.push_back({{"frame", f},
-                                     {"path_class", name},
-                                     {"reference", ref.name},
-                                     {"samples", reference.samples},
-                                     {"seconds", reference.seconds},
-                                     {"rel_error", reference.rel_error},
-                                     {"stopped_by", trace::stop_rule_name(reference.stopped_by)},
-                                     {"max_bounces", reference.max_bounces}});
+        result.references.push_back(reference_entry(f, name, ref.name, reference));
       }
     }
   }
@@ -263,12 +280,8 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
     for (trace::PathClass c : classes)
       means[std::string(trace::path_class_name(c))] =
           class_means(rows[ref.name][c], config.metrics);
-    if (ref.name == "full") {
-      result.means = means;
-    } else {
-      means["max_bounces"] = ref.options.max_bounces;
-      result.bounce_matched_means = means;
-    }
+    if (ref.name != "full") means["max_bounces"] = ref.options.max_bounces;
+    (ref.name == "full" ? result.means : result.bounce_matched_means) = std::move(means);
   }
   return result;
 }
