@@ -252,22 +252,27 @@ def make_match_run(root, scene, default_technique, knob, target, matches, at="ti
     """A matched run (match.csv, match_probes.csv, summary.csv and the cells' frames.csv) of one scene.
     `matches`: one dict per match.csv row: its technique (default_technique if absent), params (the found cell's), status, knob_value, ms
     (median, p5, p95), flip and floor, reason, and per-pass frame times {pass: [ms per frame]} of the
-    found probe ("probe") and of each re-measurement round ("rounds": a list of such dicts); the
-    claims must read the rounds' frames, not the probe's."""
+    found probe ("probe") and of each re-measurement round ("rounds": a list of such dicts), the found
+    cell's scores per path class ("classes": {class: (flip, floor)}) and its seed cells' ("seeds": a
+    list of such dicts); the claims must read the rounds' frames, not the probe's."""
     names = sorted({k for m in matches for k in m["params"]})
     header = ["cell", "scene", "technique", "status"] + [f"param.{n}" for n in names]
     summary, match_rows, probes = [], [], []
     for i, m in enumerate(matches):
         technique = m.get("technique", default_technique)
         found = f"{scene}__{technique}__{i}"
-        cells = [(found, m.get("probe", {}), "probe")]
-        cells += [(f"{found}__round{r + 1}", passes, "round") for r, passes in enumerate(m.get("rounds", []))]
-        for cid, passes, role in cells:
+        cells = [(found, m.get("probe", {}), "probe", m.get("classes", {}))]
+        cells += [(f"{found}__round{r + 1}", passes, "round", {})
+                  for r, passes in enumerate(m.get("rounds", []))]
+        cells += [(f"{found}__seed{s + 2}", {}, "seed", classes) for s, classes in enumerate(m.get("seeds", []))]
+        for cid, passes, role, classes in cells:
             summary.append([cid, scene, technique, "ok"] + [m["params"].get(n, "") for n in names])
             d = os.path.join(root, "cells", cid)
             os.makedirs(d)
             write_csv(os.path.join(d, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"],
                       [[f, p, ms, 0.1] for p, series in passes.items() for f, ms in enumerate(series)])
+            write_csv(os.path.join(d, "metrics.csv"), ["frame", "path_class", "reference", "flip", "flip_floor"],
+                      [[0, cls, "full", flip, floor] for cls, (flip, floor) in classes.items()])
             with open(os.path.join(d, "cell.json"), "w") as f:
                 json.dump({"status": "ok"}, f)
             probes.append({"scene": scene, "technique": technique, "knob": knob, "role": role, "index": "0",
@@ -434,20 +439,23 @@ class ClaimsWithoutAMatchTest(unittest.TestCase):
         self.assertIn("Paper I makes no equal-time or equal-cost comparison", text)
 
 
-def make_aaps_match_run(root):
-    """cornell-glass at 60 ms a frame: none at A_t 19 (FLIP 0.30), small_per_sample at 24 (0.25: resolved
-    against none by the floors 0.02), all_per_sample at 40 (0.205 against none's 0.20 when floors are
-    0.06: see the test). AAPS's passes in the rounds: none photon-trace 10 + rasterize 12 a frame."""
+def make_aaps_match_run(root, caustics=(("0.30", "0.02"), ("0.25", "0.02"), ("0.29", "0.02")), seeds=()):
+    """cornell-glass at 60 ms a frame: none at A_t 19, small_per_sample at 24, all_per_sample at 40; the
+    combined image's FLIP in match.csv 0.45 for each (the indirect light AAPS does not render), the
+    caustics class's `caustics` (flip, floor) per mode (none, small_per_sample, all_per_sample), and
+    `seeds`: the modes' caustics FLIP at further seeds. AAPS's passes in the rounds: none photon-trace
+    10 + rasterize 12 a frame, small_per_sample 8 + 15 + 1 (resolve)."""
+    modes = [("none", "19", ("60", "57", "63"), {"photon-trace": [10, 10], "rasterize": [12, 12]}),
+             ("small_per_sample", "24", ("61", "58", "64"),
+              {"photon-trace": [8, 8], "rasterize": [15, 15], "resolve": [1, 1]}),
+             ("all_per_sample", "40", ("59", "56", "62"),
+              {"photon-trace": [6, 6], "rasterize": [17, 17], "resolve": [1, 1]})]
     make_match_run(root, "cornell-glass", "aaps", "target_area", 60, [
-        {"params": {"msaa": "none"}, "status": "matched", "knob_value": "19", "ms": ("60", "57", "63"),
-         "flip": "0.30", "floor": "0.02", "probe": PROBE_FRAMES,
-         "rounds": [{"photon-trace": [10, 10], "rasterize": [12, 12], "gbuffer": [30, 30]}]},
-        {"params": {"msaa": "small_per_sample"}, "status": "matched", "knob_value": "24",
-         "ms": ("61", "58", "64"), "flip": "0.25", "floor": "0.02", "probe": PROBE_FRAMES,
-         "rounds": [{"photon-trace": [8, 8], "rasterize": [15, 15], "resolve": [1, 1], "gbuffer": [30, 30]}]},
-        {"params": {"msaa": "all_per_sample"}, "status": "matched", "knob_value": "40",
-         "ms": ("59", "56", "62"), "flip": "0.29", "floor": "0.02", "probe": PROBE_FRAMES,
-         "rounds": [{"photon-trace": [6, 6], "rasterize": [17, 17], "resolve": [1, 1], "gbuffer": [30, 30]}]}])
+        {"params": {"msaa": msaa}, "status": "matched", "knob_value": area, "ms": ms, "flip": "0.45",
+         "floor": "0.02", "probe": PROBE_FRAMES, "rounds": [dict(passes, gbuffer=[30, 30])],
+         "classes": {"combined": ("0.45", "0.02"), "caustics": caustic},
+         "seeds": [{"caustics": (seed[i], caustic[1])} for seed in seeds]}
+        for i, ((msaa, area, ms, passes), caustic) in enumerate(zip(modes, caustics))])
 
 
 class ClaimsAapsEqualTimeTest(ClaimsCase):
@@ -458,22 +466,33 @@ class ClaimsAapsEqualTimeTest(ClaimsCase):
 
     def test_table_has_the_target_area_found_and_aaps_time(self):
         self.assertEqual(self.cells("| cornell-glass | small_per_sample | matched |")[3:],
-                         ["24", "4", "61 [58, 64]", "24", "0.25 (floor 0.02)"])
+                         ["24", "4", "61 [58, 64]", "24", "0.25 (floor 0.02)", "0.45 (floor 0.02)"])
 
-    def test_small_per_sample_beats_none_at_this_budget_resolved(self):
+    def test_small_per_sample_beats_none_at_this_budget_in_the_caustics_class_resolved(self):
         line = self.row("* cornell-glass, small_per_sample against none at 60 ms")
         self.assertIn("AAPS 24 / 22 ms", line)
         self.assertIn("small_per_sample 0.25 (floor 0.02) is better than none 0.3 (floor 0.02): resolved",
                       line)
         self.assertIn("thesis: small_per_sample beats none above 3 ms", line)
 
+    def claims_of(self, **fixture):
+        shutil.rmtree(self.dir)
+        os.makedirs(self.dir)
+        make_aaps_match_run(self.dir, **fixture)
+        return aaps.claims(Run(self.dir))
+
     def test_a_difference_within_the_floors_is_unresolved(self):
-        rewrite_match(self.dir, {0: {"flip": "0.20", "flip_floor": "0.06"},
-                                 2: {"flip": "0.205", "flip_floor": "0.06"}})
-        line = [l for l in aaps.claims(Run(self.dir)).splitlines()
-                if l.startswith("* cornell-glass, all_per_sample")][0]
+        text = self.claims_of(caustics=(("0.20", "0.06"), ("0.25", "0.02"), ("0.205", "0.06")))
+        line = [l for l in text.splitlines() if l.startswith("* cornell-glass, all_per_sample")][0]
         self.assertIn("none 0.2 (floor 0.06) is better than all_per_sample 0.205 (floor 0.06): unresolved",
                       line)
+
+    def test_the_seeds_spread_in_the_caustics_class_can_leave_the_order_unresolved(self):
+        # small_per_sample 0.25, 0.35 across seeds (sd 0.071), none 0.30, 0.30: 0.05 apart < 2 x 0.071.
+        text = self.claims_of(seeds=(("0.30", "0.35", "0.29"),))
+        line = [l for l in text.splitlines() if l.startswith("* cornell-glass, small_per_sample")][0]
+        self.assertIn("small_per_sample 0.25 (floor 0.02) ±0.071 over seeds is better than none 0.3 (floor "
+                      "0.02) ±0 over seeds: unresolved", line)
 
 
 if __name__ == "__main__":
