@@ -260,11 +260,13 @@ def make_match_run(root, scene, default_technique, knob, target, matches, at="ti
     summary, match_rows, probes = [], [], []
     for i, m in enumerate(matches):
         technique = m.get("technique", default_technique)
-        found = f"{scene}__{technique}__{i}"
+        # With seeds the found cell is seed 1 of its group, its seed cells the group's others (the run's ids).
+        group = f"{scene}__{technique}__{i}"
+        found = group + ("__seed1" if m.get("seeds") else "")
         cells = [(found, m.get("probe", {}), "probe", m.get("classes", {}))]
         cells += [(f"{found}__round{r + 1}", passes, "round", {})
                   for r, passes in enumerate(m.get("rounds", []))]
-        cells += [(f"{found}__seed{s + 2}", {}, "seed", classes) for s, classes in enumerate(m.get("seeds", []))]
+        cells += [(f"{group}__seed{s + 2}", {}, "seed", classes) for s, classes in enumerate(m.get("seeds", []))]
         for cid, passes, role, classes in cells:
             summary.append([cid, scene, technique, "ok"] + [m["params"].get(n, "") for n in names])
             d = os.path.join(root, "cells", cid)
@@ -274,7 +276,7 @@ def make_match_run(root, scene, default_technique, knob, target, matches, at="ti
             write_csv(os.path.join(d, "metrics.csv"), ["frame", "path_class", "reference", "flip", "flip_floor"],
                       [[0, cls, "full", flip, floor] for cls, (flip, floor) in classes.items()])
             with open(os.path.join(d, "cell.json"), "w") as f:
-                json.dump({"status": "ok"}, f)
+                json.dump({"status": "ok", "seed_group": group if m.get("seeds") else cid}, f)
             probes.append({"scene": scene, "technique": technique, "knob": knob, "role": role, "index": "0",
                            "knob_value": m["knob_value"], "cell": cid, "status": "ok",
                            "frame_ms_median": m["ms"][0], "frame_ms_p5": "", "frame_ms_p95": "",

@@ -136,16 +136,16 @@ def matched_rows(run: Run, techniques) -> Tuple[str, str, List[Tuple[Dict[str, s
 def class_row(run: Run, row: Dict[str, str], metric: str, path_class: str) -> Dict[str, str]:
     """A match.csv row whose `metric`, floor and seed spread are one path class's (match.csv holds the
     combined image's): the found cell's means over its metric frames, and the sample standard
-    deviation over it and its seed cells ("<found id>__seed<S>"), so that matching.order_verdict and
-    score_text judge that class by the report's rule."""
+    deviation over it and its seed cells (match_probes.csv's role "seed" of its seed group), so that
+    matching.order_verdict and score_text judge that class by the report's rule."""
     out = dict(row, **{metric: "", f"{metric}_floor": "", f"{metric}_seed_sd": ""})
     found = run.cell(row["cell"]) if row.get("cell") else None
     if found is None or not found.ok:
         return out
-    prefix = row["cell"] + "__seed"
-    seeds = [run.cell(p["cell"]) for p in matching.read_probes(run.path)
-             if p["role"] == "seed" and p["cell"].startswith(prefix)]
-    values = [c.metric_mean(metric, path_class) for c in [found] + seeds if c is not None and c.ok]
+    group = seeds.seed_group(found)
+    others = [run.cell(p["cell"]) for p in matching.read_probes(run.path) if p["role"] == "seed"]
+    others = [c for c in others if c is not None and seeds.seed_group(c) == group]
+    values = [c.metric_mean(metric, path_class) for c in [found] + others if c.ok]
     values = [v for v in values if not math.isnan(v)]
     out[metric] = "" if math.isnan(found.metric_mean(metric, path_class)) else repr(
         found.metric_mean(metric, path_class))
