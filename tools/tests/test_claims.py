@@ -351,10 +351,16 @@ class ClaimsPaper2EqualTimeTest(ClaimsCase):
 
     def test_paths_at_equal_time_beside_the_paper(self):
         line = self.row("* villa, error_based against the baseline")
-        self.assertIn("1.67× the paths (5000 / 3000; paper 1.67×", line)
+        self.assertIn("1.67× the paths (5000 / 3000; paper 1.67× (5M / 3M, villa); resolved: the tolerances "
+                      "alone allow 0.82-1.22× with time proportional to paths)", line)
         self.assertIn("equal time held", line)
         self.assertIn("light transport 81.0 / 179.0 ms, splatting 236.0 / 140.0 ms", line)
         self.assertIn("error_based 0.2 (floor 0.02) is better than none 0.3 (floor 0.02): resolved", line)
+
+    def test_a_paths_ratio_within_the_tolerances_is_unresolved(self):
+        rewrite_match(self.dir, {1: {"knob_value": "3600"}})  # 1.2x, inside (1 + 0.1) / (1 - 0.1) = 1.22x
+        line = [l for l in paper2.claims(Run(self.dir)).splitlines() if l.startswith("* villa, error_based")][0]
+        self.assertIn("1.20× the paths (3600 / 3000; paper 1.67× (5M / 3M, villa); unresolved:", line)
 
     def test_an_unmatched_variant_is_named_with_its_reason(self):
         self.assertIn("naive unreachable (the probes reached 80 to 120 ms)",

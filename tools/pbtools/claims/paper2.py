@@ -83,6 +83,19 @@ class MissingCells(Exception):
     pass
 
 
+def paths_resolution(ratio: float, a: Dict[str, str], b: Dict[str, str]) -> str:
+    """Whether a ratio of the paths two matches found tells them apart: each found value's time is within
+    its match's tolerance t of the target, so with time proportional to paths a ratio within
+    (1 + t_a) / (1 - t_b) of 1 (or its inverse) may be the tolerance alone."""
+    ta, tb = float(a["tolerance"] or "nan"), float(b["tolerance"] or "nan")
+    band = max((1 + ta) / (1 - tb), (1 + tb) / (1 - ta))
+    if math.isnan(band):
+        return "no tolerance to judge the ratio by"
+    told = ratio > band or ratio < 1 / band
+    return (f"{'resolved' if told else 'unresolved'}: the tolerances alone allow {1 / band:.2f}-{band:.2f}×"
+            " with time proportional to paths")
+
+
 def equal_time(run: Run) -> List[str]:
     """Fig. 1 from a matched run (configs/paper2-equal-time.yaml): each reuse variant's paths at one
     frame time, its light-transport and splat time there, and its error with the floor; the paper's
@@ -126,7 +139,8 @@ def equal_time(run: Run) -> List[str]:
         paper = (f"paper {p_err[1] / p_base[1]:.2f}× (5M / 3M, villa)" if v == "error_based"
                  else "the paper's Fig. 1 has no naive")
         out.append(f"* {scene}, {v} against the baseline at {float(r['target']):g} ms a frame: "
-                   f"{paths:.2f}× the paths ({knob_value(r)} / {knob_value(base)}; {paper}); equal time "
+                   f"{paths:.2f}× the paths ({knob_value(r)} / {knob_value(base)}; {paper}; "
+                   f"{paths_resolution(paths, r, base)}); equal time "
                    f"{equal_time_held(r, base)}; light transport "
                    f"{_f(matched_pass_ms(run, r, LIGHT_TRANSPORT), 1)} / "
                    f"{_f(matched_pass_ms(run, base, LIGHT_TRANSPORT), 1)} ms, splatting "
