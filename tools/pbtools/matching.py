@@ -85,14 +85,27 @@ def _verdict(parts: List[Optional[bool]]) -> str:
     return "resolved" if all(known) else "unresolved"
 
 
-def _time_text(r: Dict[str, str]) -> str:
+def order_verdict(a: Dict[str, str], b: Dict[str, str], metric: str, mode: str) -> str:
+    """Whether match.csv row `a` placed before row `b` holds: "resolved", "unresolved" or "unknown (no
+    floors)". At equal time (mode "time") `a` has the better `metric` and the difference must beat the
+    floors and, with seeds, twice the combined seed spread; at equal quality `a` is the faster and its
+    p95 frame time must lie below `b`'s p5. The tables here and the claims (tools/pbtools/claims) share
+    it."""
+    if mode == "time":
+        parts = [_floor_resolved(metric, a, b), _seed_resolved(a, b, metric)]
+    else:
+        parts = [_float(a["frame_ms_p95"]) < _float(b["frame_ms_p5"])]
+    return _verdict(parts)
+
+
+def time_text(r: Dict[str, str]) -> str:
     m, lo, hi = (_float(r[k]) for k in ("frame_ms_median", "frame_ms_p5", "frame_ms_p95"))
     if math.isnan(m):
         return ""
     return f"{m:.4g} [{lo:.4g}, {hi:.4g}]"
 
 
-def _score_text(r: Dict[str, str], metric: str) -> str:
+def score_text(r: Dict[str, str], metric: str) -> str:
     v, f = _float(r.get(metric, "")), _float(r.get(f"{metric}_floor", ""))
     if math.isnan(v):
         return ""
@@ -117,11 +130,7 @@ def scene_table(rows: List[Dict[str, str]], metric: str) -> dict:
         order = ""
         if i + 1 < len(matched):
             n = matched[i + 1]
-            if mode == "time":
-                parts = [_floor_resolved(metric, r, n), _seed_resolved(r, n, metric)]
-            else:
-                parts = [_float(r["frame_ms_p95"]) < _float(n["frame_ms_p5"])]
-            order = f"{_verdict(parts)} against {n['technique']}"
+            order = f"{order_verdict(r, n, metric, mode)} against {n['technique']}"
         out.append(_view(r, metric, order))
     others = [r for r in rows if r["status"] != "matched"]
     return {"mode": mode, "metric": metric, "rows": out + [_view(r, metric, "") for r in others]}
@@ -130,7 +139,7 @@ def scene_table(rows: List[Dict[str, str]], metric: str) -> dict:
 def _view(r: Dict[str, str], metric: str, order: str) -> dict:
     knob = f"{r['knob']} = {r['knob_value']}" if r["knob"] and r["knob_value"] else ""
     return {"technique": r["technique"], "status": r["status"], "knob": knob, "probes": r["probes"],
-            "time": _time_text(r), "rounds": r["rounds"], "score": _score_text(r, metric),
+            "time": time_text(r), "rounds": r["rounds"], "score": score_text(r, metric),
             "order": order, "reason": r["reason"], "cell": r["cell"]}
 
 
@@ -192,15 +201,33 @@ def view(run_dir: str, styles: style.TechniqueStyle) -> Optional[dict]:
     rows = read_matches(run_dir)
     if not rows:
         return None
-    mode = _mode(rows) or "time"
+    mode, metric = mode_and_metric(run_dir, rows)
     target = next((_float(r["target"]) for r in rows if r["target"]), None)
-    metric = _config_metric(run_dir) if mode == "quality" else _first_metric(rows)
     scenes = []
     for scene in dict.fromkeys(r["scene"] for r in rows):
         sr = [r for r in rows if r["scene"] == scene]
         scenes.append({"name": scene, "table": scene_table(sr, metric),
                        "figure": probes_figure(run_dir, scene, metric, styles, target, mode)})
     return {"mode": mode, "target": target, "metric": metric, "scenes": scenes}
+
+
+def mode_and_metric(run_dir: str, rows: List[Dict[str, str]]) -> (str, str):
+    """The run's match mode ("time" or "quality") and the metric its tables order by: the matched
+    metric at equal quality, the first error metric with a column at equal time."""
+    mode = _mode(rows) or "time"
+    return mode, _config_metric(run_dir) if mode == "quality" else _first_metric(rows)
+
+
+def measured_cells(run_dir: str, row: Dict[str, str]) -> List[str]:
+    """The cells whose frames give a match.csv row its achieved time (run/match.cpp, achieved_time):
+    the found cell's ok re-measurement rounds ("<found id>__round<r>", match_probes.csv's role
+    "round"), or the found cell itself when it has none."""
+    if not row.get("cell"):
+        return []
+    prefix = row["cell"] + "__round"
+    rounds = [p["cell"] for p in read_probes(run_dir)
+              if p["role"] == "round" and p["cell"].startswith(prefix) and p["status"] == "ok"]
+    return rounds or [row["cell"]]
 
 
 def _first_metric(rows: List[Dict[str, str]]) -> str:

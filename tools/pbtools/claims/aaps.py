@@ -9,6 +9,12 @@ The thesis's trends (digest seed004-aaps.md §2, §4), each set beside what the 
     (Fig. 35: 14 ms -> 28 ms);
   * per-sample MSAA for small splats only (`small_per_sample`) improves FLIP beyond a time budget at
     little cost (Fig. 43: above ~3 ms on the RX 6900 XT).
+At a fixed budget (Figs. 40 and 43, the thesis's comparisons at equal cost), from a matched run (match.csv;
+configs/aaps-equal-time.yaml): each msaa mode's target area at one frame time, FLIP of the caustics class
+with its floor (the thesis's whole image holds only direct light and caustics, against a reference of the
+same paths) and of the combined image beside it, AAPS's own time there, and whether a mode beats `none`, resolved or not
+(tools/pbtools/matching.py's rule), beside the thesis's break-evens (3 ms small_per_sample, 12 ms
+all_per_sample, RX 6900 XT); a run without match.csv says so.
 FLIP and RMSE are the caustics class against the full reference; time is the sum of the technique's own
 passes (photon-trace, rasterize, resolve, apply, task-update), the median frame; shares and energies are
 the counters' means over the measured frames. Per-pass medians at each scene's smallest target area stand
@@ -22,7 +28,10 @@ from typing import Dict, List, Tuple
 
 import numpy as np
 
+from .. import matching
 from ..rundata import Cell, Run
+from .paper1 import (class_row, equal_time_held, knob_value, matched_pairs, matched_pass_ms, matched_rows,
+                     missing_match, score_order)
 
 TITLE = "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)"
 
@@ -30,8 +39,74 @@ AAPS_PASSES = ("photon-trace", "rasterize", "resolve", "apply", "task-update")
 MODES = ("none", "all", "all_per_sample", "small_per_sample")
 
 
+# The thesis's comparisons at a fixed budget of AAPS execution time (RX 6900 XT): mode -> (the budget
+# above which it beats `none` in FLIP, where it says so).
+THESIS_BREAK_EVEN = {"small_per_sample": (3.0, "Fig. 43, §6.4"), "all_per_sample": (12.0, "Fig. 40, §6.4")}
+
+
 class MissingCells(Exception):
     pass
+
+
+def equal_time(run: Run) -> List[str]:
+    """Figs. 40 and 43 at one budget, from a matched run (configs/aaps-equal-time.yaml): each msaa mode
+    at one frame time (its target area the knob), FLIP of the caustics class beside its floor, and
+    whether a mode beats `none` there, resolved or not."""
+    out = ["## At a fixed time budget (Figs. 40, 43)",
+           "(thesis, RX 6900 XT, FLIP of the whole image against AAPS's execution time as the target area "
+           "is swept: per-sample MSAA for small splats only (`small_per_sample`) beats no AA (`none`) "
+           "for budgets over 3 ms (Fig. 43, §6.4); per-sample MSAA on every splat (`all_per_sample`) "
+           "only over 12 ms (Fig. 40, §6.4). Its comparisons at a fixed cost; it makes none at a fixed "
+           "quality)", ""]
+    mode, metric, rows = matched_rows(run, ("aaps",))
+    if not rows:
+        return out + missing_match(("aaps",), "configs/aaps-equal-time.yaml")
+    if mode != "time":
+        out += [f"This run matched at equal quality ({metric}): the thesis's comparison is at a fixed "
+                "time; the modes' times at one error are below (the faster reaches it sooner).", ""]
+    out += ["Each mode's target area found by the match for one frame time (AAPS's knob: a smaller area "
+            "emits more photons); the achieved frame time over the re-measurement rounds, median [p5, "
+            "p95], what the match holds equal; the thesis's x axis, AAPS's own passes (" +
+            ", ".join(AAPS_PASSES) + "), as the median of those frames' sums; " + metric +
+            f" of AAPS's caustics class against the caustics reference, with that reference's floor "
+            "(the thesis's FLIP is of its whole image, direct light and caustics against a reference of "
+            "the same paths: the caustics class is the part that differs), and the combined image's "
+            "beside it (match.csv's: against the full reference, whose indirect diffuse light AAPS does "
+            "not render).", "",
+            f"| scene | msaa | status | A_t (px²) | probes | frame ms | AAPS ms | {metric} caustics | "
+            f"{metric} combined |", "|---|---|---|---|---|---|---|---|---|"]
+    by_scene: Dict[str, Dict[str, Dict[str, str]]] = defaultdict(dict)
+    for row, cell in rows:
+        msaa = str(cell.params.get("msaa", "none")) if cell is not None else "?"
+        caustics = class_row(run, row, metric, "caustics")
+        out.append(f"| {row['scene']} | {msaa} | {row['status']} | {knob_value(row)} | {row['probes']} | "
+                   f"{matching.time_text(row) or '-'} | {fmt(matched_pass_ms(run, row, AAPS_PASSES), 3)} | "
+                   f"{matching.score_text(caustics, metric) or '-'} | "
+                   f"{matching.score_text(row, metric) or '-'} |")
+        by_scene[row["scene"]][msaa] = caustics
+    out.append("")
+    modes = ("small_per_sample", "all_per_sample", "all")
+    for scene, m, r, none, why in matched_pairs(by_scene, "none", modes):
+        if why:
+            out.append(f"* {scene}, {m} against none: no comparison, {why}")
+            continue
+        if mode == "time":
+            budget, where = THESIS_BREAK_EVEN.get(m, (math.nan, ""))
+            thesis = (f"thesis: {m} beats none above {budget:g} ms of AAPS time ({where})" if where
+                      else "thesis: `all` dims the caustic and does not improve FLIP (§5.1.1)")
+            out.append(f"* {scene}, {m} against none at {float(r['target']):g} ms a frame (AAPS "
+                       f"{fmt(matched_pass_ms(run, r, AAPS_PASSES), 3)} / "
+                       f"{fmt(matched_pass_ms(run, none, AAPS_PASSES), 3)} ms; equal time "
+                       f"{equal_time_held(r, none)}): {score_order(r, none, metric, m, 'none')} "
+                       f"({thesis}).")
+        else:
+            fast, slow = sorted((r, none), key=lambda x: float(x["frame_ms_median"] or "nan"))
+            names = {id(r): m, id(none): "none"}
+            out.append(f"* {scene}, {m} against none at {metric} {float(r['target']):g}: "
+                       f"{names[id(fast)]} {matching.time_text(fast)} ms is faster than "
+                       f"{names[id(slow)]} {matching.time_text(slow)} ms: "
+                       f"{matching.order_verdict(fast, slow, metric, 'quality')}.")
+    return out + [""]
 
 
 def frame_ms(cell: Cell) -> float:
@@ -181,4 +256,5 @@ def claims(run: Run) -> str:
                        f"{fmt(c.metric_mean('rmse', 'caustics'))} | {fmt(frame_ms(c))} | "
                        f"{fmt(counter(c, 'photons_culled'))} |")
         out.append("")
+    out += equal_time(run)
     return "\n".join(out) + "\n"

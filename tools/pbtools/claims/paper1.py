@@ -10,6 +10,9 @@ The comparisons, with the paper's statements (digest seed002-papers-I-II.md §6.
     FLIP with "<" where the difference exceeds both floors and "≈" where it does not; against the full
     reference, and again against the bounce-matched one when the run scored it
     (reference: {bounce_matched: true}), so truncation and the estimator's own error separate.
+Paper I makes no equal-time or equal-cost comparison (its ratios are at equal photon count and radius); the
+claims say so, and from a matched run (match.csv) list its techniques' rows as what it did not measure: at
+equal time the FLIP order, at equal quality the splat + estimate + build ratios of the pairs it compares.
 Every "A beats B" and "A equals B" statement (the FLIP order: `<`, `≈`, `=`) carries the statistical
 test behind it and its p-value (stats.py): Welch's t-test across seeds on the per-seed mean FLIP, one-
 sided for "beats", two-sided for "equals" (a p-value below 0.05 rejects the equality). A run without a
@@ -28,7 +31,7 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 import pandas as pd
 
-from .. import floors, measures, seeds, stats
+from .. import floors, matching, measures, seeds, stats
 from ..rundata import BOUNCE_MATCHED_REFERENCE, FULL_REFERENCE, Cell, Run, format_param
 
 TITLE = "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)"
@@ -113,6 +116,104 @@ def resolution(run: Run) -> str:
 
 def _f(v: float, digits: int = 2) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+# -- a matched run (`match:`; match.csv, read by tools/pbtools/matching.py) -----------------------------
+# Shared by the claims modules: each states its paper's equal-time (or equal-cost) comparison from the
+# rows of match.csv, in the paper's own quantity, each score beside its floor and each order marked
+# resolved or not by matching.order_verdict (the report's rule).
+
+def matched_rows(run: Run, techniques) -> Tuple[str, str, List[Tuple[Dict[str, str], Optional[Cell]]]]:
+    """(mode, metric, [(match.csv row, its found cell)]) for the rows of `techniques`: mode "time" or
+    "quality", metric the one the report's tables order by; no rows for a run without match.csv."""
+    rows = [r for r in matching.read_matches(run.path) if r["technique"] in techniques]
+    if not rows:
+        return "", "", []
+    mode, metric = matching.mode_and_metric(run.path, rows)
+    return mode, metric, [(r, run.cell(r["cell"]) if r["cell"] else None) for r in rows]
+
+
+def class_row(run: Run, row: Dict[str, str], metric: str, path_class: str) -> Dict[str, str]:
+    """A match.csv row whose `metric`, floor and seed spread are one path class's (match.csv holds the
+    combined image's): the found cell's means over its metric frames, and the sample standard
+    deviation over it and its seed cells (match_probes.csv's role "seed" of its seed group), so that
+    matching.order_verdict and score_text judge that class by the report's rule."""
+    out = dict(row, **{metric: "", f"{metric}_floor": "", f"{metric}_seed_sd": ""})
+    found = run.cell(row["cell"]) if row.get("cell") else None
+    if found is None or not found.ok:
+        return out
+    group = seeds.seed_group(found)
+    others = [run.cell(p["cell"]) for p in matching.read_probes(run.path) if p["role"] == "seed"]
+    others = [c for c in others if c is not None and seeds.seed_group(c) == group]
+    values = [c.metric_mean(metric, path_class) for c in [found] + others if c.ok]
+    values = [v for v in values if not math.isnan(v)]
+    out[metric] = "" if math.isnan(found.metric_mean(metric, path_class)) else repr(
+        found.metric_mean(metric, path_class))
+    floor = found.metric_mean(metric + floors.FLOOR_SUFFIX, path_class)
+    out[f"{metric}_floor"] = "" if math.isnan(floor) else repr(floor)
+    if len(values) > 1:
+        out[f"{metric}_seed_sd"] = repr(float(np.std(values, ddof=1)))
+    return out
+
+
+def missing_match(techniques, config: str) -> List[str]:
+    """What the claims say of a comparison the run did not measure."""
+    return [f"Not measured: this run has no match.csv with {' or '.join(techniques)} rows. The comparison "
+            f"needs a matched run: `photonbench run {config}`.", ""]
+
+
+def matched_pairs(by_scene: Dict[str, Dict[str, Dict[str, str]]], base: str, others):
+    """(scene, other, its row, base's row, why they are not compared: "" when both matched, else each
+    unmatched side's status and reason) for every scene whose rows (variant -> match.csv row) hold
+    `base` and one of `others`."""
+    for scene, variants in by_scene.items():
+        for other in others:
+            a, b = variants.get(other), variants.get(base)
+            if a is None or b is None:
+                continue
+            why = "; ".join(f"{name} {r['status']} ({r['reason']})" for name, r in ((other, a), (base, b))
+                            if r["status"] != "matched")
+            yield scene, other, a, b, why
+
+
+def matched_pass_ms(run: Run, row: Dict[str, str], passes) -> float:
+    """The median, over the frames that give a match.csv row its achieved time (its rounds:
+    matching.measured_cells), of each frame's summed time of `passes`; NaN when none ran."""
+    cells = [run.cell(i) for i in matching.measured_cells(run.path, row)]
+    series = [group_series(c, passes) for c in cells if c is not None and c.ok]
+    series = [s for s in series if len(s)]
+    return float(pd.concat(series).median()) if series else math.nan
+
+
+def knob_value(row: Dict[str, str]) -> str:
+    """The knob value a match found, as written by the run ("" when it found none)."""
+    v = row.get("knob_value", "")
+    try:
+        return format_param(int(float(v))) if float(v) == int(float(v)) else format_param(float(v))
+    except (TypeError, ValueError, OverflowError):
+        return v
+
+
+def equal_time_held(a: Dict[str, str], b: Dict[str, str]) -> str:
+    """Whether two rows' achieved times are one time as far as their spread tells: their p5-p95 ranges
+    overlap (matching.order_verdict at equal quality leaves the faster's lead unresolved)."""
+    fast, slow = sorted((a, b), key=lambda r: float(r["frame_ms_median"] or "nan"))
+    if matching.order_verdict(fast, slow, "", "quality") == "resolved":
+        return (f"not held: the re-measured times are apart ({matching.time_text(fast)} against "
+                f"{matching.time_text(slow)} ms, p5-p95 not overlapping)")
+    return "held (the p5-p95 ranges of the re-measured times overlap)"
+
+
+def score_order(a: Dict[str, str], b: Dict[str, str], metric: str, name_a: str, name_b: str) -> str:
+    """"A's FLIP x (floor f) is lower than B's y (floor g), resolved" (or unresolved: matching's rule)."""
+    va, vb = float(a.get(metric) or "nan"), float(b.get(metric) or "nan")
+    if math.isnan(va) or math.isnan(vb):
+        return f"{metric} not scored"
+    lower = not (metric in measures.METRICS and not measures.lower_is_better(metric))
+    better, worse, nb, nw = (a, b, name_a, name_b) if (va < vb) == lower else (b, a, name_b, name_a)
+    verdict = matching.order_verdict(better, worse, metric, "time")
+    return (f"{nb} {matching.score_text(better, metric)} is better than {nw} "
+            f"{matching.score_text(worse, metric)}: {verdict}")
 
 
 def claims(run: Run) -> str:
@@ -254,7 +355,69 @@ def claims(run: Run) -> str:
     for reference in references:
         out += quality_table(grid, reference)
         out += order_tests(grid, replicas, reference)
+    out += equal_time(run)
     return "\n".join(out)
+
+
+def equal_time(run: Run) -> List[str]:
+    """Paper I makes no equal-time or equal-cost comparison; a matched run's rows of its techniques are
+    listed as what the paper did not measure: at equal time the FLIP order, at equal quality its own
+    quantity (splat + estimate time) between the pairs it compares."""
+    out = ["## At equal time or equal quality",
+           "Paper I makes no equal-time or equal-cost comparison. Its speed ratios (cluster-trivial about "
+           "2× tiled, directional a further 2-3×) and Table 2's quality are at equal photon count and "
+           "radius: for tiled and the cluster variants that is also equal quality (they splat the same "
+           "photons with the same estimator), for directional it is not (its node-level flux is an "
+           "approximation; \"the difference in image quality is minimal\").", ""]
+    mode, metric, rows = matched_rows(run, ("tiled", "cluster", "directional"))
+    if not rows:
+        return out + ["This run has no match.csv with tiled, cluster or directional rows (a matched run, "
+                      "`photonbench run configs/equal-time.yaml`, adds what the paper did not measure).", ""]
+    kinds = {id(r): kind(c) if c is not None else r["technique"] for r, c in rows}
+    at = "equal time" if mode == "time" else f"equal {metric}"
+    out += [f"Beyond the paper, this matched run at {at} (target {rows[0][0]['target']}): each technique's "
+            "photons found by the match; the achieved frame time over the re-measurement rounds, median "
+            "[p5, p95]; splat + estimate + build (the paper's time) as the median of those frames' sums; "
+            f"{metric} of the combined image with the reference's floor; each order against the next row "
+            "resolved or not (the report's rule: at equal time by the floors and seeds, at equal quality "
+            "by the time spread).", "",
+            f"| scene | technique | status | photons | frame ms | splat + estimate + build ms | {metric} | "
+            "order |", "|---|---|---|---|---|---|---|---|"]
+    ratios: List[str] = []
+    for scene in dict.fromkeys(r["scene"] for r, _ in rows):
+        scene_rows = [r for r, _ in rows if r["scene"] == scene]
+        for i, r in enumerate(ordered := table_order(scene_rows, metric)):
+            nxt = ordered[i + 1] if i + 1 < len(ordered) else None
+            order = ""
+            if r["status"] == "matched" and nxt is not None and nxt["status"] == "matched":
+                order = f"{matching.order_verdict(r, nxt, metric, mode)} against {kinds[id(nxt)]}"
+            out.append(f"| {scene} | {kinds[id(r)]} | {r['status']} | {knob_value(r)} | "
+                       f"{matching.time_text(r) or '–'} | "
+                       f"{_f(matched_pass_ms(run, r, SPLAT_ESTIMATE + BUILD), 1)} | "
+                       f"{matching.score_text(r, metric) or '–'} | {order} |")
+        if mode == "quality":
+            by_kind = {kinds[id(r)]: r for r in scene_rows if r["status"] == "matched"}
+            for slow, fast, paper in (("tiled", "cluster-trivial", "about 2× (up to 3×)"),
+                                      ("cluster-trivial", "directional", "a further 2-3×")):
+                if slow in by_kind and fast in by_kind:
+                    ratio = (matched_pass_ms(run, by_kind[slow], SPLAT_ESTIMATE + BUILD) /
+                             matched_pass_ms(run, by_kind[fast], SPLAT_ESTIMATE + BUILD))
+                    ratios.append(f"* {scene}: {slow} / {fast}, splat + estimate + build at equal {metric}: "
+                                  f"{_f(ratio)}× (paper, at equal settings: {paper})")
+    return out + [""] + ratios + ([""] if ratios else [])
+
+
+def table_order(rows: List[Dict[str, str]], metric: str) -> List[Dict[str, str]]:
+    """One scene's match.csv rows in the order of the report's table (matching.scene_table: the matched
+    ones by error at equal time or by time at equal quality, then the others)."""
+    left = list(rows)
+    ordered = []
+    for v in matching.scene_table(rows, metric)["rows"]:
+        r = next(r for r in left if (r["cell"], r["technique"], r["status"]) ==
+                 (v["cell"], v["technique"], v["status"]))
+        left.remove(r)
+        ordered.append(r)
+    return ordered
 
 
 # Table 2's cells: (metric, path class, shown as, digits). SSIM is shown in percent, as the paper does.

@@ -16,6 +16,11 @@ The comparisons, with the paper's statements (digest seed002-papers-I-II.md §7.
   * the reuse steps' overhead (update-origins, compute-dm, dynamic-occlusion, prune, fill): "about 2.5 ms,
     compared to the average baseline time of 60 ms"; per-step time (Fig. 8 analogue);
   * memory per structure (Table 1 analogue, MiB);
+  * at equal frame time (Fig. 1, villa), from a matched run (match.csv; configs/paper2-equal-time.yaml):
+    the paths each variant affords (the paper's quantity: error-based 5M against the baseline's 3M at
+    333 and 341 ms), its light-transport and splat time there (80 against 178 ms, 236 against 148),
+    whether the two times are one time as far as their spread tells, and the error with its floor, the
+    order resolved or not (tools/pbtools/matching.py's rule); a run without match.csv says so;
   * what the paper never measured: the estimate's error against the reference over the animation
     (relMSE and FLIP of the indirect class, the variant's mean against the baseline's, with the
     reference's noise floor beside them) and flicker between consecutive frames (the frame pairs of
@@ -33,8 +38,10 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 import pandas as pd
 
+from .. import matching
 from ..rundata import FULL_REFERENCE, Cell, Run, format_param
-from .paper1 import frame_ratios
+from .paper1 import (BUILD, SPLAT_ESTIMATE, equal_time_held, frame_ratios, knob_value, matched_pairs,
+                     matched_pass_ms, matched_rows, missing_match, score_order)
 
 TITLE = "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)"
 
@@ -67,8 +74,81 @@ FIG7_EVERY = 30  # frames between the rows of the per-frame rays table
 WALKER_PEAK = (240, 260)  # the frames around 250 where the paper's armadillo passes its light
 
 
+# Fig. 1 (villa, at roughly equal frame time): variant -> (frame ms, paths, light transport ms, splat ms).
+PAPER_FIG1 = {"none": (341, 3_000_000, 178, 148), "error_based": (333, 5_000_000, 80, 236)}
+SPLATTER_PASSES = SPLAT_ESTIMATE + BUILD  # the splatter's passes, Paper I's; Fig. 1's "splatting"
+
+
 class MissingCells(Exception):
     pass
+
+
+def paths_resolution(ratio: float, a: Dict[str, str], b: Dict[str, str]) -> str:
+    """Whether a ratio of the paths two matches found tells them apart: each found value's time is within
+    its match's tolerance t of the target, so with time proportional to paths a ratio within
+    (1 + t_a) / (1 - t_b) of 1 (or its inverse) may be the tolerance alone."""
+    ta, tb = float(a["tolerance"] or "nan"), float(b["tolerance"] or "nan")
+    band = max((1 + ta) / (1 - tb), (1 + tb) / (1 - ta))
+    if math.isnan(band):
+        return "no tolerance to judge the ratio by"
+    told = ratio > band or ratio < 1 / band
+    return (f"{'resolved' if told else 'unresolved'}: the tolerances alone allow {1 / band:.2f}-{band:.2f}×"
+            " with time proportional to paths")
+
+
+def equal_time(run: Run) -> List[str]:
+    """Fig. 1 from a matched run (configs/paper2-equal-time.yaml): each reuse variant's paths at one
+    frame time, its light-transport and splat time there, and its error with the floor; the paper's
+    quantity is the paths, 5M against the baseline's 3M at 333 and 341 ms."""
+    out = ["## At equal frame time (Fig. 1)",
+           "(paper, villa, at roughly equal frame time: the baseline 341 ms, 3 million paths traced in "
+           "about 178 ms and splatted in 148 ms; error-based 333 ms, 5 million paths traced and reused in "
+           "about 80 ms and splatted in 236 ms: 5/3 = 1.67× the paths. Its only equal-time comparison; it "
+           "makes none at equal quality, and shows the two images without an error measure)", ""]
+    mode, metric, rows = matched_rows(run, ("path-verification",))
+    if not rows:
+        return out + missing_match(("path-verification",), "configs/paper2-equal-time.yaml")
+    if mode != "time":
+        out += [f"This run matched at equal quality ({metric}), not at equal time: Fig. 1's comparison "
+                "is not in it. Its rows:", ""]
+    out += ["Each variant's `photons` (light paths) found by the match for one frame time (its knob); the "
+            "achieved frame time over the re-measurement rounds, median [p5, p95]; light transport "
+            "(" + ", ".join(LIGHT_TRANSPORT) + ") and splatting (" + ", ".join(SPLATTER_PASSES) + ") as "
+            f"the medians of those frames' sums; {metric} of the combined image with the reference's "
+            "floor.", "",
+            f"| scene | reuse | status | paths | probes | frame ms | light transport ms | splat ms | {metric} |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    by_scene: Dict[str, Dict[str, Dict[str, str]]] = defaultdict(dict)
+    for row, cell in rows:
+        reuse = str(cell.params.get("reuse", "error_based")) if cell is not None else "?"
+        out.append(f"| {row['scene']} | {reuse} | {row['status']} | {knob_value(row)} | {row['probes']} | "
+                   f"{matching.time_text(row) or '–'} | "
+                   f"{_f(matched_pass_ms(run, row, LIGHT_TRANSPORT), 1)} | "
+                   f"{_f(matched_pass_ms(run, row, SPLATTER_PASSES), 1)} | "
+                   f"{matching.score_text(row, metric) or '–'} |")
+        by_scene[row["scene"]][reuse] = row
+    out.append("")
+    if mode != "time":
+        return out
+    p_base, p_err = PAPER_FIG1["none"], PAPER_FIG1["error_based"]
+    for scene, v, r, base, why in matched_pairs(by_scene, "none", ("error_based", "naive")):
+        if why:
+            out.append(f"* {scene}, {v} against the baseline: no comparison, {why}")
+            continue
+        paths = float(r["knob_value"]) / float(base["knob_value"])
+        paper = (f"paper {p_err[1] / p_base[1]:.2f}× (5M / 3M, villa)" if v == "error_based"
+                 else "the paper's Fig. 1 has no naive")
+        out.append(f"* {scene}, {v} against the baseline at {float(r['target']):g} ms a frame: "
+                   f"{paths:.2f}× the paths ({knob_value(r)} / {knob_value(base)}; {paper}; "
+                   f"{paths_resolution(paths, r, base)}); equal time "
+                   f"{equal_time_held(r, base)}; light transport "
+                   f"{_f(matched_pass_ms(run, r, LIGHT_TRANSPORT), 1)} / "
+                   f"{_f(matched_pass_ms(run, base, LIGHT_TRANSPORT), 1)} ms, splatting "
+                   f"{_f(matched_pass_ms(run, r, SPLATTER_PASSES), 1)} / "
+                   f"{_f(matched_pass_ms(run, base, SPLATTER_PASSES), 1)} ms (paper "
+                   f"{p_err[2]} / {p_base[2]} and {p_err[3]} / {p_base[3]} ms); "
+                   f"{score_order(r, base, metric, v, 'none')}.")
+    return out + [""]
 
 
 def group_key(cell: Cell, swept: List[str]) -> Tuple[str, str]:
@@ -267,4 +347,5 @@ def claims(run: Run) -> str:
                 row += f" {_f(value, digits)} | {_f(floor, digits)} | {_f(value / b if b else math.nan, 3)} |"
             out.append(row)
     out.append("")
+    out += equal_time(run)
     return "\n".join(out)
