@@ -27,6 +27,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from .. import floors
 from ..rundata import Cell, Run
 
 TITLE = ("Real-time global illumination with photon mapping: reflective-shadow-map photons, screen-space "
@@ -51,7 +52,7 @@ THESIS_TABLE_61 = OrderedDict([("Sponza, 500,000 photons", (1.3, 6.6)),
                                ("Conference room, 100,000 photons", (0.9, 7.4))])
 METRICS = (("flip", 3), ("ssim", 3), ("psnr", 2), ("flicker", 3))
 CLASSES = ("combined", "indirect")
-RESOLVED = 4.0  # a score resolved when at least this many times its floor (README, noise floors)
+RESOLVED = floors.RESOLVE_FACTOR  # a score resolved at this many times its floor (floors.py)
 
 
 class MissingCells(Exception):
@@ -83,10 +84,20 @@ def stage_label(cell: Cell) -> str:
     if setting(cell, "direction_term"):
         extras.append("direction term")
     if setting(cell, "n_tile") != DEFAULTS["n_tile"]:
-        extras.append(f"n_tile {fmt(setting(cell, 'n_tile'), 3)}")
+        extras.append(f"n_tile {setting(cell, 'n_tile'):g}")
     if setting(cell, "sampler") != DEFAULTS["sampler"]:
         extras.append(f"sampler {setting(cell, 'sampler')}")
     return ", ".join([label] + extras)
+
+
+def stage_order(cell: Cell) -> Tuple[int, int, int, str]:
+    """The ablation's order: the technique's cells before `direct`, the filter stages as listed in
+    FILTER_STAGES, each stage's default before its variants."""
+    if cell.technique != TECHNIQUE:
+        return (1, 0, 0, cell.technique)
+    stage = list(FILTER_STAGES).index((setting(cell, "temporal"), setting(cell, "spatial")))
+    label = stage_label(cell)
+    return (0, stage, int("," in label), label)
 
 
 def fmt(v: Optional[float], digits: int = 3) -> str:
@@ -103,7 +114,7 @@ def with_floor(cell: Cell, metric: str, path_class: str, digits: int) -> str:
         return "-"
     floor = cell.metric_mean(metric + "_floor", path_class)
     text = f"{fmt(value, digits)} ({fmt(floor, digits)})"
-    if metric == "flip" and not math.isnan(floor) and value < RESOLVED * floor:
+    if metric == "flip" and floors.resolved(metric, value, floor) is False:
         text += " unresolved"
     return text
 
@@ -128,7 +139,9 @@ def shares(times: Dict[str, float]) -> Tuple[Dict[str, float], float]:
 
 
 def percent(v: float) -> str:
-    return "-" if math.isnan(v) else f"{100 * v:.0f}%"
+    if math.isnan(v):
+        return "-"
+    return f"{100 * v:.1f}%" if v < 0.01 else f"{100 * v:.0f}%"
 
 
 def estimate_ratio(gather: Cell, splat: Cell, clock: str) -> float:
@@ -169,27 +182,33 @@ def find(cells: List[Cell], label: str) -> Optional[Cell]:
     return None
 
 
-def compare(a: Cell, b: Cell, metric: str, path_class: str = "indirect") -> Tuple[float, float]:
-    return a.metric_mean(metric, path_class), b.metric_mean(metric, path_class)
-
-
 def resolved(cell: Cell, path_class: str = "indirect") -> bool:
     flip, floor = cell.metric_mean("flip", path_class), cell.metric_mean("flip_floor", path_class)
-    return not math.isnan(flip) and not math.isnan(floor) and flip >= RESOLVED * floor
+    return floors.resolved("flip", flip, floor) is True
 
 
-def lower_or_higher(new: float, old: float, better_low: bool = True) -> str:
-    if math.isnan(new) or math.isnan(old):
+def versus(a: Cell, b: Cell, metric: str, path_class: str = "indirect") -> str:
+    """Whether a's score is better or worse than b's (lower is better for FLIP and flicker), and
+    "(unresolved)" where the order may be the reference's noise: floors.comparison_resolved for a
+    metric with a floor model, the worst-case rule for flicker (the two differ by no more than their
+    floors together)."""
+    va, vb = a.metric_mean(metric, path_class), b.metric_mean(metric, path_class)
+    fa, fb = a.metric_mean(metric + "_floor", path_class), b.metric_mean(metric + "_floor", path_class)
+    if math.isnan(va) or math.isnan(vb):
         return "not measured"
-    if new == old:
+    if va == vb:
         return "equal"
-    return "better" if (new < old) == better_low else "worse"
+    order = "better" if va < vb else "worse"
+    if metric in floors.FLOOR_METRICS:
+        held = floors.comparison_resolved(metric, va, fa, vb, fb)
+    else:
+        held = None if math.isnan(fa) or math.isnan(fb) else abs(va - vb) > fa + fb
+    return order + (" (unresolved)" if held is False else "")
 
 
 def flip_and_flicker(a: Cell, b: Cell) -> str:
     """How a's indirect FLIP and flicker compare with b's: "indirect FLIP better, flicker worse"."""
-    return (f"indirect FLIP {lower_or_higher(*compare(a, b, 'flip'))}, flicker "
-            f"{lower_or_higher(*compare(a, b, 'flicker'))}")
+    return f"indirect FLIP {versus(a, b, 'flip')}, flicker {versus(a, b, 'flicker')}"
 
 
 def statements(cells: List[Cell]) -> List[str]:
@@ -205,18 +224,18 @@ def statements(cells: List[Cell]) -> List[str]:
                 f"{fmt(c.metric_mean('flicker_floor', 'indirect'))})")
 
     if none is not None and temporal is not None:
-        f0, f1 = compare(none, temporal, "flicker")
+        f0, f1 = none.metric_mean("flicker", "indirect"), temporal.metric_mean("flicker", "indirect")
         out.append("* §7.2 (the temporal filter accumulates the frames' stratified photon sets; without it "
                    "\"extreme variance in the irradiance values between frames\"): filters none "
                    f"{scores(none)}; temporal only {scores(temporal)}: indirect flicker x{fmt(f1 / f0, 2)} "
-                   f"({lower_or_higher(f1, f0)})")
+                   f"({versus(temporal, none, 'flicker')})")
     if none is not None and spatial is not None:
         out.append("* §7.3 (the edge-avoiding a-trous filter removes the noise the splat leaves): spatial "
-                   f"only {scores(spatial)}: indirect FLIP {lower_or_higher(*compare(spatial, none, 'flip'))} "
+                   f"only {scores(spatial)}: indirect FLIP {versus(spatial, none, 'flip')} "
                    "than filters none")
     if both is not None:
         others = [c for c in (temporal, spatial) if c is not None]
-        best = all(lower_or_higher(*compare(both, o, "flip")) == "better" for o in others)
+        best = all(versus(both, o, "flip") == "better" for o in others)
         out.append(f"* the thesis's chain, both filters: {scores(both)}; "
                    f"{'best' if best else 'not the best'} indirect FLIP of the filter stages")
         clip = find(cells, "both, no detail clip")
@@ -233,14 +252,14 @@ def statements(cells: List[Cell]) -> List[str]:
             if c.technique == TECHNIQUE and stage_label(c).startswith("both, n_tile"):
                 r = estimate_ratio(c, both, "auto")
                 out.append(f"* §8.6.4 (a larger n_tile blurs and costs more: 0.5 -> 3.0 took the estimate "
-                           f"0.9 -> 10.6 ms): n_tile {fmt(setting(c, 'n_tile'), 3)} against "
-                           f"{fmt(DEFAULTS['n_tile'], 3)}: {scores(c)}; indirect FLIP "
-                           f"{lower_or_higher(*compare(c, both, 'flip'))}, estimate time x{fmt(r, 2)}")
+                           f"0.9 -> 10.6 ms): n_tile {setting(c, 'n_tile'):g} against "
+                           f"{DEFAULTS['n_tile']:g}: {scores(c)}; indirect FLIP "
+                           f"{versus(c, both, 'flip')}, estimate time x{fmt(r, 2)}")
         sampler = find(cells, "both, sampler tracer")
         if sampler is not None:
             out.append("* §5.3 (photons from Hammersley points warped through the map's Haar pyramid): "
                        f"the tracer's own sampling of the same maps {scores(sampler)}: indirect FLIP "
-                       f"{lower_or_higher(*compare(sampler, both, 'flip'))} than the warped points")
+                       f"{versus(sampler, both, 'flip')} than the warped points")
     for c in cells:
         if c.technique != TECHNIQUE or setting(c, "estimate") != "gather":
             continue
@@ -257,7 +276,7 @@ def statements(cells: List[Cell]) -> List[str]:
                    f"estimate time x{fmt(r, 2)}" + (f" (process CPU x{fmt(rp, 2)})" if not math.isnan(rp) else "")
                    + f", {verdict}; indirect FLIP {fmt(c.metric_mean('flip', 'indirect'))} against "
                    f"{fmt(splat.metric_mean('flip', 'indirect'))} (floor "
-                   f"{fmt(c.metric_mean('flip_floor', 'indirect'))})")
+                   f"{fmt(c.metric_mean('flip_floor', 'indirect'))}): {versus(c, splat, 'flip')}")
     direct = [c for c in cells if c.technique == NO_GI]
     if direct:
         d = direct[0].metric_mean("flip", "combined")
@@ -280,6 +299,8 @@ def claims(run: Run) -> str:
     by_scene: Dict[str, List[Cell]] = OrderedDict()
     for c in cells:
         by_scene.setdefault(c.scene, []).append(c)
+    for group in by_scene.values():
+        group.sort(key=stage_order)
     has_process = any(not math.isnan(group_means(c, "process")[WHOLE_FRAME]) for c in cells)
     for scene, group in by_scene.items():
         gi = [c for c in group if c.technique == TECHNIQUE]
