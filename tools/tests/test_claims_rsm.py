@@ -121,7 +121,7 @@ class ClaimsRsmTest(ClaimsCase):
     def test_statements_compare_the_stages(self):
         self.assertIn("indirect flicker x0.20 (better)", self.row("§7.2"))
         self.assertIn("indirect FLIP better than filters none", self.row("§7.3 ("))
-        self.assertIn("best indirect FLIP of the filter stages", self.row("the thesis's chain"))
+        self.assertIn("; the lowest indirect FLIP of the filter stages\n", self.text)
         # FLIP 0.16 against 0.17, both resolved (floor 0.03): the order holds; flicker 0.06 against
         # 0.07 differ by less than their floors together (0.02 + 0.02): unresolved.
         self.assertIn("with them indirect FLIP better, flicker better (unresolved)", self.row("§7.3.1"))

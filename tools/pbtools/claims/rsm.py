@@ -235,9 +235,11 @@ def statements(cells: List[Cell]) -> List[str]:
                    "than filters none")
     if both is not None:
         others = [c for c in (temporal, spatial) if c is not None]
-        best = all(versus(both, o, "flip") == "better" for o in others)
+        orders = [versus(both, o, "flip") for o in others]
+        best = all(o.startswith("better") for o in orders)
+        held = "" if all("unresolved" not in o for o in orders) else " (unresolved)"
         out.append(f"* the thesis's chain, both filters: {scores(both)}; "
-                   f"{'best' if best else 'not the best'} indirect FLIP of the filter stages")
+                   f"{'the lowest' if best else 'not the lowest'} indirect FLIP of the filter stages{held}")
         clip = find(cells, "both, no detail clip")
         if clip is not None:
             out.append("* §7.3.1, Fig. 7.2 (the scaling coefficients alone blur the detail away; the "
