@@ -79,6 +79,16 @@ const pb_param_spec kParams[] = {
      "s_max of Eq. 6.3: the largest stretch along the projected light direction (unspecified)"},
     {"splat_scale", PB_PARAM_ENUM, 1, 0, 2, "full|half|quarter", "",
      "resolution of the splat targets (§6.2.1: half; quarter had precision issues)"},
+    {"estimate", PB_PARAM_ENUM, 0, 0, 1, "splat|gather", "",
+     "the screen-space irradiance estimate: splat (instanced kernels, additive blending, §6.2) or "
+     "gather (five compute passes: tile lists of kernels, then per pixel a loop over its tile's, "
+     "§6.3; the thesis found it slower, Table 6.1); the same kernels, targets and ellipsoid test"},
+    {"gather_tile", PB_PARAM_INT, 8, 1, 64, nullptr, "px",
+     "estimate gather: side of the gathering tiles at the splat resolution (unspecified; 8: one "
+     "8x8 workgroup a tile)"},
+    {"gather_capacity", PB_PARAM_FLOAT, 16, 0.01, 4096, nullptr, "entries/kernel",
+     "estimate gather: the index buffer's size, in entries per kernel drawn (§6.3: it must be "
+     "estimated; entries past it are dropped and counted, the thesis's corruption)"},
     {"temporal", PB_PARAM_BOOL, 1, 0, 1, nullptr, "", "the temporal filter (§7.2)"},
     {"temporal_alpha", PB_PARAM_FLOAT, 0.95, 0, 1, nullptr, "",
      "alpha_max of Eq. 7.4 (the thesis's value)"},
@@ -116,16 +126,21 @@ constexpr pb_counter_spec kTileMean{"tile_photons_mean", PB_COUNTER_SIZE, "photo
                                     "photons per screen tile that holds any"};
 constexpr pb_counter_spec kTilesEmpty{"tiles_empty", PB_COUNTER_RATIO, "tiles",
                                       "share of the screen tiles without a photon"};
+constexpr pb_counter_spec kGatherEntries{"gather_entries", PB_COUNTER_SIZE, "entries",
+                                         "estimate gather: tile-list entries the kernels need"};
+constexpr pb_counter_spec kGatherDropped{"gather_dropped", PB_COUNTER_WORK, "entries",
+                                         "estimate gather: entries past the index buffer, dropped"};
 constexpr pb_counter_spec kBytesGpu{"bytes_gpu", PB_COUNTER_SIZE, "bytes",
                                     "the technique's GPU buffers and images"};
 constexpr pb_counter_spec kBytesHost{"bytes_host", PB_COUNTER_SIZE, "bytes",
                                      "photons, kept paths, RSMs, maps, filter history (host)"};
 // clang-format on
 constexpr pb_counter_spec kCounters[] = {
-    kSamplingPoints, kSurvivors, pb::toolkit::kPhotonsStoredCounter,
-    kRsmTexels,      kCulled,    kSplats,
-    kTileMax,        kTileMean,  kTilesEmpty,
-    kBytesGpu,       kBytesHost};
+    kSamplingPoints, kSurvivors,     pb::toolkit::kPhotonsStoredCounter,
+    kRsmTexels,      kCulled,        kSplats,
+    kTileMax,        kTileMean,      kTilesEmpty,
+    kGatherEntries,  kGatherDropped, kBytesGpu,
+    kBytesHost};
 
 // The splat proxy: an octahedron circumscribing the unit sphere (vertices at +-sqrt(3) on the
 // axes: its faces are 1 from the centre), 8 faces of 3 vertices, each with its face's outward
@@ -152,6 +167,18 @@ struct SplatPush {
   glm::vec4 camera;
   glm::uvec4 size;
 };
+
+// The gathering passes' view (rsm_gather.glsl's View block) and state (its State block: the
+// dispatch arguments, the kernel count, the allocation counter, the dropped entries, the capacity).
+struct GatherView {
+  glm::mat4 view_projection, inverse_view_projection;
+  glm::vec4 camera;
+  glm::uvec4 size, grid;
+};
+struct GatherState {
+  uint32_t dispatch[3], kernel_count, allocated, dropped, capacity, pad;
+};
+static_assert(sizeof(GatherState) == 32, "rsm_gather.glsl's State block");
 
 class RsmPhotons final : public pb::Technique {
  public:
@@ -186,6 +213,9 @@ class RsmPhotons final : public pb::Technique {
     kernel_.s_max = float(params.number("kernel_max_stretch"));
     const std::string& scale = params.choice("splat_scale");
     scale_ = scale == "full" ? 1 : scale == "half" ? 2 : 4;
+    gather_ = params.choice("estimate") == "gather";
+    gather_tile_ = uint32_t(params.integer("gather_tile"));
+    gather_capacity_ = params.number("gather_capacity");
     temporal_ = params.flag("temporal");
     spatial_ = params.flag("spatial");
     filter_.alpha_max = float(params.number("temporal_alpha"));
@@ -271,6 +301,7 @@ class RsmPhotons final : public pb::Technique {
     upload_ = gpu.create_compute_pipeline("rsm-photons.upload", krsm_upload_comp_spv,
                                           {Binding::storage_buffer, Binding::storage_image},
                                           2 * sizeof(uint32_t));
+    if (gather_) setup_gather(gpu);
     lights_.resize(ctx.photon_tracer().light_count());
   }
 
@@ -289,8 +320,16 @@ class RsmPhotons final : public pb::Technique {
     }
     {
       auto scope = ctx.pass("estimate");
-      splat(ctx, f);
+      if (gather_)
+        gather(ctx, f);
+      else
+        splat(ctx, f);
       ctx.flush();
+      if (gather_) {
+        const auto* state = static_cast<const GatherState*>(gather_state_.mapped());
+        gather_entries_ = state->allocated;
+        gather_dropped_ = state->dropped;
+      }
     }
     {
       auto scope = ctx.pass("filters");
@@ -509,6 +548,83 @@ class RsmPhotons final : public pb::Technique {
     read_back(cmd, direction_, read_direction_, small_width_, small_height_);
   }
 
+  // ---- estimate, gathering instead (§6.3): five compute passes over the same kernels
+  // into the same targets, read back
+  void setup_gather(pb::gpu::Device& gpu) {
+    gather_grid_ = {(small_width_ + gather_tile_ - 1) / gather_tile_,
+                    (small_height_ + gather_tile_ - 1) / gather_tile_};
+    using U = vk::BufferUsageFlagBits;
+    gather_state_ =
+        gpu.create_buffer("rsm-photons.gather_state", sizeof(GatherState),
+                          U::eStorageBuffer | U::eIndirectBuffer, pb::gpu::Memory::host_visible);
+    gather_tiles_ = gpu.create_buffer(
+        "rsm-photons.gather_tiles", uint64_t(gather_grid_.x) * gather_grid_.y * sizeof(glm::uvec4),
+        U::eStorageBuffer | U::eTransferDst, pb::gpu::Memory::host_visible);
+    gather_view_ = gpu.create_buffer("rsm-photons.gather_view", sizeof(GatherView),
+                                     U::eStorageBuffer, pb::gpu::Memory::host_visible);
+    const std::vector<Binding> bindings = {
+        Binding::storage_buffer, Binding::storage_buffer, Binding::storage_buffer,
+        Binding::storage_buffer, Binding::storage_buffer, Binding::storage_image,
+        Binding::storage_image,  Binding::storage_image,  Binding::storage_image};
+    gather_args_ = gpu.create_compute_pipeline("rsm-photons.gather_args", krsm_gather_args_comp_spv,
+                                               bindings, 0);
+    gather_count_ = gpu.create_compute_pipeline("rsm-photons.gather_count",
+                                                krsm_gather_count_comp_spv, bindings, 0);
+    gather_allocate_ = gpu.create_compute_pipeline("rsm-photons.gather_allocate",
+                                                   krsm_gather_allocate_comp_spv, bindings, 0);
+    gather_copy_ = gpu.create_compute_pipeline("rsm-photons.gather_copy", krsm_gather_copy_comp_spv,
+                                               bindings, 0);
+    gather_pass_ =
+        gpu.create_compute_pipeline("rsm-photons.gather", krsm_gather_comp_spv, bindings, 0);
+  }
+
+  void gather(pb::Context& ctx, const pb::FrameInfo& f) {
+    const uint32_t n = uint32_t(kernels_.size());
+    // The index buffer's size is an estimate made before the lists are known (§6.3).
+    const uint32_t capacity =
+        uint32_t(std::clamp(std::ceil(gather_capacity_ * double(n)), 1.0, 4294967295.0 / 4));
+    if (gather_indices_.size() < uint64_t(capacity) * 4)
+      gather_indices_ = ctx.gpu().create_buffer(
+          "rsm-photons.gather_indices", uint64_t(capacity) * 4,
+          vk::BufferUsageFlagBits::eStorageBuffer, pb::gpu::Memory::host_visible);
+    GatherView view{f.camera.view_projection, f.camera.inverse_view_projection,
+                    glm::vec4(f.camera.position, 1.f),
+                    glm::uvec4(width_, height_, scale_, gather_tile_),
+                    glm::uvec4(gather_grid_, small_width_, small_height_)};
+    std::memcpy(gather_view_.mapped(), &view, sizeof(view));
+    GatherState state{};
+    state.kernel_count = n;
+    state.capacity = capacity;
+    std::memcpy(gather_state_.mapped(), &state, sizeof(state));
+    const pb::GBuffer g = ctx.shared().gbuffer_images();
+    const std::vector<pb::gpu::Resource> resources = {
+        &kernel_buffer_, &gather_state_, &gather_tiles_, &gather_indices_, &gather_view_,
+        g.position,      g.normal,       &accumulation_, &direction_};
+    const uint32_t tiles = gather_grid_.x * gather_grid_.y;
+    ctx.cmd().fillBuffer(gather_tiles_.handle(), 0, VK_WHOLE_SIZE, 0u);
+    pb::gpu::full_barrier(ctx.cmd());
+    // Each pass timed on its own (estimate/<pass>; a pass scope may submit what came before, so the
+    // command buffer is fetched inside it); `groups` 0: the indirect arguments of pass 1.
+    auto run = [&](const char* name, const pb::gpu::Pipeline& pipeline, glm::uvec2 groups) {
+      auto scope = ctx.pass(name);
+      vk::CommandBuffer cmd = ctx.cmd();
+      pipeline.bind(cmd, resources);
+      if (groups.x == 0)
+        cmd.dispatchIndirect(gather_state_.handle(), 0);
+      else
+        cmd.dispatch(groups.x, groups.y, 1);
+      pb::gpu::full_barrier(cmd);
+    };
+    run("indirect-args", gather_args_, {1, 1});
+    run("count", gather_count_, {0, 0});
+    run("allocate", gather_allocate_, {pb::gpu::groups_for(tiles, 64), 1});
+    run("copy", gather_copy_, {0, 0});
+    run("gather", gather_pass_, gather_grid_);
+    vk::CommandBuffer cmd = ctx.cmd();
+    read_back(cmd, accumulation_, read_accumulation_, small_width_, small_height_);
+    read_back(cmd, direction_, read_direction_, small_width_, small_height_);
+  }
+
   void read_back(vk::CommandBuffer cmd, const pb::gpu::Image& image, const pb::gpu::Buffer& buffer,
                  uint32_t width, uint32_t height) {
     uint32_t push[2] = {width, height};
@@ -605,10 +721,19 @@ class RsmPhotons final : public pb::Technique {
     pb::count(ctx, kTileMean, filled > 0 ? double(total) / double(filled) : 0.0);
     pb::count(ctx, kTilesEmpty,
               tile_counts_.empty() ? 0.0 : 1.0 - double(filled) / double(tile_counts_.size()));
-    const uint64_t gpu = accumulation_.bytes() + direction_.bytes() + radiance_.bytes() +
-                         read_position_.size() + read_normal_.size() + read_albedo_.size() +
-                         read_accumulation_.size() + read_direction_.size() +
-                         write_radiance_.size() + proxy_.size() + kernel_buffer_.size();
+    pb::count(ctx, kGatherEntries, double(gather_entries_));  // 0 with the splat
+    pb::count(ctx, kGatherDropped, double(gather_dropped_));
+    if (gather_ && gather_dropped_ > 0) {
+      ctx.warn(
+          fmt::format("rsm-photons: the gathering index buffer ({} entries a kernel) was "
+                      "{} entries short; raise gather_capacity",
+                      gather_capacity_, gather_dropped_));
+    }
+    const uint64_t gpu =
+        accumulation_.bytes() + direction_.bytes() + radiance_.bytes() + read_position_.size() +
+        read_normal_.size() + read_albedo_.size() + read_accumulation_.size() +
+        read_direction_.size() + write_radiance_.size() + proxy_.size() + kernel_buffer_.size() +
+        gather_state_.size() + gather_tiles_.size() + gather_view_.size() + gather_indices_.size();
     pb::count(ctx, kBytesGpu, double(gpu));
     auto vec_bytes = [](const auto& v) { return uint64_t(v.capacity() * sizeof(v[0])); };
     uint64_t host = vec_bytes(photons_) + vec_bytes(ray_lengths_) + vec_bytes(batch_.photons) +
@@ -630,6 +755,13 @@ class RsmPhotons final : public pb::Technique {
   rsm::FilterParams filter_;
   rsm::ShadeParams shade_;
   bool temporal_ = true, spatial_ = true;
+  bool gather_ = false;
+  uint32_t gather_tile_ = 8;
+  double gather_capacity_ = 16;
+  glm::uvec2 gather_grid_{0, 0};
+  uint64_t gather_entries_ = 0, gather_dropped_ = 0;
+  pb::gpu::Buffer gather_state_, gather_tiles_, gather_view_, gather_indices_;
+  pb::gpu::Pipeline gather_args_, gather_count_, gather_allocate_, gather_copy_, gather_pass_;
   pb::trace::TraceSettings rsm_settings_, trace_;
   pb::trace::PhotonBatch rsm_batch_, batch_;
   std::vector<LightMap> lights_;

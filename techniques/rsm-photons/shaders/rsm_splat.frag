@@ -23,16 +23,9 @@ void main() {
   vec4 g = imageLoad(gbuffer_position, pixel);
   if (g.w <= 0.0) discard;
   vec3 ray = normalize(world - push.camera.xyz);
-  vec3 n = imageLoad(gbuffer_normal, pixel).xyz;
-  float cosine = dot(ray, n);
-  vec3 receiver = abs(cosine) > 1e-3
-                      ? push.camera.xyz + ray * (dot(g.xyz - push.camera.xyz, n) / cosine)
-                      : g.xyz;
+  vec3 receiver = receiver_point(push.camera.xyz, ray, g.xyz, imageLoad(gbuffer_normal, pixel).xyz);
   Kernel k = kernels[kernel];
-  vec3 d = receiver - k.center.xyz;
-  float a = dot(d, k.axis_u.xyz) / k.axis_u.w, b = dot(d, k.axis_t.xyz) / k.axis_t.w,
-        c = dot(d, k.axis_n.xyz) / k.axis_n.w;
-  if (a * a + b * b + c * c > 1.0) discard;
+  if (!inside_kernel(k, receiver)) discard;
   vec3 e = k.irradiance.rgb;
   float w = e.r + e.g + e.b;
   accumulation = vec4(e, w * k.light_dir.x);

@@ -1,13 +1,5 @@
-// rsm-photons splat: the kernel instances (rsm::Kernel of rsm_core.h, 96 bytes) and the push block
-// both stages read.
-struct Kernel {
-  vec4 center;  // xyz
-  vec4 axis_u;  // xyz unit axis, w half-length (m)
-  vec4 axis_t;
-  vec4 axis_n;
-  vec4 irradiance;  // rgb: Phi / (pi |u| |t|), W/m^2
-  vec4 light_dir;   // xyz: towards where the photon came from
-};
+// rsm-photons splat: the kernel instances and the push block both stages read.
+#include "rsm_kernel.glsl"
 layout(std430, binding = 0) readonly buffer Kernels { Kernel kernels[]; };
 layout(push_constant) uniform Push {
   mat4 view_projection;

@@ -16,7 +16,8 @@ from ..rundata import Run, RunError
 
 PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)",
           "aaps": "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)",
-          "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)"}
+          "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)",
+          "rsm": "Real-time global illumination with photon mapping (seed 000, Ray Tracing Gems ch. 24)"}
 
 
 def main(argv=None) -> int:
