@@ -98,7 +98,8 @@ struct TraceSettings {
   // AAPS: each photon at a fixed pseudo-random point of its grid cell (a hash of texel, cell and
   // m; the same every frame) instead of the cell centre: still one photon per cell, so evenly
   // spaced (stratified), but no longer a lattice, whose tiny splats at a focus cover a pixel
-  // centre or sample all together or not at all as the lattice slides over the pixel grid.
+  // centre or sample all together or not at all as the lattice slides over the pixel grid. A seed
+  // axis' cell (`seeds: K`) hashes its seed in: its photons lie at other points of the same cells.
   bool aaps_jitter = false;
   // Photon differentials (seed 003, Fabianowski and Dingliana 2009, §4): a point or spot light
   // emits with the isotropic differentials of Eq. 8, unit vectors orthogonal to the direction, and

@@ -169,8 +169,9 @@ GridEmission::Task GridEmission::locate(uint32_t task) const {
   return t;
 }
 
-glm::vec2 GridEmission::jittered(const Task& t) const {
+glm::vec2 GridEmission::jittered(const Task& t, std::optional<uint32_t> seed_scramble) const {
   uint32_t h = hash_combine(t.texel, t.cell, t.m);
+  if (seed_scramble) h = hash_combine(h, *seed_scramble);
   glm::vec2 u(float(h & 0xffffu) / 65536.f, float(h >> 16) / 65536.f);
   float x = float(t.texel % side_), y = float(t.texel / side_);
   return glm::vec2((x + (float(t.cell % t.m) + u.x) / float(t.m)) / float(side_),
@@ -223,7 +224,8 @@ TraceStats EmbreePhotonTracer::trace_aaps(const TraceSettings& settings, PhotonB
             const GridEmission& grid = grids[e];
             GridEmission::Task cell = grid.locate(task);
             EmissionRay ray =
-                lights.emit(e, settings.aaps_jitter ? grid.jittered(cell) : cell.uv, {0.5f, 0.5f});
+                lights.emit(e, settings.aaps_jitter ? grid.jittered(cell, seed_scramble_) : cell.uv,
+                            {0.5f, 0.5f});
             PathVertex v;
             v.position = ray.origin;
             v.direction = ray.direction;

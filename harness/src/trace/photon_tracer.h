@@ -84,8 +84,10 @@ class GridEmission {
   };
   Task locate(uint32_t task) const;  // task < tasks()
   // A fixed pseudo-random point of the task's cell (a hash of texel, cell and m), in place of its
-  // centre: TraceSettings::aaps_jitter.
-  glm::vec2 jittered(const Task& task) const;
+  // centre: TraceSettings::aaps_jitter. A seed axis' cell (the tracer's seed_scramble) hashes its
+  // scramble in too, so its photons lie at other points of the same cells: AAPS's emission has no
+  // other randomness, and without it every seed of a seed axis would render the same image.
+  glm::vec2 jittered(const Task& task, std::optional<uint32_t> seed_scramble = std::nullopt) const;
 
  private:
   uint32_t side_ = 0, total_ = 0;

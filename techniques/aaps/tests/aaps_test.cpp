@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -221,6 +222,50 @@ TEST(AapsTrace, RulesAndEnergyOnCornellGlass) {
   std::printf("stored caustic power / power reaching the sphere = %.4f\n", ratio);
   EXPECT_GT(ratio, 0.89);  // measured 0.9097 (the grid emission is deterministic)
   EXPECT_LT(ratio, 0.93);
+}
+
+// A seed axis' cell (the tracer's seed_scramble, cell/world.cpp) emits at other points of the
+// same grid cells, so `seeds: K` measures the spread of the jittered emission: the jitter is AAPS's
+// only randomness. The first seed (no scramble) emits as before, and each seed every frame alike.
+TEST(AapsTrace, ASeedAxisCellJittersWithinTheSameCells) {
+  CornellGlass c;
+  const uint32_t side = 32;
+  pb::trace::EmissionDensity density;
+  density.width = density.height = int(side);
+  density.texels.assign(side * side, 16.f);  // a 4x4 grid per texel
+  pb::trace::TraceSettings s;
+  s.aaps = true;
+  s.store = pb::trace::kCausticPhotons;
+  auto positions = [&](std::optional<uint32_t> scramble, bool jitter) {
+    pb::trace::EmbreePhotonTracer tracer(c.world, scramble);
+    tracer.set_emission_density(0, &density);
+    s.aaps_jitter = jitter;
+    pb::trace::PhotonBatch batch;
+    tracer.trace(s, batch);
+    std::vector<glm::vec3> out;
+    for (const auto& p : batch.photons) out.push_back(p.position);
+    return out;
+  };
+  const auto first = positions(std::nullopt, true), again = positions(std::nullopt, true);
+  const auto seed2 = positions(7u, true), seed2_again = positions(7u, true);
+  ASSERT_GT(first.size(), 100u);
+  EXPECT_EQ(first, again);
+  EXPECT_EQ(seed2, seed2_again);
+  EXPECT_NE(first, seed2) << "a seed axis' cell emits the first seed's photons";
+  // Without the jitter the grid is the cell centres whatever the seed.
+  EXPECT_EQ(positions(std::nullopt, false), positions(7u, false));
+  // Every scrambled point stays in its task's cell.
+  pb::trace::GridEmission grid(density);
+  uint32_t moved = 0;
+  for (uint32_t t = 0; t < grid.tasks(); ++t) {
+    const pb::trace::GridEmission::Task task = grid.locate(t);
+    const glm::vec2 cell = task.uv * float(side * task.m);
+    const glm::vec2 j = grid.jittered(task, 7u) * float(side * task.m);
+    EXPECT_EQ(std::floor(j.x), std::floor(cell.x)) << "task " << t;
+    EXPECT_EQ(std::floor(j.y), std::floor(cell.y)) << "task " << t;
+    moved += grid.jittered(task, 7u) != grid.jittered(task) ? 1 : 0;
+  }
+  EXPECT_GT(moved, grid.tasks() / 2);
 }
 
 // §3.1.5's energy fractions on a spot light (torus-in-glass-cube: inner 12, outer 20 degrees). The
