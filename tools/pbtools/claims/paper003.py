@@ -22,7 +22,10 @@ rounds` (round i runs seed index i of every cell, forward in even rounds and bac
 a ratio is the median over the rounds of the per-round ratio of frame-time medians, with its range. A
 run whose seeds ran grouped, or without seeds, is reported with a warning: its ratios are one pass.
 A cell's frame time is frames.csv's `frame` row, the wall time of the timed region (every pass the
-technique runs in the frame, CPU and GPU, plus the harness's pass bookkeeping).
+technique runs in the frame, CPU and GPU, plus the harness's pass bookkeeping): the paper's FPS. Beside
+each time ratio the same ratio of the frame's process CPU time (`process_cpu_ms`, all threads, lavapipe's
+workers included): the work done, which other jobs on a shared machine do not inflate (compare.py's clock
+on fenced runs); on a GPU the two differ by what runs in parallel.
 """
 
 import math
@@ -32,7 +35,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import floors, seeds
+from .. import floors, seeds, stats
 from ..rundata import FULL_REFERENCE, WHOLE_FRAME_PASS, Cell, Run, format_param
 
 TITLE = "Interactive Global Photon Mapping (Fabianowski and Dingliana, EGSR 2009; seed 003)"
@@ -85,6 +88,7 @@ DENSITY_PASS = {PD: "query", KNN: "gather"}
 K_MATCH_TOLERANCE = 0.15  # k_PM within 15% of k_PD counts as matched (the paper's: 0.86-1.06)
 NOT_PASSES = (WHOLE_FRAME_PASS, "harness-overhead")
 UNRESOLVED_MARK = "†"
+WALL, CPU = "auto", "process"  # Cell.pass_times clocks: the pass's time as the harness takes it; CPU time
 
 
 class MissingCells(Exception):
@@ -93,20 +97,32 @@ class MissingCells(Exception):
 
 # -- reading ------------------------------------------------------------------------------------------
 
-def frame_times(cell: Cell) -> np.ndarray:
-    return np.asarray(cell.pass_samples(WHOLE_FRAME_PASS)[1], float)
+def frame_times(cell: Cell, clock: str = WALL) -> np.ndarray:
+    return np.asarray(cell.pass_samples(WHOLE_FRAME_PASS, clock)[1], float)
 
 
-def frame_median(cell: Cell) -> float:
-    t = frame_times(cell)
-    return float(np.median(t)) if len(t) else cell.value("frame_ms_median")
+def frame_median(cell: Cell, clock: str = WALL) -> float:
+    t = frame_times(cell, clock)
+    if len(t):
+        return float(np.median(t))
+    return cell.value("frame_ms_median") if clock == WALL else math.nan
 
 
-def pass_median(cell: Cell, names: Sequence[str]) -> float:
-    """Median over the frames of the per-frame sum of the named top-level passes."""
-    t = cell.pass_times()
+def frame_cpu_median(cell: Cell) -> float:
+    return frame_median(cell, CPU)
+
+
+def stage_series(cell: Cell, names: Sequence[str], clock: str = WALL):
+    """frame -> the summed time of the named top-level passes in that frame."""
+    t = cell.pass_times(clock)
     t = t[t["pass"].isin(names)]
-    return float(t.groupby("frame")["ms"].sum().median()) if len(t) else math.nan
+    return t.groupby("frame")["ms"].sum()
+
+
+def pass_median(cell: Cell, names: Sequence[str], clock: str = WALL) -> float:
+    """Median over the frames of the per-frame sum of the named top-level passes."""
+    sums = stage_series(cell, names, clock)
+    return float(sums.median()) if len(sums) else math.nan
 
 
 def top_level_passes(cell: Cell) -> List[str]:
@@ -149,26 +165,41 @@ class Setting:
     def param(self, name: str, default=None):
         return self.first.params.get(name, default)
 
-    def frame_median(self) -> float:
+    def frame_median(self, clock: str = WALL) -> float:
         """The median of every round's frames pooled."""
-        t = np.concatenate([frame_times(c) for c in self.ok_cells]) if self.ok else np.zeros(0)
+        t = np.concatenate([frame_times(c, clock) for c in self.ok_cells]) if self.ok else np.zeros(0)
         return float(np.median(t)) if len(t) else math.nan
 
-    def fps(self) -> float:
-        ms = self.frame_median()
+    def fps(self, clock: str = WALL) -> float:
+        ms = self.frame_median(clock)
         return 1000.0 / ms if ms > 0 else math.nan
 
-    def pass_median(self, names: Sequence[str]) -> float:
-        """The median over every round's frames of the per-frame sum of the named passes."""
-        sums = []
+    def stage_medians(self, stages: Sequence[Sequence[str]]) -> List[float]:
+        """Per stage (a list of pass names), the median over every round's frames of the stage's
+        per-frame time; then the median of each frame's rest (the frame less its stages)."""
+        per_stage: List[List[float]] = [[] for _ in stages]
+        rest: List[float] = []
         for c in self.ok_cells:
-            t = c.pass_times()
-            t = t[t["pass"].isin(names)]
-            sums += list(t.groupby("frame")["ms"].sum())
-        return float(np.median(sums)) if sums else math.nan
+            frames = c.pass_samples(WHOLE_FRAME_PASS)
+            series = [stage_series(c, names) for names in stages]
+            for f, total in zip(*frames):
+                values = [float(x.get(f, 0.0)) for x in series]
+                for i, v in enumerate(values):
+                    per_stage[i].append(v)
+                rest.append(total - sum(values))
+        return [float(np.median(v)) if v else math.nan for v in per_stage + [rest]]
 
     def counter(self, name: str) -> float:
         return counter_mean(self.ok_cells, name)
+
+    @property
+    def caustics(self) -> bool:
+        """The map holds pure caustic photons too: its image is more than the `indirect` class."""
+        return str(self.param("caustics", "false")).lower() == "true"
+
+    def own_class(self) -> str:
+        """The class its fair score is of: combined when the map holds caustics, else indirect."""
+        return "combined" if self.caustics else "indirect"
 
     def metric(self, metric: str, cls: str) -> Tuple[float, float]:
         """(mean over the rounds of each round's mean score, the same of its floor)."""
@@ -240,7 +271,7 @@ def knn_settings(settings: List[Setting]) -> Dict[str, Setting]:
 def label(s: Setting) -> str:
     t = s.first.technique
     if t == PD:
-        extra = ", caustics" if str(s.param("caustics", "false")).lower() == "true" else ""
+        extra = ", caustics" if s.caustics else ""
         threshold = int(s.param(THRESHOLD, 0) or 0)
         return f"{PD} (T {'auto' if threshold == 0 else threshold}{extra})"
     if t == KNN:
@@ -315,17 +346,21 @@ def table1(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]]) -> List[str
                                              else "–" for sc in scenes) + " |")
     out.append("| T_auto | " + " | ".join(_f(sweeps[sc][0].fps()) for sc in scenes) + " |")
     out.append("| T_auto's T (mean) | " + " | ".join(_f(sweeps[sc][0].counter("t_auto"), 1) for sc in scenes) + " |")
-    best, fractions, medians = [], [], []
+    best, fractions, medians, cpu_best, cpu_fractions, cpu_medians = [], [], [], [], [], []
     for sc in scenes:
-        fixed = {t: s.fps() for t, s in sweeps[sc].items() if t > 0 and s.ok}
-        fixed = {t: v for t, v in fixed.items() if math.isfinite(v)}
-        best.append(str(max(fixed, key=fixed.get)) if fixed else "–")
-        r = auto_fractions(sweeps[sc])
-        fractions.append(ratio_text(r, "%", 100.0, 1))
-        if len(r):
-            medians.append(float(np.median(r)) * 100.0)
+        for clock, best_list, texts, meds in ((WALL, best, fractions, medians),
+                                              (CPU, cpu_best, cpu_fractions, cpu_medians)):
+            fixed = {t: s.fps(clock) for t, s in sweeps[sc].items() if t > 0 and s.ok}
+            fixed = {t: v for t, v in fixed.items() if math.isfinite(v)}
+            best_list.append(str(max(fixed, key=fixed.get)) if fixed else "–")
+            r = auto_fractions(sweeps[sc], clock)
+            texts.append(ratio_text(r, "%", 100.0, 1))
+            if len(r):
+                meds.append(float(np.median(r)) * 100.0)
     out.append("| fastest fixed T | " + " | ".join(best) + " |")
     out.append("| **FPS_auto / FPS_max** | " + " | ".join(fractions) + " |")
+    out.append("| fastest fixed T, CPU time | " + " | ".join(cpu_best) + " |")
+    out.append("| FPS_auto / FPS_max, CPU time | " + " | ".join(cpu_fractions) + " |")
     paper = []
     for sc in scenes:
         name = STANDS_FOR.get(sc)
@@ -335,20 +370,22 @@ def table1(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]]) -> List[str
     out.append("| paper (stand-in's column) | " + " | ".join(paper) + " |")
     out.append("")
     mean = f"{np.mean(medians):.1f}%" if medians else "–"
-    out += [f"Mean of the per-scene medians: **{mean}** (paper: {PAPER_TABLE1_MEAN}%).", ""]
+    cpu_mean = f"{np.mean(cpu_medians):.1f}%" if cpu_medians else "–"
+    out += [f"Mean of the per-scene medians: **{mean}** (paper: {PAPER_TABLE1_MEAN}%); by the frame's process "
+            f"CPU time: {cpu_mean}.", ""]
     return out
 
 
-def auto_fractions(sweep: Dict[int, Setting]) -> np.ndarray:
+def auto_fractions(sweep: Dict[int, Setting], clock: str = WALL) -> np.ndarray:
     """Per round in which every cell of the sweep completed: T_auto's FPS over the best FPS of the
     sweep's cells that round (a round missing a cell would compare T_auto with fewer T)."""
     out = []
     for seed in sorted(sweep[0].by_seed):
         if any(seed not in s.by_seed for s in sweep.values()):
             continue
-        fps = [1000.0 / frame_median(s.by_seed[seed]) for s in sweep.values()]
+        fps = [1000.0 / frame_median(s.by_seed[seed], clock) for s in sweep.values()]
         if len(fps) > 1 and all(math.isfinite(v) for v in fps):
-            out.append(1000.0 / frame_median(sweep[0].by_seed[seed]) / max(fps))
+            out.append(1000.0 / frame_median(sweep[0].by_seed[seed], clock) / max(fps))
     return np.asarray(out, float)
 
 
@@ -361,9 +398,9 @@ def table2(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]],
            "and knn's `photons_stored`.", "",
            "| scene (paper's) | emits | hits PD / knn | s | r_max | k_PD | k_PM (found) | k_PM / k_PD | paper: "
            "emits, hits, s, k_PD, k_PM |", "|---|---|---|---|---|---|---|---|---|"]
-    speed = ["| scene | FPS_PD | FPS_PM static | **speed-up over static** | FPS_PM every_frame | speed-up over "
-             "every_frame | density estimate: knn gather / PD query | paper: FPS_PD, FPS_PM, speed-up |",
-             "|---|---|---|---|---|---|---|---|"]
+    speed = ["| scene | FPS_PD | FPS_PM static | **speed-up over static** | CPU time | FPS_PM every_frame | "
+             "speed-up over every_frame | CPU time | density estimate: knn gather / PD query | paper: FPS_PD, "
+             "FPS_PM, speed-up |", "|---|---|---|---|---|---|---|---|---|---|"]
     for sc in scenes:
         pd = sweeps[sc][0]
         knn = knn_settings(by_scene[sc])
@@ -389,9 +426,9 @@ def table2(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]],
         for mode in KNN_MODES:
             s = knn.get(mode)
             if s is None or not s.ok:
-                cols += ["–", "–"]
+                cols += ["–", "–", "–"]
                 continue
-            cols += [_f(s.fps()), ratio_text(round_ratios(s, pd))]
+            cols += [_f(s.fps()), ratio_text(round_ratios(s, pd)), ratio_text(round_ratios(s, pd, frame_cpu_median))]
         knn_any = knn.get("static") if knn.get("static") is not None and knn["static"].ok else any_knn
         density = "–"
         if knn_any is not None:
@@ -400,9 +437,10 @@ def table2(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]],
         speed.append(f"| {sc} | " + " | ".join(cols) + f" | {density} | {paper_speed} |")
     lo, hi = PAPER_SPEEDUP_RANGE
     out += ["", "Speed (FPS from frame-time medians; a speed-up is knn's frame time over photon differentials' in "
-            "each round, median [range]). The static speed-up is the paper's comparison (its kNN map built once, "
-            "light static); every_frame counts the same work on both sides (trace, build and render every "
-            f"frame). Paper: {lo}× to {hi}×.", ""] + speed + [""]
+            "each round, median [range]; \"CPU time\" the same of the frame's process CPU time). The static "
+            "speed-up is the paper's comparison (its kNN map built once, light static); every_frame counts the "
+            "same work on both sides (trace, build and render every frame); the density estimate is the one "
+            f"pass where the two differ in kind (wall time). Paper: {lo}× to {hi}×.", ""] + speed + [""]
     return out
 
 
@@ -447,7 +485,7 @@ def figure5(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]],
             by_scene: Dict[str, List[Setting]]) -> List[str]:
     out = ["## Fig. 5: time per stage", "",
            "Median ms over every round's frames of each stage's passes, and its share of the frame-time median "
-           "(\"other\": the harness's scene-update and pass bookkeeping). Photon differentials: photon tracing = "
+           "(\"other\": the median of each frame's rest, the harness's scene-update and pass bookkeeping). Photon differentials: photon tracing = "
            "photon-trace + photon-upload, BVH build = postprocess (footprints, their boxes, T_auto) + build "
            "(Morton codes, sort, leaves, hierarchy), rendering = gbuffer + direct-light + query + shade. knn "
            "every_frame, for comparison: its grid build in place of the BVH, gather in place of the query. "
@@ -461,8 +499,7 @@ def figure5(scenes: List[str], sweeps: Dict[str, Dict[int, Setting]],
             rows.append(ef)
         for s in rows:
             frame = s.frame_median()
-            stages = [s.pass_median(passes) for _, passes in STAGES[s.first.technique]]
-            other = frame - sum(stages)
+            *stages, other = s.stage_medians([passes for _, passes in STAGES[s.first.technique]])
             cols = [f"{_f(v, 1)} ms ({v / frame * 100:.0f}%)" for v in stages + [other]]
             dominates = stages[2] > 0.5 * frame
             out.append(f"| {sc} | {label(s)} | {_f(frame, 1)} ms | " + " | ".join(cols) +
@@ -480,7 +517,9 @@ def quality(scenes: List[str], by_scene: Dict[str, List[Setting]],
            "Means over every round's metric frames, floor in brackets (what the true image scores against the "
            f"same reference). {UNRESOLVED_MARK}: within {k:g}× its floor (unresolved: it may be the reference's "
            "noise). Indirect: the technique's own class against the `indirect` reference; combined: the composed "
-           "frame. The threshold sweep's cells render the same image, so only T_auto's is listed.", "",
+           "frame. A map holding caustics (`caustics: true`) is more than the indirect class, so its indirect "
+           "score is not shown (n/a) and combined is its fair score. The threshold sweep's cells render the "
+           "same image, so only T_auto's is listed.", "",
            "| scene | technique | FLIP indirect | SSIM indirect | FLIP combined | SSIM combined |",
            "|---|---|---|---|---|---|"]
     orders = []
@@ -492,23 +531,36 @@ def quality(scenes: List[str], by_scene: Dict[str, List[Setting]],
             for metric, cls in QUALITY:
                 v, f = s.metric(metric, cls)
                 mark = UNRESOLVED_MARK if floors.resolved(metric, v, f) is False else ""
-                cols.append("–" if not math.isfinite(v) else f"{v:.3f}{mark} ({_f(f, 3)})")
+                if cls == "indirect" and s.caustics and math.isfinite(v):
+                    cols.append("n/a")
+                else:
+                    cols.append("–" if not math.isfinite(v) else f"{v:.3f}{mark} ({_f(f, 3)})")
             out.append(f"| {sc} | {label(s)} | " + " | ".join(cols) + " |")
         pd = sweeps[sc][0]
         for mode, s in knn_settings(by_scene[sc]).items():
-            if not s.ok:
-                continue
-            a, fa = pd.metric("flip", "indirect")
-            b, fb = s.metric("flip", "indirect")
-            if not (math.isfinite(a) and math.isfinite(b)):
-                continue
-            holds = floors.comparison_resolved("flip", a, fa, b, fb)
-            sep = "<" if holds else "≈" if holds is False else ","
-            first, second = ((label(pd), a), (label(s), b)) if a <= b else ((label(s), b), (label(pd), a))
-            orders.append(f"| {sc} | {first[0]} {first[1]:.3f} {sep} {second[0]} {second[1]:.3f} |")
+            if s.ok:
+                orders.append(flip_order_row(sc, pd, s))
     out.append("")
+    orders = [o for o in orders if o]
     if orders:
-        out += ["At matched k, indirect FLIP, lower first: `<` the order holds against the true image (floors.py: "
-                "a difference beyond both floors, or both resolved), `≈` it may be the reference's noise.", "",
-                "| scene | order |", "|---|---|"] + orders + [""]
+        out += ["At matched k, FLIP of each technique's fair class (indirect, or combined where the maps hold "
+                "caustics), lower first: `<` the order holds against the true image (floors.py: a difference "
+                "beyond both floors, or both resolved), `≈` it may be the reference's noise. p: Welch's t-test "
+                "(two-sided) on the per-round mean FLIP (each round's photons are its own seed): a p-value above "
+                f"{stats.ALPHA:g} says the rounds' own noise could give the difference.", "",
+                "| scene | class | order | test | rounds | p |", "|---|---|---|---|---|---|"] + orders + [""]
     return out
+
+
+def flip_order_row(scene: str, a: Setting, b: Setting) -> str:
+    cls = "combined" if a.caustics or b.caustics else "indirect"
+    (va, fa), (vb, fb) = a.metric("flip", cls), b.metric("flip", cls)
+    if not (math.isfinite(va) and math.isfinite(vb)):
+        return ""
+    holds = floors.comparison_resolved("flip", va, fa, vb, fb)
+    sep = "<" if holds else "≈" if holds is False else ","
+    first, second = ((label(a), va), (label(b), vb)) if va <= vb else ((label(b), vb), (label(a), va))
+    w = stats.welch(seeds.per_seed_means(a.ok_cells, "flip", cls), seeds.per_seed_means(b.ok_cells, "flip", cls))
+    p = f"{w.p:.3g}" if w.possible else "–"
+    return (f"| {scene} | {cls} | {first[0]} {first[1]:.3f} {sep} {second[0]} {second[1]:.3f} | {w.test} | "
+            f"{w.n_a} / {w.n_b} | {p} |")
