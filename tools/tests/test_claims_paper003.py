@@ -187,7 +187,7 @@ class Paper003Test(Paper003Case):
     def test_frame_composition_names_what_each_frame_holds(self):
         static = self.row(self.text, "| knn static |")
         self.assertEqual(static[1], "gbuffer, direct-light, shade, gather")
-        self.assertEqual(static[2], "400 / 90")
+        self.assertEqual(static[2], "ring: 400 / 90; wall: 400 / 90")
         self.assertIn("photon-trace", self.row(self.text, "| knn every_frame |")[1])
         self.assertNotIn("build/sort", self.row(self.text, "| photon-differentials |")[1])
 

@@ -317,19 +317,19 @@ def frame_composition(by_scene: Dict[str, List[Setting]]) -> List[str]:
            "(its one-time cost is in the counters setup_trace_ms and setup_build_ms), as the paper's "
            "baseline did.", "", "| technique | passes in the frame | setup (once): trace / build ms |",
            "|---|---|---|"]
-    seen = set()
-    for ss in by_scene.values():
+    rows: Dict[str, Tuple[List[str], List[str]]] = {}  # technique -> (passes, setup per scene)
+    for scene, ss in by_scene.items():
         for s in ss:
             if not s.ok or s.first.technique == DIRECT:
                 continue
             key = label(s).split(" (")[0] if s.first.technique == PD else f"knn {s.param('rebuild')}"
-            if key in seen:
-                continue
-            seen.add(key)
-            passes = [p for p in top_level_passes(s.ok_cells[0]) if p != "scene-update"]
-            setup = (f"{_f(s.counter('setup_trace_ms'), 0)} / {_f(s.counter('setup_build_ms'), 0)}"
-                     if s.first.technique == KNN and s.param("rebuild") == "static" else "–")
-            out.append(f"| {key} | {', '.join(passes)} | {setup} |")
+            passes, setups = rows.setdefault(
+                key, ([p for p in top_level_passes(s.ok_cells[0]) if p != "scene-update"], []))
+            if s.first.technique == KNN and s.param("rebuild") == "static":
+                setups.append(f"{scene}: {_f(s.counter('setup_trace_ms'), 0)} / "
+                              f"{_f(s.counter('setup_build_ms'), 0)}")
+    for key, (passes, setups) in rows.items():
+        out.append(f"| {key} | {', '.join(passes)} | {'; '.join(setups) or '–'} |")
     return out + [""]
 
 
