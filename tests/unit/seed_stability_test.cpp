@@ -209,6 +209,35 @@ TEST(SeedAxis, EachCellRunsWithKConsecutiveSeeds) {
   EXPECT_EQ(seeded.cell(seeded.cells[4].id).seed, seeded.cells[4].seed);
 }
 
+// seed_order: rounds: the same cells, seed index i of every cell in round i, forward then backward
+// (A B C, C B A, A B C), so that a drift of the machine's load weighs on every cell alike.
+TEST(SeedAxis, RoundsRunEverySeedOverAllCellsAlternatingDirection) {
+  const Scratch scratch;
+  const std::string three = "techniques.0.params.shadow_map_size=[64,128,256]";
+  const run::RunPlan plain = scratch.plan(kSweep, {three});
+  ASSERT_EQ(plain.cells.size(), 3u);
+  const run::RunPlan rounds = scratch.plan(kSweep, {three, "seeds=3", "seed_order=rounds"});
+  ASSERT_EQ(rounds.cells.size(), 9u);
+  const size_t expected_base[9] = {0, 1, 2, 2, 1, 0, 0, 1, 2};
+  for (size_t i = 0; i < rounds.cells.size(); ++i) {
+    const run::Cell& cell = rounds.cells[i];
+    const run::Cell& base = plain.cells[expected_base[i]];
+    EXPECT_EQ(cell.seed_index, i / 3) << i;
+    EXPECT_EQ(cell.seed, 7u + i / 3) << i;
+    EXPECT_EQ(cell.params, base.params) << i;
+    EXPECT_EQ(cell.id, base.id + "__seed" + std::to_string(7 + i / 3)) << i;
+    EXPECT_EQ(cell.seed_group, base.id) << i;
+  }
+  // grouped (the default) keeps each cell's seeds together; an unknown order is refused at its key.
+  EXPECT_EQ(scratch.plan(kSweep, {three, "seeds=3", "seed_order=grouped"}).cells[1].seed_index, 1u);
+  try {
+    scratch.plan(kSweep, {three, "seeds=3", "seed_order=shuffled"});
+    ADD_FAILURE() << "seed_order=shuffled was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("seed_order"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SeedAxis, BadSeedCountsAreInputErrors) {
   const Scratch scratch;
   for (const char* bad : {"seeds=0", "seeds=-2", "seeds=1001", "seeds=two"}) {

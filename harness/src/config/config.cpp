@@ -227,6 +227,10 @@ const KeyTable kConfigTable{
       "seeds the references (and, with seeds > 1, the photons of every cell but the first seed's)"},
      {"seeds", integer_type(1, 1000), false, 1,
       "K > 1: every cell runs K times, with seeds seed, seed + 1, ..., seed + K - 1"},
+     {"seed_order", choice_type({"grouped", "rounds"}), false, "grouped",
+      "with seeds > 1: grouped runs each cell's K seeds next to each other; rounds runs K rounds "
+      "over every cell, alternately forward and backward, so that a shared machine's drift falls "
+      "on every cell alike (time ratios between cells)"},
      {"scenes", list_type(any_of_type({string_type(), table_type(kSceneEntryTable)}), 1, true),
       true, nullptr, "scene names or paths, or {scene, params}"},
      {"techniques", list_type(table_type(kTechniqueTable), 1, false), true, nullptr, ""},
@@ -347,6 +351,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   config.frames.metrics_window = uint32_t(kFramesTable.integer(frames, "metrics_window"));
   config.seed = uint64_t(kConfigTable.integer(root, "seed"));
   config.seeds = uint32_t(kConfigTable.integer(root, "seeds"));
+  config.seed_rounds = kConfigTable.string(root, "seed_order") == "rounds";
 
   YamlView scenes = root["scenes"];
   if (scenes.elements().empty()) scenes.fail("at least one scene is needed");

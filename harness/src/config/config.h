@@ -102,6 +102,9 @@ struct Config {
   FrameSettings frames;
   uint64_t seed = 1;
   uint32_t seeds = 1;  // the seed axis: each cell run with seeds seed .. seed + seeds - 1
+  // seed_order: rounds: seed index i of every cell in round i, rounds alternately forward and
+  // backward over the cells (false: each cell's seeds next to each other).
+  bool seed_rounds = false;
   std::vector<SceneEntry> scenes;
   std::vector<std::filesystem::path> scene_dirs;  // where scene names are looked up
   std::vector<TechniqueEntry> techniques;

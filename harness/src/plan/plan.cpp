@@ -159,7 +159,9 @@ void check_together(const pb_technique_descriptor& d, const config::SceneEntry& 
 }
 
 // Each cell `config.seeds` times, seed index i with seed config.seed + i, next to each other (a
-// shard or an interrupted run then holds whole seed groups as far as it can).
+// shard or an interrupted run then holds whole seed groups as far as it can); with `seed_order:
+// rounds`, seed index i of every cell in round i, forward in even rounds and backward in odd ones,
+// so that a drift in the machine's load over the run weighs on every cell alike.
 std::vector<Cell> with_seed_axis(std::vector<Cell> cells, const config::Config& config) {
   for (Cell& cell : cells) {
     cell.seed = config.seed;
@@ -172,14 +174,20 @@ std::vector<Cell> with_seed_axis(std::vector<Cell> cells, const config::Config& 
         config.file.string(), config.seeds, cells.size(), cells.size() * config.seeds, kMaxCells));
   std::vector<Cell> seeded;
   seeded.reserve(cells.size() * config.seeds);
-  for (const Cell& cell : cells)
-    for (uint32_t i = 0; i < config.seeds; ++i) {
-      Cell copy = cell;
-      copy.seed_index = i;
-      copy.seed = config.seed + i;
-      copy.id = fmt::format("{}__seed{}", cell.id, copy.seed);
-      seeded.push_back(std::move(copy));
-    }
+  auto add = [&](const Cell& cell, uint32_t i) {
+    Cell copy = cell;
+    copy.seed_index = i;
+    copy.seed = config.seed + i;
+    copy.id = fmt::format("{}__seed{}", cell.id, copy.seed);
+    seeded.push_back(std::move(copy));
+  };
+  if (config.seed_rounds) {
+    for (uint32_t i = 0; i < config.seeds; ++i)
+      for (size_t c = 0; c < cells.size(); ++c) add(cells[i % 2 ? cells.size() - 1 - c : c], i);
+  } else {
+    for (const Cell& cell : cells)
+      for (uint32_t i = 0; i < config.seeds; ++i) add(cell, i);
+  }
   return seeded;
 }
 

@@ -17,15 +17,18 @@ from ..rundata import Run, RunError
 PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Moreau et al., HPG 2016)",
           "aaps": "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)",
           "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)",
-          "rsm": "Real-time global illumination with photon mapping (seed 000, Ray Tracing Gems ch. 24)"}
+          "rsm": "Real-time global illumination with photon mapping (seed 000, Ray Tracing Gems ch. 24)",
+          "paper003": "Interactive Global Photon Mapping (Fabianowski and Dingliana, EGSR 2009)"}
+ALIASES = {"003": "paper003"}  # the seed's number, as the issues name it
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="photonbench claims", description=__doc__.split("\n")[0])
     ap.add_argument("run", metavar="RUN_DIR")
-    ap.add_argument("--paper", choices=sorted(PAPERS), default="paper1",
+    ap.add_argument("--paper", choices=sorted(PAPERS) + sorted(ALIASES), default="paper1",
                     help="whose claims to measure (default %(default)s)")
     a = ap.parse_args(argv)
+    a.paper = ALIASES.get(a.paper, a.paper)
     try:
         run = Run(a.run)
     except RunError as e:
