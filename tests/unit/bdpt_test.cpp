@@ -73,7 +73,9 @@ INSTANTIATE_TEST_SUITE_P(
                       SceneCase{"ring", 2048, 2048}, SceneCase{"torus-in-glass-cube", 2048, 2048},
                       SceneCase{"merry-go-round", 2048, 2048}, SceneCase{"walker", 2048, 2048},
                       SceneCase{"villa", 2048, 2048}, SceneCase{"pool-underwater", 2048, 2048},
-                      SceneCase{"square", 2048, 2048}, SceneCase{"cornell-spot", 2048, 2048}),
+                      SceneCase{"square", 2048, 2048}, SceneCase{"cornell-spot", 2048, 2048},
+                      SceneCase{"spot-window", 2048, 2048}, SceneCase{"slats", 2048, 2048},
+                      SceneCase{"wall", 2048, 2048}),
     [](const ::testing::TestParamInfo<SceneCase>& info) {
       std::string s = info.param.name;
       for (char& ch : s)
