@@ -92,4 +92,21 @@ rejected "a no-GI technique not in the suite" 's/no_gi_technique: direct/no_gi_t
 rejected "a suite without metric frames" 's/metrics_every: 2/metrics_every: 0/' "metrics_every is 0"
 rejected "a scenario naming a missing scene" 's|scene: cornell-box}|scene: no-such-scene}|' \
   "suite.yaml:[0-9]+:[0-9]+: scenarios\[0\].scene"
+
+# --technique: one technique of the suite, with the no-GI one; a scenario parameter that only a
+# technique left out has (crash_on_frame's crash_frame) is dropped, not refused.
+write_suite
+sed -i 's|{name: as-baseline, aims_at: the baseline itself, scene: cornell-box}|{name: as-baseline, aims_at: the baseline itself, scene: {scene: cornell-box, params: {crash_frame: 1}}}|' "$suite"
+chosen="$WORK/chosen"
+expect_exit 0 "--technique runs one technique of the suite" -- \
+  "$PB" stability "$suite" --out "$chosen" --technique nan_output
+techniques=$(/usr/bin/python3 -c 'import csv,sys; print(" ".join(sorted({r["technique"] for r in csv.DictReader(open(sys.argv[1]))})))' "$chosen/stability.csv")
+expect_match "... only it and the no-GI technique have rows (a waiting one is still named)" \
+  "^direct nan_output not-landed-yet$" "$techniques"
+grep -q crash_frame "$chosen/benchmark.yaml" && fail "the left-out technique's parameter is kept" ||
+  pass "the left-out technique's parameter is dropped"
+expect_exit 2 "--technique naming no technique of the suite" -- \
+  "$PB" stability "$suite" --out "$WORK/none" --technique tiledd
+expect_match "  ... the message names it and the suite's techniques" \
+  "--technique tiledd: not one of the suite's techniques \(direct, nan_output, crash_on_frame" "$OUT"
 finish

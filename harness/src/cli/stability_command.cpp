@@ -19,6 +19,9 @@ void add_stability(CLI::App& app, int& exit_code) {
       ->check(CLI::ExistingFile);
   // --set overrides keys of the generated benchmark config.
   pb::cli::add_run_options(cmd, *options);
+  cmd->add_option("--technique", options->techniques,
+                  "run only this technique of the file's (repeatable), with the no-GI technique; "
+                  "scenario parameters only the others have are dropped");
   cmd->callback([options, &exit_code] {
     if (std::getenv("PB_VALIDATION")) options->validation = true;
     exit_code = pb::run::run_stability(*options);

@@ -133,6 +133,8 @@ struct StabilitySpec {
   std::vector<ScenarioSpec> scenarios;
   std::vector<std::string> techniques;  // those that run, in order
   std::vector<std::string> absent;      // `when_built` techniques that are not built
+  std::vector<std::string> left_out;    // built, but not chosen by --technique
+  std::set<std::string> params;         // the parameters of the techniques that run
 };
 
 // Names with a '/' or an extension are paths relative to the stability file, as scene files name
@@ -188,32 +190,70 @@ StabilityRules read_rules(const config::YamlView& rules) {
   return out;
 }
 
+bool listed(const std::vector<std::string>& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
 // The techniques: the entries pass to the generated config as written, less `when_built`; one
 // marked `when_built: true` whose plugin is not built is left out (it joins the suite when it
-// lands). Returns the entries for the generated config.
+// lands), and so is one that `chosen` (--technique, when not empty) does not name, unless it is the
+// no-GI technique the classification compares with. Returns the entries for the generated config.
 YAML::Node read_techniques(const config::YamlView& root, const std::vector<fs::path>& plugin_dirs,
-                           StabilitySpec& spec) {
+                           const std::vector<std::string>& chosen, StabilitySpec& spec) {
   PluginRegistry plugins(plugin_dirs);
   YAML::Node techniques(YAML::NodeType::Sequence);
+  std::vector<std::string> names;
   for (const config::YamlView& t : root["techniques"].elements()) {
     if (!t.is_map()) t.fail("expected {technique: NAME, params: {...}, when_built: true|false}");
     t.allow_keys({"technique", "params", "when_built"});
     const std::string name = t["technique"].as_string();
-    if (t.bool_or("when_built", false) && !plugins.find(name)) {
+    names.push_back(name);
+    const Plugin* plugin = plugins.find(name);
+    if (t.bool_or("when_built", false) && !plugin) {
       spec.absent.push_back(name);
+      continue;
+    }
+    if (!chosen.empty() && !listed(chosen, name) && name != spec.rules.no_gi_technique) {
+      spec.left_out.push_back(name);
       continue;
     }
     YAML::Node entry = YAML::Clone(t.node());
     entry.remove("when_built");
     techniques.push_back(entry);
     spec.techniques.push_back(name);
+    if (plugin && plugin->loaded())
+      for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
+        spec.params.insert(plugin->descriptor->params[i].name);
   }
+  for (const std::string& name : chosen)
+    if (!listed(names, name))
+      throw InputError(fmt::format("--technique {}: not one of the suite's techniques ({})", name,
+                                   fmt::join(names, ", ")));
   if (spec.techniques.empty()) root["techniques"].fail("no technique of the list is built");
   return techniques;
 }
 
+// With techniques left out by --technique, a scene entry's params that no technique of the run has
+// are theirs: dropped, so that the plan (which refuses a parameter no technique of the config has)
+// runs the rest. Without, every key stays and a misspelt one is refused.
+void drop_left_out_params(StabilitySpec& spec) {
+  if (spec.left_out.empty()) return;
+  auto prune = [&](EntrySpec& entry) {
+    const YAML::Node params = static_cast<const YAML::Node&>(entry.node)["params"];
+    if (!params) return;
+    std::vector<std::string> theirs;
+    for (const auto& kv : params)
+      if (!spec.params.count(kv.first.as<std::string>()))
+        theirs.push_back(kv.first.as<std::string>());
+    for (const std::string& key : theirs) entry.node["params"].remove(key);
+    if (entry.node["params"].size() == 0) entry.node.remove("params");
+  };
+  for (EntrySpec& b : spec.baselines) prune(b);
+  for (ScenarioSpec& s : spec.scenarios) prune(s.entry);
+}
+
 bool has_technique(const StabilitySpec& spec, const std::string& name) {
-  return std::find(spec.techniques.begin(), spec.techniques.end(), name) != spec.techniques.end();
+  return listed(spec.techniques, name);
 }
 
 void read_scenarios(const config::YamlView& scenarios, const fs::path& dir, StabilitySpec& spec) {
@@ -235,7 +275,9 @@ void read_scenarios(const config::YamlView& scenarios, const fs::path& dir, Stab
     if (auto needs = s.get("needs"))
       for (const config::YamlView& n : needs->elements())
         if (!has_technique(spec, n.as_string()))
-          scenario.skip_reason = fmt::format("needs technique '{}', not built", n.as_string());
+          scenario.skip_reason = fmt::format(
+              "needs technique '{}', {}", n.as_string(),
+              listed(spec.left_out, n.as_string()) ? "not chosen (--technique)" : "not built");
     spec.scenarios.push_back(std::move(scenario));
   }
 }
@@ -263,7 +305,7 @@ YAML::Node generated_benchmark(const config::YamlView& root, const StabilitySpec
   return benchmark;
 }
 
-StabilitySpec read_stability_file(const fs::path& file) {
+StabilitySpec read_stability_file(const fs::path& file, const std::vector<std::string>& chosen) {
   const config::YamlView root = config::YamlView::load_file(file);
   if (!root.is_map())
     root.fail("a stability file is a mapping (a benchmark config's keys, stability, scenarios)");
@@ -285,11 +327,12 @@ StabilitySpec read_stability_file(const fs::path& file) {
       fs::path p = d.as_string();
       plugin_dirs.push_back(p.is_relative() ? dir / p : p);
     }
-  const YAML::Node techniques = read_techniques(root, plugin_dirs, spec);
+  const YAML::Node techniques = read_techniques(root, plugin_dirs, chosen, spec);
   if (!spec.rules.no_gi_technique.empty() && !has_technique(spec, spec.rules.no_gi_technique))
     rules["no_gi_technique"].fail(fmt::format("'{}' is not one of the suite's techniques",
                                               config::quote(spec.rules.no_gi_technique)));
   read_scenarios(root["scenarios"], dir, spec);
+  drop_left_out_params(spec);
   spec.benchmark = generated_benchmark(root, spec, techniques, plugin_dirs);
   return spec;
 }
@@ -518,7 +561,7 @@ void check_scored(const RunPlan& plan, const StabilityOptions& options) {
 }  // namespace
 
 int run_stability(const StabilityOptions& options) {
-  const StabilitySpec spec = read_stability_file(options.stability_file);
+  const StabilitySpec spec = read_stability_file(options.stability_file, options.techniques);
   fs::path out;
   const fs::path generated = write_generated_config(options, spec, out);
   check_scored(plan_run(generated, options.overrides), options);

@@ -71,6 +71,9 @@ struct StabilityOptions {
   std::string device;
   bool resume = false;
   bool validation = false;
+  // --technique (repeatable): only these of the file's techniques run, with its no_gi_technique;
+  // a scenario's params that only the others have are dropped. Empty: every built technique.
+  std::vector<std::string> techniques;
 };
 
 // Runs the suite and writes OUT/benchmark.yaml (the generated config), the run's usual files and
