@@ -311,6 +311,12 @@ class Cell:
                             "ms": ms})
         return out[~np.isnan(out["ms"]) & np.isfinite(out["frame"])]
 
+    def pass_sums(self, passes, clock: str = "auto") -> pd.Series:
+        """frame -> the summed time of the named passes the cell has in that frame (pass_times'
+        clocks): a group of passes timed as one, such as a paper's stage."""
+        t = self.pass_times(clock)
+        return t[t["pass"].isin(passes)].groupby("frame")["ms"].sum()
+
     def pass_samples(self, name: str, clock: str = "auto") -> (np.ndarray, np.ndarray):
         """(frames, ms) of one pass over the measured frames, sorted by frame (pass_times' clocks).
         The arrays are shared between calls and read-only."""

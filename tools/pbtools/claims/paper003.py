@@ -112,16 +112,9 @@ def frame_cpu_median(cell: Cell) -> float:
     return frame_median(cell, CPU)
 
 
-def stage_series(cell: Cell, names: Sequence[str], clock: str = WALL):
-    """frame -> the summed time of the named top-level passes in that frame."""
-    t = cell.pass_times(clock)
-    t = t[t["pass"].isin(names)]
-    return t.groupby("frame")["ms"].sum()
-
-
 def pass_median(cell: Cell, names: Sequence[str], clock: str = WALL) -> float:
     """Median over the frames of the per-frame sum of the named top-level passes."""
-    sums = stage_series(cell, names, clock)
+    sums = cell.pass_sums(names, clock)
     return float(sums.median()) if len(sums) else math.nan
 
 
@@ -181,7 +174,7 @@ class Setting:
         rest: List[float] = []
         for c in self.ok_cells:
             frames = c.pass_samples(WHOLE_FRAME_PASS)
-            series = [stage_series(c, names) for names in stages]
+            series = [c.pass_sums(names, WALL) for names in stages]
             for f, total in zip(*frames):
                 values = [float(x.get(f, 0.0)) for x in series]
                 for i, v in enumerate(values):

@@ -75,12 +75,6 @@ def setting_label(s: Tuple[float, float]) -> str:
     return f"{format_param(int(s[0]) if s[0] == int(s[0]) else s[0])} paths, r {format_param(s[1])}"
 
 
-def group_series(cell: Cell, passes) -> pd.Series:
-    """frame -> summed time of the named top-level passes the cell has (Cell.pass_times' rule)."""
-    t = cell.pass_times()
-    return t[t["pass"].isin(passes)].groupby("frame")["ms"].sum()
-
-
 def frame_ratios(slow: pd.Series, fast: pd.Series) -> np.ndarray:
     """slow / fast on the frames both have (frame order), where fast took any time."""
     slow, fast = slow.align(fast, join="inner")
@@ -180,7 +174,7 @@ def matched_pass_ms(run: Run, row: Dict[str, str], passes) -> float:
     """The median, over the frames that give a match.csv row its achieved time (its rounds:
     matching.measured_cells), of each frame's summed time of `passes`; NaN when none ran."""
     cells = [run.cell(i) for i in matching.measured_cells(run.path, row)]
-    series = [group_series(c, passes) for c in cells if c is not None and c.ok]
+    series = [c.pass_sums(passes) for c in cells if c is not None and c.ok]
     series = [s for s in series if len(s)]
     return float(pd.concat(series).median()) if series else math.nan
 
@@ -247,10 +241,10 @@ def claims(run: Run) -> str:
         tiled = kinds.get("tiled")
         if not tiled:
             continue
-        t_se, t_b = group_series(tiled, SPLAT_ESTIMATE), group_series(tiled, SPLAT_ESTIMATE + BUILD)
+        t_se, t_b = tiled.pass_sums(SPLAT_ESTIMATE), tiled.pass_sums(SPLAT_ESTIMATE + BUILD)
         for k in sorted(k for k in kinds if k.startswith("cluster")):
-            r1 = frame_ratios(t_se, group_series(kinds[k], SPLAT_ESTIMATE))
-            r2 = frame_ratios(t_b, group_series(kinds[k], SPLAT_ESTIMATE + BUILD))
+            r1 = frame_ratios(t_se, kinds[k].pass_sums(SPLAT_ESTIMATE))
+            r2 = frame_ratios(t_b, kinds[k].pass_sums(SPLAT_ESTIMATE + BUILD))
             if len(r1):
                 out.append(f"| {scene} | {setting_label(s)} | {k} | {_f(r1.mean())}× ({_f(r1.max())}×) | "
                            f"{_f(r2.mean())}× ({_f(r2.max())}×) |")
@@ -281,7 +275,7 @@ def claims(run: Run) -> str:
     def cv(c: Optional[Cell]) -> str:
         if c is None:
             return "–"
-        v = measures.coefficient_of_variation(group_series(c, SPLAT_ESTIMATE + BUILD))
+        v = measures.coefficient_of_variation(c.pass_sums(SPLAT_ESTIMATE + BUILD))
         return f"{v * 100:.1f}%" if math.isfinite(v) else "–"
 
     for (scene, s), kinds in sorted(grid.items()):
@@ -289,8 +283,8 @@ def claims(run: Run) -> str:
         if not d:
             continue
         if ct:
-            r1 = frame_ratios(group_series(ct, SPLAT_ESTIMATE), group_series(d, SPLAT_ESTIMATE))
-            r2 = frame_ratios(group_series(ct, SPLAT_ESTIMATE + BUILD), group_series(d, SPLAT_ESTIMATE + BUILD))
+            r1 = frame_ratios(ct.pass_sums(SPLAT_ESTIMATE), d.pass_sums(SPLAT_ESTIMATE))
+            r2 = frame_ratios(ct.pass_sums(SPLAT_ESTIMATE + BUILD), d.pass_sums(SPLAT_ESTIMATE + BUILD))
             speed, build = f"{_f(r1.mean())}× ({_f(r1.max())}×)", f"{_f(r2.mean())}×"
         else:
             speed = build = "–"

@@ -163,11 +163,6 @@ def counter_series(cell: Cell, name: str) -> pd.Series:
     return rows.groupby("frame")["value"].sum()
 
 
-def pass_series(cell: Cell, passes) -> pd.Series:
-    t = cell.pass_times()
-    return t[t["pass"].isin(passes)].groupby("frame")["ms"].sum()
-
-
 def ratio_of_means(num: pd.Series, den: pd.Series) -> float:
     """mean(num) / mean(den) over the frames both series have; NaN when den sums to nothing."""
     num, den = num.align(den, join="inner")
@@ -236,9 +231,9 @@ def claims(run: Run) -> str:
         rays = later(counter_series(c, "rays_traced"))
         kept = later(counter_series(c, "paths_kept"))
         full = later(counter_series(c, "full_retrace_rays"))
-        work = ratio_peak(later(pass_series(base, LIGHT_TRANSPORT)), later(pass_series(c, LIGHT_TRANSPORT)))
-        trace = ratio_peak(later(pass_series(base, ("photon-trace",))),
-                           later(pass_series(c, ("photon-trace",))))
+        work = ratio_peak(later(base.pass_sums(LIGHT_TRANSPORT)), later(c.pass_sums(LIGHT_TRANSPORT)))
+        trace = ratio_peak(later(base.pass_sums(("photon-trace",))),
+                           later(c.pass_sums(("photon-trace",))))
         out.append(f"| {scene} | {setting} | {v} | {ratio_peak(b_rays, rays)} | "
                    f"{PAPER_RAYS.get(scene, '–')} | {work} | {trace} | "
                    f"{_f(kept.mean() if len(kept) else None, 0)} | {ratio_peak(full, rays)} |")
@@ -295,16 +290,16 @@ def claims(run: Run) -> str:
             "|---|---|---|" + "---|" * len(FIG8_STEPS) + "---|---|"]
     for (scene, setting), kinds in sorted(grid.items()):
         base = kinds.get("none")
-        b_trace = later(pass_series(base, ("photon-trace",))).mean() if base is not None else math.nan
+        b_trace = later(base.pass_sums(("photon-trace",))).mean() if base is not None else math.nan
         for v in VARIANTS:
             c = kinds.get(v)
             if c is None:
                 continue
-            steps = [later(pass_series(c, (p,))) for p in FIG8_STEPS]
+            steps = [later(c.pass_sums((p,))) for p in FIG8_STEPS]
             means = [s.mean() if len(s) else math.nan for s in steps]
-            overhead = later(pass_series(c, REUSE_STEPS))
+            overhead = later(c.pass_sums(REUSE_STEPS))
             ratio = overhead.mean() / b_trace if len(overhead) and b_trace > 0 else math.nan
-            work = later(pass_series(c, LIGHT_TRANSPORT)).mean()
+            work = later(c.pass_sums(LIGHT_TRANSPORT)).mean()
             out.append(f"| {scene} | {setting} | {v} | " + " | ".join(f"{_f(m)} ms" for m in means) +
                        f" | {_f(ratio, 3)} | {_f(b_trace / work if work > 0 else math.nan, 2)}× |")
     out.append("")
