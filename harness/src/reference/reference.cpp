@@ -29,17 +29,29 @@ constexpr std::string_view kStopRuleNames[] = {"rel_error", "max_seconds", "samp
 
 // ---- path tracing ------------------------------------------------------------------------------
 
-// One camera path through pixel position (px, py), its contributions by class into out[0..4].
-// Contributions in photon mapping's part of path space (photon_mapping_owns) are left out, and so
-// are paths with more than `budget` scattering vertices.
-void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig, float px,
-                       float py, Pcg32& rng, uint32_t wanted, uint32_t budget,
-                       LightStrategies strategies, glm::vec3* out, uint64_t& rays) {
+// The camera's rays of one image row: their directions and first hits, traced as one coherent
+// stream (EmbreeScene::intersect_from), and each pixel's generator, which its path goes on with.
+struct CameraRow {
+  std::vector<int> x;
+  std::vector<Pcg32> rng;
+  std::vector<glm::vec3> dir;
+  std::vector<Hit> hit;
+  std::vector<uint8_t> found;
+};
+
+// One camera path along `dir` from the camera, whose first segment has been traced (found: it
+// hit, at first_hit); its contributions by class into out[0..4]. Contributions in photon mapping's
+// part of path space (photon_mapping_owns) are left out, and so are paths with more than `budget`
+// scattering vertices.
+void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
+                       glm::vec3 dir, bool found, const Hit& first_hit, Pcg32& rng, uint32_t wanted,
+                       uint32_t budget, LightStrategies strategies, glm::vec3* out,
+                       uint64_t& rays) {
   const bool use_nee = strategies != LightStrategies::bsdf_only;
   const bool use_hits = strategies != LightStrategies::nee_only;
   const scene::Scene& scene = world.scene();
   for (int c = 0; c < kClasses; ++c) out[c] = glm::vec3(0.f);
-  glm::vec3 origin = rig.position, dir = rig.direction(px, py);
+  glm::vec3 origin = rig.position;
   glm::vec3 beta(1.f);
   ClassState state;
   bool prev_delta = true, prev_specular = false;
@@ -49,7 +61,12 @@ void trace_camera_path(const EmbreeScene& world, const LightSet& lights, const R
   for (uint32_t depth = 0;; ++depth) {
     Hit hit;
     ++rays;
-    if (!world.intersect(origin, dir, kUnboundedRay, hit)) break;
+    if (depth == 0) {
+      if (!found) break;
+      hit = first_hit;
+    } else if (!world.intersect(origin, dir, kUnboundedRay, hit)) {
+      break;
+    }
     glm::vec3 wo = -dir;
     glm::vec3 le = lights.emitted(hit, wo);
     if (max3(le) > 0 && !photon_mapping_owns(state.anchor, prev_specular) &&
@@ -531,19 +548,29 @@ void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const R
                        uint32_t iteration_seed, int stride, tbb::task_arena& arena,
                        tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame) {
   arena.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, rig.height, 1), [&](const tbb::blocked_range<int>& rows) {
-          uint64_t& rays = ray_count.local();
-          for (int y = rows.begin(); y != rows.end(); ++y)
-            for (int x = 0; x < rig.width; ++x) {
-              if (!in_grid(x, y, stride)) continue;
-              size_t i = size_t(y) * rig.width + x;
-              Pcg32 rng(iteration_seed, i);
-              glm::vec2 j = rng.next_2d();
-              trace_camera_path(world, lights, rig, x + j.x, y + j.y, rng, wanted, budget,
-                                options.light_strategies, &frame[i * kClasses], rays);
-            }
-        });
+    tbb::parallel_for(tbb::blocked_range<int>(0, rig.height, 1),
+                      [&](const tbb::blocked_range<int>& rows) {
+                        uint64_t& rays = ray_count.local();
+                        CameraRow row;
+                        for (int y = rows.begin(); y != rows.end(); ++y) {
+                          row.x.clear(), row.rng.clear(), row.dir.clear();
+                          for (int x = 0; x < rig.width; ++x) {
+                            if (!in_grid(x, y, stride)) continue;
+                            Pcg32 rng(iteration_seed, size_t(y) * rig.width + x);
+                            glm::vec2 j = rng.next_2d();
+                            row.x.push_back(x), row.rng.push_back(rng);
+                            row.dir.push_back(rig.direction(x + j.x, y + j.y));
+                          }
+                          row.hit.resize(row.x.size()), row.found.resize(row.x.size());
+                          world.intersect_from(rig.position, row.dir, row.hit, row.found);
+                          for (size_t k = 0; k < row.x.size(); ++k) {
+                            size_t i = size_t(y) * rig.width + row.x[k];
+                            trace_camera_path(world, lights, rig, row.dir[k], row.found[k],
+                                              row.hit[k], row.rng[k], wanted, budget,
+                                              options.light_strategies, &frame[i * kClasses], rays);
+                          }
+                        }
+                      });
   });
 }
 

@@ -183,11 +183,9 @@ bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
     v.z *= side;
     return frame_.to_world(v);
   };
-  glm::vec3 wo = frame_.to_local(wo_world);
-  wo.z *= side;
   using scene::MaterialType;
   out = BsdfSample{};
-  if (diffuse_) {
+  if (diffuse_) {  // cosine-weighted about the shading normal, on wo's side
     glm::vec3 wi = cosine_hemisphere({u.x, u.y});
     out.wi = to_world(wi);
     if (glm::dot(out.wi, ng_) * side <= 0) return false;
@@ -197,6 +195,8 @@ bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
     out.normal = n_side;
     return true;
   }
+  glm::vec3 wo = frame_.to_local(wo_world);
+  wo.z *= side;
   if (wo.z <= 0) return false;  // seen from below its shading normal: absorb
   MaterialType type = material_->type;
   if (type == MaterialType::mirror || (delta_ && type == MaterialType::rough_conductor)) {

@@ -144,6 +144,30 @@ void EmbreeScene::set_vertices(ObjectData& data, const scene::Mesh& mesh) {
       static_cast<glm::vec3*>(rtcGetGeometryBufferData(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0));
   std::memcpy(vertices, mesh.positions.data(), mesh.positions.size() * sizeof(glm::vec3));
   data.geometry_mesh = &mesh;
+  // Each triangle's unit normal, oriented as its vertex normals (if any) where they all agree; a
+  // triangle whose vertex normals all lie along it is flat, and a hit on it needs no interpolation.
+  const bool normals = mesh.normals.size() == mesh.positions.size();
+  data.triangle_normals.resize(mesh.triangles.size());
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const glm::uvec3 tri = mesh.triangles[t];
+    const glm::vec3 p0 = mesh.positions[tri.x];
+    glm::vec3 face = glm::cross(mesh.positions[tri.y] - p0, mesh.positions[tri.z] - p0);
+    float len = glm::length(face);
+    TriangleNormal& tn = data.triangle_normals[t];
+    tn.face = len > 0 ? face / len : glm::vec3(0, 1, 0);
+    tn.flat = !normals;
+    if (!normals || !(len > 0)) continue;
+    float along[3];
+    for (int k = 0; k < 3; ++k) {
+      glm::vec3 n = mesh.normals[tri[k]];
+      float nl = glm::length(n);
+      along[k] = nl > 0 ? glm::dot(n, tn.face) / nl : 0.f;
+    }
+    auto parallel = [](float a) { return std::abs(a) >= 1.f - 1e-6f; };
+    bool same_side = (along[0] > 0) == (along[1] > 0) && (along[1] > 0) == (along[2] > 0);
+    tn.flat = parallel(along[0]) && parallel(along[1]) && parallel(along[2]) && same_side;
+    if (tn.flat && along[0] < 0) tn.face = -tn.face;
+  }
   rtcUpdateGeometryBuffer(data.geometry, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(data.geometry);
 }
@@ -171,6 +195,9 @@ void EmbreeScene::place_object(uint32_t i, const glm::mat4& to_world) {
   }
   data.geometry_to_world = to_world;
   data.normal_to_world = glm::transpose(glm::inverse(glm::mat3(to_world)));
+  // The transformed triangle's edge cross product is det(M) M^-T (e1 x e2): a mirroring transform
+  // turns the winding, and the geometric normal with it.
+  data.winding = glm::determinant(glm::mat3(to_world)) < 0 ? -1.f : 1.f;
   data.bounds = transform_bounds(data.local_bounds, to_world);
   rtcSetGeometryTransform(data.instance, 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &data.to_world[0][0]);
   rtcCommitGeometry(data.instance);
@@ -256,10 +283,9 @@ void EmbreeScene::update(const scene::FrameState& state) {
   rtcCommitScene(top_);
 }
 
-bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax,
-                            Hit& hit) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+namespace {
+
+RTCRayHit make_ray(const glm::vec3& origin, const glm::vec3& dir, float tmax) {
   RTCRayHit rh;
   rh.ray.org_x = origin.x, rh.ray.org_y = origin.y, rh.ray.org_z = origin.z;
   rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
@@ -271,48 +297,91 @@ bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  return rh;
+}
+
+}  // namespace
+
+bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax,
+                            Hit& hit) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh = make_ray(origin, dir, tmax);
   rtcIntersect1(top_, &context, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+  complete_hit(rh, origin, dir, hit);
+  return true;
+}
+
+void EmbreeScene::intersect_from(const glm::vec3& origin, std::span<const glm::vec3> dirs,
+                                 std::span<Hit> hits, std::span<uint8_t> found) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  // Streams of 64: long enough for Embree to fill its 8-wide packets, short enough for the stack.
+  constexpr size_t kChunk = 64;
+  alignas(64) RTCRayHit rays[kChunk];
+  for (size_t start = 0; start < dirs.size(); start += kChunk) {
+    size_t n = std::min(kChunk, dirs.size() - start);
+    for (size_t i = 0; i < n; ++i) rays[i] = make_ray(origin, dirs[start + i], kUnboundedRay);
+    rtcIntersect1M(top_, &context, rays, unsigned(n), sizeof(RTCRayHit));
+    for (size_t i = 0; i < n; ++i) {
+      found[start + i] = rays[i].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+      if (found[start + i]) complete_hit(rays[i], origin, dirs[start + i], hits[start + i]);
+    }
+  }
+}
+
+void EmbreeScene::complete_hit(const RTCRayHit& rh, const glm::vec3& origin, const glm::vec3& dir,
+                               Hit& hit) const {
   hit.t = rh.ray.tfar;
   hit.primitive = rh.hit.primID;
   hit.barycentric = {rh.hit.u, rh.hit.v};
-  float w = 1.f - rh.hit.u - rh.hit.v;
   uint32_t object = rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID ? rh.hit.instID[0] : rh.hit.geomID;
-  if (object < objects_.size()) {
-    hit.object = object;
-    hit.material = scene_.objects[object].material;
-    const ObjectData& data = objects_[object];
-    const scene::Mesh& mesh = *data.geometry_mesh;
-    const glm::uvec3 tri = mesh.triangles[rh.hit.primID];
-    glm::vec3 p0 = mesh.positions[tri.x], p1 = mesh.positions[tri.y], p2 = mesh.positions[tri.z];
-    if (!data.flattened) {
-      p0 = glm::vec3(data.geometry_to_world * glm::vec4(p0, 1.f));
-      p1 = glm::vec3(data.geometry_to_world * glm::vec4(p1, 1.f));
-      p2 = glm::vec3(data.geometry_to_world * glm::vec4(p2, 1.f));
-    }
-    hit.position = w * p0 + rh.hit.u * p1 + rh.hit.v * p2;
-    glm::vec3 ng = glm::cross(p1 - p0, p2 - p0);
-    float len = glm::length(ng);
-    ng = len > 0 ? ng / len : glm::vec3(0, 1, 0);
-    if (!mesh.normals.empty()) {
-      glm::vec3 n =
-          w * mesh.normals[tri.x] + rh.hit.u * mesh.normals[tri.y] + rh.hit.v * mesh.normals[tri.z];
-      if (!data.flattened) n = data.normal_to_world * n;
-      float nl = glm::length(n);
-      hit.shading_normal = nl > 0 ? n / nl : ng;
-      if (glm::dot(ng, hit.shading_normal) < 0) ng = -ng;
-    } else {
-      hit.shading_normal = ng;
-    }
-    hit.geometric_normal = ng;
-  } else {
-    hit.object = object;
+  hit.object = object;
+  if (object >= objects_.size()) {  // a luminaire
     hit.material = 0;
     hit.position = origin + hit.t * dir;
     const scene::Light& light = state_.lights[object - object_count()];
     hit.geometric_normal = hit.shading_normal = light.normal();
+    return;
   }
-  return true;
+  hit.material = scene_.objects[object].material;
+  const ObjectData& data = objects_[object];
+  const scene::Mesh& mesh = *data.geometry_mesh;
+  const glm::uvec3 tri = mesh.triangles[rh.hit.primID];
+  const float w = 1.f - rh.hit.u - rh.hit.v;
+  const float u = rh.hit.u, v = rh.hit.v;
+  const TriangleNormal& tn = data.triangle_normals[rh.hit.primID];
+  if (data.flattened) {
+    // World-space vertices and normals: no transform, and a flat triangle's normals are stored.
+    hit.position =
+        w * mesh.positions[tri.x] + u * mesh.positions[tri.y] + v * mesh.positions[tri.z];
+    hit.geometric_normal = tn.face;
+    if (tn.flat) {
+      hit.shading_normal = tn.face;
+      return;
+    }
+  } else {
+    glm::vec3 p = w * mesh.positions[tri.x] + u * mesh.positions[tri.y] + v * mesh.positions[tri.z];
+    hit.position = glm::vec3(data.geometry_to_world * glm::vec4(p, 1.f));
+    // Without vertex normals the winding orients the normal; with them, `face` is oriented already
+    // (flat) or turned below to the interpolated normal's side.
+    float side = mesh.normals.size() == mesh.positions.size() ? 1.f : data.winding;
+    glm::vec3 ng = data.normal_to_world * tn.face;
+    float len = glm::length(ng);
+    hit.geometric_normal = len > 0 ? ng * (side / len) : glm::vec3(0, 1, 0);
+    if (tn.flat) {
+      hit.shading_normal = hit.geometric_normal;
+      return;
+    }
+  }
+  glm::vec3 n = w * mesh.normals[tri.x] + u * mesh.normals[tri.y] + v * mesh.normals[tri.z];
+  if (!data.flattened) n = data.normal_to_world * n;
+  float nl = glm::length(n);
+  hit.shading_normal = nl > 0 ? n / nl : hit.geometric_normal;
+  if (glm::dot(hit.geometric_normal, hit.shading_normal) < 0)
+    hit.geometric_normal = -hit.geometric_normal;
 }
 
 bool EmbreeScene::occluded(const glm::vec3& origin, const glm::vec3& dir, float tmax) const {

@@ -19,6 +19,7 @@
 #include <glm/glm.hpp>
 #include <limits>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "scene/scene.h"
@@ -76,6 +77,11 @@ class EmbreeScene {
 
   // Closest hit along origin + t dir, t in (0, tmax]; dir need not be unit (t is in its units).
   bool intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax, Hit& hit) const;
+  // Closest hits of rays that leave one origin (a camera's rays through neighbouring pixels): one
+  // coherent stream (rtcIntersect1M with the coherent hint), which Embree packs into SIMD packets
+  // that walk the BVH together. found[i]: ray i hit; hits[i] as intersect.
+  void intersect_from(const glm::vec3& origin, std::span<const glm::vec3> dirs, std::span<Hit> hits,
+                      std::span<uint8_t> found) const;
   // Any hit along origin + t dir, t in (0, tmax).
   bool occluded(const glm::vec3& origin, const glm::vec3& dir, float tmax) const;
 
@@ -101,6 +107,10 @@ class EmbreeScene {
   static RTCDevice device();
 
  private:
+  struct TriangleNormal {
+    glm::vec3 face{0.0f, 1.0f, 0.0f};  // unit, of the vertices the BVH holds
+    bool flat = true;  // no vertex normals, or all three along `face` (oriented as they are)
+  };
   struct ObjectData {
     bool flattened = false;    // world-space triangles in the top-level scene
     RTCScene scene = nullptr;  // instanced: the object's own scene
@@ -111,13 +121,18 @@ class EmbreeScene {
     glm::mat4 geometry_to_world{1.0f};  // of the vertices the BVH holds (identity when flattened)
     glm::mat3 normal_to_world{1.0f};    // inverse transpose of geometry_to_world
     const scene::Mesh* mesh = nullptr;  // object space
-    const scene::Mesh* geometry_mesh = nullptr;  // what the BVH holds: *mesh, or world_mesh
-    std::unique_ptr<scene::Mesh> deformed;       // owned current mesh of an animated shape
-    scene::Mesh world_mesh;                      // flattened: the mesh in world space
-    Aabb local_bounds;                           // object space
-    Aabb bounds;                                 // world
+    const scene::Mesh* geometry_mesh = nullptr;    // what the BVH holds: *mesh, or world_mesh
+    std::unique_ptr<scene::Mesh> deformed;         // owned current mesh of an animated shape
+    scene::Mesh world_mesh;                        // flattened: the mesh in world space
+    std::vector<TriangleNormal> triangle_normals;  // of geometry_mesh
+    float winding = 1;  // -1 where geometry_to_world mirrors (the cross product's sign flips)
+    Aabb local_bounds;  // object space
+    Aabb bounds;        // world
   };
   void set_vertices(ObjectData& data, const scene::Mesh& mesh);
+  // The hit record of Embree's answer for the ray origin + t dir.
+  void complete_hit(const RTCRayHit& answer, const glm::vec3& origin, const glm::vec3& dir,
+                    Hit& hit) const;
   void place_object(uint32_t i, const glm::mat4& to_world);
   void place_lights();
 
