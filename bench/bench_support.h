@@ -44,6 +44,22 @@ inline std::string run_capture(const std::string& command) {
   return out;
 }
 
+// The CPU's vector units, for the benches' headers: a ratio against an anchor vectorised another
+// way (Embree's AVX2 or AVX-512 kernels, numpy's loops) holds for this kind of CPU only.
+inline std::string vector_units() {
+  __builtin_cpu_init();
+  std::string units;
+  auto add = [&](bool has, const char* name) {
+    if (has) units += units.empty() ? name : std::string(" ") + name;
+  };
+  add(__builtin_cpu_supports("sse4.2"), "SSE4.2");
+  add(__builtin_cpu_supports("avx"), "AVX");
+  add(__builtin_cpu_supports("avx2"), "AVX2");
+  add(__builtin_cpu_supports("fma"), "FMA");
+  add(__builtin_cpu_supports("avx512f"), "AVX-512F");
+  return units.empty() ? "SSE2" : units;
+}
+
 // The median (the mean of the middle two for an even count); NaN for none.
 inline double median(std::vector<double> values) {
   if (values.empty()) return NAN;

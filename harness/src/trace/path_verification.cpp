@@ -502,6 +502,7 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   std::vector<uint32_t> emission_count = old.paths_per_light;
   Context c{&world_,         &lights,   &densities_,  old.seed,
             old.max_bounces, old.store, old.rr_start, &emission_count};
+  prepare_sample_seeds(c, lights.size());
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<BlockOutput>& outputs = scratch.blocks;
   reset_blocks(outputs, blocks);

@@ -24,6 +24,10 @@ constexpr uint32_t kBlockSize = 256;  // paths per parallel task; fixed, so outp
 inline float max3(const glm::vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
 inline float mean3(const glm::vec3& v) { return (v.x + v.y + v.z) / 3.f; }
 
+struct PathTask {
+  uint32_t light, sample;
+};
+
 struct Context {
   const EmbreeScene* world = nullptr;
   const LightSet* lights = nullptr;
@@ -32,11 +36,22 @@ struct Context {
   const std::vector<uint32_t>* emission_count =
       nullptr;                        // N used for each emitter's power and spacing
   bool photon_differentials = false;  // TraceSettings::photon_differentials (seed 003 §4)
+  // Each light's sobol_group seeds for groups 0..max_bounces (prepare_sample_seeds), so that a
+  // vertex's sample hashes no seed: [light * (max_bounces + 1) + group].
+  std::vector<SobolGroupSeeds> sample_seeds;
+  // The 4D sample of `group` (0: emission, 1 + k: interaction k) of the path `task`.
+  glm::vec4 sample(const PathTask& task, uint32_t group) const {
+    return sobol_group(task.sample, sample_seeds[task.light * (max_bounces + 1) + group]);
+  }
 };
 
-struct PathTask {
-  uint32_t light, sample;
-};
+// Fills c.sample_seeds for lights 0..lights-1 (each light's paths draw from hash(seed, light)).
+inline void prepare_sample_seeds(Context& c, uint32_t lights) {
+  c.sample_seeds.resize(size_t(lights) * (c.max_bounces + 1));
+  for (uint32_t l = 0; l < lights; ++l)
+    for (uint32_t g = 0; g <= c.max_bounces; ++g)
+      c.sample_seeds[l * (c.max_bounces + 1) + g] = sobol_group_seeds(g, hash_combine(c.seed, l));
+}
 
 struct BlockOutput {
   std::vector<LightPath> paths;

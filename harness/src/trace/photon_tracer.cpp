@@ -100,8 +100,7 @@ glm::vec3 spawn_origin(const PathVertex& v) {
 
 PathVertex emit(const Context& c, const PathTask& task, glm::vec2* uv_out, glm::vec2* dir_out,
                 const glm::vec4* fixed) {
-  uint32_t seed_l = hash_combine(c.seed, task.light);
-  glm::vec4 xi = fixed ? *fixed : sobol_group(task.sample, 0, seed_l);
+  glm::vec4 xi = fixed ? *fixed : c.sample(task, 0);
   glm::vec2 uv{xi.x, xi.y};
   float pdf = 1;
   const auto& density = (*c.densities)[task.light];
@@ -140,7 +139,6 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
                        const Hit* first_hit) {
   const EmbreeScene& world = *c.world;
   const scene::Scene& scene = world.scene();
-  uint32_t seed_l = hash_combine(c.seed, task.light);
   float restart_spacing = 1.f / std::sqrt(float(std::max(1u, (*c.emission_count)[task.light])));
   uint64_t rays = 0;
   for (;;) {
@@ -202,7 +200,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     next.specular_mask = mask;
     bool alive = k + 1 < c.max_bounces && storable_later(mask, k, c.store);
     if (alive) {
-      glm::vec4 xi = sobol_group(task.sample, 1 + k, seed_l);
+      glm::vec4 xi = c.sample(task, 1 + k);
       BsdfSample s;
       alive = bsdf.sample(-dir, {xi.x, xi.y, xi.z}, Transport::importance, s);
       glm::vec3 power = alive ? v.power * s.weight : glm::vec3(0.f);
@@ -472,6 +470,7 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
             settings.rr_start,
             &emission_count,
             settings.photon_differentials};
+  prepare_sample_seeds(c, lights.size());
   bool keep = settings.keep_paths;
   uint32_t wave = settings.paths, total = 0;
   for (;;) {

@@ -80,11 +80,10 @@ class Pcg32 {
 uint32_t sobol_u32(uint32_t index, int dimension);
 
 inline uint32_t reverse_bits(uint32_t x) {
-  x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-  x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+  x = __builtin_bswap32(x);  // the bytes in reverse order (one instruction), then each byte's bits
   x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-  x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-  return (x >> 16) | (x << 16);
+  x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+  return ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
 }
 
 // Nested uniform (Owen) scramble by hashing, Burley 2020 §3 (a Laine-Karras style permutation
@@ -103,20 +102,35 @@ inline float u32_to_unit(uint32_t x) {
   return std::min(float(x >> 8) * 0x1p-24f, kOneMinusEpsilon);
 }
 
+// The scramble seeds of one group of sobol_group: they depend on the seed and the group alone, so
+// a tracer that draws the same group for many samples hashes them once.
+struct SobolGroupSeeds {
+  uint32_t pair[2];       // shuffles the index, per pair of dimensions
+  uint32_t digits[2][2];  // scrambles each dimension's value
+};
+inline SobolGroupSeeds sobol_group_seeds(uint32_t group, uint32_t seed) {
+  SobolGroupSeeds s;
+  for (uint32_t pair = 0; pair < 2; ++pair) {
+    s.pair[pair] = hash_combine(seed, group, pair);
+    for (uint32_t d = 0; d < 2; ++d) s.digits[pair][d] = hash_combine(s.pair[pair], d + 1);
+  }
+  return s;
+}
 // A 4D point of dimension group `group` (0: emission, 1 + k: interaction k) for sample `index`, as
 // two independently shuffled and scrambled copies of Sobol dimensions (0, 1) (Burley 2020 §4,
 // padding): Sobol's first two dimensions form a (0,2)-sequence, so each pair (x, y) and (z, w) is a
 // (0,m,2)-net over every 2^m-point block, which no other pair of Sobol dimensions guarantees.
-inline glm::vec4 sobol_group(uint32_t index, uint32_t group, uint32_t seed) {
+inline glm::vec4 sobol_group(uint32_t index, const SobolGroupSeeds& seeds) {
   glm::vec4 r;
   for (int pair = 0; pair < 2; ++pair) {
-    uint32_t pair_seed = hash_combine(seed, group, uint32_t(pair));
-    uint32_t shuffled = owen_scramble(index, pair_seed);
+    uint32_t shuffled = owen_scramble(index, seeds.pair[pair]);
     for (int d = 0; d < 2; ++d)
-      r[2 * pair + d] = u32_to_unit(
-          owen_scramble(sobol_u32(shuffled, d), hash_combine(pair_seed, uint32_t(d) + 1)));
+      r[2 * pair + d] = u32_to_unit(owen_scramble(sobol_u32(shuffled, d), seeds.digits[pair][d]));
   }
   return r;
+}
+inline glm::vec4 sobol_group(uint32_t index, uint32_t group, uint32_t seed) {
+  return sobol_group(index, sobol_group_seeds(group, seed));
 }
 
 // ---- warps
