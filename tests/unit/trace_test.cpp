@@ -96,8 +96,8 @@ TEST(EmbreeScene, CoherentStreamsAndStoredNormalsMatchTheTriangles) {
   bare.normals.clear();
   scene::Mesh against = quad_mesh({-1, 0, -1}, {0, 0, 2}, {0, 2, 0});  // winding faces +x...
   for (auto& n : against.normals) n = -n;                              // ...its normals -x
-  glm::mat4 mirror = glm::scale(glm::rotate(glm::mat4(1.f), 0.3f, glm::vec3(0, 1, 0)),
-                                glm::vec3(-1.f, 1.f, 1.f));
+  glm::mat4 mirror =
+      glm::scale(glm::rotate(glm::mat4(1.f), 0.3f, glm::vec3(0, 1, 0)), glm::vec3(-1.f, 1.f, 1.f));
   t.object(bare, white);
   t.object(against, white, glm::translate(glm::mat4(1.f), {0.2f, 0, 0}) * mirror);
   t.object(sphere_mesh({0, 0.5f, 0}, 0.3f, 16), white, mirror);
