@@ -246,32 +246,50 @@ io::Image random_ldr(int w, int h, int channels, unsigned seed) {
   return im;
 }
 
+// Runs `check` under every build of the metrics' hot loops this CPU runs (metrics.h: VectorPath),
+// then restores the one in use, so a lane or an edge that one build drops shows in its own trace.
+template <typename Check>
+void for_each_vector_path(const Check& check) {
+  const VectorPath in_use = vector_path();
+  for (VectorPath path : {VectorPath::baseline, VectorPath::avx2, VectorPath::avx512}) {
+    if (!cpu_runs(path)) continue;
+    SCOPED_TRACE(to_string(path));
+    use_vector_path(path);
+    check();
+  }
+  use_vector_path(in_use);
+}
+
 TEST(Flip, MatchesAStraightTwoDimensionalImplementation) {
   struct Case {
     int w, h, channels;
   };
-  // Smaller than the filters, one row, one column, several 256x64 tiles with ragged edges, RGBA
-  // (alpha must be ignored) and grey.
-  for (const Case c : {Case{1, 1, 3}, Case{5, 3, 3}, Case{37, 1, 3}, Case{1, 29, 3},
-                       Case{300, 70, 4}, Case{23, 17, 1}}) {
+  // Smaller than the filters, one row, one column, two pixels wide or tall, several 96x512 tiles
+  // with ragged edges, RGBA (alpha must be ignored) and grey; widths that are no multiple of any
+  // vector width.
+  for (const Case c :
+       {Case{1, 1, 3}, Case{5, 3, 3}, Case{37, 1, 3}, Case{1, 29, 3}, Case{2, 9, 3}, Case{13, 2, 3},
+        Case{300, 70, 4}, Case{23, 17, 1}, Case{533, 5, 3}, Case{7, 101, 3}}) {
     SCOPED_TRACE(::testing::Message() << c.w << "x" << c.h << "x" << c.channels);
     io::Image ref = random_ldr(c.w, c.h, c.channels, 1), test = random_ldr(c.w, c.h, c.channels, 2);
     // Keep some structure (half the test equals the reference) so errors span a range.
     for (int y = 0; y < c.h; ++y)
       for (int x = 0; x < c.w / 2; ++x)
         for (int k = 0; k < c.channels; ++k) test.at(x, y, k) = ref.at(x, y, k);
-    const FlipResult f = flip(ref, test);
     const std::vector<double> want = naive_ldr_flip(ref, test, kDefaultPixelsPerDegree);
-    // FLIP computes in float (as the reference tool does); where the colour distance is near 0,
-    // x^0.7 magnifies float rounding (grey images have chroma of rounding size) to a few 1e-4.
-    // A wrong border, tile seam or channel would be off by far more.
-    double worst = 0;
-    for (size_t i = 0; i < want.size(); ++i)
-      worst = std::max(worst, std::fabs(double(f.error_map.pixels[i]) - want[i]));
-    EXPECT_LT(worst, 1e-3);
     double mean = 0;
     for (double v : want) mean += v / double(want.size());
-    EXPECT_NEAR(f.stats.mean, mean, 1e-4);
+    for_each_vector_path([&] {
+      const FlipResult f = flip(ref, test);
+      // FLIP computes in float (as the reference tool does); where the colour distance is near 0,
+      // x^0.7 magnifies float rounding (grey images have chroma of rounding size) to a few 1e-4.
+      // A wrong border, tile seam or channel would be off by far more.
+      double worst = 0;
+      for (size_t i = 0; i < want.size(); ++i)
+        worst = std::max(worst, std::fabs(double(f.error_map.pixels[i]) - want[i]));
+      EXPECT_LT(worst, 1e-3);
+      EXPECT_NEAR(f.stats.mean, mean, 1e-4);
+    });
   }
 }
 
@@ -407,6 +425,69 @@ TEST(Flip, WeightedQuantilesFollowTheReferencePooling) {
   EXPECT_EQ(b.q1, brute(0.25));
   EXPECT_EQ(b.weighted_median, brute(0.5));
   EXPECT_EQ(b.q3, brute(0.75));
+}
+
+// scikit-image's SSIM (the settings of ssim.cpp) summed window by window in long double: the 11x11
+// Gaussian weights of each output pixel applied directly, no separable passes, no vectors.
+double naive_ssim(const io::Image& a, const io::Image& b) {
+  constexpr int r = 5;
+  long double w[2 * r + 1], sum = 0;
+  for (int i = -r; i <= r; ++i) sum += w[i + r] = std::exp(-0.5L * i * i / (1.5L * 1.5L));
+  for (long double& v : w) v /= sum;
+  auto value = [](const io::Image& im, int x, int y, int c) {  // 8-bit codes, as k / 255
+    return std::round(static_cast<long double>(im.at(x, y, std::min(c, im.channels - 1))) * 255) /
+           255;
+  };
+  long double total = 0;
+  for (int c = 0; c < 3; ++c) {
+    long double map_sum = 0;
+    for (int y = r; y < a.height - r; ++y)
+      for (int x = r; x < a.width - r; ++x) {
+        long double ux = 0, uy = 0, uxx = 0, uyy = 0, uxy = 0;
+        for (int dy = -r; dy <= r; ++dy)
+          for (int dx = -r; dx <= r; ++dx) {
+            const long double k = w[dy + r] * w[dx + r];
+            const long double p = value(a, x + dx, y + dy, c), q = value(b, x + dx, y + dy, c);
+            ux += k * p;
+            uy += k * q;
+            uxx += k * p * p;
+            uyy += k * q * q;
+            uxy += k * p * q;
+          }
+        const long double vx = uxx - ux * ux, vy = uyy - uy * uy, vxy = uxy - ux * uy;
+        map_sum += (2 * ux * uy + 1e-4L) * (2 * vxy + 9e-4L) /
+                   ((ux * ux + uy * uy + 1e-4L) * (vx + vy + 9e-4L));
+      }
+    total += map_sum / ((a.width - 2 * r) * (a.height - 2 * r));
+  }
+  return double(total / 3);
+}
+
+TEST(Ssim, EveryVectorBuildMatchesAStraightWindowSum) {
+  struct Case {
+    int w, h, channels;
+  };
+  // The smallest image (one output pixel), widths whose 10 fewer output columns leave every
+  // remainder modulo 2, 4 and 8 vectors, grey and RGBA, and heights across a 64-row block.
+  for (const Case c : {Case{11, 11, 3}, Case{12, 13, 3}, Case{13, 11, 1}, Case{14, 12, 3},
+                       Case{15, 11, 4}, Case{17, 14, 3}, Case{18, 11, 3}, Case{19, 12, 3},
+                       Case{21, 11, 3}, Case{26, 16, 3}, Case{31, 75, 3}}) {
+    SCOPED_TRACE(::testing::Message() << c.w << "x" << c.h << "x" << c.channels);
+    const io::Image a = random_ldr(c.w, c.h, c.channels, 5);
+    io::Image b = random_ldr(c.w, c.h, c.channels, 6);
+    for (int y = 0; y < c.h; ++y)  // a correlated half, so the map spans a range
+      for (int x = 0; x < c.w / 2; ++x)
+        for (int k = 0; k < c.channels; ++k) b.at(x, y, k) = a.at(x, y, k);
+    const double want = naive_ssim(a, b);
+    // Separable passes and vectors reorder the sums: ~1e-15. One output column dropped or
+    // counted twice moves the mean by more than 1e-3 at these widths.
+    for_each_vector_path([&] { EXPECT_NEAR(ssim(a, b), want, 1e-12); });
+  }
+  // Narrower than the window: refused in every build.
+  for_each_vector_path([] {
+    EXPECT_THROW(ssim(random_ldr(2, 40, 3, 1), random_ldr(2, 40, 3, 2)), InputError);
+    EXPECT_THROW(ssim(random_ldr(10, 11, 3, 1), random_ldr(10, 11, 3, 2)), InputError);
+  });
 }
 
 TEST(Ssim, KnownValuesAndSymmetry) {

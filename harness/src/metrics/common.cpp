@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <string>
@@ -12,6 +13,51 @@
 #include "photonbench/error.h"
 
 namespace pb::metrics {
+
+namespace {
+
+VectorPath widest_path() {
+#if PB_METRICS_LEVELS
+  if (__builtin_cpu_supports("x86-64-v4")) return VectorPath::avx512;
+  if (__builtin_cpu_supports("x86-64-v3")) return VectorPath::avx2;
+#endif
+  return VectorPath::baseline;
+}
+
+std::atomic<VectorPath>& path_in_use() {
+  static std::atomic<VectorPath> path{widest_path()};
+  return path;
+}
+
+}  // namespace
+
+const char* to_string(VectorPath path) {
+  switch (path) {
+    case VectorPath::baseline:
+      return "baseline (SSE2)";
+    case VectorPath::avx2:
+      return "AVX2+FMA";
+    case VectorPath::avx512:
+      return "AVX-512";
+  }
+  return "?";
+}
+
+bool cpu_runs(VectorPath path) { return int(path) <= int(widest_path()); }
+
+VectorPath vector_path() { return path_in_use().load(std::memory_order_relaxed); }
+
+void use_vector_path(VectorPath path) {
+  if (!cpu_runs(path))
+    throw InputError(
+        fmt::format("metrics: this CPU cannot run the {} build (the widest it runs: {})",
+                    to_string(path), to_string(widest_path())));
+  path_in_use().store(path, std::memory_order_relaxed);
+}
+
+namespace detail {
+VectorPath active_path() { return vector_path(); }
+}  // namespace detail
 
 Tonemapper parse_tonemapper(std::string_view name) {
   std::string lower(name);
@@ -44,12 +90,15 @@ const char* encoding(const io::Image& image) {
 }
 
 // True when no value is NaN or infinite (all exponent bits set), as one vectorised pass.
-PB_METRICS_KERNEL bool all_finite(const float* v, size_t n) {
-  uint32_t bad = 0;
-  for (size_t i = 0; i < n; ++i)
-    bad |= uint32_t((__builtin_bit_cast(uint32_t, v[i]) & 0x7F800000u) == 0x7F800000u);
-  return bad == 0;
-}
+struct AllFinite {
+  template <class Isa>
+  [[gnu::always_inline]] static bool run(const float* v, size_t n) {
+    uint32_t bad = 0;
+    for (size_t i = 0; i < n; ++i)
+      bad |= uint32_t((__builtin_bit_cast(uint32_t, v[i]) & 0x7F800000u) == 0x7F800000u);
+    return bad == 0;
+  }
+};
 
 void check_image(const io::Image& image, const char* role, std::string_view metric) {
   if (image.width <= 0 || image.height <= 0)
@@ -60,7 +109,7 @@ void check_image(const io::Image& image, const char* role, std::string_view metr
   if (image.pixels.size() != image.pixel_count() * size_t(image.channels))
     throw InputError(fmt::format("{}: the {} image holds {} values, not {}x{}x{}", metric, role,
                                  image.pixels.size(), image.width, image.height, image.channels));
-  if (all_finite(image.pixels.data(), image.pixels.size())) return;
+  if (dispatch<AllFinite>(image.pixels.data(), image.pixels.size())) return;
   auto bad = std::find_if(image.pixels.begin(), image.pixels.end(),
                           [](float v) { return !std::isfinite(v); });
   if (bad != image.pixels.end()) {
@@ -93,56 +142,84 @@ const std::array<double, 256>& decoded_codes() {
   return abs_f(v * 255.f - float(k)) < 2e-5f ? k : -1;
 }
 
-// Eight values at a time in GCC vectors, the same operations per lane as code_or_minus_one and the
-// scalar loop for the rest of the row (so the same bits): the scalar loop alone does not vectorise
-// (the strided loads and the selects leave it branching).
-typedef float Floats8 __attribute__((vector_size(32)));
-typedef int32_t Ints8 __attribute__((vector_size(32)));
-typedef int64_t Longs8 __attribute__((vector_size(64)));
-typedef double Doubles8 __attribute__((vector_size(64)));
-typedef double Doubles8At __attribute__((vector_size(64), aligned(8), may_alias));
-
-PB_METRICS_KERNEL void ldr_display_row(const float* in, size_t stride, size_t n, double* out) {
-  size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    Floats8 v;
-    for (size_t l = 0; l < 8; ++l) v[l] = in[(i + l) * stride];
-    const Floats8 scaled255 = v * 255.f;
-    const Floats8 below = 255.f < scaled255 ? Floats8{} + 255.f : scaled255;  // min_f
-    const Floats8 scaled = below < 0.f ? Floats8{} : below;                   // max_f(below, 0)
-    const Ints8 k = __builtin_convertvector(scaled + 0.5f, Ints8);
-    const Floats8 off = scaled255 - __builtin_convertvector(k, Floats8);
-    const Ints8 is_code = (off < 0.f ? -off : off) < 2e-5f;  // -1 where v is a code
-    const Doubles8 code = __builtin_convertvector(k, Doubles8) / 255.0;
-    const Doubles8 value = __builtin_convertvector(v, Doubles8);
-    *reinterpret_cast<Doubles8At*>(out + i) =
-        __builtin_convertvector(is_code, Longs8) != 0 ? code : value;
+// Isa::lanes values at a time in GCC vectors, the same operations per lane as code_or_minus_one,
+// and the scalar loop for the rest of the row (so the same bits): the scalar loop alone does not
+// vectorise (the strided loads and the selects leave it branching).
+struct LdrDisplayRow {
+  template <class Isa, size_t Stride>
+  [[gnu::always_inline]] static void row(const float* in, size_t n, double* out) {
+    constexpr int kLanes = Isa::lanes;
+    using Floats = typename Vector<float, kLanes>::type;
+    using Ints = typename Vector<int32_t, kLanes>::type;
+    using Longs = typename Vector<int64_t, kLanes>::type;
+    using Doubles = DoublesOf<Isa>;
+    size_t i = 0;
+    for (; i + kLanes <= n; i += kLanes) {
+      Floats v;
+      for (int l = 0; l < kLanes; ++l) v[l] = in[(i + size_t(l)) * Stride];
+      const Floats scaled255 = v * 255.f;
+      const Floats below = 255.f < scaled255 ? Floats{} + 255.f : scaled255;  // min_f
+      const Floats scaled = below < 0.f ? Floats{} : below;                   // max_f(below, 0)
+      const Ints k = __builtin_convertvector(scaled + 0.5f, Ints);
+      const Floats off = scaled255 - __builtin_convertvector(k, Floats);
+      const Ints is_code = (off < 0.f ? -off : off) < 2e-5f;  // -1 where v is a code
+      const Doubles code = __builtin_convertvector(k, Doubles) / 255.0;
+      const Doubles value = __builtin_convertvector(v, Doubles);
+      store(out + i, __builtin_convertvector(is_code, Longs) != 0 ? code : value);
+    }
+    for (; i < n; ++i) {
+      const float v = in[i * Stride];
+      const int k = code_or_minus_one(v);
+      out[i] = k >= 0 ? double(k) / 255.0 : double(v);  // division, as numpy does
+    }
   }
-  for (; i < n; ++i) {
-    const float v = in[i * stride];
-    const int k = code_or_minus_one(v);
-    out[i] = k >= 0 ? double(k) / 255.0 : double(v);  // division, as numpy does
+  // The stride (channels) as a constant, so the strided loads become shuffles.
+  template <class Isa>
+  [[gnu::always_inline]] static void run(const float* in, size_t stride, size_t n, double* out) {
+    if (stride == 3)
+      row<Isa, 3>(in, n, out);
+    else if (stride == 4)
+      row<Isa, 4>(in, n, out);
+    else
+      row<Isa, 1>(in, n, out);
   }
-}
+};
 
 // 8-bit codes through the table; returns false if some value was not one (left as -1).
-PB_METRICS_KERNEL bool ldr_linear_row(const float* in, size_t stride, size_t n, const double* table,
-                                      double* out) {
-  int all_codes = 1;
-  for (size_t i = 0; i < n; ++i) {
-    const int k = code_or_minus_one(in[i * stride]);
-    all_codes &= k >= 0;
-    out[i] = k >= 0 ? table[k > 0 ? k : 0] : -1.0;
+struct LdrLinearRow {
+  template <class Isa>
+  [[gnu::always_inline]] static bool run(const float* in, size_t stride, size_t n,
+                                         const double* table, double* out) {
+    int all_codes = 1;
+    for (size_t i = 0; i < n; ++i) {
+      const int k = code_or_minus_one(in[i * stride]);
+      all_codes &= k >= 0;
+      out[i] = k >= 0 ? table[k > 0 ? k : 0] : -1.0;
+    }
+    return all_codes != 0;
   }
-  return all_codes != 0;
-}
+};
 
-PB_METRICS_KERNEL void hdr_display_row(const float* in, size_t stride, size_t n, double* out) {
-  for (size_t i = 0; i < n; ++i) {
-    const float c = clamp01(in[i * stride]);
-    out[i] = c <= 0.0031308f ? 12.92 * double(c) : 1.055 * double(fast_pow(c, 1.f / 2.4f)) - 0.055;
+// The stride (channels) as a constant, so the compiler vectorises the strided loads.
+struct HdrDisplayRow {
+  template <size_t Stride>
+  [[gnu::always_inline]] static void row(const float* in, size_t n, double* out) {
+    for (size_t i = 0; i < n; ++i) {
+      const float c = clamp01(in[i * Stride]);
+      out[i] =
+          c <= 0.0031308f ? 12.92 * double(c) : 1.055 * double(fast_pow(c, 1.f / 2.4f)) - 0.055;
+    }
   }
-}
+  template <class Isa>
+  [[gnu::always_inline]] static void run(const float* in, size_t stride, size_t n, double* out) {
+    if (stride == 3)
+      row<3>(in, n, out);
+    else if (stride == 4)
+      row<4>(in, n, out);
+    else
+      row<1>(in, n, out);
+  }
+};
 
 }  // namespace
 
@@ -163,15 +240,15 @@ void convert_row(const io::Image& image, int y, int channel, Values values, doub
       image.pixels.data() + size_t(y) * n * stride + size_t(image.channels == 1 ? 0 : channel);
   if (image.linear) {
     if (values == Values::display) {
-      hdr_display_row(in, stride, n, out);  // clamp to [0, 1], then sRGB encode
+      dispatch<HdrDisplayRow>(in, stride, n, out);  // clamp to [0, 1], then sRGB encode
     } else {
       for (size_t i = 0; i < n; ++i) out[i] = double(in[i * stride]);
     }
     return;
   }
   if (values == Values::display)
-    ldr_display_row(in, stride, n, out);
-  else if (!ldr_linear_row(in, stride, n, decoded_codes().data(), out))
+    dispatch<LdrDisplayRow>(in, stride, n, out);
+  else if (!dispatch<LdrLinearRow>(in, stride, n, decoded_codes().data(), out))
     for (size_t i = 0; i < n; ++i)  // values that are not 8-bit codes: decode exactly
       if (out[i] < 0.0) out[i] = srgb_decode_exact(std::clamp(double(in[i * stride]), 0.0, 1.0));
 }

@@ -11,25 +11,36 @@
 #include <vector>
 
 #include "io/image.h"
+#include "metrics/metrics.h"
 
-// Hot loops are compiled for AVX-512, AVX2 and baseline x86-64 and the best one is picked when the
-// library loads (GCC function multi-versioning), so the build needs no -march flag and still uses
-// the wide vector units where they exist. Functions they call inline are compiled for the same
-// target.
+// Hot loops come in three builds, one per x86-64 level: baseline (SSE2, 2 doubles a vector),
+// x86-64-v3 (AVX2 with FMA, 4) and x86-64-v4 (AVX-512, 8). The widest the CPU runs is picked at the
+// first call (metrics.h: vector_path) and can be changed by use_vector_path, so a bench or a test
+// can run the AVX2 build on an AVX-512 machine. The build needs no -march flag. A kernel is a
+// struct with `template <class Isa> static R run(...)`, always inlined into one wrapper per level
+// (below), so everything it calls inline is compiled for that level; Isa::lanes sizes its vectors
+// to the level's registers (a vector wider than the registers is lowered through the stack, lane by
+// lane: SSIM in 8-double vectors ran 3x slower on AVX2 than on AVX-512).
+//
+// PB_METRICS_KERNEL (GCC function multi-versioning, picked by the CPU alone) is kept for the plain
+// loops of scores.cpp, which the compiler vectorises itself.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define PB_METRICS_KERNEL \
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#define PB_METRICS_LEVELS 1
 #else
 #define PB_METRICS_KERNEL
+#define PB_METRICS_LEVELS 0
 #endif
 
-// No fused multiply-adds: GCC contracts a * b + c differently in a loop's vector body and in its
-// scalar remainder, whose split depends on pointer alignment, so identical inputs at different
-// addresses (a reference and its copy) would differ in the last bit, and FLIP's (x - y)^0.7
-// turns a last-bit difference into a visible error. Without contraction every target clone gives
-// the same bits. And no floating-point traps (we never enable them): otherwise GCC will not compute
-// both sides of a select such as v <= 0.04045 ? v / 12.92 : pow(...) and leaves the loop scalar.
-// Neither option changes a result.
+// No fused multiply-adds but where a kernel asks for one (madd below): GCC contracts a * b + c
+// differently in a loop's vector body and in its scalar remainder, whose split depends on pointer
+// alignment, so identical inputs at different addresses (a reference and its copy) would differ in
+// the last bit, and FLIP's (x - y)^0.7 turns a last-bit difference into a visible error. Without
+// contraction a loop gives the same bits in every build, and madd's explicit FMA is the same in
+// every lane and column of one build. And no floating-point traps (we never enable them):
+// otherwise GCC will not compute both sides of a select such as v <= 0.04045 ? v / 12.92 :
+// pow(...) and leaves the loop scalar. Neither option changes a result.
 //
 // Functions defined before this pragma (std::sqrt, std::fabs, std::min, ...) have other options,
 // and GCC does not inline across that difference, so the hot loops use the helpers below and
@@ -37,6 +48,95 @@
 #pragma GCC optimize("fp-contract=off", "no-trapping-math")
 
 namespace pb::metrics::detail {
+
+// The levels a kernel is built for: doubles (and floats) per vector, and whether a * b + c may be
+// one fused instruction (madd below).
+struct Baseline {
+  static constexpr int lanes = 2, float_lanes = 4;
+  static constexpr bool fma = false;
+};
+struct Avx2 {
+  static constexpr int lanes = 4, float_lanes = 8;
+  static constexpr bool fma = true;
+};
+struct Avx512 {
+  static constexpr int lanes = 8, float_lanes = 16;
+  static constexpr bool fma = true;
+};
+
+// The level in use (common.cpp; an atomic read).
+VectorPath active_path();
+
+#if PB_METRICS_LEVELS
+template <class Kernel, class... Args>
+__attribute__((target("arch=x86-64-v4"))) auto run_avx512(Args... args) {
+  return Kernel::template run<Avx512>(args...);
+}
+template <class Kernel, class... Args>
+__attribute__((target("arch=x86-64-v3"))) auto run_avx2(Args... args) {
+  return Kernel::template run<Avx2>(args...);
+}
+#endif
+template <class Kernel, class... Args>
+auto run_baseline(Args... args) {
+  return Kernel::template run<Baseline>(args...);
+}
+
+// Kernel::run<Isa>(args...) built for the level in use. Arguments are passed by value (pointers,
+// sizes, small structs by pointer).
+template <class Kernel, class... Args>
+auto dispatch(Args... args) {
+#if PB_METRICS_LEVELS
+  switch (active_path()) {
+    case VectorPath::avx512:
+      return run_avx512<Kernel>(args...);
+    case VectorPath::avx2:
+      return run_avx2<Kernel>(args...);
+    case VectorPath::baseline:
+      break;
+  }
+#endif
+  return run_baseline<Kernel>(args...);
+}
+
+// ---- Vectors of Isa::lanes doubles (GCC vector extensions) --------------------------------------
+//
+// Each lane gets exactly the operations a scalar loop would do. Functions taking or returning
+// vectors are always inlined into a kernel, never called across an ABI boundary, so GCC's note that
+// passing AVX vectors by value "changes the ABI" does not apply to them (in the metrics sources,
+// the only includers of this header).
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+template <class T, int Lanes>
+struct Vector {
+  typedef T type __attribute__((vector_size(Lanes * sizeof(T))));
+};
+template <class Isa>
+using DoublesOf = typename Vector<double, Isa::lanes>::type;
+
+template <class V>
+[[gnu::always_inline]] inline V load(const double* p) {  // unaligned
+  V v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class V>
+[[gnu::always_inline]] inline void store(double* p, V v) {  // unaligned
+  __builtin_memcpy(p, &v, sizeof v);
+}
+
+// a * b + c, rounded once (one FMA instruction) where the level has FMA, else twice. Either way the
+// same for every lane and every column, whatever the data's alignment.
+template <class Isa, class V>
+[[gnu::always_inline]] inline V madd(V a, V b, V c) {
+  if constexpr (Isa::fma) {
+    V r;
+    for (int l = 0; l < Isa::lanes; ++l) r[l] = __builtin_fma(a[l], b[l], c[l]);
+    return r;
+  } else {
+    return a * b + c;
+  }
+}
 
 // Checks that two images can be compared (same size, same encoding, 1/3/4 channels, finite
 // values); throws pb::InputError naming `metric` otherwise.

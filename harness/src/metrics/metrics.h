@@ -27,6 +27,18 @@
 
 namespace pb::metrics {
 
+// The builds of the metrics' hot loops (x86-64 levels): baseline SSE2, AVX2 with FMA (x86-64-v3)
+// and AVX-512 (x86-64-v4). The widest the CPU runs is used unless use_vector_path picks another;
+// their values agree to rounding (1e-12 for SSIM), not to the bit, since FMA rounds once.
+// Elsewhere than x86-64 with GCC there is only the baseline build.
+enum class VectorPath { baseline, avx2, avx512 };
+const char* to_string(VectorPath path);  // "baseline (SSE2)", "AVX2+FMA", "AVX-512"
+bool cpu_runs(VectorPath path);          // this CPU runs that build (and it was built)
+VectorPath vector_path();                // the build in use
+// Switches every later metric call to `path` (for benches and tests); throws pb::InputError when
+// cpu_runs(path) is false.
+void use_vector_path(VectorPath path);
+
 enum class Tonemapper { aces, hable, reinhard };
 
 // "aces", "hable" or "reinhard" (case-insensitive); anything else throws pb::InputError.

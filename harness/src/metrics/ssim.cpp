@@ -22,6 +22,7 @@
 namespace pb::metrics {
 namespace {
 
+using detail::dispatch;
 using detail::Values;
 
 constexpr double kSigma = 1.5;
@@ -41,93 +42,84 @@ std::array<double, kTaps> gaussian_window() {
   return w;
 }
 
-// Eight doubles as one GCC vector: each lane gets exactly the scalar operations, in the same order,
-// on every target clone (AVX-512: one register; AVX2: two; baseline: four). Read and written
-// through an unaligned, aliasing view of the rows.
-constexpr size_t kLanes = 8;
-typedef double Lanes __attribute__((vector_size(kLanes * sizeof(double))));
-typedef double LanesAt __attribute__((vector_size(kLanes * sizeof(double)), aligned(8), may_alias));
+// Rows hold the image's width rounded up to 8 (the widest vector) plus 16 zeros, so every vector
+// loop runs whole vectors: the zero columns give finite moments that no output column reads, and
+// the last vector's lanes past the row are masked out of the sum.
+size_t padded_width(int width) { return (size_t(width) + 7) / 8 * 8 + 16; }
 
 // Sum of the SSIM map over one output row and the columns [kRadius, width - kRadius), from the
-// 11 input rows around it (xr, yr). scratch holds 6 * width doubles.
-PB_METRICS_KERNEL double ssim_row(const double* const* xr, const double* const* yr, int width,
-                                  const double* k, double* scratch) {
-  const size_t w = size_t(width);
-  double* __restrict mx = scratch;
-  double* __restrict my = scratch + w;
-  double* __restrict mxx = scratch + 2 * w;
-  double* __restrict myy = scratch + 3 * w;
-  double* __restrict mxy = scratch + 4 * w;
-  double* __restrict s = scratch + 5 * w;
-  // Vertical: the five windowed moments of every column, eight columns at a time in vectors (a
-  // loop over columns with the taps inside stays scalar: GCC does not vectorise through the 22
-  // row pointers). Every sum adds its taps in order from 0, as the scalar loop for the last
-  // columns does, so each column gets the same bits either way.
-  size_t j = 0;
-  for (; j + kLanes <= w; j += kLanes) {
-    Lanes sx = {}, sy = {}, sxx = {}, syy = {}, sxy = {};
-    for (int t = 0; t < kTaps; ++t) {
-      const Lanes a = *reinterpret_cast<const LanesAt*>(xr[t] + j);
-      const Lanes b = *reinterpret_cast<const LanesAt*>(yr[t] + j);
-      const double wt = k[t];
-      sx += wt * a;
-      sy += wt * b;
-      sxx += wt * (a * a);
-      syy += wt * (b * b);
-      sxy += wt * (a * b);
+// 11 input rows around it (xr, yr, padded as above). moments holds 5 padded rows.
+//
+// The window is symmetric (k[t] == k[10 - t]), so each pass adds the rows (or columns) t and 10 - t
+// before weighting them: 6 multiply-adds per moment instead of 11. Vertical first, 5 moments per
+// column, Isa::lanes columns a vector; then horizontal, Isa::lanes output columns a vector (lanes
+// along the row), with the SSIM map (Wang et al. eq. 13) on the moments still in registers.
+struct SsimRow {
+  template <class Isa>
+  [[gnu::always_inline]] static double run(const double* const* xr, const double* const* yr,
+                                           int width, const double* k, double* moments) {
+    using V = detail::DoublesOf<Isa>;
+    constexpr int kLanes = Isa::lanes;
+    const size_t stride = padded_width(width);
+    double* __restrict mx = moments;
+    double* __restrict my = moments + stride;
+    double* __restrict mxx = moments + 2 * stride;
+    double* __restrict myy = moments + 3 * stride;
+    double* __restrict mxy = moments + 4 * stride;
+    const size_t out_columns = size_t(width - 2 * kRadius);
+    // The horizontal pass reads columns up to round_up(out_columns, lanes) + 2 kRadius - 1.
+    const size_t out_end = (out_columns + kLanes - 1) / kLanes * kLanes;
+    const size_t in_end = out_end + 2 * kRadius;
+    V weight[kRadius + 1];
+    for (int t = 0; t <= kRadius; ++t) weight[t] = V{} + k[t];
+    for (size_t j = 0; j < in_end; j += kLanes) {
+      const V a = detail::load<V>(xr[kRadius] + j), b = detail::load<V>(yr[kRadius] + j);
+      const V w = weight[kRadius];
+      V sx = w * a, sy = w * b, sxx = w * (a * a), syy = w * (b * b), sxy = w * (a * b);
+      for (int t = 0; t < kRadius; ++t) {
+        const V a0 = detail::load<V>(xr[t] + j), a1 = detail::load<V>(xr[2 * kRadius - t] + j);
+        const V b0 = detail::load<V>(yr[t] + j), b1 = detail::load<V>(yr[2 * kRadius - t] + j);
+        const V wt = weight[t];
+        sx = detail::madd<Isa>(wt, a0 + a1, sx);
+        sy = detail::madd<Isa>(wt, b0 + b1, sy);
+        sxx = detail::madd<Isa>(wt, detail::madd<Isa>(a0, a0, a1 * a1), sxx);
+        syy = detail::madd<Isa>(wt, detail::madd<Isa>(b0, b0, b1 * b1), syy);
+        sxy = detail::madd<Isa>(wt, detail::madd<Isa>(a0, b0, a1 * b1), sxy);
+      }
+      detail::store(mx + j, sx);
+      detail::store(my + j, sy);
+      detail::store(mxx + j, sxx);
+      detail::store(myy + j, syy);
+      detail::store(mxy + j, sxy);
     }
-    *reinterpret_cast<LanesAt*>(mx + j) = sx;
-    *reinterpret_cast<LanesAt*>(my + j) = sy;
-    *reinterpret_cast<LanesAt*>(mxx + j) = sxx;
-    *reinterpret_cast<LanesAt*>(myy + j) = syy;
-    *reinterpret_cast<LanesAt*>(mxy + j) = sxy;
-  }
-  for (; j < w; ++j) {
-    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-    for (int t = 0; t < kTaps; ++t) {
-      const double a = xr[t][j], b = yr[t][j], wt = k[t];
-      sx += wt * a;
-      sy += wt * b;
-      sxx += wt * (a * a);
-      syy += wt * (b * b);
-      sxy += wt * (a * b);
+    // Lane l of the last vector is output column out_end - lanes + l: counted when below
+    // out_columns.
+    V last_mask;
+    for (int l = 0; l < kLanes; ++l) last_mask[l] = out_end - kLanes + size_t(l) < out_columns;
+    V sums = {};
+    for (size_t j = 0; j < out_end; j += kLanes) {
+      auto horizontal = [&](const double* m) __attribute__((always_inline)) {
+        V u = weight[kRadius] * detail::load<V>(m + j + kRadius);
+        for (int t = 0; t < kRadius; ++t)
+          u = detail::madd<Isa>(
+              weight[t], detail::load<V>(m + j + t) + detail::load<V>(m + j + 2 * kRadius - t), u);
+        return u;
+      };
+      const V ux = horizontal(mx), uy = horizontal(my);
+      const V uxx = horizontal(mxx), uyy = horizontal(myy), uxy = horizontal(mxy);
+      const V vx = uxx - ux * ux, vy = uyy - uy * uy, vxy = uxy - ux * uy;
+      const V a1 = 2 * ux * uy + kC1, a2 = 2 * vxy + kC2;
+      const V b1 = ux * ux + uy * uy + kC1, b2 = vx + vy + kC2;
+      const V map = (a1 * a2) / (b1 * b2);
+      sums += j + kLanes < out_end ? map : map * last_mask;
     }
-    mx[j] = sx;
-    my[j] = sy;
-    mxx[j] = sxx;
-    myy[j] = syy;
-    mxy[j] = sxy;
+    // The lanes in order: a fixed order for a given width and build, so results are reproducible
+    // whatever the threads or the alignment.
+    double sum = 0;
+    for (int l = 0; l < kLanes; ++l) sum += sums[l];
+    return sum;
   }
-  // Horizontal, then the SSIM map (Wang et al. eq. 13).
-  const size_t end = w - kRadius;
-  for (size_t j = kRadius; j < end; ++j) {
-    double ux = 0, uy = 0, uxx = 0, uyy = 0, uxy = 0;
-#pragma GCC unroll 11
-    for (int t = 0; t < kTaps; ++t) {
-      const size_t i = j + size_t(t) - kRadius;
-      ux += k[t] * mx[i];
-      uy += k[t] * my[i];
-      uxx += k[t] * mxx[i];
-      uyy += k[t] * myy[i];
-      uxy += k[t] * mxy[i];
-    }
-    const double vx = uxx - ux * ux, vy = uyy - uy * uy, vxy = uxy - ux * uy;
-    const double a1 = 2 * ux * uy + kC1, a2 = 2 * vxy + kC2;
-    const double b1 = ux * ux + uy * uy + kC1, b2 = vx + vy + kC2;
-    s[j] = (a1 * a2) / (b1 * b2);
-  }
-  // Summed in eight lanes by column (lane = (j - kRadius) mod 8), the lanes then in order: a fixed
-  // order for a given width, so results are reproducible whatever the threads or the alignment,
-  // without a chain of one dependent addition per column.
-  Lanes lanes = {};
-  size_t j_sum = kRadius;
-  for (; j_sum + kLanes <= end; j_sum += kLanes)
-    lanes += *reinterpret_cast<const LanesAt*>(s + j_sum);
-  double sum = 0;
-  for (size_t l = 0; l < kLanes; ++l) sum += lanes[l];
-  for (; j_sum < end; ++j_sum) sum += s[j_sum];
-  return sum;
-}
+};
 
 }  // namespace
 
@@ -139,46 +131,52 @@ double ssim_unchecked(const io::Image& reference, const io::Image& test) {
     throw InputError(fmt::format(
         "SSIM: the images are {}x{}; the 11x11 Gaussian window needs at least 11x11", w, h));
   static const std::array<double, kTaps> window = gaussian_window();
-  const size_t row_len = size_t(w);
+  const size_t row_len = padded_width(w);
   // Each task converts the rows its window reaches into a ring of 11 rows per image, so no
-  // full-size copy of the images is ever made.
+  // full-size copy of the images is ever made. The rows' padding stays zero (convert_row writes
+  // the first w values).
   struct Scratch {
-    std::vector<double> ring_x, ring_y, work;
+    std::vector<double> ring_x, ring_y, moments;
   };
   tbb::enumerable_thread_specific<Scratch> scratch([row_len] {
     return Scratch{std::vector<double>(kTaps * row_len), std::vector<double>(kTaps * row_len),
-                   std::vector<double>(6 * row_len)};
+                   std::vector<double>(5 * row_len)};
   });
   const int first = kRadius, last = h - kRadius;  // output rows
   constexpr int kBlock = 64;
   const int blocks = (last - first + kBlock - 1) / kBlock;
+  // Channels and row blocks in one loop, so the threads never wait at a channel's end.
+  std::vector<double> row_sums(3 * size_t(last - first));
+  tbb::parallel_for(0, 3 * blocks, [&](int task) {
+    const int c = task / blocks, block = task % blocks;
+    Scratch& s = scratch.local();
+    double* sums = row_sums.data() + size_t(c) * size_t(last - first);
+    const int y0 = first + block * kBlock, y1 = std::min(last, y0 + kBlock);
+    auto slot = [&](std::vector<double>& ring, int row) {
+      return ring.data() + size_t(row % kTaps) * row_len;
+    };
+    for (int row = y0 - kRadius; row < y0 + kRadius; ++row) {
+      convert_row(reference, row, c, Values::display, slot(s.ring_x, row));
+      convert_row(test, row, c, Values::display, slot(s.ring_y, row));
+    }
+    for (int y = y0; y < y1; ++y) {
+      convert_row(reference, y + kRadius, c, Values::display, slot(s.ring_x, y + kRadius));
+      convert_row(test, y + kRadius, c, Values::display, slot(s.ring_y, y + kRadius));
+      const double* xr[kTaps];
+      const double* yr[kTaps];
+      for (int t = 0; t < kTaps; ++t) {
+        xr[t] = slot(s.ring_x, y - kRadius + t);
+        yr[t] = slot(s.ring_y, y - kRadius + t);
+      }
+      sums[size_t(y - first)] =
+          dispatch<SsimRow>(&xr[0], &yr[0], w, window.data(), s.moments.data());
+    }
+  });
   double total = 0;
   for (int c = 0; c < 3; ++c) {
-    std::vector<double> row_sums(size_t(last - first));
-    tbb::parallel_for(0, blocks, [&](int block) {
-      Scratch& s = scratch.local();
-      const int y0 = first + block * kBlock, y1 = std::min(last, y0 + kBlock);
-      auto slot = [&](std::vector<double>& ring, int row) {
-        return ring.data() + size_t(row % kTaps) * row_len;
-      };
-      for (int row = y0 - kRadius; row < y0 + kRadius; ++row) {
-        convert_row(reference, row, c, Values::display, slot(s.ring_x, row));
-        convert_row(test, row, c, Values::display, slot(s.ring_y, row));
-      }
-      for (int y = y0; y < y1; ++y) {
-        convert_row(reference, y + kRadius, c, Values::display, slot(s.ring_x, y + kRadius));
-        convert_row(test, y + kRadius, c, Values::display, slot(s.ring_y, y + kRadius));
-        const double* xr[kTaps];
-        const double* yr[kTaps];
-        for (int t = 0; t < kTaps; ++t) {
-          xr[t] = slot(s.ring_x, y - kRadius + t);
-          yr[t] = slot(s.ring_y, y - kRadius + t);
-        }
-        row_sums[size_t(y - first)] = ssim_row(xr, yr, w, window.data(), s.work.data());
-      }
-    });
     double sum = 0;
-    for (double v : row_sums) sum += v;  // in row order: reproducible
+    for (size_t i = 0; i < size_t(last - first); ++i)  // in row order: reproducible
+      sum += row_sums[size_t(c) * size_t(last - first) + i];
     total += sum / (double(w - 2 * kRadius) * double(h - 2 * kRadius));
   }
   return total / 3.0;
