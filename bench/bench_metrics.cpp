@@ -169,23 +169,6 @@ std::vector<std::string> split_lower(const std::string& list) {
   return words;
 }
 
-// The vector extensions the CPU reports (CPUID, as GCC's __builtin_cpu_supports reads it).
-std::string cpu_vector_units() {
-  std::string units;
-#if defined(__x86_64__) && defined(__GNUC__)
-  const std::pair<bool, const char*> known[] = {{__builtin_cpu_supports("sse4.2"), "SSE4.2"},
-                                                {__builtin_cpu_supports("avx"), "AVX"},
-                                                {__builtin_cpu_supports("avx2"), "AVX2"},
-                                                {__builtin_cpu_supports("fma"), "FMA"},
-                                                {__builtin_cpu_supports("avx512f"), "AVX-512F"},
-                                                {__builtin_cpu_supports("avx512bw"), "AVX-512BW"},
-                                                {__builtin_cpu_supports("avx512vl"), "AVX-512VL"}};
-  for (const auto& [has, name] : known)
-    if (has) units += (units.empty() ? "" : " ") + std::string(name);
-#endif
-  return units.empty() ? "none known" : units;
-}
-
 // The builds of the hot loops this CPU can run, widest first.
 std::string built_paths() {
   std::string list;
@@ -314,7 +297,7 @@ int main(int argc, char** argv) {
   std::printf("bench_metrics: %dx%d pair, %d alternating rounds, %d threads a side (CPUs %s)\n",
               kWidth, kHeight, rounds, threads, cpus.c_str());
   std::printf("CPU vector units: %s; metrics built for %s, running %s\n",
-              cpu_vector_units().c_str(), built_paths().c_str(),
+              pb::bench::vector_units().c_str(), built_paths().c_str(),
               pb::metrics::to_string(pb::metrics::vector_path()));
   std::printf("%-20s %9s %9s %8s %7s %12s %12s %9s\n", "metric", "ours s", "anchor s", "ratio",
               "target", "ours", "anchor", "|diff|");

@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pb::bench {
@@ -44,20 +45,24 @@ inline std::string run_capture(const std::string& command) {
   return out;
 }
 
-// The CPU's vector units, for the benches' headers: a ratio against an anchor vectorised another
-// way (Embree's AVX2 or AVX-512 kernels, numpy's loops) holds for this kind of CPU only.
+// The vector extensions the CPU reports (CPUID, as GCC's __builtin_cpu_supports reads it), for the
+// benches' headers: a ratio against an anchor vectorised another way (Embree's kernels, numpy's
+// loops) holds for this kind of CPU only.
 inline std::string vector_units() {
-  __builtin_cpu_init();
   std::string units;
-  auto add = [&](bool has, const char* name) {
-    if (has) units += units.empty() ? name : std::string(" ") + name;
-  };
-  add(__builtin_cpu_supports("sse4.2"), "SSE4.2");
-  add(__builtin_cpu_supports("avx"), "AVX");
-  add(__builtin_cpu_supports("avx2"), "AVX2");
-  add(__builtin_cpu_supports("fma"), "FMA");
-  add(__builtin_cpu_supports("avx512f"), "AVX-512F");
-  return units.empty() ? "SSE2" : units;
+#if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();
+  const std::pair<bool, const char*> known[] = {{__builtin_cpu_supports("sse4.2"), "SSE4.2"},
+                                                {__builtin_cpu_supports("avx"), "AVX"},
+                                                {__builtin_cpu_supports("avx2"), "AVX2"},
+                                                {__builtin_cpu_supports("fma"), "FMA"},
+                                                {__builtin_cpu_supports("avx512f"), "AVX-512F"},
+                                                {__builtin_cpu_supports("avx512bw"), "AVX-512BW"},
+                                                {__builtin_cpu_supports("avx512vl"), "AVX-512VL"}};
+  for (const auto& [has, name] : known)
+    if (has) units += (units.empty() ? "" : " ") + std::string(name);
+#endif
+  return units.empty() ? "none known" : units;
 }
 
 // The median (the mean of the middle two for an even count); NaN for none.
