@@ -91,10 +91,13 @@ struct ReferenceOptions {
   // untruncated. A photon technique's `max_bounces: B` matches max_bounces = B
   // (bounces_matching_photon_technique).
   uint32_t max_bounces = 0;
-  uint32_t sppm_photons = 200000;  // photon paths per photon pass
-  float sppm_alpha = 2.f / 3.f;    // radius reduction (Knaus & Zwicker 2011, eq. 20)
-  float sppm_radius = 0;  // initial radius, m; 0: sppm_radius_footprints at the visible point
-  float sppm_radius_footprints = 3.f;  // initial radius in pixel footprints (sppm_radius 0)
+  // Photon mapping (README "Photon mapping's settings"): photon paths per photon pass, the radius
+  // reduction (Knaus & Zwicker 2011, eq. 20), the initial radius in metres (0: that many pixel
+  // footprints at the visible point).
+  uint32_t sppm_photons = 50000;
+  float sppm_alpha = 2.f / 3.f;
+  float sppm_radius = 0;
+  float sppm_radius_footprints = 1.5f;
   // Point, spot and directional lights emit photons only towards texels of their emission domain
   // whose rays may reach a specular surface (README "Aimed emission"): photon mapping keeps only
   // photons whose first interaction was specular, so the others were traced for nothing.
