@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 
@@ -64,6 +65,7 @@ struct ShippedCase {
   const char* scene;
   uint32_t paths;
   double most_kept;
+  friend void PrintTo(const ShippedCase& c, std::ostream* os) { *os << c.scene; }
 };
 
 class AimedEmissionShipped : public ::testing::TestWithParam<ShippedCase> {};
@@ -80,7 +82,13 @@ TEST_P(AimedEmissionShipped, KeepsEveryTexelACausticPathStartsFrom) {
 
 INSTANTIATE_TEST_SUITE_P(PointAndSpot, AimedEmissionShipped,
                          ::testing::Values(ShippedCase{"cornell-glass.yaml", 400000, 0.06},
-                                           ShippedCase{"torus-in-glass-cube.yaml", 200000, 0.8}));
+                                           ShippedCase{"torus-in-glass-cube.yaml", 200000, 0.8}),
+                         [](const ::testing::TestParamInfo<ShippedCase>& info) {
+                           std::string name = info.param.scene;
+                           name = name.substr(0, name.find('.'));
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
+                         });
 
 // A directional light over a small mirror sphere on a floor: parallel rays from a square of
 // origins.
