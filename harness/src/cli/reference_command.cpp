@@ -29,7 +29,7 @@ struct Args {
   uint32_t samples = pb::config::ReferenceSettings{}.samples;
   uint32_t max_bounces = 0;
   std::string estimator = pb::config::ReferenceSettings{}.estimator;
-  uint32_t photons = 200000;
+  uint32_t photons = pb::trace::ReferenceOptions{}.sppm_photons;
   std::string resolution = "640x360";
   std::string cache = "results/reference-cache";
   uint32_t seed = 1;

@@ -13,6 +13,7 @@
 
 #include "io/clock.h"
 #include "photonbench/error.h"
+#include "reference/aimed_emission.h"
 #include "reference/bdpt.h"
 #include "reference/path_space.h"
 #include "trace/bsdf.h"
@@ -176,24 +177,56 @@ bool find_visible_point(const EmbreeScene& world, const Rig& rig, float px, floa
   return false;
 }
 
-// A hash grid over one iteration's photons, built in photon order (deterministic).
+// One photon as the gather reads it (52 bytes where PhotonRecord has 96): what the gather tests
+// and sums, stored in cell order so that a cell's photons are one contiguous run.
+struct GatherPhoton {
+  glm::vec3 position;
+  uint32_t bounce_caustic;  // bounce << 1 | 1 for a caustic photon (L S+ D), 0 caustic-indirect
+  glm::vec3 power;
+  glm::vec3 normal;
+  glm::vec3 wi;  // towards where the photon came from (-PhotonRecord::direction)
+};
+
+// Grid cell edge over the mean gather radius. (measured: bench below)
+constexpr double kCellPerRadius = 2.0;
+
+// A hash grid over one iteration's photons. Each bucket holds its photons in photon order, so a
+// visible point sums the same photons in the same order whatever the thread count.
 class PhotonGrid {
  public:
-  PhotonGrid(const std::vector<PhotonRecord>& photons, float cell)
-      : photons_(photons), inv_cell_(1.f / cell) {
+  PhotonGrid(const std::vector<PhotonRecord>& photons, float cell, tbb::task_arena& arena)
+      : inv_cell_(1.f / cell) {
     size_t buckets = 1;
     while (buckets < 2 * photons.size()) buckets <<= 1;
     mask_ = buckets - 1;
-    start_.assign(buckets + 1, 0);
     std::vector<uint32_t> key(photons.size());
-    for (size_t i = 0; i < photons.size(); ++i) {
-      key[i] = bucket(cell_of(photons[i].position));
-      ++start_[key[i] + 1];
-    }
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, photons.size(), 4096),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i != r.end(); ++i)
+                            key[i] = bucket(cell_of(photons[i].position));
+                        });
+    });
+    start_.assign(buckets + 1, 0);
+    for (uint32_t k : key) ++start_[k + 1];
     for (size_t b = 0; b < buckets; ++b) start_[b + 1] += start_[b];
-    index_.resize(photons.size());
-    std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
-    for (size_t i = 0; i < photons.size(); ++i) index_[fill[key[i]]++] = uint32_t(i);
+    std::vector<uint32_t> slot(photons.size());
+    {
+      std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+      for (size_t i = 0; i < photons.size(); ++i) slot[i] = fill[key[i]]++;
+    }
+    photons_.resize(photons.size());
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, photons.size(), 4096),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i != r.end(); ++i) {
+                            const PhotonRecord& ph = photons[i];
+                            bool caustic = photon_kind(ph) == kCausticPhotons;
+                            photons_[slot[i]] = {ph.position, ph.bounce << 1 | uint32_t(caustic),
+                                                 ph.power, ph.normal, -ph.direction};
+                          }
+                        });
+    });
   }
   template <class F>
   void for_each_near(const glm::vec3& p, float r, F&& f) const {
@@ -204,8 +237,9 @@ class PhotonGrid {
         for (int x = lo.x; x <= hi.x; ++x) {
           uint32_t b = bucket({x, y, z});
           for (uint32_t k = start_[b]; k < start_[b + 1]; ++k) {
-            const PhotonRecord& ph = photons_[index_[k]];
+            const GatherPhoton& ph = photons_[k];
             glm::vec3 d = ph.position - p;
+            // A bucket may hold another cell's photons (hash collisions): count each in its own.
             if (glm::dot(d, d) <= r2 && cell_of(ph.position) == glm::ivec3(x, y, z)) f(ph);
           }
         }
@@ -217,10 +251,10 @@ class PhotonGrid {
     uint32_t h = uint32_t(c.x) * 73856093u ^ uint32_t(c.y) * 19349663u ^ uint32_t(c.z) * 83492791u;
     return hash_u32(h) & uint32_t(mask_);
   }
-  const std::vector<PhotonRecord>& photons_;
+  std::vector<GatherPhoton> photons_;
   float inv_cell_;
   size_t mask_ = 0;
-  std::vector<uint32_t> start_, index_;
+  std::vector<uint32_t> start_;
 };
 
 bool scene_has_specular(const scene::Scene& scene) {
@@ -244,6 +278,7 @@ struct PhotonPass {
   std::vector<VisiblePoint> vps;
   std::vector<float> radius2;
   uint64_t photon_rays = 0, photon_paths = 0;
+  bool emission_set = false;  // aimed emission's densities handed to the tracer (first run)
 
   PhotonPass(const EmbreeScene& w, const Rig& r, const ReferenceOptions& o, uint32_t wanted_mask,
              uint32_t bounce_budget)
@@ -263,6 +298,8 @@ struct PhotonPass {
            tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame, int stride = 1,
            uint32_t paths = 0) {
     const int width = rig.width, height = rig.height;
+    if (!emission_set && options.sppm_aimed_emission) aim_emission(arena);
+    emission_set = true;
     uint32_t vp_seed = hash_combine(iteration_seed, 0x5eedu);
     arena.execute([&] {
       tbb::parallel_for(
@@ -279,8 +316,9 @@ struct PhotonPass {
                 // A photon path makes at least one specular interaction before it reaches the
                 // visible point, so the camera side may use at most budget - 2 specular vertices.
                 if (find_visible_point(world, rig, x + j.x, y + j.y, rng, budget - 1, vp, rays)) {
-                  float r = options.sppm_radius > 0 ? options.sppm_radius
-                                                    : 3.f * pixel_angle * vp.distance;
+                  float r = options.sppm_radius > 0
+                                ? options.sppm_radius
+                                : options.sppm_radius_footprints * pixel_angle * vp.distance;
                   radius2[i] = float(double(r) * r * radius_scale2);
                 }
               }
@@ -309,7 +347,7 @@ struct PhotonPass {
     photon_rays += batch.stats.rays;
     photon_paths += batch.stats.paths;
     if (batch.photons.empty()) return;
-    PhotonGrid grid(batch.photons, float(2.0 * r_sum / r_count));
+    PhotonGrid grid(batch.photons, float(kCellPerRadius * r_sum / r_count), arena);
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, vps.size(), 256),
                         [&](const tbb::blocked_range<size_t>& range) {
@@ -319,32 +357,40 @@ struct PhotonPass {
     });
   }
 
+  // Aimed emission (above): valid because every photon this pass stores had a specular first
+  // interaction (ts.store holds caustic kinds only).
+  void aim_emission(tbb::task_arena& arena) {
+    std::vector<std::optional<EmissionDensity>> densities;
+    arena.execute([&] { densities = aimed_emission_densities(world); });
+    for (uint32_t e = 0; e < densities.size(); ++e)
+      if (densities[e]) tracer.set_emission_density(e, &*densities[e]);
+  }
+
   void gather(const PhotonGrid& grid, size_t i, std::vector<glm::vec3>& frame) const {
     const VisiblePoint& vp = vps[i];
     if (!vp.valid) return;
     float cos_o = glm::dot(vp.wo, vp.normal);
     if (cos_o <= 0) return;
-    glm::dvec3 phi[2] = {glm::dvec3(0.0), glm::dvec3(0.0)};  // pure caustic, caustic-indirect
+    glm::dvec3 phi[2] = {glm::dvec3(0.0), glm::dvec3(0.0)};  // caustic-indirect, pure caustic
     uint32_t max_photon_hits = budget - vp.specular_prefix;  // scattering vertices left for it
     float r2 = radius2[i];
-    grid.for_each_near(vp.position, std::sqrt(r2), [&](const PhotonRecord& ph) {
-      glm::vec3 wi = -ph.direction;
+    grid.for_each_near(vp.position, std::sqrt(r2), [&](const GatherPhoton& ph) {
       // Same side of the same surface (no leaks through thin walls), a reflection, and a path short
       // enough (the photon's hits, the visible point included, plus the camera's specular prefix).
-      if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(wi, vp.normal) <= 0 ||
-          ph.bounce + 1 > max_photon_hits)
+      if (glm::dot(ph.normal, vp.normal) <= 0.5f || glm::dot(ph.wi, vp.normal) <= 0 ||
+          (ph.bounce_caustic >> 1) + 1 > max_photon_hits)
         return;
-      int kind = photon_kind(ph) == kCausticPhotons ? 0 : 1;
-      phi[kind] += glm::dvec3(vp.albedo * kInvPi * ph.power);
+      phi[ph.bounce_caustic & 1u] += glm::dvec3(ph.power);
     });
+    for (glm::dvec3& p : phi) p *= glm::dvec3(vp.albedo * kInvPi);
     double norm = 1.0 / (kPi * double(r2));
     glm::dvec3 beta(vp.beta);
     // caustic photons: caustics (C D S+ L) or indirect_caustics (C S+ D S+ L); caustic-indirect
     // ones: indirect or specular.
     int pure = int(vp.specular_prefix > 0 ? PathClass::indirect_caustics : PathClass::caustics);
     int mixed = int(vp.specular_prefix > 0 ? PathClass::specular : PathClass::indirect);
-    frame[i * kClasses + pure] += glm::vec3(beta * phi[0] * norm);
-    frame[i * kClasses + mixed] += glm::vec3(beta * phi[1] * norm);
+    frame[i * kClasses + pure] += glm::vec3(beta * phi[1] * norm);
+    frame[i * kClasses + mixed] += glm::vec3(beta * phi[0] * norm);
   }
 };
 

@@ -57,7 +57,8 @@ namespace pb::trace {
 // cache key, so old references are not reused by mistake). 2: mean, variance and halves; photon
 // mapping as independent per-iteration estimates; max_bounces counts full-path scattering vertices.
 // 3: shadow rays aimed from their offset origin (area lights near surfaces were biased low).
-inline constexpr int kReferenceRendererVersion = 3;
+// 4: photon mapping's aimed emission and new default photon counts and radius (issue 30).
+inline constexpr int kReferenceRendererVersion = 4;
 
 // Which stop rule ended a render (the first one reached wins).
 enum class StopRule : uint8_t { rel_error, max_seconds, samples };
@@ -90,9 +91,17 @@ struct ReferenceOptions {
   // untruncated. A photon technique's `max_bounces: B` matches max_bounces = B
   // (bounces_matching_photon_technique).
   uint32_t max_bounces = 0;
-  uint32_t sppm_photons = 200000;  // photon paths per photon pass
-  float sppm_alpha = 2.f / 3.f;    // radius reduction (Knaus & Zwicker 2011, eq. 20)
-  float sppm_radius = 0;           // initial radius, m; 0: 3 pixel footprints at the visible point
+  // Photon mapping (README "Photon mapping's settings"): photon paths per photon pass, the radius
+  // reduction (Knaus & Zwicker 2011, eq. 20), the initial radius in metres (0: that many pixel
+  // footprints at the visible point).
+  uint32_t sppm_photons = 50000;
+  float sppm_alpha = 2.f / 3.f;
+  float sppm_radius = 0;
+  float sppm_radius_footprints = 1.5f;
+  // Point, spot and directional lights emit photons only towards texels of their emission domain
+  // whose rays may reach a specular surface (README "Aimed emission"): photon mapping keeps only
+  // photons whose first interaction was specular, so the others were traced for nothing.
+  bool sppm_aimed_emission = true;
   Estimator estimator = Estimator::automatic;
   LightStrategies light_strategies = LightStrategies::mis;  // pt only
   MisHeuristic mis_heuristic = MisHeuristic::power;         // bdpt only
