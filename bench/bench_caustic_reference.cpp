@@ -74,19 +74,6 @@ double cpu_seconds() {
          1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-// The vector units this CPU has, as read from it (the compiler's builtin asks CPUID).
-std::string vector_units() {
-  __builtin_cpu_init();
-  std::string units;
-  auto add = [&](bool has, const char* name) {
-    units += fmt::format("{}{} {}", units.empty() ? "" : ", ", name, has ? "yes" : "no");
-  };
-  add(__builtin_cpu_supports("avx2"), "AVX2");
-  add(__builtin_cpu_supports("avx512f"), "AVX-512F");
-  add(__builtin_cpu_supports("fma"), "FMA");
-  return units;
-}
-
 double luminance_of(const io::Image& img, size_t p) {
   return trace::detail::luminance(
       {img.pixels[p * 3], img.pixels[p * 3 + 1], img.pixels[p * 3 + 2]});
@@ -292,7 +279,7 @@ int main(int argc, char** argv) {
     std::printf(
         "bench_caustic_reference: vector units: %s; class caustics, frame %u at %dx%d, time to "
         "error %.3f against the truth, %d round(s), ratio before / after (CPU and wall)\n",
-        vector_units().c_str(), frame, w, h, target, rounds);
+        pb::bench::vector_units().c_str(), frame, w, h, target, rounds);
     std::printf("  before: %s\n  after:  %s\n", describe(before).c_str(), describe(after).c_str());
     std::fflush(stdout);
 
