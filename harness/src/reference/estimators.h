@@ -46,10 +46,14 @@ inline std::optional<Estimator> parse_estimator(std::string_view name) {
     if (estimator_name(e) == name) return e;
   return std::nullopt;
 }
-inline constexpr uint32_t kPilotIterations = 32;  // at most
+inline constexpr uint32_t kPilotIterations = 32;  // render iterations watched, at most
 // Bidirectional path tracing is chosen from this many pilot iterations on.
 inline constexpr uint32_t kPilotMinIterations = 8;
-// The pilot's own rays stay within this share of path tracing's predicted render.
+// ... and runs at most this many bidirectional iterations (its estimate settles early; path
+// tracing's, read from the render for free, is the one that grows on rare paths).
+inline constexpr uint32_t kPilotBdptIterations = 16;
+// The pilot's own rays stay within this share of path tracing's predicted render, and its own time
+// within this share of the render's time limit.
 inline constexpr double kPilotBudget = 0.03;
 // Bidirectional path tracing is chosen when predicted cheaper by more than this factor.
 inline constexpr double kPilotMargin = 1.1;

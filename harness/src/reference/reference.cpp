@@ -600,10 +600,8 @@ class EstimatorPilot {
     watched_ = done;
     if (done >= 2) predict(done);
     uint32_t bdpt_done = pilot_.iterations(Pilot::bidirectional);
-    if (bdpt_done < 2 || bdpt_could_win(done)) {
-      // One more pilot iteration costs about what the last ones did.
-      double next = bdpt_done ? spent_ / bdpt_done : 0.0;
-      if (bdpt_done >= 2 && spent_ + next > report_.budget) return Estimator::pt;
+    if (bdpt_done < 2 || (bdpt_done < kPilotBdptIterations && bdpt_could_win(done))) {
+      if (bdpt_done >= 2 && over_budget(bdpt_done)) return Estimator::pt;
       run_bidirectional(bdpt_done);
       if (done >= 2) predict(done);
       ++bdpt_done;
@@ -664,6 +662,18 @@ class EstimatorPilot {
     double least = std::max(2u, options_.min_samples);
     double floor = least * (kBdptRayCost * report_.bdpt_rays + report_.photon_rays);
     return floor * kPilotMargin < pt_left(done, report_.pt_cost);
+  }
+  // Whether one more pilot iteration, costing about what the last ones did, would take the
+  // pilot's own rays past kPilotBudget of path tracing's predicted render, or its own time past
+  // kPilotBudget of the render's time limit: a render that the limit ends is as long as the limit
+  // (and not reproducible by its seed anyway), and rays undercount bidirectional path tracing's
+  // work on long paths (its MIS weights grow with the path: on villa, 32 pilot iterations on a
+  // 25th of the pixels took 1.06 s of a render of 76 iterations in 10 s, bench_reference).
+  bool over_budget(uint32_t bdpt_done) const {
+    double rays = spent_ * (bdpt_done + 1.0) / bdpt_done;
+    double seconds = report_.seconds * (bdpt_done + 1.0) / bdpt_done;
+    return rays > report_.budget ||
+           (options_.max_seconds > 0 && seconds > kPilotBudget * options_.max_seconds);
   }
   void run_bidirectional(uint32_t index) {
     auto t0 = std::chrono::steady_clock::now();
