@@ -166,10 +166,9 @@ TEST(AutomaticEstimator, PicksPerSceneAndRendersAsThePickedOne) {
   }
 }
 
-// The pilot's cost scales with the render: its own rays stay within kPilotBudget of path
-// tracing's predicted render (beyond the two iterations it always runs), and it stops spending
-// where bidirectional path tracing cannot win whatever its variance. On ring at a loose target
-// path tracing stops at its least iterations, below bidirectional path tracing's least cost.
+// The pilot's cost scales with the render: it spends nothing where bidirectional path tracing
+// cannot win whatever its variance. On ring at a loose target path tracing stops at its least
+// iterations, and bidirectional path tracing's least cost is above that.
 TEST(AutomaticEstimator, PilotSpendsAShareOfTheRender) {
   scene::Scene scene =
       scene::load_scene(std::filesystem::path(PB_SOURCE_DIR) / "scenes" / "ring.yaml");
@@ -184,9 +183,8 @@ TEST(AutomaticEstimator, PilotSpendsAShareOfTheRender) {
   EXPECT_EQ(r.estimator, Estimator::pt);
   EXPECT_EQ(r.pilot.dropped_iterations, 0u);
   EXPECT_LE(r.pilot.iterations, r.samples);
-  double per_pilot_iteration = r.pilot.pilot_rays / std::max(1u, r.pilot.bdpt_iterations);
-  EXPECT_LE(r.pilot.pilot_rays, kPilotBudget * r.pilot.pt_cost + 2 * per_pilot_iteration);
-  EXPECT_LE(r.pilot.bdpt_iterations, 2u);
+  EXPECT_EQ(r.pilot.bdpt_iterations, 0u);
+  EXPECT_EQ(r.pilot.pilot_rays, 0.0);
   std::printf(
       "ring: %u render iterations, pilot %u bidirectional iterations, %.0f rays (%.2f%% of "
       "the render's %.0f)\n",
