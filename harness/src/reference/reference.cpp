@@ -583,8 +583,7 @@ class EstimatorPilot {
         ray_count_(ray_count),
         stride_(pilot_stride(size_t(rig.width) * rig.height)),
         pilot_(rig.width, rig.height, stride_, classes),
-        frame_(size_t(rig.width) * rig.height * kClasses),
-        splat_frame_(frame_.size()),
+        frame_size_(size_t(rig.width) * rig.height * kClasses),
         seed_(hash_combine(options.seed, 0x9170u)) {}
 
   // The render's image after its path tracing pass (path_tracing) or after photon mapping added
@@ -680,6 +679,7 @@ class EstimatorPilot {
   }
   void run_bidirectional(uint32_t index) {
     auto t0 = std::chrono::steady_clock::now();
+    if (frame_.empty()) frame_.resize(frame_size_), splat_frame_.resize(frame_size_);
     const double scale = double(stride_) * stride_;  // full-image rays per grid ray
     uint64_t rays = bdpt_.run(hash_combine(seed_, index, 1u), arena_, ray_count_, frame_, stride_,
                               &splat_frame_);
@@ -705,7 +705,8 @@ class EstimatorPilot {
   tbb::combinable<uint64_t>& ray_count_;
   int stride_;
   Pilot pilot_;
-  std::vector<glm::vec3> frame_, splat_frame_;
+  size_t frame_size_;
+  std::vector<glm::vec3> frame_, splat_frame_;  // allocated at the first bidirectional iteration
   uint32_t seed_;
   double pt_rays_ = 0, photon_rays_ = 0, bdpt_rays_ = 0;  // full-image rays, summed
   double spent_ = 0;      // the pilot's own rays, bidirectional ones weighted by kBdptRayCost
