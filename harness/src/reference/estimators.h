@@ -32,10 +32,11 @@ enum class MisHeuristic : uint8_t { power, uniform };
 // image, it predicts the cost of reaching the error target with either: bidirectional path tracing
 // (from kPilotMinIterations on, when cheaper by kPilotMargin than what path tracing has left)
 // restarts the render; path tracing keeps it when the pilot would spend more than kPilotBudget of
-// its predicted render (rays) or of the time limit (seconds), or after kPilotIterations. A small bright region that path tracing finds
-// by chance makes its sample variance grow with the samples for a long while (8 iterations of the
-// earlier fixed pilot picked path tracing on cornell-box, whose hotspot makes it 8x slower there),
-// so only path tracing may be picked on a short pilot. Rays rather than seconds, so that a seed
+// its predicted render (rays) or of the time limit (seconds), or after kPilotIterations. A small
+// bright region that path tracing finds by chance makes its sample variance grow with the samples
+// for a long while (8 iterations of the earlier fixed pilot picked path tracing on cornell-box,
+// whose hotspot makes it 8x slower there), so only path tracing may be picked on a short pilot.
+// Rays rather than seconds where the render is not ended by its time limit, so that a seed
 // gives one image; a ray of bidirectional path tracing counts kBdptRayCost of path tracing's.
 enum class Estimator : uint8_t { pt, bdpt, automatic };
 inline std::string_view estimator_name(Estimator e) {  // "pt", "bdpt", "auto"
