@@ -5,9 +5,11 @@
 // median ratio, of process CPU time (user + system, all threads: what the work costs, whatever
 // else runs on the machine) and of wall time. Both stop by the same rule, the renderer's error
 // estimate (reference.h) over the classes quick's cells score (combined, direct, indirect); a
-// render that hits the time limit first is reported as such, and its ratio as a bound.
+// render that hits the time limit first is reported as such, and its ratio as a bound. Each error
+// target of --rel-error (a comma-separated list) gets its own row per scene; the last line names
+// the slowest row against path tracing. The header names the CPU and its vector units.
 //
-//   bench_reference [--scenes a,b,...] [--rounds N] [--rel-error E] [--max-seconds S]
+//   bench_reference [--scenes a,b,...] [--rounds N] [--rel-error E[,E...]] [--max-seconds S]
 //                   [--resolution WxH] [--estimator auto|bdpt] [--threads N]
 #include <fmt/format.h>
 #include <sys/resource.h>
@@ -16,6 +18,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -34,7 +38,8 @@ namespace {
 struct Args {
   std::vector<std::string> scenes;
   int rounds = 3;
-  double rel_error = -1, max_seconds = -1;
+  std::vector<double> rel_errors;
+  double max_seconds = -1;
   int width = 0, height = 0;
   trace::Estimator estimator = trace::Estimator::automatic;
   int threads = 0;
@@ -65,7 +70,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--rounds")
       a.rounds = std::max(1, std::atoi(value().c_str()));
     else if (k == "--rel-error")
-      a.rel_error = std::atof(value().c_str());
+      for (const std::string& e : split(value())) a.rel_errors.push_back(std::atof(e.c_str()));
     else if (k == "--max-seconds")
       a.max_seconds = std::atof(value().c_str());
     else if (k == "--threads")
@@ -99,11 +104,28 @@ double cpu_seconds() {
          1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
+// The CPU's model name (/proc/cpuinfo) and the vector units it reports: the speed of every figure
+// here depends on them.
+std::string cpu_description() {
+  std::string model = "unknown CPU";
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);)
+    if (line.rfind("model name", 0) == 0 && line.find(':') != std::string::npos) {
+      model = line.substr(line.find(':') + 2);
+      break;
+    }
+  __builtin_cpu_init();
+  auto has = [](bool yes) { return yes ? "yes" : "no"; };
+  return fmt::format("{}; AVX2 {}, AVX-512F {}, FMA {}", model, has(__builtin_cpu_supports("avx2")),
+                     has(__builtin_cpu_supports("avx512f")), has(__builtin_cpu_supports("fma")));
+}
+
 struct Run {
   double seconds = 0, cpu = 0, rel_error = 0;
   uint32_t iterations = 0;
   bool reached = false;
   trace::Estimator estimator = trace::Estimator::pt;
+  trace::PilotReport pilot;
 };
 
 Run render(const trace::EmbreeScene& world, int w, int h, uint32_t mask,
@@ -115,7 +137,8 @@ Run render(const trace::EmbreeScene& world, int w, int h, uint32_t mask,
           r.rel_error,
           r.samples,
           r.stopped_by == trace::StopRule::rel_error,
-          r.estimator};
+          r.estimator,
+          r.pilot};
 }
 
 }  // namespace
@@ -130,11 +153,12 @@ int main(int argc, char** argv) {
     uint32_t frame = quick.frames.warmup;  // the first metric frame
     trace::ReferenceOptions base = run::reference_options(quick);
     base.samples = 0;
-    if (args.rel_error >= 0) base.rel_error = float(args.rel_error);
+    if (args.rel_errors.empty()) args.rel_errors.push_back(base.rel_error);
     if (args.max_seconds >= 0) base.max_seconds = args.max_seconds;
     base.threads = args.threads;
-    if (!(base.rel_error > 0))
-      throw InputError("bench_reference: needs an error target (quick.yaml's or --rel-error)");
+    for (double e : args.rel_errors)
+      if (!(e > 0))
+        throw InputError("bench_reference: needs an error target (quick.yaml's or --rel-error)");
     if (args.scenes.empty())
       for (const auto& e : fs::directory_iterator(root / "scenes"))
         if (e.path().extension() == ".yaml") args.scenes.push_back(e.path().stem().string());
@@ -142,64 +166,99 @@ int main(int argc, char** argv) {
     uint32_t mask = trace::class_bit(trace::PathClass::combined) |
                     trace::class_bit(trace::PathClass::direct) |
                     trace::class_bit(trace::PathClass::indirect);
+    std::string targets;
+    for (double e : args.rel_errors)
+      targets += fmt::format("{}{:.3f}", targets.empty() ? "" : ",", e);
+    std::printf("bench_reference on %s\n", cpu_description().c_str());
     std::printf(
-        "bench_reference: frame %u at %dx%d, classes combined+direct+indirect, stop at rel. error "
-        "%.3f (limit %.0f s a render), %d round(s), %s vs pt\n",
-        frame, w, h, base.rel_error, base.max_seconds, args.rounds,
+        "frame %u at %dx%d, classes combined+direct+indirect, stop at rel. error %s (limit %.0f s "
+        "a "
+        "render), %d round(s), %s vs pt\n",
+        frame, w, h, targets.c_str(), base.max_seconds, args.rounds,
         std::string(trace::estimator_name(args.estimator)).c_str());
-    std::printf("%-20s %10s %10s %8s %8s %7s %7s  %s\n", "scene", "pt cpu s", "new cpu s", "pt it",
-                "new it", "ratio", "wall", "new estimator, notes");
+    std::printf("%-20s %6s %10s %10s %8s %8s %7s %7s  %s\n", "scene", "target", "pt cpu s",
+                "new cpu s", "pt it", "new it", "ratio", "wall", "new estimator; pilot; notes");
     std::fflush(stdout);
+    double slowest = std::numeric_limits<double>::infinity();
+    std::string slowest_row;
     for (const std::string& name : args.scenes) {
       scene::Scene scene = scene::load_scene(scene::find_scene(name, {root / "scenes"}));
       trace::EmbreeScene world(scene, scene.at(frame));
-      std::vector<double> ratios, wall_ratios, pt_s, new_s, pt_it, new_it, pt_err, new_err;
-      bool pt_capped = false, new_capped = false;
-      std::string chosen;
-      for (int round = 0; round < args.rounds; ++round) {
-        trace::ReferenceOptions pt = base, fresh = base;
-        pt.estimator = trace::Estimator::pt;
-        fresh.estimator = args.estimator;
-        pt.seed = fresh.seed = uint32_t(17 + round);
-        Run a, b;
-        if (round % 2 == 0) {
-          a = render(world, w, h, mask, pt);
-          b = render(world, w, h, mask, fresh);
-        } else {
-          b = render(world, w, h, mask, fresh);
-          a = render(world, w, h, mask, pt);
+      for (double target : args.rel_errors) {
+        base.rel_error = float(target);
+        std::vector<double> ratios, wall_ratios, pt_s, new_s, pt_it, new_it, pt_err, new_err,
+            pilot_it, pilot_s, dropped;
+        bool pt_capped = false, new_capped = false, same_capped = false;
+        std::string chosen;
+        for (int round = 0; round < args.rounds; ++round) {
+          trace::ReferenceOptions pt = base, fresh = base;
+          pt.estimator = trace::Estimator::pt;
+          fresh.estimator = args.estimator;
+          pt.seed = fresh.seed = uint32_t(17 + round);
+          Run a, b;
+          if (round % 2 == 0) {
+            a = render(world, w, h, mask, pt);
+            b = render(world, w, h, mask, fresh);
+          } else {
+            b = render(world, w, h, mask, fresh);
+            a = render(world, w, h, mask, pt);
+          }
+          pt_capped |= !a.reached;
+          new_capped |= !b.reached;
+          if (!a.reached && !b.reached && b.estimator == trace::Estimator::pt) {
+            // Both stopped by the time limit, both path tracing with the same seeds: the same
+            // image after the same iterations, so the time to any error is the time to its
+            // iterations; time per iteration, with the pilot's cost spread over the iterations
+            // done, fewer than the target needs (a lower bound).
+            same_capped = true;
+            ratios.push_back((a.cpu / a.iterations) / (b.cpu / b.iterations));
+            wall_ratios.push_back((a.seconds / a.iterations) / (b.seconds / b.iterations));
+          } else {
+            // Both stopped by the time limit: the time each would need for the other's error,
+            // from error^2 x time (path tracing's estimate only grows with more samples, so a
+            // bound).
+            double e2 = !a.reached && !b.reached
+                            ? (a.rel_error * a.rel_error) / (b.rel_error * b.rel_error)
+                            : 1.0;
+            ratios.push_back(e2 * a.cpu / b.cpu);
+            wall_ratios.push_back(e2 * a.seconds / b.seconds);
+          }
+          pt_err.push_back(a.rel_error), new_err.push_back(b.rel_error);
+          pt_s.push_back(a.cpu), new_s.push_back(b.cpu);
+          pt_it.push_back(a.iterations), new_it.push_back(b.iterations);
+          pilot_it.push_back(b.pilot.iterations), pilot_s.push_back(b.pilot.seconds);
+          dropped.push_back(b.pilot.dropped_iterations);
+          std::string e(trace::estimator_name(b.estimator));
+          if (chosen.find(e) == std::string::npos) chosen += (chosen.empty() ? "" : "/") + e;
         }
-        pt_capped |= !a.reached;
-        new_capped |= !b.reached;
-        // Both stopped by the time limit: the time each would need for the other's error, from
-        // error^2 x time (path tracing's estimate only grows with more samples, so a bound).
-        double e2 = !a.reached && !b.reached
-                        ? (a.rel_error * a.rel_error) / (b.rel_error * b.rel_error)
-                        : 1.0;
-        ratios.push_back(e2 * a.cpu / b.cpu);
-        wall_ratios.push_back(e2 * a.seconds / b.seconds);
-        pt_err.push_back(a.rel_error), new_err.push_back(b.rel_error);
-        pt_s.push_back(a.cpu), new_s.push_back(b.cpu);
-        pt_it.push_back(a.iterations), new_it.push_back(b.iterations);
-        std::string e(trace::estimator_name(b.estimator));
-        if (chosen.find(e) == std::string::npos) chosen += (chosen.empty() ? "" : "/") + e;
+        std::string notes = chosen;
+        if (args.estimator == trace::Estimator::automatic)
+          notes += fmt::format("; pilot {:.0f} it. {:.2f} s, {:.0f} pt it. dropped",
+                               median(pilot_it), median(pilot_s), median(dropped));
+        if (same_capped)
+          notes += fmt::format(
+              "; both pt, both hit the time limit (error {:.4f} vs {:.4f}): ratios of time per "
+              "iteration, a lower bound",
+              median(pt_err), median(new_err));
+        else if (pt_capped && new_capped)
+          notes += fmt::format(
+              "; both hit the time limit (error {:.4f} vs {:.4f}): ratios of error^2 x time",
+              median(pt_err), median(new_err));
+        else if (pt_capped)
+          notes +=
+              fmt::format("; pt hit the time limit at error {:.4f}: the ratio is a lower bound",
+                          median(pt_err));
+        else if (new_capped)
+          notes += "; new hit the time limit: the ratio is an upper bound";
+        std::printf("%-20s %6.3f %10.1f %10.1f %8.0f %8.0f %6.2fx %6.2fx  %s\n", name.c_str(),
+                    target, median(pt_s), median(new_s), median(pt_it), median(new_it),
+                    median(ratios), median(wall_ratios), notes.c_str());
         std::fflush(stdout);
+        if (median(ratios) < slowest)
+          slowest = median(ratios), slowest_row = fmt::format("{} at {:.3f}", name, target);
       }
-      std::string notes = chosen;
-      if (pt_capped && new_capped)
-        notes += fmt::format(
-            "; both hit the time limit (error {:.4f} vs {:.4f}): ratios of error^2 x time",
-            median(pt_err), median(new_err));
-      else if (pt_capped)
-        notes += fmt::format("; pt hit the time limit at error {:.4f}: the ratio is a lower bound",
-                             median(pt_err));
-      else if (new_capped)
-        notes += "; new hit the time limit: the ratio is an upper bound";
-      std::printf("%-20s %10.1f %10.1f %8.0f %8.0f %6.2fx %6.2fx  %s\n", name.c_str(), median(pt_s),
-                  median(new_s), median(pt_it), median(new_it), median(ratios), median(wall_ratios),
-                  notes.c_str());
-      std::fflush(stdout);
     }
+    std::printf("slowest against pt (CPU time): %s, %.2fx\n", slowest_row.c_str(), slowest);
     return 0;
   } catch (const InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());

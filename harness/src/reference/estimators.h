@@ -25,17 +25,19 @@ enum class MisHeuristic : uint8_t { power, uniform };
 // The unbiased estimator for the part of path space photon mapping does not own: path tracing with
 // next-event estimation (the anchor), bidirectional path tracing with MIS (bdpt.h), or automatic:
 // a pilot picks one of them per render (of an image of 18000 pixels or more; smaller ones are
-// bidirectional, since the pilot would cost too much of them). On a grid of about 2000 of the
-// pixels it runs both for kPilotIterations iterations, and photon mapping (with a 32nd of the
-// photons) for kPilotPhotonIterations. From the per-iteration variances measured there, scaled to
-// a full iteration (photon mapping's share included, the same for both), and from the rays each
-// would trace per iteration of the whole image, it predicts the cost of reaching the error target
-// with either, and renders with the cheaper (bidirectional path tracing only when cheaper by
-// kPilotMargin). Equal pilots for both, and not too short: a small bright region that path
-// tracing finds by chance makes its sample variance grow with the samples for a long while (8
-// iterations picked path tracing on cornell-box, whose hotspot makes it 8x slower there). Rays
-// rather than seconds, so that a seed gives one image; a ray of bidirectional path tracing counts
-// kBdptRayCost of path tracing's.
+// bidirectional, since the pilot would cost too much of them). The render starts as path tracing;
+// on a grid of about 2000 of the pixels the pilot reads its iterations (photon mapping's share
+// included, the same for both) and runs one of bidirectional path tracing beside each. From the
+// per-iteration variances measured there and the rays each would trace per iteration of the whole
+// image, it predicts the cost of reaching the error target with either: bidirectional path tracing
+// (from kPilotMinIterations on, when cheaper by kPilotMargin than what path tracing has left)
+// restarts the render; path tracing keeps it when the pilot would spend more than kPilotBudget of
+// its predicted render (rays) or of the time limit (seconds), or after kPilotIterations. A small
+// bright region that path tracing finds by chance makes its sample variance grow with the samples
+// for a long while (8 iterations of the earlier fixed pilot picked path tracing on cornell-box,
+// whose hotspot makes it 8x slower there), so only path tracing may be picked on a short pilot.
+// Rays rather than seconds where the render is not ended by its time limit, so that a seed
+// gives one image; a ray of bidirectional path tracing counts kBdptRayCost of path tracing's.
 enum class Estimator : uint8_t { pt, bdpt, automatic };
 inline std::string_view estimator_name(Estimator e) {  // "pt", "bdpt", "auto"
   return e == Estimator::pt ? "pt" : e == Estimator::bdpt ? "bdpt" : "auto";
@@ -45,8 +47,15 @@ inline std::optional<Estimator> parse_estimator(std::string_view name) {
     if (estimator_name(e) == name) return e;
   return std::nullopt;
 }
-inline constexpr uint32_t kPilotIterations = 32;
-inline constexpr uint32_t kPilotPhotonIterations = 8;
+inline constexpr uint32_t kPilotIterations = 32;  // render iterations watched, at most
+// Bidirectional path tracing is chosen from this many pilot iterations on.
+inline constexpr uint32_t kPilotMinIterations = 8;
+// ... and runs at most this many bidirectional iterations (its estimate settles early; path
+// tracing's, read from the render for free, is the one that grows on rare paths).
+inline constexpr uint32_t kPilotBdptIterations = 16;
+// The pilot's own rays stay within this share of path tracing's predicted render, and its own time
+// within this share of the render's time limit.
+inline constexpr double kPilotBudget = 0.03;
 // Bidirectional path tracing is chosen when predicted cheaper by more than this factor.
 inline constexpr double kPilotMargin = 1.1;
 // Bidirectional path tracing's time per ray over path tracing's, measured (bench_reference: on

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "io/clock.h"
 #include "photonbench/error.h"
@@ -515,29 +516,38 @@ class Pilot {
         if (in_grid(x, y, stride)) pixels_.push_back(size_t(y) * width + x);
     for (auto& m : moments_) m.resize(pixels_.size() * classes_.size());
   }
-  // One iteration of `part`, read from frame[pixel * kClasses + class] at the grid's pixels.
+  // One iteration of `part`, read from frame[pixel * kClasses + class] at the grid's pixels. The
+  // render's frame holds path tracing's image and then, once photon mapping has added to it, the
+  // sum of both: photon mapping's part is that sum less the path tracing image added last
+  // (luminance is linear).
   void add(Part part, const std::vector<glm::vec3>& frame) {
+    const size_t k = classes_.size();
+    if (part == path_tracing) last_path_tracing_.assign(pixels_.size() * k, 0.0);
     for (size_t p = 0; p < pixels_.size(); ++p) {
       const glm::vec3* v = &frame[pixels_[p] * kClasses];
-      for (size_t j = 0; j < classes_.size(); ++j) {
+      for (size_t j = 0; j < k; ++j) {
         double l = 0;
         if (classes_[j] == int(PathClass::combined))
           for (int c = 0; c < kClasses; ++c) l += luminance(v[c]);
         else
           l = luminance(v[classes_[j]]);
-        moments_[part][p * classes_.size() + j].add(l);
+        size_t slot = p * k + j;
+        if (part == path_tracing) last_path_tracing_[slot] = l;
+        if (part == photons && !last_path_tracing_.empty()) l -= last_path_tracing_[slot];
+        moments_[part][slot].add(l);
       }
     }
     ++iterations_[part];
   }
+  uint32_t iterations(Part part) const { return iterations_[part]; }
   // The error estimate's square (reference.h) for one full-image iteration of path tracing or of
   // bidirectional path tracing, plus photon mapping, relative to the pixel means of both unbiased
   // estimators averaged plus photon mapping's (a short run of path tracing alone can miss the light
   // of a small bright region at many pixels, and dividing by its low mean there would inflate the
-  // other estimator's relative variance). The grid's variances are scaled to a full iteration's:
-  // light tracing splats by 1 / stride^2 (a full iteration has stride^2 times the light paths),
-  // photon mapping's by photon_scale (its pilot traces fewer photons).
-  double error2(bool bdpt, double photon_scale) const {
+  // other estimator's relative variance). Light tracing's splats on the grid stand for stride^2
+  // light paths each, so their variance is scaled by 1 / stride^2 to a full iteration's; path
+  // tracing's and photon mapping's come from the render's own full iterations.
+  double error2(bool bdpt) const {
     std::vector<double> class_mean(classes_.size(), 0.0);
     for (size_t p = 0; p < pixels_.size(); ++p)
       for (size_t j = 0; j < classes_.size(); ++j) class_mean[j] += mean(p, j) / pixels_.size();
@@ -547,7 +557,7 @@ class Pilot {
       for (size_t j = 0; j < classes_.size(); ++j) {
         if (!(class_mean[j] > 0)) continue;
         size_t slot = p * classes_.size() + j;
-        double var = photon_scale * variance(photons, slot);
+        double var = variance(photons, slot);
         var += bdpt ? variance(bidirectional, slot) +
                           variance(splats, slot) / (double(stride_) * stride_)
                     : variance(path_tracing, slot);
@@ -581,6 +591,7 @@ class Pilot {
   std::vector<size_t> pixels_;
   std::array<std::vector<Moment>, 4> moments_;
   std::array<uint32_t, 4> iterations_{};
+  std::vector<double> last_path_tracing_;  // the grid's luminances of the last path tracing image
 };
 
 // The pilot's grid: every stride-th pixel in x and y, about 2000 pixels. (1000, which would halve
@@ -620,82 +631,161 @@ void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const R
   });
 }
 
-// Estimator::automatic (reference.h): the pilot on a grid of about 2000 pixels, then the choice.
-// Each estimator runs kPilotIterations there, photon mapping with a 32nd of the photons and its
-// variance scaled back by that factor (a density estimate's variance goes as 1 / photons at a given
-// radius).
-Estimator choose_estimator(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
-                           const ReferenceOptions& options, uint32_t wanted, uint32_t budget,
-                           const std::vector<int>& classes, BdptPass& bdpt, PhotonPass* photons,
-                           tbb::task_arena& arena, tbb::combinable<uint64_t>& ray_count,
-                           const std::function<uint64_t()>& total_rays,
-                           std::vector<glm::vec3>& frame, PilotReport& report) {
-  auto t0 = std::chrono::steady_clock::now();
-  size_t pixels = size_t(rig.width) * rig.height;
-  int stride = pilot_stride(pixels);
-  double scale = double(stride) * stride;  // full-image rays per grid ray
-  Pilot pilot(rig.width, rig.height, stride, classes);
-  uint32_t seed = hash_combine(options.seed, 0x9170u);
-  std::vector<glm::vec3> splat_frame(frame.size());
-  double pt_rays = 0, bdpt_rays = 0;
-  uint32_t done = 0;
-  auto run_unbiased = [&](uint32_t until) {
-    for (; done < until; ++done) {
-      uint64_t before = total_rays();
-      path_tracing_pass(world, lights, rig, options, wanted, budget, hash_combine(seed, done),
-                        stride, arena, ray_count, frame);
-      pt_rays += scale * double(total_rays() - before);
-      pilot.add(Pilot::path_tracing, frame);
-      uint64_t rays =
-          bdpt.run(hash_combine(seed, done, 1u), arena, ray_count, frame, stride, &splat_frame);
-      bdpt_rays += scale * double(rays);
-      pilot.add(Pilot::bidirectional, frame);
-      pilot.add(Pilot::splats, splat_frame);
-    }
-  };
-  double photon_scale = 0;
-  if (photons) {  // photon mapping's variance is not heavy-tailed: a shorter pilot suffices
-    uint32_t paths = std::max(1000u, options.sppm_photons / 32);
-    photon_scale = double(paths) / double(std::max(1u, options.sppm_photons));
-    double radius_scale2 = 1;
-    for (uint32_t it = 0; it < kPilotPhotonIterations; ++it) {
-      if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
-      std::fill(frame.begin(), frame.end(), glm::vec3(0.f));
-      uint64_t before = total_rays(), photon_before = photons->photon_rays;
-      photons->run(hash_combine(seed, it, 2u), radius_scale2, arena, ray_count, frame, stride,
-                   paths);
-      uint64_t photon = photons->photon_rays - photon_before;
-      uint64_t camera = total_rays() - before - photon;
-      report.photon_rays +=
-          (scale * double(camera) + double(photon) / photon_scale) / kPilotPhotonIterations;
-      pilot.add(Pilot::photons, frame);
-    }
+// Estimator::automatic (reference.h): the render starts as path tracing, and the pilot watches it.
+// Path tracing's and photon mapping's iterations are the render's own (read at the grid's pixels),
+// so they cost the pilot nothing and are kept when path tracing stays; beside each, one iteration
+// of bidirectional path tracing on the grid of about 2000 pixels is the pilot's only extra work.
+// After every iteration it predicts from the per-iteration variances and rays what reaching the
+// target costs with either and decides:
+//   * bidirectional path tracing, from kPilotMinIterations on, when predicted cheaper by
+//     kPilotMargin than what path tracing has left to do (the render then restarts with it, so
+//     the image is exactly its render; path tracing's iterations are dropped);
+//   * path tracing when the pilot's next iteration would take its spending past kPilotBudget of
+//     path tracing's predicted render, or after kPilotIterations: its cost scales with the render,
+//     and where the render is short path tracing, the anchor, keeps it.
+// A small bright region that path tracing finds by chance hides in a short pilot (its variance
+// grows with the samples), so path tracing's prediction is low early on: the rule that stops the
+// pilot early can only pick path tracing, whose cost is then the one predicted.
+class EstimatorPilot {
+ public:
+  EstimatorPilot(const Rig& rig, const ReferenceOptions& options, const std::vector<int>& classes,
+                 BdptPass& bdpt, tbb::task_arena& arena, tbb::combinable<uint64_t>& ray_count)
+      : options_(options),
+        bdpt_(bdpt),
+        arena_(arena),
+        ray_count_(ray_count),
+        stride_(pilot_stride(size_t(rig.width) * rig.height)),
+        pilot_(rig.width, rig.height, stride_, classes),
+        frame_size_(size_t(rig.width) * rig.height * kClasses),
+        seed_(hash_combine(options.seed, 0x9170u)) {}
+
+  // The render's image after its path tracing pass (path_tracing) or after photon mapping added
+  // to it (photons), and the rays that pass traced.
+  void observe(Pilot::Part part, const std::vector<glm::vec3>& frame, uint64_t rays) {
+    pilot_.add(part, frame);
+    (part == Pilot::photons ? photon_rays_ : pt_rays_) += double(rays);
   }
-  double target2 = double(options.rel_error) * options.rel_error;
-  auto predict = [&] {
-    report.pt_rays = pt_rays / done, report.bdpt_rays = bdpt_rays / done;
-    report.pt_error2 = pilot.error2(false, photon_scale);
-    report.bdpt_error2 = pilot.error2(true, photon_scale);
-    double pt_iteration = report.pt_rays + report.photon_rays;
-    double bdpt_iteration = kBdptRayCost * report.bdpt_rays + report.photon_rays;
-    if (options.rel_error > 0) {  // iterations to the target (error^2 falls as 1 / n) x cost
-      double least = std::max(2u, options.min_samples);
-      report.pt_cost = std::max(least, report.pt_error2 / target2) * pt_iteration;
-      report.bdpt_cost = std::max(least, report.bdpt_error2 / target2) * bdpt_iteration;
-    } else {  // error^2 x cost per iteration: the cost of any given error
-      report.pt_cost = report.pt_error2 * pt_iteration;
-      report.bdpt_cost = report.bdpt_error2 * bdpt_iteration;
+
+  // After the render's iteration `done` (1-based): one bidirectional iteration on the grid where
+  // it can still change the choice, then the decision; nothing while the pilot goes on.
+  std::optional<Estimator> step(uint32_t done) {
+    watched_ = done;
+    if (done < 2) return std::nullopt;  // path tracing's variance needs two iterations
+    predict(done);
+    uint32_t bdpt_done = pilot_.iterations(Pilot::bidirectional);
+    if (bdpt_done < kPilotBdptIterations && bdpt_could_win(done)) {
+      if (bdpt_done > 0 && over_budget(bdpt_done)) return Estimator::pt;
+      run_bidirectional(bdpt_done);
+      predict(done);
+      ++bdpt_done;
     }
-  };
-  run_unbiased(kPilotIterations);
-  predict();
-  report.ran = true;
-  report.iterations = done;
-  report.seconds = io::seconds_since(t0);
-  // Within 10%, the pilot's noise decides more than the estimators do; path tracing, the anchor,
-  // is the cheaper per iteration and keeps the tie.
-  return report.bdpt_cost * kPilotMargin < report.pt_cost ? Estimator::bdpt : Estimator::pt;
-}
+    if (bdpt_done >= kPilotMinIterations &&
+        report_.bdpt_cost * kPilotMargin < pt_left(done, report_.pt_cost))
+      return Estimator::bdpt;
+    if (done >= kPilotIterations) return Estimator::pt;
+    return std::nullopt;
+  }
+
+  PilotReport report() const {
+    PilotReport r = report_;
+    r.ran = true;
+    r.iterations = watched_;
+    r.bdpt_iterations = pilot_.iterations(Pilot::bidirectional);
+    r.pilot_rays = spent_;
+    return r;
+  }
+
+ private:
+  // Per-iteration error^2 and rays of each (photon mapping's in both), and the predicted cost of
+  // reaching the target: iterations (error^2 falls as 1 / n) x rays per iteration.
+  void predict(uint32_t done) {
+    uint32_t n_photon = std::max(1u, pilot_.iterations(Pilot::photons));
+    uint32_t n_bdpt = std::max(1u, pilot_.iterations(Pilot::bidirectional));
+    report_.pt_rays = pt_rays_ / done, report_.bdpt_rays = bdpt_rays_ / n_bdpt;
+    report_.photon_rays = photon_rays_ / n_photon;
+    report_.pt_error2 = pilot_.error2(false);
+    report_.bdpt_error2 = pilot_.error2(true);
+    double pt_iteration = report_.pt_rays_per_iteration();
+    double bdpt_iteration = kBdptRayCost * report_.bdpt_rays + report_.photon_rays;
+    if (options_.rel_error > 0) {
+      double target2 = double(options_.rel_error) * options_.rel_error;
+      double least = std::max(2u, options_.min_samples);
+      report_.pt_cost = std::max(least, report_.pt_error2 / target2) * pt_iteration;
+      report_.bdpt_cost = std::max(least, report_.bdpt_error2 / target2) * bdpt_iteration;
+    } else {  // error^2 x cost per iteration: the cost of any given error
+      report_.pt_cost = report_.pt_error2 * pt_iteration;
+      report_.bdpt_cost = report_.bdpt_error2 * bdpt_iteration;
+    }
+    report_.budget = kPilotBudget * predicted_pt_render();
+  }
+  // What path tracing has left to do after `done` iterations (to the target; for a render without
+  // one, the cost of any given error has nothing left behind).
+  double pt_left(uint32_t done, double pt_cost) const {
+    if (!(options_.rel_error > 0)) return pt_cost;
+    return pt_cost - double(done) * report_.pt_rays_per_iteration();
+  }
+  // Whether bidirectional path tracing could be picked on what the pilot knows: its cost has a
+  // floor whatever its variance (the error rule's least iterations, at its rays per iteration),
+  // and while that floor is above what path tracing has left, its pilot iterations would buy
+  // nothing (they resume if path tracing's prediction grows, as it does where it finds a bright
+  // region by chance). Before its first iteration its rays are taken to be path tracing's (its
+  // camera subpaths alone trace those; it traced 1.4 to 3 times as many on the shipped scenes).
+  bool bdpt_could_win(uint32_t done) const {
+    if (!(options_.rel_error > 0)) return true;
+    double least = std::max(2u, options_.min_samples);
+    double bdpt_rays =
+        pilot_.iterations(Pilot::bidirectional) ? report_.bdpt_rays : report_.pt_rays;
+    double floor = least * (kBdptRayCost * bdpt_rays + report_.photon_rays);
+    return floor * kPilotMargin < pt_left(done, report_.pt_cost);
+  }
+  // Whether one more pilot iteration, costing about what the last ones did, would take the
+  // pilot's own rays past kPilotBudget of path tracing's predicted render, or its own time past
+  // kPilotBudget of the render's time limit: a render that the limit ends is as long as the limit
+  // (and not reproducible by its seed anyway), and rays undercount bidirectional path tracing's
+  // work on long paths (its MIS weights grow with the path: on villa, 32 pilot iterations on a
+  // 25th of the pixels took 1.06 s of a render of 76 iterations in 10 s, bench_reference).
+  bool over_budget(uint32_t bdpt_done) const {
+    double rays = spent_ * (bdpt_done + 1.0) / bdpt_done;
+    double seconds = report_.seconds * (bdpt_done + 1.0) / bdpt_done;
+    return rays > report_.budget ||
+           (options_.max_seconds > 0 && seconds > kPilotBudget * options_.max_seconds);
+  }
+  void run_bidirectional(uint32_t index) {
+    auto t0 = std::chrono::steady_clock::now();
+    if (frame_.empty()) frame_.resize(frame_size_), splat_frame_.resize(frame_size_);
+    const double scale = double(stride_) * stride_;  // full-image rays per grid ray
+    uint64_t rays = bdpt_.run(hash_combine(seed_, index, 1u), arena_, ray_count_, frame_, stride_,
+                              &splat_frame_);
+    bdpt_rays_ += scale * double(rays);
+    spent_ += kBdptRayCost * double(rays);
+    pilot_.add(Pilot::bidirectional, frame_);
+    pilot_.add(Pilot::splats, splat_frame_);
+    report_.seconds += io::seconds_since(t0);
+  }
+  // Path tracing's whole render, in rays: to the error target, or the samples asked for, whichever
+  // is fewer; a render stopped by its time limit alone has no prediction (the pilot runs in full).
+  double predicted_pt_render() const {
+    double render = std::numeric_limits<double>::infinity();
+    if (options_.rel_error > 0) render = report_.pt_cost;
+    if (options_.samples > 0)
+      render = std::min(render, double(options_.samples) * report_.pt_rays_per_iteration());
+    return render;
+  }
+
+  const ReferenceOptions& options_;
+  BdptPass& bdpt_;
+  tbb::task_arena& arena_;
+  tbb::combinable<uint64_t>& ray_count_;
+  int stride_;
+  Pilot pilot_;
+  size_t frame_size_;
+  std::vector<glm::vec3> frame_, splat_frame_;  // allocated at the first bidirectional iteration
+  uint32_t seed_;
+  double pt_rays_ = 0, photon_rays_ = 0, bdpt_rays_ = 0;  // full-image rays, summed
+  double spent_ = 0;      // the pilot's own rays, bidirectional ones weighted by kBdptRayCost
+  uint32_t watched_ = 0;  // render iterations seen
+  PilotReport report_;
+};
 
 }  // namespace
 
@@ -748,38 +838,41 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     ray_count.combine_each([&](uint64_t r) { rays += r; });
     return rays;
   };
-  // The automatic choice pilots where the pilot costs a small part of the render: an image of at
-  // least 9 times the pilot's pixels (its 32 iterations then cost about 4 of the render's, or 3
-  // with photon mapping's shorter pilot), and a render not limited to a few iterations. Smaller
-  // renders are bidirectional.
+  // The automatic choice pilots (EstimatorPilot) on an image of at least 9 times the pilot's
+  // pixels and a render not limited to a few iterations; smaller renders are bidirectional.
   Estimator estimator = options.estimator;
   std::unique_ptr<BdptPass> bdpt;
   if (estimator != Estimator::pt)
     bdpt = std::make_unique<BdptPass>(world, lights, rig, wanted, budget, options.mis_heuristic);
   PilotReport report;
+  std::unique_ptr<EstimatorPilot> pilot;
   if (estimator == Estimator::automatic) {
     bool worth = (options.samples == 0 || options.samples >= 8 * kPilotIterations) &&
                  pilot_stride(pixels) >= 3;
-    estimator =
-        worth ? choose_estimator(world, lights, rig, options, wanted, budget, acc->classes(), *bdpt,
-                                 photons.get(), *arena, ray_count, total_rays, frame, report)
-              : Estimator::bdpt;
+    if (worth)
+      pilot =
+          std::make_unique<EstimatorPilot>(rig, options, acc->classes(), *bdpt, *arena, ray_count);
+    estimator = worth ? Estimator::pt : Estimator::bdpt;
   }
 
   double rel_error = 0, radius_scale2 = 1;
   StopRule stopped_by = StopRule::samples;
   for (uint32_t it = 0;; ++it) {
     uint32_t iteration_seed = hash_combine(options.seed, it);
+    uint64_t rays_before = pilot ? total_rays() : 0;
     // ---- the unbiased estimator: one camera sample per pixel ----
     if (estimator == Estimator::bdpt)
       bdpt->run(iteration_seed, *arena, ray_count, frame);
     else
       path_tracing_pass(world, lights, rig, options, wanted, budget, iteration_seed, 1, *arena,
                         ray_count, frame);
+    if (pilot) pilot->observe(Pilot::path_tracing, frame, total_rays() - rays_before);
     // ---- photon mapping: visible points, photons, gather ----
     if (photons) {
       if (it > 0) radius_scale2 *= (it + options.sppm_alpha) / (it + 1.0);
+      uint64_t photon_rays_before = total_rays();
       photons->run(iteration_seed, radius_scale2, *arena, ray_count, frame);
+      if (pilot) pilot->observe(Pilot::photons, frame, total_rays() - photon_rays_before);
     }
     acc->add(it, frame, *arena);
     // ---- stop rules: the first reached ends the render ----
@@ -800,7 +893,23 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
       progress({done, options.samples, rel_error, options.rel_error, elapsed, options.max_seconds,
                 total_rays()});
     if (stop) break;
+    // ---- the automatic choice: bidirectional path tracing restarts the render ----
+    if (pilot) {
+      if (std::optional<Estimator> chosen = pilot->step(acc->iterations())) {
+        report = pilot->report();
+        pilot.reset();
+        estimator = *chosen;
+        if (estimator == Estimator::bdpt) {
+          report.dropped_iterations = acc->iterations();
+          acc = std::make_unique<Accumulator>(pixels, class_mask);
+          radius_scale2 = 1;
+          it = std::numeric_limits<uint32_t>::max();  // the next iteration is 0
+        }
+      }
+    }
   }
+
+  if (pilot) report = pilot->report();  // the render ended while the pilot still ran
 
   // ---- resolve ----
   ReferenceResult result;

@@ -65,16 +65,21 @@ enum class StopRule : uint8_t { rel_error, max_seconds, samples };
 std::string_view stop_rule_name(StopRule rule);  // "rel_error", "max_seconds", "samples"
 std::optional<StopRule> parse_stop_rule(std::string_view name);
 
-// What the automatic choice saw: per-iteration error^2 (reference.h's error estimate for one
-// iteration) and rays per iteration of each estimator (photon mapping's rays apart), and the
-// predicted cost (rays, BDPT's weighted by kBdptRayCost) of finishing with each.
+// What the automatic choice saw when it decided (reference.h's error estimate for one iteration,
+// squared; rays per iteration of the whole image; photon mapping's rays apart), and the predicted
+// cost (rays, BDPT's weighted by kBdptRayCost) of reaching the target with each.
 struct PilotReport {
   bool ran = false;
   double pt_error2 = 0, bdpt_error2 = 0;
   double pt_rays = 0, bdpt_rays = 0, photon_rays = 0;
   double pt_cost = 0, bdpt_cost = 0;
-  double seconds = 0;       // the pilot's own time
-  uint32_t iterations = 0;  // of each unbiased estimator on the grid
+  double seconds = 0;            // the pilot's own time (its bidirectional iterations on the grid)
+  uint32_t iterations = 0;       // render iterations watched (path tracing's)
+  uint32_t bdpt_iterations = 0;  // bidirectional iterations on the grid
+  double pilot_rays = 0;  // the pilot's own rays, bidirectional ones weighted by kBdptRayCost
+  double budget = 0;  // kPilotBudget of path tracing's predicted render, rays (at the last check)
+  uint32_t dropped_iterations = 0;  // path tracing's, when bidirectional path tracing restarted
+  double pt_rays_per_iteration() const { return pt_rays + photon_rays; }
 };
 
 // One iteration renders one camera sample per pixel with the unbiased estimator and, where photon
