@@ -67,13 +67,6 @@ std::vector<std::string> comma_list(const std::string& text) {
   return names;
 }
 
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
 double luminance_of(const io::Image& img, size_t p) {
   return trace::detail::luminance(
       {img.pixels[p * 3], img.pixels[p * 3 + 1], img.pixels[p * 3 + 2]});
@@ -179,12 +172,12 @@ ToTarget time_to_target(const trace::EmbreeScene& world, int w, int h, const Tru
     o.samples = n;
     o.rel_error = 0;
     o.max_seconds = 0;
-    double cpu0 = cpu_seconds();
+    double cpu0 = pb::bench::process_cpu_seconds();
     trace::ReferenceResult r = trace::render_reference_classes(
         world, w, h, trace::class_bit(trace::PathClass::caustics), o);
     Rung g;
     g.iterations = r.samples;
-    g.cpu = cpu_seconds() - cpu0;
+    g.cpu = pb::bench::process_cpu_seconds() - cpu0;
     g.wall = r.seconds;
     Errors e = errors_against(r.image(trace::PathClass::caustics), truth.mean, truth.variance);
     g.error = e.to_mean;

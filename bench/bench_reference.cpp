@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_support.h"
 #include "cell/scoring.h"
 #include "config/config.h"
 #include "photonbench/error.h"
@@ -91,34 +92,7 @@ Args parse(int argc, char** argv) {
   return a;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-// The CPU's model name (/proc/cpuinfo) and the vector units it reports: the speed of every figure
-// here depends on them.
-std::string cpu_description() {
-  std::string model = "unknown CPU";
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  for (std::string line; std::getline(cpuinfo, line);)
-    if (line.rfind("model name", 0) == 0 && line.find(':') != std::string::npos) {
-      model = line.substr(line.find(':') + 2);
-      break;
-    }
-  __builtin_cpu_init();
-  auto has = [](bool yes) { return yes ? "yes" : "no"; };
-  return fmt::format("{}; AVX2 {}, AVX-512F {}, FMA {}", model, has(__builtin_cpu_supports("avx2")),
-                     has(__builtin_cpu_supports("avx512f")), has(__builtin_cpu_supports("fma")));
-}
+using pb::bench::median;
 
 struct Run {
   double seconds = 0, cpu = 0, rel_error = 0;
@@ -130,14 +104,10 @@ struct Run {
 
 Run render(const trace::EmbreeScene& world, int w, int h, uint32_t mask,
            trace::ReferenceOptions o) {
-  double cpu0 = cpu_seconds();
+  double cpu0 = pb::bench::process_cpu_seconds();
   trace::ReferenceResult r = trace::render_reference_classes(world, w, h, mask, o);
-  return {r.seconds,
-          cpu_seconds() - cpu0,
-          r.rel_error,
-          r.samples,
-          r.stopped_by == trace::StopRule::rel_error,
-          r.estimator,
+  return {r.seconds, pb::bench::process_cpu_seconds() - cpu0,    r.rel_error,
+          r.samples, r.stopped_by == trace::StopRule::rel_error, r.estimator,
           r.pilot};
 }
 
@@ -169,7 +139,8 @@ int main(int argc, char** argv) {
     std::string targets;
     for (double e : args.rel_errors)
       targets += fmt::format("{}{:.3f}", targets.empty() ? "" : ",", e);
-    std::printf("bench_reference on %s\n", cpu_description().c_str());
+    std::printf("bench_reference on %s\n",
+                (pb::bench::cpu_model() + "; " + pb::bench::vector_units()).c_str());
     std::printf(
         "frame %u at %dx%d, classes combined+direct+indirect, stop at rel. error %s (limit %.0f s "
         "a "

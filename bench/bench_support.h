@@ -2,11 +2,14 @@
 // program for its output, and the median of per-round figures.
 #pragma once
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
@@ -63,6 +66,24 @@ inline std::string vector_units() {
     if (has) units += (units.empty() ? "" : " ") + std::string(name);
 #endif
   return units.empty() ? "none known" : units;
+}
+
+// The CPU's model name (/proc/cpuinfo), for the benches' headers beside vector_units().
+inline std::string cpu_model() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);)
+    if (line.rfind("model name", 0) == 0 && line.find(':') != std::string::npos)
+      return line.substr(line.find(':') + 2);
+  return "unknown CPU";
+}
+
+// CPU time of this process (user + system, all threads): what the work costs, whatever else runs
+// on the machine.
+inline double process_cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
 // The median (the mean of the middle two for an even count); NaN for none.
