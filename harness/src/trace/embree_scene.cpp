@@ -353,17 +353,17 @@ void EmbreeScene::complete_hit(const RTCRayHit& rh, const glm::vec3& origin, con
   const float w = 1.f - rh.hit.u - rh.hit.v;
   const float u = rh.hit.u, v = rh.hit.v;
   const TriangleNormal& tn = data.triangle_normals[rh.hit.primID];
+  const glm::vec3 p =
+      w * mesh.positions[tri.x] + u * mesh.positions[tri.y] + v * mesh.positions[tri.z];
   if (data.flattened) {
     // World-space vertices and normals: no transform, and a flat triangle's normals are stored.
-    hit.position =
-        w * mesh.positions[tri.x] + u * mesh.positions[tri.y] + v * mesh.positions[tri.z];
+    hit.position = p;
     hit.geometric_normal = tn.face;
     if (tn.flat) {
       hit.shading_normal = tn.face;
       return;
     }
   } else {
-    glm::vec3 p = w * mesh.positions[tri.x] + u * mesh.positions[tri.y] + v * mesh.positions[tri.z];
     hit.position = glm::vec3(data.geometry_to_world * glm::vec4(p, 1.f));
     // Without vertex normals the winding orients the normal; with them, `face` is oriented already
     // (flat) or turned below to the interpolated normal's side.
@@ -387,15 +387,7 @@ void EmbreeScene::complete_hit(const RTCRayHit& rh, const glm::vec3& origin, con
 bool EmbreeScene::occluded(const glm::vec3& origin, const glm::vec3& dir, float tmax) const {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRay ray;
-  ray.org_x = origin.x, ray.org_y = origin.y, ray.org_z = origin.z;
-  ray.dir_x = dir.x, ray.dir_y = dir.y, ray.dir_z = dir.z;
-  ray.tnear = 0.f;
-  ray.tfar = tmax;
-  ray.time = 0.f;
-  ray.mask = ~0u;
-  ray.id = 0;
-  ray.flags = 0;
+  RTCRay ray = make_ray(origin, dir, tmax).ray;
   rtcOccluded1(top_, &context, &ray);
   return ray.tfar < 0.f;  // Embree sets tfar to -inf on a hit
 }
