@@ -84,12 +84,13 @@ void expected_normals(const EmbreeScene& world, const Hit& hit, bool vertex_norm
   if (glm::dot(ng, ns) < 0) ng = -ng;
 }
 
-// A coherent stream (intersect_from) hits what single rays hit, ray for ray, across its chunks of
-// 64; and the hit's normals, read from per-triangle data stored at build, equal those computed from
+// A stream (intersect_stream, coherent or not) hits what single rays hit, ray for ray, across its
+// chunks of 64, and occluded_stream answers as occluded does for rays of any length; and the
+// hit's normals, read from per-triangle data stored at build, equal those computed from
 // the triangle, on flattened and on instanced objects, under a mirroring transform (which turns
 // the winding), for flat and smooth triangles, and for a quad whose vertex normals face against
 // its winding.
-TEST(EmbreeScene, CoherentStreamsAndStoredNormalsMatchTheTriangles) {
+TEST(EmbreeScene, StreamsAndStoredNormalsMatchSingleRaysAndTheTriangles) {
   TestScene t;
   uint32_t white = t.material(scene::MaterialType::diffuse);
   scene::Mesh bare = quad_mesh({-1, 0, 1}, {2, 0, 0}, {0, 0, -2});  // faces -y by its winding
@@ -112,9 +113,30 @@ TEST(EmbreeScene, CoherentStreamsAndStoredNormalsMatchTheTriangles) {
     EmbreeOptions options;
     options.flatten_static = flatten;
     EmbreeScene world(t.scene, t.state, options);
+    std::vector<Ray> rays;
+    for (const glm::vec3& d : dirs) rays.push_back(Ray{eye, d});
     std::vector<Hit> hits(dirs.size());
     std::vector<uint8_t> found(dirs.size());
-    world.intersect_from(eye, dirs, hits, found);
+    world.intersect_stream(rays, hits, found, !flatten);
+    // Shadow rays of every length from points spread over the view back towards the eye's side;
+    // the odd ones stop halfway to the first surface along their direction.
+    std::vector<Ray> shadows;
+    for (size_t i = 0; i < dirs.size(); ++i) {
+      glm::vec3 from = eye + 2.5f * dirs[i];
+      glm::vec3 d = glm::normalize(glm::vec3(0.1f * float(i % 7) - 0.3f, 0.8f, 0.4f));
+      shadows.push_back(Ray{from, d, i % 2 ? 0.05f * float(i % 13) : kUnboundedRay});
+    }
+    std::vector<uint8_t> blocked(shadows.size());
+    world.occluded_stream(shadows, blocked, flatten);
+    int blocked_count = 0;
+    for (size_t i = 0; i < shadows.size(); ++i) {
+      EXPECT_EQ(bool(blocked[i]),
+                world.occluded(shadows[i].origin, shadows[i].dir, shadows[i].tmax))
+          << "flatten " << flatten << ", shadow ray " << i;
+      blocked_count += blocked[i];
+    }
+    EXPECT_GT(blocked_count, 5);
+    EXPECT_LT(blocked_count, int(shadows.size()) - 5);
     int hit_count = 0;
     for (size_t i = 0; i < dirs.size(); ++i) {
       SCOPED_TRACE(::testing::Message() << "flatten " << flatten << ", ray " << i);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <glm/glm.hpp>
 #include <limits>
+#include <optional>
 
 #include "reference/estimators.h"
 #include "reference/path_class.h"
@@ -140,17 +141,27 @@ inline glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {
 // light reaches that light's own plane inside its range whenever the offset along the normal
 // outruns the 1e-4 relative shortening, and the light's geometry shadows its own sample: quad
 // lights a few centimetres from a surface read 0.1-0.8 of the closed form there, issue 17.)
-inline bool segment_clear(const EmbreeScene& world, const Hit& from, const glm::vec3& target) {
+// shadow_ray() is that ray, or none where the target lies within the offset (then the segment
+// counts as clear); a target at infinity (`infinite`: a directional light) is the direction
+// `target`.
+inline std::optional<Ray> shadow_ray(const Hit& from, const glm::vec3& target, bool infinite) {
+  if (infinite) return Ray{offset_origin(from, target), target, kUnboundedRay};
   glm::vec3 origin = offset_origin(from, target - from.position);
   glm::vec3 d = target - origin;
   float length = glm::length(d);
   float tmax = length - EmbreeScene::ray_epsilon(target);
-  return !(tmax > 0) || !world.occluded(origin, d / length, tmax);
+  if (!(tmax > 0)) return std::nullopt;
+  return Ray{origin, d / length, tmax};
+}
+inline bool segment_clear(const EmbreeScene& world, const Hit& from, const glm::vec3& target) {
+  std::optional<Ray> ray = shadow_ray(from, target, false);
+  return !ray || !world.occluded(ray->origin, ray->dir, ray->tmax);
 }
 
 // Is the way from `from` along `dir` to infinity free (a directional light)?
 inline bool direction_clear(const EmbreeScene& world, const Hit& from, const glm::vec3& dir) {
-  return !world.occluded(offset_origin(from, dir), dir, std::numeric_limits<float>::infinity());
+  std::optional<Ray> ray = shadow_ray(from, dir, true);
+  return !world.occluded(ray->origin, ray->dir, ray->tmax);
 }
 
 // The full-path scattering-vertex budget (reference.h, max_bounces) as a count; 0 there means

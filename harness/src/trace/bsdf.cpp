@@ -64,8 +64,6 @@ bool refract_about(const glm::vec3& wo, const glm::vec3& n, float eta, glm::vec3
   return true;
 }
 
-constexpr float kSmoothAlpha = 1e-3f;  // below this a rough material is treated as smooth
-
 }  // namespace
 
 float fresnel_dielectric(float cos_i, float eta) {
@@ -82,47 +80,14 @@ float fresnel_dielectric(float cos_i, float eta) {
   return 0.5f * (r_parl * r_parl + r_perp * r_perp);
 }
 
-Bsdf::Bsdf(const scene::Material& material, const Hit& hit)
-    : material_(&material), ng_(hit.geometric_normal), frame_(hit.shading_normal) {
-  using scene::MaterialType;
-  switch (material.type) {
-    case MaterialType::diffuse:
-    case MaterialType::emissive:
-      diffuse_ = true;
-      break;
-    case MaterialType::mirror:
-    case MaterialType::dielectric:
-      delta_ = true;
-      break;
-    case MaterialType::rough_conductor:
-    case MaterialType::rough_dielectric:
-      alpha_ = std::min(material.roughness, 1.f);
-      delta_ = alpha_ < kSmoothAlpha;
-      break;
-  }
-}
-
-glm::vec3 Bsdf::eval(const glm::vec3& wo, const glm::vec3& wi, Transport mode) const {
+glm::vec3 Bsdf::eval_nondiffuse(const glm::vec3& wo, const glm::vec3& wi, Transport mode) const {
   if (delta_) return glm::vec3(0.f);
-  float so = glm::dot(wo, ng_), si = glm::dot(wi, ng_);
-  if (diffuse_) {
-    if (so * si <= 0) return glm::vec3(0.f);  // two-sided, reflection only
-    float cos_i = std::abs(glm::dot(wi, frame_.n));
-    if (glm::dot(wi, frame_.n) * so < 0) return glm::vec3(0.f);
-    return material_->albedo * (kInvPi * cos_i);
-  }
   float unused;
   return eval_ggx(wo, wi, mode, &unused);
 }
 
-float Bsdf::pdf(const glm::vec3& wo, const glm::vec3& wi) const {
+float Bsdf::pdf_nondiffuse(const glm::vec3& wo, const glm::vec3& wi) const {
   if (delta_) return 0;
-  float so = glm::dot(wo, ng_), si = glm::dot(wi, ng_);
-  if (diffuse_) {
-    if (so * si <= 0) return 0;
-    float c = glm::dot(wi, frame_.n) * (so > 0 ? 1.f : -1.f);
-    return c > 0 ? c * kInvPi : 0;
-  }
   float p = 0;
   eval_ggx(wo, wi, Transport::importance, &p);
   return p;
@@ -173,8 +138,8 @@ glm::vec3 Bsdf::eval_ggx(const glm::vec3& wo_world, const glm::vec3& wi_world, T
   return glm::vec3(ft);
 }
 
-bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
-                  BsdfSample& out) const {
+bool Bsdf::sample_nondiffuse(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
+                             BsdfSample& out) const {
   float so = glm::dot(wo_world, ng_);
   if (so == 0) return false;
   float side = so > 0 ? 1.f : -1.f;
@@ -185,16 +150,6 @@ bool Bsdf::sample(const glm::vec3& wo_world, const glm::vec3& u, Transport mode,
   };
   using scene::MaterialType;
   out = BsdfSample{};
-  if (diffuse_) {  // cosine-weighted about the shading normal, on wo's side
-    glm::vec3 wi = cosine_hemisphere({u.x, u.y});
-    out.wi = to_world(wi);
-    if (glm::dot(out.wi, ng_) * side <= 0) return false;
-    out.pdf = wi.z * kInvPi;
-    if (out.pdf <= 0) return false;
-    out.weight = material_->albedo;
-    out.normal = n_side;
-    return true;
-  }
   glm::vec3 wo = frame_.to_local(wo_world);
   wo.z *= side;
   if (wo.z <= 0) return false;  // seen from below its shading normal: absorb

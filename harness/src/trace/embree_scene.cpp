@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <type_traits>
 
 #include "photonbench/error.h"
 
@@ -313,23 +314,57 @@ bool EmbreeScene::intersect(const glm::vec3& origin, const glm::vec3& dir, float
   return true;
 }
 
-void EmbreeScene::intersect_from(const glm::vec3& origin, std::span<const glm::vec3> dirs,
-                                 std::span<Hit> hits, std::span<uint8_t> found) const {
+namespace {
+
+// Streams go to Embree in chunks of 64: long enough for it to fill its 8-wide packets, short
+// enough for the stack. `query(context, chunk, n)` traces a chunk of Embree rays (RTCRayHit or
+// RTCRay) built from `rays`; `read(i, ray)` takes ray i's answer.
+template <class EmbreeRay, class Query, class Read>
+void stream_in_chunks(std::span<const Ray> rays, bool coherent, Query query, Read read) {
+  constexpr size_t kStreamChunk = 64;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  // Streams of 64: long enough for Embree to fill its 8-wide packets, short enough for the stack.
-  constexpr size_t kChunk = 64;
-  alignas(64) RTCRayHit rays[kChunk];
-  for (size_t start = 0; start < dirs.size(); start += kChunk) {
-    size_t n = std::min(kChunk, dirs.size() - start);
-    for (size_t i = 0; i < n; ++i) rays[i] = make_ray(origin, dirs[start + i], kUnboundedRay);
-    rtcIntersect1M(top_, &context, rays, unsigned(n), sizeof(RTCRayHit));
+  context.flags =
+      coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  alignas(64) EmbreeRay chunk[kStreamChunk];
+  for (size_t start = 0; start < rays.size(); start += kStreamChunk) {
+    size_t n = std::min(kStreamChunk, rays.size() - start);
     for (size_t i = 0; i < n; ++i) {
-      found[start + i] = rays[i].hit.geomID != RTC_INVALID_GEOMETRY_ID;
-      if (found[start + i]) complete_hit(rays[i], origin, dirs[start + i], hits[start + i]);
+      const Ray& r = rays[start + i];
+      RTCRayHit rh = make_ray(r.origin, r.dir, r.tmax);
+      if constexpr (std::is_same_v<EmbreeRay, RTCRayHit>)
+        chunk[i] = rh;
+      else
+        chunk[i] = rh.ray;
     }
+    query(&context, chunk, unsigned(n));
+    for (size_t i = 0; i < n; ++i) read(start + i, chunk[i]);
   }
+}
+
+}  // namespace
+
+void EmbreeScene::intersect_stream(std::span<const Ray> rays, std::span<Hit> hits,
+                                   std::span<uint8_t> found, bool coherent) const {
+  stream_in_chunks<RTCRayHit>(
+      rays, coherent,
+      [&](RTCIntersectContext* context, RTCRayHit* chunk, unsigned n) {
+        rtcIntersect1M(top_, context, chunk, n, sizeof(RTCRayHit));
+      },
+      [&](size_t i, const RTCRayHit& rh) {
+        found[i] = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+        if (found[i]) complete_hit(rh, rays[i].origin, rays[i].dir, hits[i]);
+      });
+}
+
+void EmbreeScene::occluded_stream(std::span<const Ray> rays, std::span<uint8_t> blocked,
+                                  bool coherent) const {
+  stream_in_chunks<RTCRay>(
+      rays, coherent,
+      [&](RTCIntersectContext* context, RTCRay* chunk, unsigned n) {
+        rtcOccluded1M(top_, context, chunk, n, sizeof(RTCRay));
+      },
+      [&](size_t i, const RTCRay& ray) { blocked[i] = ray.tfar < 0.f; });  // -inf on a hit
 }
 
 void EmbreeScene::complete_hit(const RTCRayHit& rh, const glm::vec3& origin, const glm::vec3& dir,

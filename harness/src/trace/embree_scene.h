@@ -41,6 +41,12 @@ struct Hit {
   uint32_t material = 0;  // Scene::materials index (objects only)
 };
 
+// A ray for the stream queries: origin + t dir, t in (0, tmax].
+struct Ray {
+  glm::vec3 origin{0.0f}, dir{0.0f, 0.0f, 1.0f};
+  float tmax = std::numeric_limits<float>::infinity();
+};
+
 // World-space data of one triangle (for ray differentials: the normal's derivative along the
 // surface).
 struct Triangle {
@@ -77,13 +83,16 @@ class EmbreeScene {
 
   // Closest hit along origin + t dir, t in (0, tmax]; dir need not be unit (t is in its units).
   bool intersect(const glm::vec3& origin, const glm::vec3& dir, float tmax, Hit& hit) const;
-  // Closest hits of rays that leave one origin (a camera's rays through neighbouring pixels): one
-  // coherent stream (rtcIntersect1M with the coherent hint), which Embree packs into SIMD packets
-  // that walk the BVH together. found[i]: ray i hit; hits[i] as intersect.
-  void intersect_from(const glm::vec3& origin, std::span<const glm::vec3> dirs, std::span<Hit> hits,
-                      std::span<uint8_t> found) const;
   // Any hit along origin + t dir, t in (0, tmax).
   bool occluded(const glm::vec3& origin, const glm::vec3& dir, float tmax) const;
+  // The same queries for many rays at once, as streams (rtcIntersect1M, rtcOccluded1M): no call
+  // per ray, and with `coherent` (rays from neighbouring points in neighbouring directions, such
+  // as a camera's through one image row, or their shadow rays to one light) Embree packs them into
+  // SIMD packets that walk the BVH together. found[i]: ray i hit, hits[i] as intersect;
+  // blocked[i]: ray i is occluded.
+  void intersect_stream(std::span<const Ray> rays, std::span<Hit> hits, std::span<uint8_t> found,
+                        bool coherent) const;
+  void occluded_stream(std::span<const Ray> rays, std::span<uint8_t> blocked, bool coherent) const;
 
   const scene::Scene& scene() const { return scene_; }
   const scene::FrameState& state() const { return state_; }

@@ -116,10 +116,6 @@ LightSet::LightSet(const EmbreeScene& world) : world_(world) {
   if (!emitters_.empty()) selection_cdf_.back() = 1.f;
 }
 
-int LightSet::emitter_of_object(uint32_t object) const {
-  return object < object_emitter_.size() ? object_emitter_[object] : -1;
-}
-
 glm::vec3 LightSet::mesh_point(const Emitter& e, glm::vec2 uv, glm::vec3* normal, glm::vec3* dp_du,
                                glm::vec3* dp_dv) const {
   const auto& cdf = e.triangle_cdf;
@@ -265,13 +261,6 @@ float LightSet::pdf_incident(const glm::vec3& p, const Hit& y) const {
   return selection_pdf_[i] * dist2 / (cos_l * e.area);
 }
 
-glm::vec3 LightSet::emitted(const Hit& y, const glm::vec3& wo) const {
-  int i = emitter_of_object(y.object);
-  if (i < 0) return glm::vec3(0.f);
-  if (glm::dot(wo, y.geometric_normal) <= 0) return glm::vec3(0.f);
-  return emitters_[i].radiance;
-}
-
 Aabb light_bounds(const scene::Light& light) {
   Aabb box;
   if (light.type == scene::LightType::disc) {
@@ -290,6 +279,7 @@ Aabb light_bounds(const scene::Light& light) {
 
 uint32_t LightSet::choose(float u) const {
   size_t n = emitters_.size();
+  if (n == 1) return 0;  // the common scene of one light: no search (every camera vertex asks)
   size_t i =
       std::clamp<size_t>(size_t(std::upper_bound(selection_cdf_.begin(), selection_cdf_.end(), u) -
                                 selection_cdf_.begin()) -

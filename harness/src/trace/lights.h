@@ -63,7 +63,9 @@ class LightSet {
   float selection_probability(uint32_t i) const { return selection_pdf_[i]; }
   // Emitter index of a surface the camera can hit (quad or disc light geometry, emissive object),
   // or -1.
-  int emitter_of_object(uint32_t object) const;
+  int emitter_of_object(uint32_t object) const {
+    return object < object_emitter_.size() ? object_emitter_[object] : -1;
+  }
 
   // A photon from emitter `i` at emission-domain point `uv` (see EmissionDensity in photons.h),
   // with `u_dir` choosing the direction of surface emitters (cosine-distributed).
@@ -75,7 +77,12 @@ class LightSet {
   // emitter surface hit) seen from p: for multiple importance sampling with BSDF sampling.
   float pdf_incident(const glm::vec3& p, const Hit& y) const;
   // Radiance leaving emitter surface `y` towards wo (0 at the back and for non-emitters).
-  glm::vec3 emitted(const Hit& y, const glm::vec3& wo) const;
+  // (Inline: every camera-path vertex asks.)
+  [[gnu::always_inline]] glm::vec3 emitted(const Hit& y, const glm::vec3& wo) const {
+    int i = emitter_of_object(y.object);
+    if (i < 0 || glm::dot(wo, y.geometric_normal) <= 0) return glm::vec3(0.f);
+    return emitters_[i].radiance;
+  }
 
   // The emitter that selection number u in [0, 1) picks (by power, as sample_incident does).
   uint32_t choose(float u) const;
