@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
     std::string slowest_row;
     for (const std::string& name : args.scenes) {
       scene::Scene scene = scene::load_scene(scene::find_scene(name, {root / "scenes"}));
-      trace::EmbreeScene world(scene, scene.at(frame));
+      trace::EmbreeScene world(scene, scene.at(frame), trace::one_frame_options());
       for (double target : args.rel_errors) {
         base.rel_error = float(target);
         std::vector<double> ratios, wall_ratios, pt_s, new_s, pt_it, new_it, pt_err, new_err,

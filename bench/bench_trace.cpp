@@ -1,6 +1,11 @@
 // bench_trace: ray throughput of our Embree path tracer (the reference renderer) next to Embree's
 // own `pathtracer` tutorial (Debian package embree-tools) on the same triangles and camera, as a
 // ratio (issue 30 target: at least 1.0x), plus the photon tracer's throughput on the same scene.
+// The tutorial's OBJ materials are diffuse (Kd) and its light here is one point light, so both
+// renderers get the scene as the tutorial can render it (make_comparable): every material diffuse
+// with its albedo, and the lights replaced by one point light of their total power at the first
+// light's position; the header names what was replaced. Both build the scene for the one frame,
+// every rigid object in one BVH (the tutorial's OBJ is one static scene).
 //
 //   bench_trace [--scene scenes/cornell-box.yaml] [--spp 8] [--depth 8] [--frames 7]
 //               [--pathtracer PATH] [--estimator pt|bdpt|auto]
@@ -36,6 +41,7 @@
 #include "reference/reference.h"
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
+#include "trace/lights.h"
 #include "trace/photon_tracer.h"
 
 namespace fs = std::filesystem;
@@ -74,6 +80,43 @@ void write_obj(const pb::scene::Scene& scene, const pb::scene::FrameState& state
     }
     base += mesh.positions.size();
   }
+}
+
+// Makes `scene` at `state` what the tutorial renders (see the top of the file); returns what changed.
+std::string make_comparable(pb::scene::Scene& scene, pb::scene::FrameState& state) {
+  using pb::scene::LightType;
+  using pb::scene::MaterialType;
+  std::string changed;
+  int made_diffuse = 0;
+  for (auto& m : scene.materials) {
+    if (m.type == MaterialType::diffuse && m.emission == glm::vec3(0.f)) continue;
+    ++made_diffuse;
+    m.type = MaterialType::diffuse;
+    m.emission = glm::vec3(0.f);
+    if (m.albedo == glm::vec3(0.f)) m.albedo = glm::vec3(0.5f);
+  }
+  if (made_diffuse) changed += fmt::format("{} material(s) made diffuse; ", made_diffuse);
+  glm::vec3 power(0.f), position(0.f, 1.f, 0.f);
+  {
+    pb::trace::EmbreeScene original(scene, state, pb::trace::one_frame_options());
+    pb::trace::LightSet lights(original);
+    for (uint32_t i = 0; i < lights.size(); ++i) power += lights.emitter(i).power;
+  }
+  bool single_point = state.lights.size() == 1 && state.lights[0].type == LightType::point;
+  if (!state.lights.empty()) position = state.lights[0].position;
+  if (!single_point) {
+    changed += fmt::format("{} light(s) replaced by one point light of their power; ",
+                           state.lights.size());
+    pb::scene::Light point;
+    point.name = "comparable";
+    point.type = LightType::point;
+    point.position = position;
+    point.radiant = power == glm::vec3(0.f) ? glm::vec3(1.f) : power / (4.f * float(M_PI));
+    state.lights = {point};
+    scene.lights.resize(1);
+    scene.lights[0].light = point;
+  }
+  return changed.empty() ? "as it is" : changed.substr(0, changed.size() - 2);
 }
 
 double parse_value(const std::string& text, const std::string& key) {
@@ -119,11 +162,13 @@ int main(int argc, char** argv) {
 
   pb::scene::Scene scene = pb::scene::load_scene(opt["--scene"]);
   pb::scene::FrameState state = scene.at(0);
-  pb::trace::EmbreeScene world(scene, state);
+  std::string comparable = make_comparable(scene, state);
+  pb::trace::EmbreeScene world(scene, state, pb::trace::one_frame_options());
   size_t triangles = 0;
   for (const auto& o : scene.objects) triangles += o.mesh.triangle_count();
   std::printf("bench_trace: %s, %zu triangles, %dx%d, %u spp, max path length %u, estimator %s\n",
               scene.name.c_str(), triangles, width, height, spp, depth, opt["--estimator"].c_str());
+  std::printf("scene for both renderers: %s\n", comparable.c_str());
   std::printf("vector units: %s\n", pb::bench::vector_units().c_str());
 
   // ---- the photon tracer on the same scene ----
@@ -148,8 +193,7 @@ int main(int argc, char** argv) {
   if (pathtracer.empty())
     std::printf("embree pathtracer not found (install embree-tools); no ratio\n");
   const auto& c = state.camera;
-  glm::vec3 light = state.lights.empty() ? glm::vec3(0, 1, 0) : state.lights[0].position;
-  glm::vec3 power = state.lights.empty() ? glm::vec3(1) : state.lights[0].radiant;
+  glm::vec3 light = state.lights[0].position, power = state.lights[0].radiant;
   std::string cmd = fmt::format(
       "cd '{}' && '{}' -i scene.obj --vp {} {} {} --vi {} {} {} --vu {} {} {} --fov {} --size {} "
       "{} --spp {} "

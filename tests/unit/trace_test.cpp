@@ -103,21 +103,24 @@ TEST(EmbreeScene, StreamsAndStoredNormalsMatchSingleRaysAndTheTriangles) {
   t.object(against, white, glm::translate(glm::mat4(1.f), {0.2f, 0, 0}) * mirror);
   t.object(sphere_mesh({0, 0.5f, 0}, 0.3f, 16), white, mirror);
   t.object(bare, white, glm::translate(glm::mat4(1.f), {0, 1.5f, 0}) * mirror);
+  t.scene.objects[2].transform.spin_deg_per_s = {0, 30, 0};  // moves: flattened by flatten_moving
+  ASSERT_TRUE(t.scene.objects[2].transform.animated());
   const std::vector<bool> has_normals = {false, true, true, false};
   const glm::vec3 eye{0.3f, 0.6f, 2.5f};
   std::vector<glm::vec3> dirs;
   for (int y = 0; y < 11; ++y)
     for (int x = 0; x < 13; ++x)  // 143 rays: two full chunks and a part
       dirs.push_back(glm::normalize(glm::vec3(-1.2f + 0.2f * x, -0.9f + 0.25f * y, -2.5f)));
-  for (bool flatten : {true, false}) {
+  for (int flatten : {0, 1, 2}) {  // nothing, the static objects, every rigid object
     EmbreeOptions options;
-    options.flatten_static = flatten;
+    options.flatten_static = flatten >= 1;
+    options.flatten_moving = flatten == 2;
     EmbreeScene world(t.scene, t.state, options);
     std::vector<Ray> rays;
     for (const glm::vec3& d : dirs) rays.push_back(Ray{eye, d});
     std::vector<Hit> hits(dirs.size());
     std::vector<uint8_t> found(dirs.size());
-    world.intersect_stream(rays, hits, found, !flatten);
+    world.intersect_stream(rays, hits, found, /*coherent=*/flatten != 1);
     // Shadow rays of every length from points spread over the view back towards the eye's side;
     // the odd ones stop halfway to the first surface along their direction.
     std::vector<Ray> shadows;
@@ -127,7 +130,7 @@ TEST(EmbreeScene, StreamsAndStoredNormalsMatchSingleRaysAndTheTriangles) {
       shadows.push_back(Ray{from, d, i % 2 ? 0.05f * float(i % 13) : kUnboundedRay});
     }
     std::vector<uint8_t> blocked(shadows.size());
-    world.occluded_stream(shadows, blocked, flatten);
+    world.occluded_stream(shadows, blocked, /*coherent=*/flatten == 1);
     int blocked_count = 0;
     for (size_t i = 0; i < shadows.size(); ++i) {
       EXPECT_EQ(bool(blocked[i]),

@@ -32,10 +32,12 @@ inline float power_heuristic(float a, float b) {
 // if diffuse, else the first diffuse one after the specular prefix), and which types follow the
 // anchor. Whichever strategy produced a path, pushing its scattering vertices from the camera side
 // in order and calling classify() gives its class, so every estimator partitions path space alike.
+// (Its members are always inlined: every camera-path vertex asks them, inside loops too large for
+// GCC to inline them on its own.)
 struct ClassState {
   uint8_t first = 0;  // 0 none, 1 D, 2 S
   bool anchor = false, d_after = false, s_after = false;
-  ClassState push(bool diffuse) const {
+  [[gnu::always_inline]] ClassState push(bool diffuse) const {
     ClassState s = *this;
     if (s.first == 0) {
       s.first = diffuse ? 1 : 2;
@@ -50,7 +52,7 @@ struct ClassState {
     return s;
   }
   // Class of the path ending at an emitter now.
-  int classify() const {
+  [[gnu::always_inline]] int classify() const {
     if (first == 0) return int(PathClass::direct);
     if (first == 1) {
       if (d_after) return int(PathClass::indirect);
@@ -60,7 +62,7 @@ struct ClassState {
     return int(PathClass::specular);
   }
   // Classes some continuation of this path can still end in.
-  uint32_t reachable() const {
+  [[gnu::always_inline]] uint32_t reachable() const {
     auto bit = [](PathClass c) { return class_bit(c); };
     if (first == 0) return kAllPathClasses;
     if (first == 1) {
@@ -129,7 +131,7 @@ inline bool in_grid(int x, int y, int stride) {
 }
 
 // A ray origin off the surface on the side `dir` leaves towards.
-inline glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {
+[[gnu::always_inline]] inline glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {
   float eps = EmbreeScene::ray_epsilon(hit.position);
   return hit.position +
          hit.geometric_normal * (glm::dot(dir, hit.geometric_normal) >= 0 ? eps : -eps);
@@ -144,14 +146,16 @@ inline glm::vec3 offset_origin(const Hit& hit, const glm::vec3& dir) {
 // shadow_ray() is that ray, or none where the target lies within the offset (then the segment
 // counts as clear); a target at infinity (`infinite`: a directional light) is the direction
 // `target`.
-inline std::optional<Ray> shadow_ray(const Hit& from, const glm::vec3& target, bool infinite) {
+[[gnu::always_inline]] inline std::optional<Ray> shadow_ray(const Hit& from,
+                                                            const glm::vec3& target,
+                                                            bool infinite) {
   if (infinite) return Ray{offset_origin(from, target), target, kUnboundedRay};
   glm::vec3 origin = offset_origin(from, target - from.position);
   glm::vec3 d = target - origin;
   float length = glm::length(d);
   float tmax = length - EmbreeScene::ray_epsilon(target);
   if (!(tmax > 0)) return std::nullopt;
-  return Ray{origin, d / length, tmax};
+  return Ray{origin, d * (1.f / length), tmax};
 }
 inline bool segment_clear(const EmbreeScene& world, const Hit& from, const glm::vec3& target) {
   std::optional<Ray> ray = shadow_ray(from, target, false);

@@ -163,8 +163,10 @@ void advance_wavefront(const PathTracingSetup& setup, PathWavefront& wave, uint6
     size_t live = 0;
     for (size_t k = 0; k < n; ++k) {
       CameraPath& path = wave.paths[k];
-      if (wave.found[k] && shade_vertex(setup, path, wave.hits[k], wave, rays))
-        wave.paths[live++] = path;
+      if (wave.found[k] && shade_vertex(setup, path, wave.hits[k], wave, rays)) {
+        if (live != k) wave.paths[live] = path;
+        ++live;
+      }
     }
     wave.paths.erase(wave.paths.begin() + live, wave.paths.end());
     wave.blocked.resize(wave.shadow_rays.size());
@@ -989,7 +991,7 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
 ReferenceImage render_reference(const scene::Scene& scene, const scene::FrameState& state,
                                 PathClass path_class, int width, int height,
                                 const ReferenceOptions& options, const ProgressFn& progress) {
-  EmbreeScene world(scene, state);
+  EmbreeScene world(scene, state, one_frame_options());
   ReferenceResult r =
       render_reference_classes(world, width, height, class_bit(path_class), options, progress);
   return std::move(r.classes[int(path_class)]);

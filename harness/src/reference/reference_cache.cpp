@@ -263,7 +263,7 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
                        (".lock-" + key(scene, state, PathClass::combined, width, height, options)));
   const uint32_t missing = missing_classes();
   if (!missing) return 0;
-  EmbreeScene world(scene, state);
+  EmbreeScene world(scene, state, one_frame_options());
   ReferenceResult r = render_reference_classes(world, width, height, missing, options, progress);
   int written = 0;
   for (PathClass c : all_path_classes()) {

@@ -90,7 +90,8 @@ EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& sta
     const scene::Mesh& mesh = *data.mesh;
     if (mesh.triangles.empty())
       throw InputError(fmt::format("object '{}' has no triangles", object.name));
-    data.flattened = options_.flatten_static && !deforms && !object.transform.animated();
+    data.flattened = !deforms && (object.transform.animated() ? options_.flatten_moving
+                                                              : options_.flatten_static);
     data.geometry = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
     rtcSetGeometryBuildQuality(data.geometry,
                                deforms ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH);

@@ -68,7 +68,17 @@ struct EmbreeOptions {
   // rather than behind an instance: one BVH level less on every ray. If such an object's transform
   // changes anyway, its vertices are re-transformed (correct, just slower than an instance).
   bool flatten_static = true;
+  // Rigid objects that move go there as well: for a world built for one frame (a reference
+  // render's), whose update() seldom comes or never. Deforming shapes stay instances (they refit).
+  bool flatten_moving = false;
 };
+
+// The options of a world built for one frame: every rigid object in the top-level scene.
+inline EmbreeOptions one_frame_options() {
+  EmbreeOptions options;
+  options.flatten_moving = true;
+  return options;
+}
 
 class EmbreeScene {
  public:
