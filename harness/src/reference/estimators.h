@@ -58,9 +58,12 @@ inline constexpr uint32_t kPilotBdptIterations = 16;
 inline constexpr double kPilotBudget = 0.03;
 // Bidirectional path tracing is chosen when predicted cheaper by more than this factor.
 inline constexpr double kPilotMargin = 1.1;
-// Bidirectional path tracing's time per ray over path tracing's, measured (bench_reference: on
-// cornell-box and pillars its Mrays/s are 0.74 and 0.76 of path tracing's: vertex bookkeeping and
-// MIS weights around the same Embree queries).
-inline constexpr double kBdptRayCost = 1.3;
+// Bidirectional path tracing's time per ray over path tracing's, measured (`photonbench reference
+// --estimator pt|bdpt`, 320x180, 16 iterations, 3 alternating rounds: on cornell-box its Mrays/s
+// are 0.53 of path tracing's, on pillars 0.64-0.76; 0.74 and 0.76 before path tracing ran as a
+// wavefront of ray streams, issue 30). Its vertex bookkeeping and MIS weights surround the same
+// Embree queries, one at a time. The upper end: the pilot's grid rays cost more than a full
+// iteration's (a lone pixel's paths, splats to the whole frame).
+inline constexpr double kBdptRayCost = 1.8;
 
 }  // namespace pb::trace
