@@ -19,7 +19,7 @@
 // render_reference_classes (its per-pixel accumulation included), by default with path tracing and
 // next-event estimation, the tutorial's own algorithm: the reference renderer's automatic choice
 // picks bidirectional path tracing for a render this short, whose rays cost more each (its
-// Mrays/s were 0.74-0.76 of path tracing's, harness/src/reference/README.md), and which this bench
+// Mrays/s are 0.5-0.8 of path tracing's, harness/src/reference/README.md), and which this bench
 // measured from the estimators' landing until issue 30 (0.48x).
 #include <fmt/format.h>
 #include <unistd.h>
@@ -209,11 +209,16 @@ int main(int argc, char** argv) {
   auto mask = pb::trace::class_bit(pb::trace::PathClass::combined);
   pb::trace::render_reference_classes(world, width, height, mask, o);  // warm-up
   std::vector<double> ours, theirs_rates, ratios;
+  // Rays a camera path (paths of different lengths spread the per-path work over different counts).
+  const double paths = double(width) * height * spp;
+  double our_rays_per_path = 0, their_rays_per_path = 0;
   for (int f = 0; f < frames; ++f) {
     o.seed = uint32_t(f + 2);
-    double mine =
-        pb::trace::render_reference_classes(world, width, height, mask, o).mrays_per_second();
+    pb::trace::ReferenceResult r =
+        pb::trace::render_reference_classes(world, width, height, mask, o);
+    double mine = r.mrays_per_second();
     ours.push_back(mine);
+    our_rays_per_path = double(r.rays) / paths;
     if (pathtracer.empty()) continue;
     std::string out = pb::bench::run_capture(cmd);
     double theirs = parse_value(out, "BENCHMARK_RENDER_MRAYPS_AVG");
@@ -223,15 +228,19 @@ int main(int argc, char** argv) {
       continue;
     }
     theirs_rates.push_back(theirs);
+    double fps = parse_value(out, "BENCHMARK_RENDER_AVG");  // frames (of spp samples) a second
+    if (fps > 0) their_rays_per_path = theirs * 1e6 / fps / paths;
     ratios.push_back(mine / theirs);
   }
   fs::remove_all(dir);
   using pb::bench::median;
   double ours_median = median(ours), theirs = median(theirs_rates);
 
-  std::printf("%-34s %10s\n", "", "Mrays/s");
-  std::printf("%-34s %10.2f\n", "photonbench reference path tracer", ours_median);
-  if (theirs > 0) std::printf("%-34s %10.2f\n", "embree pathtracer tutorial", theirs);
+  std::printf("%-34s %10s %14s\n", "", "Mrays/s", "rays a path");
+  std::printf("%-34s %10.2f %14.2f\n", "photonbench reference path tracer", ours_median,
+              our_rays_per_path);
+  if (theirs > 0)
+    std::printf("%-34s %10.2f %14.2f\n", "embree pathtracer tutorial", theirs, their_rays_per_path);
   std::printf("%-34s %10.2f\n", "photonbench photon tracer", photon_rates[photon_rates.size() / 2]);
   if (theirs > 0)
     std::printf(

@@ -500,8 +500,9 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   auto t0 = std::chrono::steady_clock::now();
   LightSet lights(world_);
   std::vector<uint32_t> emission_count = old.paths_per_light;
-  Context c{&world_,         &lights,   &densities_,  old.seed,
-            old.max_bounces, old.store, old.rr_start, &emission_count};
+  // No differentials here; sample_seeds are filled by prepare_sample_seeds.
+  Context c{&world_,   &lights,      &densities_,     old.seed, old.max_bounces,
+            old.store, old.rr_start, &emission_count, false,    {}};
   prepare_sample_seeds(c, lights.size());
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<BlockOutput>& outputs = scratch.blocks;

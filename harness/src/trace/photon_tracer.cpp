@@ -469,7 +469,8 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
             settings.store,
             settings.rr_start,
             &emission_count,
-            settings.photon_differentials};
+            settings.photon_differentials,
+            {}};  // sample_seeds: filled by prepare_sample_seeds
   prepare_sample_seeds(c, lights.size());
   bool keep = settings.keep_paths;
   uint32_t wave = settings.paths, total = 0;
