@@ -82,7 +82,8 @@ void write_obj(const pb::scene::Scene& scene, const pb::scene::FrameState& state
   }
 }
 
-// Makes `scene` at `state` what the tutorial renders (see the top of the file); returns what changed.
+// Makes `scene` at `state` what the tutorial renders (see the top of the file); returns what
+// changed.
 std::string make_comparable(pb::scene::Scene& scene, pb::scene::FrameState& state) {
   using pb::scene::LightType;
   using pb::scene::MaterialType;
