@@ -520,6 +520,35 @@ TEST(Psnr, ConstantOffsetGivesTheExactValue) {
   EXPECT_GT(rmse(bright, brighter), 2.9);
 }
 
+// PSNR, RMSE, MAE and relMSE under every vector build against a plain double loop, on widths that
+// are no multiple of any vector width (the rows' remainders) and on one of several vectors.
+TEST(PixelMetrics, EveryVectorBuildMatchesAPlainSum) {
+  for (int w : {1, 3, 7, 9, 37, 533}) {
+    SCOPED_TRACE(::testing::Message() << "width " << w);
+    io::Image ref = random_ldr(w, 5, 3, 3), test = random_ldr(w, 5, 3, 4);
+    double sq = 0, sq_lin = 0, abs_lin = 0, rel_lin = 0;
+    // 8-bit values as the metrics read them (k / 255 in double); PSNR sees them as they are, the
+    // linear metrics sRGB decoded.
+    auto stored = [](float v) { return std::round(double(v) * 255.0) / 255.0; };
+    auto linear = [](double v) {
+      return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+    };
+    for (size_t i = 0; i < ref.pixels.size(); ++i) {
+      const double d = stored(test.pixels[i]) - stored(ref.pixels[i]);
+      sq += d * d;
+      const double r = linear(stored(ref.pixels[i])), dl = linear(stored(test.pixels[i])) - r;
+      sq_lin += dl * dl, abs_lin += std::fabs(dl), rel_lin += dl * dl / (r * r + 0.01);
+    }
+    const double n = double(ref.pixels.size());
+    for_each_vector_path([&] {
+      EXPECT_NEAR(*psnr(ref, test).db, 10.0 * std::log10(n / sq), 1e-9);
+      EXPECT_NEAR(rmse(ref, test), std::sqrt(sq_lin / n), 1e-9);
+      EXPECT_NEAR(mae(ref, test), abs_lin / n, 1e-9);
+      EXPECT_NEAR(relmse(ref, test), rel_lin / n, 1e-9);
+    });
+  }
+}
+
 TEST(PixelMetrics, HandComputedValues) {
   // Linear (HDR) 2x1 images: reference (1, 0.5) grey, test (1.5, 0.5) grey.
   io::Image ref(2, 1, 3, true), test(2, 1, 3, true);

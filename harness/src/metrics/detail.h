@@ -21,15 +21,9 @@
 // (below), so everything it calls inline is compiled for that level; Isa::lanes sizes its vectors
 // to the level's registers (a vector wider than the registers is lowered through the stack, lane by
 // lane: SSIM in 8-double vectors ran 3x slower on AVX2 than on AVX-512).
-//
-// PB_METRICS_KERNEL (GCC function multi-versioning, picked by the CPU alone) is kept for the plain
-// loops of scores.cpp, which the compiler vectorises itself.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define PB_METRICS_KERNEL \
-  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #define PB_METRICS_LEVELS 1
 #else
-#define PB_METRICS_KERNEL
 #define PB_METRICS_LEVELS 0
 #endif
 

@@ -54,23 +54,64 @@ struct ErrorSums {
   }
 };
 
-PB_METRICS_KERNEL double squared_error_row(const double* a, const double* b, size_t n) {
-  double s = 0;
-  for (size_t x = 0; x < n; ++x) s += (b[x] - a[x]) * (b[x] - a[x]);
-  return s;
+// The per-row error sums are kernels of every level (detail::dispatch), so use_vector_path
+// switches them as it does SSIM's and FLIP's. Each keeps Isa::lanes partial sums in a vector: the
+// compiler may not reorder a floating-point sum, so a plain loop is one serial chain of additions
+// whatever the level. The lanes are added in a fixed order after the row, so a level's result does
+// not depend on the data's alignment; levels differ by rounding.
+struct SquaredErrorRow {
+  template <class Isa>
+  [[gnu::always_inline]] static double run(const double* a, const double* b, size_t n) {
+    using V = detail::DoublesOf<Isa>;
+    constexpr size_t kLanes = Isa::lanes;
+    V acc{};
+    size_t x = 0;
+    for (; x + kLanes <= n; x += kLanes) {
+      const V d = detail::load<V>(b + x) - detail::load<V>(a + x);
+      acc += d * d;
+    }
+    double s = 0;
+    for (size_t l = 0; l < kLanes; ++l) s += acc[l];
+    for (; x < n; ++x) s += (b[x] - a[x]) * (b[x] - a[x]);
+    return s;
+  }
+};
+
+struct ErrorSumsRow {
+  template <class Isa>
+  [[gnu::always_inline]] static ErrorSums run(const double* a, const double* b, size_t n) {
+    using V = detail::DoublesOf<Isa>;
+    constexpr size_t kLanes = Isa::lanes;
+    V squared{}, absolute{}, relative{};
+    size_t x = 0;
+    for (; x + kLanes <= n; x += kLanes) {
+      const V r = detail::load<V>(a + x);
+      const V d = detail::load<V>(b + x) - r;
+      squared += d * d;
+      absolute += d < 0 ? -d : d;
+      // Relative MSE as rendering papers use it (e.g. Rousselle et al. 2011): the squared error
+      // over the squared reference, with 0.01 keeping dark pixels from dominating.
+      relative += d * d / (r * r + 0.01);
+    }
+    ErrorSums s;
+    for (size_t l = 0; l < kLanes; ++l)
+      s.squared += squared[l], s.absolute += absolute[l], s.relative += relative[l];
+    for (; x < n; ++x) {
+      const double d = b[x] - a[x];
+      s.squared += d * d;
+      s.absolute += detail::abs_d(d);
+      s.relative += d * d / (a[x] * a[x] + 0.01);
+    }
+    return s;
+  }
+};
+
+double squared_error_row(const double* a, const double* b, size_t n) {
+  return detail::dispatch<SquaredErrorRow>(a, b, n);
 }
 
-PB_METRICS_KERNEL ErrorSums error_sums_row(const double* a, const double* b, size_t n) {
-  ErrorSums s;
-  for (size_t x = 0; x < n; ++x) {
-    const double d = b[x] - a[x];
-    s.squared += d * d;
-    s.absolute += detail::abs_d(d);
-    // Relative MSE as rendering papers use it (e.g. Rousselle et al. 2011): the squared error over
-    // the squared reference, with 0.01 keeping dark pixels from dominating.
-    s.relative += d * d / (a[x] * a[x] + 0.01);
-  }
-  return s;
+ErrorSums error_sums_row(const double* a, const double* b, size_t n) {
+  return detail::dispatch<ErrorSumsRow>(a, b, n);
 }
 
 double values_per_image(const io::Image& r) { return 3.0 * double(r.width) * double(r.height); }
