@@ -470,12 +470,11 @@ class Accumulator {
                             const glm::vec3* f = &frame[i * kClasses];
                             for (size_t j = 0; j < k; ++j) {
                               int c = classes_[j];
-                              glm::dvec3 v(0.0);
-                              if (c == int(PathClass::combined)) {
-                                for (int q = 0; q < kClasses; ++q) v += glm::dvec3(f[q]);
-                              } else {
-                                v = glm::dvec3(f[c]);
-                              }
+                              // The classes' sum in float (one conversion, not five): an
+                              // iteration's image is float, its rounding far below the noise.
+                              glm::vec3 sum = f[0];
+                              for (int q = 1; q < kClasses; ++q) sum += f[q];
+                              const glm::dvec3 v(c == int(PathClass::combined) ? sum : f[c]);
                               Moments& m = moments_[i * k + j];
                               m.sum += v;
                               m.sum2 += v * v;
