@@ -160,8 +160,7 @@ int main(int argc, char** argv) {
         std::vector<double> ratios, wall_ratios, pt_s, new_s, pt_it, new_it, pt_err, new_err,
             pilot_it, pilot_s, dropped;
         bool pt_capped = false, new_capped = false, same_capped = false;
-        std::string chosen;
-        std::vector<std::string> chosen_names;
+        std::vector<std::string> chosen;  // the estimators the rounds chose, in order
         for (int round = 0; round < args.rounds; ++round) {
           trace::ReferenceOptions pt = base, fresh = base;
           pt.estimator = trace::Estimator::pt;
@@ -201,17 +200,13 @@ int main(int argc, char** argv) {
           pilot_it.push_back(b.pilot.iterations), pilot_s.push_back(b.pilot.seconds);
           dropped.push_back(b.pilot.dropped_iterations);
           std::string e(trace::estimator_name(b.estimator));
-          // Whole names: "pt" is a part of "bdpt".
-          if (std::find(chosen_names.begin(), chosen_names.end(), e) == chosen_names.end()) {
-            chosen += (chosen.empty() ? "" : "/") + e;
-            chosen_names.push_back(e);
-          }
+          if (std::find(chosen.begin(), chosen.end(), e) == chosen.end()) chosen.push_back(e);
         }
-        std::string notes = chosen;
+        std::string notes = fmt::format("{}", fmt::join(chosen, "/"));
         if (args.estimator == trace::Estimator::automatic)
           notes += fmt::format("; pilot {:.0f} it. {:.2f} s, {:.0f} pt it. dropped",
                                median(pilot_it), median(pilot_s), median(dropped));
-        if (same_capped && chosen_names.size() > 1)
+        if (same_capped && chosen.size() > 1)
           notes += fmt::format(
               "; both hit the time limit (error {:.4f} vs {:.4f}): rounds of pt against pt by "
               "time per iteration, the others by error^2 x time",

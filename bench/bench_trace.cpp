@@ -87,6 +87,16 @@ void write_obj(const pb::scene::Scene& scene, const pb::scene::FrameState& state
 std::string make_comparable(pb::scene::Scene& scene, pb::scene::FrameState& state) {
   using pb::scene::LightType;
   using pb::scene::MaterialType;
+  // Every emitter's power (lights and emissive surfaces), read before the materials lose their
+  // emission below.
+  glm::vec3 power(0.f);
+  uint32_t emitters = 0;
+  {
+    pb::trace::EmbreeScene original(scene, state, pb::trace::one_frame_options());
+    pb::trace::LightSet lights(original);
+    emitters = lights.size();
+    for (uint32_t i = 0; i < emitters; ++i) power += lights.emitter(i).power;
+  }
   std::string changed;
   int made_diffuse = 0;
   for (auto& m : scene.materials) {
@@ -97,21 +107,14 @@ std::string make_comparable(pb::scene::Scene& scene, pb::scene::FrameState& stat
     if (m.albedo == glm::vec3(0.f)) m.albedo = glm::vec3(0.5f);
   }
   if (made_diffuse) changed += fmt::format("{} material(s) made diffuse; ", made_diffuse);
-  glm::vec3 power(0.f), position(0.f, 1.f, 0.f);
-  {
-    pb::trace::EmbreeScene original(scene, state, pb::trace::one_frame_options());
-    pb::trace::LightSet lights(original);
-    for (uint32_t i = 0; i < lights.size(); ++i) power += lights.emitter(i).power;
-  }
-  bool single_point = state.lights.size() == 1 && state.lights[0].type == LightType::point;
-  if (!state.lights.empty()) position = state.lights[0].position;
+  bool single_point =
+      emitters == 1 && state.lights.size() == 1 && state.lights[0].type == LightType::point;
   if (!single_point) {
-    changed += fmt::format("{} light(s) replaced by one point light of their power; ",
-                           state.lights.size());
+    changed += fmt::format("{} emitter(s) replaced by one point light of their power; ", emitters);
     pb::scene::Light point;
     point.name = "comparable";
     point.type = LightType::point;
-    point.position = position;
+    point.position = state.lights.empty() ? glm::vec3(0.f, 1.f, 0.f) : state.lights[0].position;
     point.radiant = power == glm::vec3(0.f) ? glm::vec3(1.f) : power / (4.f * float(M_PI));
     state.lights = {point};
     scene.lights.resize(1);

@@ -468,13 +468,13 @@ class Accumulator {
                         [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t i = r.begin(); i != r.end(); ++i) {
                             const glm::vec3* f = &frame[i * kClasses];
+                            // The classes' sum in float (one conversion, not five): an
+                            // iteration's image is float, its rounding far below the noise.
+                            glm::vec3 combined = f[0];
+                            for (int q = 1; q < kClasses; ++q) combined += f[q];
                             for (size_t j = 0; j < k; ++j) {
                               int c = classes_[j];
-                              // The classes' sum in float (one conversion, not five): an
-                              // iteration's image is float, its rounding far below the noise.
-                              glm::vec3 sum = f[0];
-                              for (int q = 1; q < kClasses; ++q) sum += f[q];
-                              const glm::dvec3 v(c == int(PathClass::combined) ? sum : f[c]);
+                              const glm::dvec3 v(c == int(PathClass::combined) ? combined : f[c]);
                               Moments& m = moments_[i * k + j];
                               m.sum += v;
                               m.sum2 += v * v;

@@ -44,7 +44,7 @@ struct Hit {
 // A ray for the stream queries: origin + t dir, t in (0, tmax].
 struct Ray {
   glm::vec3 origin{0.0f}, dir{0.0f, 0.0f, 1.0f};
-  float tmax = std::numeric_limits<float>::infinity();
+  float tmax = kUnboundedRay;
 };
 
 // World-space data of one triangle (for ray differentials: the normal's derivative along the
