@@ -1,6 +1,6 @@
 // aaps: adaptive anisotropic photon scattering (Yang & Ouyang 2021, as re-implemented and settled
 // in seed 004, van Casteren 2023), with the thesis's MSAA variants (§5.1). Per frame:
-//   photon-trace  the CPU tracer emits each light's task buffer (TraceSettings::aaps: a grid of
+//   photon-trace  the CPU tracer emits each light's task buffer (photon_rules.h: a grid of
 //                 floor(sqrt(D))^2 photons per density texel, first hit a dielectric, split once
 //                 then repeat, stored at the first diffuse hit); each stored photon's two
 //                 differentials give an ellipse, clamped in anisotropy, culled outside the frustum
@@ -29,6 +29,7 @@
 
 #include "aaps_shaders.h"
 #include "footprint.h"
+#include "photon_rules.h"
 #include "photonbench/error.h"
 #include "photonbench/plugin.h"
 #include "photonbench/scene_layout.h"
@@ -211,11 +212,12 @@ class Aaps final : public pb::Technique {
                                          : Msaa::none;
     pb::toolkit::configure_shadows(ctx, uint32_t(params.integer("shadow_map_size")));
 
-    settings_.aaps = true;
-    settings_.store = pb::trace::kCausticPhotons;
+    // The thesis's photons (photon_rules.h): the task buffer's emission and its caustic rule.
     settings_.max_bounces = uint32_t(params.integer("max_bounces"));
     settings_.seed_per_frame = false;
-    settings_.aaps_jitter = params.flag("emission_jitter");
+    settings_.emission = &emission_;
+    settings_.policy = &caustic_rule_;
+    emission_.set_jitter(params.flag("emission_jitter"));
     refracted_area_only_ = params.choice("feedback_halves") == "refracted";
 
     pb::gpu::Device& gpu = ctx.gpu();
@@ -303,10 +305,11 @@ class Aaps final : public pb::Technique {
     const pb::FrameInfo& f = ctx.frame();
     {
       auto scope = ctx.pass("photon-trace");
-      pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
-      for (uint32_t l = 0; l < lights_.size(); ++l)
-        tracer.set_emission_density(l, &lights_[l].density);
-      tracer.trace(settings_, batch_);
+      std::vector<const pb::trace::EmissionDensity*> counts;
+      for (const LightTasks& l : lights_) counts.push_back(&l.density);
+      emission_.set_counts(std::move(counts));
+      ctx.photon_tracer().trace(settings_, batch_);
+      texel_power_ = emission_.texel_power(batch_.emitted_power);
       build_splats(ctx, f);
     }
     // ctx.cmd() is asked for in each pass: a pass scope may submit and start a fresh buffer.
@@ -398,8 +401,8 @@ class Aaps final : public pb::Technique {
       float screen_area = float(M_PI) * std::abs(d1.x * d2.y - d1.y * d2.x);
       glm::vec3 brightness = p.power / world_area;  // §3.2.1: energy / splat area
       // The texel's own emitted power (the tracer's): a spot light's texels differ by its falloff.
-      float fraction = aaps::energy_fraction(p.power, batch_.texel_power[p.light][leaf.texel]);
-      const int half = (p.flags & PB_PHOTON_REFRACTED_HALF) ? 1 : 0;
+      float fraction = aaps::energy_fraction(p.power, texel_power_[p.light][leaf.texel]);
+      const int half = (p.flags & aaps::kRefractedHalf) ? 1 : 0;
       if (!refracted_area_only_ || half == 1) light.area[leaf.texel] += fraction * screen_area;
       size_t bin = 0;
       while (bin < std::size(kAreaBins) && screen_area >= float(kAreaBins[bin])) ++bin;
@@ -531,7 +534,10 @@ class Aaps final : public pb::Technique {
   Msaa msaa_ = Msaa::none;
   bool refracted_area_only_ = false;
   pb::trace::TraceSettings settings_;
+  aaps::GridEmission emission_;
+  aaps::CausticSplitRule caustic_rule_;
   pb::trace::PhotonBatch batch_;
+  std::vector<std::vector<float>> texel_power_;  // per light and texel: its photons' power
   std::vector<LightTasks> lights_;
   std::vector<Vertex> single_, multi_;
   std::vector<Accepted> accepted_;

@@ -201,7 +201,7 @@ class PathVerification final : public Technique {
     // Every variant traces the same sample sequence each frame (the paths keep the seed they were
     // first traced with), so that on a static scene the baseline's photons are the reuse's.
     settings_.seed_per_frame = false;
-    settings_.keep_paths = true;
+    settings_.keep_light_paths = true;
     configure_shadows(ctx, photon_.shadow_map_size);
     splatter_ = make_splatter(params.choice(kSplatterParam.name));
     splatter_->setup(ctx, params, photon_);

@@ -2,7 +2,7 @@
 // 003). Every photon hit carries its own footprint from photon differentials, the photon map is a
 // linear BVH over the footprints' ellipsoids rebuilt on the GPU each frame, and a query sums every
 // footprint that contains the shading point, with no k-nearest search. Per frame:
-//   photon-trace   the CPU tracer with TraceSettings::photon_differentials (Eqs. 2-9 at the light,
+//   photon-trace   the CPU tracer with differential_rules.h as its policy (Eqs. 2-9 at the light,
 //                  Igehy's transfer at specular hits, re-emission with a virtual origin at diffuse
 //                  ones, Eqs. 10-13, Russian roulette's 1 / sqrt(p), §4.2); the first hits (direct
 //                  light is shaded, not estimated) only give the lit surface area for T_auto;
@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "differential_rules.h"
 #include "footprint.h"
 #include "photon-differentials_shaders.h"
 #include "photonbench/error.h"
@@ -216,7 +217,7 @@ class PhotonDifferentials final : public pb::Technique {
     verify_ = params.flag("verify");
 
     settings_ = photon_.trace_settings();
-    settings_.photon_differentials = true;
+    settings_.policy = &differential_rules_;
     // First hits give the lit surface area (T_auto) and are dropped before the upload, unless the
     // test hook keeps them in the map.
     settings_.store |= pb::trace::kDirectPhotons;
@@ -500,6 +501,7 @@ class PhotonDifferentials final : public pb::Technique {
   double lit_area_ = 0;
   uint32_t width_ = 0, height_ = 0, capacity_ = 0;
   pb::trace::TraceSettings settings_;
+  pd::DifferentialRules differential_rules_;  // the tracer policy of §4 (differential_rules.h)
   pb::trace::PhotonBatch batch_;
   std::vector<size_t> kept_;
   tk::RadixSort sort_;

@@ -239,7 +239,7 @@ class RsmPhotons final : public pb::Technique {
     rsm_settings_.max_bounces = uint32_t(params.integer("max_bounces"));
     rsm_settings_.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
     rsm_settings_.rr_start = 1;
-    rsm_settings_.keep_paths = true;
+    rsm_settings_.keep_light_paths = true;
     rsm_settings_.seed = 0x52534d;
     rsm_settings_.seed_per_frame = true;
     // The photons: the first hit not stored (the photon map holds indirect bounces only, Fig. 4.1),
@@ -248,7 +248,7 @@ class RsmPhotons final : public pb::Technique {
     trace_.max_bounces = uint32_t(params.integer("max_bounces"));
     trace_.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
     trace_.rr_start = params.flag("first_hit_roulette") ? 0 : 1;
-    trace_.keep_paths = true;
+    trace_.keep_light_paths = true;
     trace_.seed = 1;
     trace_.seed_per_frame = true;
 

@@ -29,7 +29,7 @@ double check_every_caustic_path_is_aimed_at(const EmbreeScene& world, uint32_t p
   ts.store = kCausticPhotons | kCausticIndirectPhotons;
   ts.max_bounces = 8;
   ts.rr_start = 0;
-  ts.keep_paths = true;
+  ts.keep_light_paths = true;
   ts.seed = 5;
   PhotonBatch batch;
   tracer.trace(ts, batch);

@@ -429,7 +429,7 @@ TEST(PhotonTracer, RetraceInvalidKeepsValidPathsAndMatchesAFreshTrace) {
   s.store = kAllPhotons;
   s.max_bounces = 4;
   s.seed_per_frame = true;  // the frame seed is taken when first traced and kept by the paths
-  s.keep_paths = true;
+  s.keep_light_paths = true;
   PhotonBatch batch;
   TraceStats first = tracer.trace(s, batch);
   PhotonBatch before = batch;
@@ -509,7 +509,7 @@ TEST(PhotonTracer, ASeedScrambleTracesOtherPathsAndKeepsThem) {
   s.paths = 2000;
   s.store = kAllPhotons;
   s.max_bounces = 4;
-  s.keep_paths = true;
+  s.keep_light_paths = true;
   s.seed_per_frame = false;  // the kept paths' seed is then compared with the settings'
   const uint32_t scramble = 77;
   EmbreePhotonTracer plain(world), seeded(world, scramble);
@@ -539,7 +539,7 @@ TEST(PhotonTracer, RetraceInvalidRetracesWholePathsOfAMovedLight) {
   EmbreePhotonTracer tracer(world);
   TraceSettings s;
   s.paths = 4000;
-  s.keep_paths = true;
+  s.keep_light_paths = true;
   PhotonBatch batch;
   tracer.trace(s, batch);
   scene::FrameState next = t.state;
@@ -673,7 +673,7 @@ TEST(PhotonTracer, EmissionFollowsTheDensityTextureAndKeepsPower) {
   density.texels = {1, 2, 3, 4, 0.5f, 0, 8, 1, 1, 1, 1, 1, 6, 2, 0.25f, 3};
   tracer.set_emission_density(0, &density);
   TraceSettings s = direct_only(64000);
-  s.keep_paths = true;
+  s.keep_light_paths = true;
   PhotonBatch batch;
   tracer.trace(s, batch);
   // One texel of 16 has density 0: its sixteenth of the sphere gets no photons, the rest keeps its

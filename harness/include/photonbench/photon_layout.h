@@ -39,16 +39,9 @@ struct PhotonRecord {
   PB_UINT light;          // index of the emitting light (scene lights, then emissive objects)
   PB_VEC3 footprint_v;    // the same for the second emission parameter; |u x v| ~ area per photon,
                           // m^2
-  PB_UINT flags;          // AAPS (TraceSettings::aaps): PB_PHOTON_REFRACTED_HALF when the photon
-                          // is the refracted part of its split (seed 004 §3.3.1), clear for the
-                          // reflected part; photon differentials
-                          // (TraceSettings::photon_differentials): the bits of the float spacing
-                          // Delta the footprint was scaled by (uintBitsToFloat in GLSL), so that
-                          // |footprint_u| / Delta is the positional differential's length; 0 for
-                          // other traces
+  PB_UINT flags;          // the technique's own bits, set by its vertex policy
+                          // (pb::trace::VertexDecision::photon_flags); 0 without one
 };
-
-#define PB_PHOTON_REFRACTED_HALF 1u
 
 #undef PB_VEC3
 #undef PB_UINT

@@ -1,5 +1,6 @@
-// The photon tracer as technique plugins see it: the photon record, which photons to store, whole
-// light paths for reuse across frames, and the emission-density hook of adaptive emission.
+// The photon tracer as technique plugins see it: the photon record, the settings and policies of a
+// trace (where photons leave the lights, what happens at each surface interaction), whole light
+// paths for reuse across frames, and the emission-density hook of adaptive emission.
 //
 // The tracer runs on the CPU over the World's Embree scene (src/trace/), multi-threaded with oneTBB
 // and deterministic for a given seed whatever the thread count: path i always uses sample index i
@@ -14,6 +15,8 @@
 #include <cstdint>
 #include <glm/glm.hpp>
 #include <memory>
+#include <optional>
+#include <span>
 #include <vector>
 
 namespace pb::trace {
@@ -33,12 +36,12 @@ static_assert(offsetof(PhotonRecord, footprint_v) == 80 && offsetof(PhotonRecord
 // rough dielectric, rough conductor), D a diffuse one (diffuse and emissive materials). Photons are
 // stored on diffuse surfaces only. The four kinds partition all stored photons.
 enum PhotonKind : uint32_t {
-  kDirectPhotons = 1u << 0,    // L D: the first hit (Paper I skips these: direct light is shaded)
-  kCausticPhotons = 1u << 1,   // L S+ D: the caustic map (AAPS stores only these)
-  kIndirectPhotons = 1u << 2,  // L D (D|S)* D: first hit diffuse, at least one more bounce
+  kDirectPhotons = 1u << 0,           // L D: the first hit (left out where direct light is shaded)
+  kCausticPhotons = 1u << 1,          // L S+ D: the caustic map
+  kIndirectPhotons = 1u << 2,         // L D (D|S)* D: first hit diffuse, at least one more bounce
   kCausticIndirectPhotons = 1u << 3,  // L S+ D (D|S)* D: first hit specular, a diffuse hit between
   kAllPhotons = 15u,
-  kPaperIPhotons = kCausticPhotons | kIndirectPhotons | kCausticIndirectPhotons,  // all but L D
+  kAllButDirectPhotons = kCausticPhotons | kIndirectPhotons | kCausticIndirectPhotons,
 };
 
 // The kind of a photon with `specular_mask` stored at interaction `bounce`.
@@ -54,9 +57,10 @@ inline PhotonKind photon_kind(const PhotonRecord& p) {
   return photon_kind(p.specular_mask, p.bounce);
 }
 
-// A 2D density over a light's emission domain [0,1]^2 (AAPS's ray-density texture, Paper II's
-// target distribution map): photons are emitted with probability proportional to the texel value,
-// and their power is divided by that probability, so the expected power per texel is unchanged --
+// A 2D density over a light's emission domain [0,1]^2 (a technique's adaptive emission: a
+// ray-density texture, a target distribution map): photons are emitted with probability
+// proportional to the texel value, and their power is divided by that probability, so the
+// expected power per texel is unchanged --
 // except in texels of density 0, which emit nothing (their share of the light is dropped on
 // purpose). The domain of each light type is equal-measure (uniform (u,v) emits power uniformly):
 //   point: direction, z = 1 - 2u, phi = 2 pi v (equal-area sphere);
@@ -72,48 +76,158 @@ struct EmissionDensity {
   std::vector<float> texels;  // width * height, row-major by v; non-negative, not all zero
 };
 
+// ---- Tracer policies: what a technique decides about its photons, while the tracer keeps the
+// physics (BSDF sampling, Fresnel weights, Russian roulette, the transfer of ray differentials).
+// A technique that needs another emission or another rule at a vertex supplies a policy from its
+// own folder; the tracer names no technique.
+
+// What the tracer emits from, in emission order: the scene's lights, then each emissive object.
+enum class EmitterKind : uint32_t { point, spot, directional, quad, disc, mesh };
+struct EmitterInfo {
+  EmitterKind kind = EmitterKind::point;
+  glm::vec3 power{0.0f};  // W (RGB), this frame
+};
+
+// One photon leaving a light, as an emission sampler places it.
+struct EmissionPoint {
+  uint32_t light = 0;
+  glm::vec2 uv{0.5f};         // the point of the light's emission domain (see EmissionDensity)
+  glm::vec2 direction{0.5f};  // surface emitters: the sample of the cosine-distributed direction
+  // Photons this light emits per unit of its emission domain at `uv` (N times the density's pdf):
+  // the photon carries the light's power divided by it, and its footprint is scaled by the photon
+  // spacing 1 / sqrt(photon_density).
+  float photon_density = 1;
+  uint32_t id = 0;  // PhotonRecord::path of the photons this emission stores
+};
+
+// The whole trace's context an emission sampler is prepared with.
+struct EmissionFrame {
+  std::span<const EmitterInfo> emitters;
+  uint32_t frame = 0;
+  // A seed axis' cell's scramble (none outside a seed axis): a sampler with no randomness of its
+  // own hashes it in, so that the seeds of a seed axis see other photons.
+  std::optional<uint32_t> seed_scramble;
+};
+
+// Where photons leave the lights: a sampler lists one trace's emissions. Without one the tracer
+// emits `TraceSettings::paths` paths shared among the lights by power, each from an Owen-scrambled
+// Sobol point, through the light's EmissionDensity where one is set.
+class EmissionSampler {
+ public:
+  virtual ~EmissionSampler() = default;
+  // Called once per trace, before any emission(): the number of photons to emit. Throws
+  // InputError for lights it cannot emit from.
+  virtual uint64_t prepare(const EmissionFrame& frame) = 0;
+  // The i-th emission, i < prepare()'s count; called from many threads at once.
+  virtual EmissionPoint emission(uint64_t i) const = 0;
+};
+
+// What a surface does to a photon, by the path-expression letter it adds: D (diffuse, emissive),
+// or S (a perfect mirror, a smooth dielectric, or a rough lobe: glossy).
+enum class SurfaceKind : uint32_t { diffuse, mirror, dielectric, glossy };
+
+// How a photon leaves a vertex.
+enum class Scatter : uint32_t {
+  end,      // absorbed here (nothing traced further)
+  sample,   // importance-sample the BSDF; Russian roulette from TraceSettings::rr_start
+  reflect,  // the specular reflection, carrying its Fresnel share (mirror, smooth dielectric)
+  refract,  // the specular refraction, carrying its share (total internal reflection reflects)
+  split,    // both reflect and refract, each a part of its own that traces on with the decision's
+            // state (the refracted part first); never roulette
+};
+
+// A photon's footprint: its ray differentials with respect to the two emission-domain coordinates,
+// and the photon spacing that scales them (PhotonRecord::footprint_u = dp_du * spacing).
+struct Footprint {
+  glm::vec3 dp_du{0.0f}, dp_dv{0.0f}, dd_du{0.0f}, dd_dv{0.0f};
+  float spacing = 0;
+};
+
+struct TraceSettings;
+
+// A photon arriving at surface interaction `index`, as a vertex policy sees it.
+struct Interaction {
+  uint32_t index = 0;  // 0: the first hit from the light
+  uint32_t light = 0;
+  SurfaceKind surface = SurfaceKind::diffuse;
+  uint32_t specular_mask = 0;            // interactions 0..index-1 (bit i: S), as in PhotonRecord
+  Scatter arrived_by = Scatter::sample;  // how it left the vertex before (sample at emission)
+  uint32_t state = 0;  // the policy's own bits, carried along the path (0 at emission)
+  glm::vec3 position{0.0f}, normal{0.0f}, direction{0.0f}, power{0.0f};
+  const Footprint* footprint = nullptr;  // arriving differentials, transferred to this hit
+  const TraceSettings* settings = nullptr;
+};
+
+struct VertexDecision {
+  bool store = false;         // store a photon here (diffuse surfaces only)
+  uint32_t photon_flags = 0;  // its PhotonRecord::flags
+  Scatter scatter = Scatter::sample;
+  uint32_t state = 0;  // carried to the next interaction (of every part)
+};
+
+// The tracer's own decision, which a policy may start from: store where the photon's kind
+// (photon_kind) is in `settings.store`; scatter by sampling while a photon can still be stored.
+inline VertexDecision default_decision(const Interaction& at, uint32_t store, uint32_t max_bounces);
+
+// A technique's rule at each surface interaction, and optionally how footprints start and change
+// where the tracer has no one answer (a point light's emission, a diffuse bounce, roulette).
+class VertexPolicy {
+ public:
+  virtual ~VertexPolicy() = default;
+  virtual VertexDecision decide(const Interaction& at) const = 0;
+  // Footprint hooks, called only when shapes_footprints(). Without them: differentials of the
+  // emission domain's (u, v) at emission, restarted after a diffuse bounce from the finite
+  // differences of the cosine map with spacing 1 / sqrt(N), untouched by roulette.
+  virtual bool shapes_footprints() const { return false; }
+  // At emission from `kind`, travelling `direction`.
+  virtual void emitted(EmitterKind /*kind*/, const glm::vec3& /*direction*/,
+                       Footprint& /*f*/) const {}
+  // After a diffuse bounce about `normal` into `direction`; `f` holds the arriving positional
+  // differentials (transferred to the hit), its directional ones are to be set.
+  virtual void scattered_diffusely(const glm::vec3& /*normal*/, const glm::vec3& /*direction*/,
+                                   Footprint& /*f*/) const {}
+  // After surviving Russian roulette with probability `survival` < 1.
+  virtual void survived_roulette(float /*survival*/, Footprint& /*f*/) const {}
+};
+
 struct TraceSettings {
   uint32_t paths = 100000;     // light paths emitted per trace, shared among lights by power
   uint32_t photon_target = 0;  // > 0: emit more paths until this many photons are stored (Paper I
       // §5); `paths` is then the first wave, and at most max_paths are used
   uint32_t max_paths = 1u << 26;
-  uint32_t max_bounces = 8;         // surface interactions per path (stored or not), at most 31
-  uint32_t store = kPaperIPhotons;  // PhotonKind mask
-  uint32_t rr_start = 1;            // Russian roulette from this interaction on (0 = the first hit)
+  uint32_t max_bounces = 8;  // surface interactions per path (stored or not), at most 31
+  uint32_t store = kAllButDirectPhotons;  // PhotonKind mask (the default decision's)
+  uint32_t rr_start = 1;  // Russian roulette from this interaction on (0 = the first hit)
   uint32_t seed = 1;
   bool seed_per_frame = true;  // true: the sequence is scrambled with hash(seed, frame) (fresh
                                // photons each frame); false: identical photons every frame
-  bool keep_paths = false;     // keep whole light paths for retrace_invalid (path verification)
-  // AAPS (seed 004 §1.4-1.5). Emission: each light's emission density holds photon counts D per
-  // texel (square, power-of-two side; required); texel t emits n = floor(sqrt(D))^2 photons on an
-  // m x m grid at the cell centres, in the order of a sum-quadtree walk (texels in Morton order,
-  // x bit first), with power = light power / texels / n; PhotonRecord::path is the task id within
-  // its light; `paths`, `photon_target`, `rr_start` and the seed are unused. Tracing: the first hit
-  // must be a dielectric, else the photon is discarded; the first dielectric hit splits it into
-  // its reflected and refracted parts (Fresnel weights), every later specular hit repeats the
-  // part's last interaction (refraction under total internal reflection reflects); the photon is
-  // stored at its first diffuse hit only (L S+ D) or lost at max_bounces, the recursion cap.
-  // Glossy (rough) surfaces end the photon. keep_paths is refused.
-  bool aaps = false;
-  // AAPS: each photon at a fixed pseudo-random point of its grid cell (a hash of texel, cell and
-  // m; the same every frame) instead of the cell centre: still one photon per cell, so evenly
-  // spaced (stratified), but no longer a lattice, whose tiny splats at a focus cover a pixel
-  // centre or sample all together or not at all as the lattice slides over the pixel grid. A seed
-  // axis' cell (`seeds: K`) hashes its seed in: its photons lie at other points of the same cells.
-  bool aaps_jitter = false;
-  // Photon differentials (seed 003, Fabianowski and Dingliana 2009, §4): a point or spot light
-  // emits with the isotropic differentials of Eq. 8, unit vectors orthogonal to the direction, and
-  // one spacing Delta = sqrt(solid angle per photon) (Eq. 9: 2 sqrt(pi / n) for a point light); a
-  // diffuse bounce is an absorption and re-emission (§4.3): Eq. 8's vectors in the surface's frame,
-  // positional differentials v times them with v of Eq. 13, so the footprint keeps its area at the
-  // bounce, and the same Delta; a photon surviving Russian roulette with probability p has all four
-  // differentials scaled by 1 / sqrt(p) (§4.2). Specular transfer is the tracer's own (Igehy
-  // 1999). Each record's footprint_u / footprint_v are then Delta times the positional
-  // differentials (the footprint's semi-axes before the technique's post-processing) and its
-  // flags hold the bits of the float Delta. Area lights keep their (u, v) differentials. Refused
-  // with aaps and keep_paths.
-  bool photon_differentials = false;
+  // Keep whole light paths (PhotonBatch::paths) for the path-reuse service (retrace_invalid,
+  // verify_paths): with the tracer's own emission and decisions only.
+  bool keep_light_paths = false;
+  // The technique's policies (owned by it, alive through the trace; null: the tracer's own).
+  // With an emission sampler, `paths`, `photon_target` and the seed are unused.
+  EmissionSampler* emission = nullptr;
+  const VertexPolicy* policy = nullptr;
 };
+
+// Can a photon still be stored after interaction k, given the path's mask with k's letter in it?
+inline bool storable_after(uint32_t mask, uint32_t k, uint32_t store) {
+  if (!(mask & 1u)) return (store & kIndirectPhotons) != 0;
+  const uint32_t all = k >= 31 ? ~0u : ((1u << (k + 1)) - 1u);
+  const bool all_specular = (mask & all) == all;
+  return (store & (kCausticIndirectPhotons | (all_specular ? uint32_t(kCausticPhotons) : 0u))) != 0;
+}
+
+inline VertexDecision default_decision(const Interaction& at, uint32_t store,
+                                       uint32_t max_bounces) {
+  const bool diffuse = at.surface == SurfaceKind::diffuse;
+  const uint32_t mask = at.specular_mask | (diffuse ? 0u : 1u << at.index);
+  VertexDecision d;
+  d.store = diffuse && (photon_kind(at.specular_mask, at.index) & store);
+  d.scatter = at.index + 1 < max_bounces && storable_after(mask, at.index, store) ? Scatter::sample
+                                                                                  : Scatter::end;
+  return d;
+}
 
 // How verify_paths decides that a kept segment is still valid (Paper II §3.2-3.3).
 enum class ReuseRule : uint32_t {
@@ -203,13 +317,11 @@ struct LightPaths {
 
 struct PhotonBatch {
   std::vector<PhotonRecord> photons;  // in path order
-  LightPaths paths;                   // filled when TraceSettings::keep_paths
+  LightPaths paths;                   // filled when TraceSettings::keep_light_paths
   TraceStats stats;
-  // TraceSettings::aaps: per light, per emission-density texel (row-major), the power its photons
-  // left the light with (mean over RGB, W), the denominator of a photon's energy fraction in its
-  // texel (seed 004 §3.1.5). Equal texels for point and directional lights (power / texels); a
-  // spot light's differ by its falloff. Empty for other traces.
-  std::vector<std::vector<float>> texel_power;
+  // With an emission sampler: the power each emission left its light with (mean over RGB, W), in
+  // emission order (a spot light's falloff included). Empty for other traces.
+  std::vector<float> emitted_power;
 };
 
 // The tracer of one World. It reads the World's current frame (lights, transforms) at each call, so
@@ -219,6 +331,7 @@ class PhotonTracer {
   virtual ~PhotonTracer() = default;
   // Lights in emission order: Scene lights, then each object with an emissive material.
   virtual uint32_t light_count() const = 0;
+  virtual EmitterInfo light(uint32_t light) const = 0;
   // Power of light `i` this frame, W (RGB).
   virtual glm::vec3 light_power(uint32_t light) const = 0;
   // Emission density of light `i` (null: uniform). The tracer keeps its own copy.
@@ -226,11 +339,11 @@ class PhotonTracer {
   // Traces `settings.paths` fresh light paths (or until photon_target) in the current frame.
   virtual TraceStats trace(const TraceSettings& settings, PhotonBatch& out) = 0;
   // Path verification (Paper II §3.2): tests every segment of the paths in `batch` (from a trace
-  // with keep_paths) against what moved since they were traced and re-traces each path from its
-  // first invalid segment; valid prefixes and their photons are kept. A path whose light changed is
-  // re-traced whole; if the settings or the lights' power split changed, everything is traced
-  // afresh. Re-traced parts continue the path's own sample sequence, so the result equals a fresh
-  // trace with the seed the paths were first traced with.
+  // with keep_light_paths) against what moved since they were traced and re-traces each path from
+  // its first invalid segment; valid prefixes and their photons are kept. A path whose light
+  // changed is re-traced whole; if the settings or the lights' power split changed, everything is
+  // traced afresh. Re-traced parts continue the path's own sample sequence, so the result equals
+  // a fresh trace with the seed the paths were first traced with.
   virtual TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) = 0;
   // Path verification in the two steps Paper II Fig. 8 times apart. verify_paths ("dynamic
   // occlusion") sets LightPath::restart of every path in `batch` by `reuse.rule`; error_based also

@@ -405,7 +405,7 @@ TraceStats EmbreePhotonTracer::verify_paths(const TraceSettings& settings,
   scratch.verify_stats = TraceStats{};
   if (!motion.compatible) {
     TraceSettings fresh = settings;
-    fresh.keep_paths = true;
+    fresh.keep_light_paths = true;
     TraceStats stats = trace(fresh, batch);
     for (const LightPath& path : batch.paths.paths)
       stats.full_retrace_rays += path_segments(path, batch.paths.vertices);
@@ -502,7 +502,8 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   std::vector<uint32_t> emission_count = old.paths_per_light;
   // No differentials here; sample_seeds are filled by prepare_sample_seeds.
   Context c{&world_,   &lights,      &densities_,     old.seed, old.max_bounces,
-            old.store, old.rr_start, &emission_count, false,    {}};
+            old.store, old.rr_start, &emission_count, nullptr,  nullptr,
+            {}};
   prepare_sample_seeds(c, lights.size());
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<BlockOutput>& outputs = scratch.blocks;

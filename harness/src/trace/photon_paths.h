@@ -1,5 +1,5 @@
-// What the photon tracer's three parts share (photon_tracer.cpp: emission and scattering;
-// path_verification.cpp: Paper II's reuse steps; aaps_emission.cpp: AAPS's task-buffer emission):
+// What the photon tracer's parts share (photon_tracer.cpp: emission and scattering, with a
+// technique's policies; path_verification.cpp: the reuse steps of kept light paths):
 // the fixed blocks paths are traced in, emission of a path's vertex 0, the continuation of a path
 // to its end, the gather of block outputs into a batch, and the snapshot of the lights a path set
 // remembers. Internal to src/trace.
@@ -34,8 +34,9 @@ struct Context {
   const std::vector<std::shared_ptr<const Distribution2D>>* densities = nullptr;
   uint32_t seed = 0, max_bounces = 0, store = 0, rr_start = 0;
   const std::vector<uint32_t>* emission_count =
-      nullptr;                        // N used for each emitter's power and spacing
-  bool photon_differentials = false;  // TraceSettings::photon_differentials (seed 003 §4)
+      nullptr;                           // N used for each emitter's power and spacing
+  const VertexPolicy* policy = nullptr;  // the technique's (TraceSettings::policy), or null
+  const TraceSettings* settings = nullptr;
   // Each light's sobol_group seeds for groups 0..max_bounces (prepare_sample_seeds), so that a
   // vertex's sample hashes no seed: [light * (max_bounces + 1) + group].
   std::vector<SobolGroupSeeds> sample_seeds;
@@ -51,6 +52,42 @@ inline void prepare_sample_seeds(Context& c, uint32_t lights) {
   for (uint32_t l = 0; l < lights; ++l)
     for (uint32_t g = 0; g <= c.max_bounces; ++g)
       c.sample_seeds[l * (c.max_bounces + 1) + g] = sobol_group_seeds(g, hash_combine(c.seed, l));
+}
+
+// Parts of one path a vertex policy's splits may leave waiting at once.
+constexpr int kMaxSplitParts = 8;
+
+inline SurfaceKind surface_kind(scene::MaterialType type, bool diffuse) {
+  if (diffuse) return SurfaceKind::diffuse;
+  if (type == scene::MaterialType::mirror) return SurfaceKind::mirror;
+  if (type == scene::MaterialType::dielectric) return SurfaceKind::dielectric;
+  return SurfaceKind::glossy;
+}
+
+inline EmitterKind emitter_kind(EmitterType type) {
+  switch (type) {
+    case EmitterType::point:
+      return EmitterKind::point;
+    case EmitterType::spot:
+      return EmitterKind::spot;
+    case EmitterType::directional:
+      return EmitterKind::directional;
+    case EmitterType::quad:
+      return EmitterKind::quad;
+    case EmitterType::disc:
+      return EmitterKind::disc;
+    case EmitterType::mesh:
+      return EmitterKind::mesh;
+  }
+  return EmitterKind::point;
+}
+
+inline Footprint footprint_of(const PathVertex& v) {
+  return {v.dp_du, v.dp_dv, v.dd_du, v.dd_dv, v.spacing};
+}
+inline void set_footprint(PathVertex& v, const Footprint& f) {
+  v.dp_du = f.dp_du, v.dp_dv = f.dp_dv, v.dd_du = f.dd_du, v.dd_dv = f.dd_dv;
+  v.spacing = f.spacing;
 }
 
 struct BlockOutput {
@@ -78,6 +115,11 @@ glm::vec3 scatter_differential(const Triangle& tri, const Hit& hit, const BsdfSa
 // an emission density uses that density's pdf at it.
 PathVertex emit(const Context& c, const PathTask& task, glm::vec2* uv_out,
                 glm::vec2* dir_out = nullptr, const glm::vec4* fixed = nullptr);
+
+// Vertex 0 of a path leaving `light` along `ray` with `photon_density` photons per unit of the
+// emission domain: power and spacing from it, footprints through the policy's hook.
+PathVertex start_vertex(const Context& c, uint32_t light, const EmissionRay& ray,
+                        float photon_density);
 
 // Continues a path from its last vertex, which holds the outgoing state, until it terminates.
 // Appends vertices and the photons stored on the way; returns the number of segments traced.

@@ -5,7 +5,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -38,25 +37,6 @@ glm::vec3 normal_derivative(const Triangle& tri, glm::vec2 bary, const glm::vec3
   glm::vec3 dn = db1 * (tri.n[1] - tri.n[0]) + db2 * (tri.n[2] - tri.n[0]);
   glm::vec3 ns = n_raw / len;
   return (dn - ns * glm::dot(ns, dn)) / len;
-}
-
-// Can a photon still be stored after interaction k, given the path so far (`mask` includes bit k)?
-bool storable_later(uint32_t mask, uint32_t k, uint32_t store) {
-  if (!(mask & 1u)) return (store & kIndirectPhotons) != 0;
-  uint32_t all = k >= 31 ? ~0u : ((1u << (k + 1)) - 1u);
-  bool all_specular = (mask & all) == all;
-  return (store & (kCausticIndirectPhotons | (all_specular ? uint32_t(kCausticPhotons) : 0u))) != 0;
-}
-
-// Seed 003 Eq. 8: the directional differentials of direction d = (cos phi sin theta, sin phi sin
-// theta, cos theta) with respect to cos theta and phi, pre-scaled by sin theta and 1 / sin theta:
-// unit vectors orthogonal to d and to each other (in the frame d is given in).
-void isotropic_differentials(const glm::vec3& d, glm::vec3& d_cos_theta, glm::vec3& d_phi) {
-  float sin_theta = std::sqrt(std::max(0.f, d.x * d.x + d.y * d.y));
-  float cos_phi = 1, sin_phi = 0;
-  if (sin_theta > 1e-6f) cos_phi = d.x / sin_theta, sin_phi = d.y / sin_theta;
-  d_cos_theta = {-cos_phi * d.z, -sin_phi * d.z, sin_theta};
-  d_phi = {-sin_phi, cos_phi, 0.f};
 }
 
 }  // namespace
@@ -112,25 +92,28 @@ PathVertex emit(const Context& c, const PathTask& task, glm::vec2* uv_out, glm::
   }
   EmissionRay r = c.lights->emit(task.light, uv, {xi.z, xi.w});
   float n = float(std::max(1u, (*c.emission_count)[task.light]));
+  PathVertex v = start_vertex(c, task.light, r, n * pdf);
+  if (uv_out) *uv_out = uv;
+  if (dir_out) *dir_out = {xi.z, xi.w};
+  return v;
+}
+
+PathVertex start_vertex(const Context& c, uint32_t light, const EmissionRay& r,
+                        float photon_density) {
   PathVertex v;
   v.position = r.origin;
   v.object = kNoObject;
   v.direction = r.direction;
   v.normal = r.normal;
-  v.power = pdf > 0 ? r.power / (n * pdf) : glm::vec3(0.f);
-  v.spacing = pdf > 0 ? 1.f / std::sqrt(n * pdf) : 0.f;
+  v.power = photon_density > 0 ? r.power / photon_density : glm::vec3(0.f);
+  v.spacing = photon_density > 0 ? 1.f / std::sqrt(photon_density) : 0.f;
   v.dp_du = r.dp_du, v.dp_dv = r.dp_dv, v.dd_du = r.dd_du, v.dd_dv = r.dd_dv;
-  if (c.photon_differentials && r.dp_du == glm::vec3(0.f) && r.dp_dv == glm::vec3(0.f)) {
-    // Seed 003 §4.1: a point (or spot) light's photons share one spacing Delta, the square root of
-    // the solid angle per photon (Eq. 9: 2 sqrt(pi / n) over the sphere), along Eq. 8's unit
-    // differentials; the footprint is unchanged in area, and round where the (u, v) one was not.
-    float solid_angle = glm::length(glm::cross(r.dd_du, r.dd_dv)) * v.spacing * v.spacing;
-    v.spacing = std::sqrt(solid_angle);
-    isotropic_differentials(r.direction, v.dd_du, v.dd_dv);
+  if (c.policy && c.policy->shapes_footprints()) {
+    Footprint f = footprint_of(v);
+    c.policy->emitted(emitter_kind(c.lights->emitter(light).type), r.direction, f);
+    set_footprint(v, f);
   }
   if (!(max3(v.power) > 0)) v.flags = PathVertex::kTerminated;
-  if (uv_out) *uv_out = uv;
-  if (dir_out) *dir_out = {xi.z, xi.w};
   return v;
 }
 
@@ -140,14 +123,32 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
   const EmbreeScene& world = *c.world;
   const scene::Scene& scene = world.scene();
   float restart_spacing = 1.f / std::sqrt(float(std::max(1u, (*c.emission_count)[task.light])));
+  const VertexPolicy* policy = c.policy;
+  const bool footprint_hooks = policy && policy->shapes_footprints();
+  // The part being traced: its interaction count, the policy's bits, how it left its last vertex.
+  // A split leaves its other part waiting (a part splits at most once per vertex; a policy that
+  // splits again at a later vertex keeps one waiting part per split).
+  struct Part {
+    uint32_t k = 0;
+    uint32_t state = 0;
+    Scatter arrived_by = Scatter::sample;
+    PathVertex vertex;
+  };
+  Part waiting[kMaxSplitParts];
+  int waiting_count = 0;
+  uint32_t k = uint32_t(verts.size()) - 1;  // index of the interaction the next segment leads to
+  uint32_t state = 0;
+  Scatter arrived_by = Scatter::sample;
   uint64_t rays = 0;
   for (;;) {
     const PathVertex v = verts.back();
-    if (v.flags & PathVertex::kTerminated) return rays;
-    uint32_t k = uint32_t(verts.size()) - 1;  // index of the interaction this segment leads to
-    if (k >= c.max_bounces) {
-      verts.back().flags |= PathVertex::kTerminated;
-      return rays;
+    if ((v.flags & PathVertex::kTerminated) || k >= c.max_bounces) {
+      if (!(v.flags & PathVertex::kTerminated)) verts.back().flags |= PathVertex::kTerminated;
+      if (waiting_count == 0) return rays;
+      const Part& part = waiting[--waiting_count];
+      k = part.k, state = part.state, arrived_by = part.arrived_by;
+      verts.push_back(part.vertex);
+      continue;
     }
     const glm::vec3 dir = v.direction;
     Hit hit;
@@ -158,7 +159,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
                            : world.intersect(spawn_origin(v), dir, kUnboundedRay, hit);
     if (!any) {
       verts.back().flags |= PathVertex::kEscapes | PathVertex::kTerminated;
-      return rays;
+      continue;
     }
     PathVertex next;
     next.position = hit.position;
@@ -173,13 +174,33 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     if (world.is_light_object(hit.object)) {  // a luminaire absorbs what reaches it
       next.flags = PathVertex::kTerminated;
       verts.push_back(next);
-      return rays;
+      ++k;
+      continue;
     }
     const scene::Material& material = scene.materials[hit.material];
     Bsdf bsdf(material, hit);
     bool diffuse = bsdf.is_diffuse();
     uint32_t mask = v.specular_mask;
-    if (diffuse && (photon_kind(mask, k) & c.store)) {
+    VertexDecision decision;
+    Footprint arriving;
+    if (policy) {
+      arriving = {dp_du, dp_dv, v.dd_du, v.dd_dv, v.spacing};
+      Interaction at;
+      at.index = k;
+      at.light = task.light;
+      at.surface = surface_kind(material.type, diffuse);
+      at.specular_mask = mask;
+      at.arrived_by = arrived_by;
+      at.state = state;
+      at.position = hit.position, at.normal = ng, at.direction = dir, at.power = v.power;
+      at.footprint = &arriving;
+      at.settings = c.settings;
+      decision = policy->decide(at);
+      decision.store = decision.store && diffuse;
+    } else {
+      decision.store = diffuse && (photon_kind(mask, k) & c.store);
+    }
+    if (decision.store) {
       PhotonRecord p{};
       p.position = hit.position;
       p.object = hit.object;
@@ -192,17 +213,62 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       p.footprint_u = dp_du * v.spacing;
       p.footprint_v = dp_dv * v.spacing;
       p.light = task.light;
-      p.flags = c.photon_differentials ? std::bit_cast<uint32_t>(v.spacing) : 0u;
+      p.flags = decision.photon_flags;
       photons.push_back(p);
       next.flags |= PathVertex::kStored;
     }
     if (!diffuse) mask |= 1u << k;
     next.specular_mask = mask;
-    bool alive = k + 1 < c.max_bounces && storable_later(mask, k, c.store);
-    if (alive) {
+    const Scatter scatter =
+        policy ? decision.scatter
+               : (k + 1 < c.max_bounces && storable_after(mask, k, c.store) ? Scatter::sample
+                                                                            : Scatter::end);
+    if (scatter == Scatter::reflect || scatter == Scatter::refract || scatter == Scatter::split) {
+      // The deterministic specular continuations: the chosen lobe of a mirror or smooth
+      // dielectric, its power scaled by that lobe's Fresnel share; no roulette.
+      const bool dielectric = material.type == scene::MaterialType::dielectric;
+      const bool delta = dielectric || material.type == scene::MaterialType::mirror;
+      Triangle tri = delta ? world.triangle(hit.object, hit.primitive) : Triangle{};
+      auto leave = [&](bool reflect, PathVertex& out, Scatter& left_by) {
+        BsdfSample s;
+        bool ok = bsdf.sample(-dir, {0.5f, 0.5f, reflect ? 0.f : 1.f}, Transport::importance, s);
+        if (!ok && !reflect) ok = bsdf.sample(-dir, {0.5f, 0.5f, 0.f}, Transport::importance, s);
+        if (!ok) return false;
+        out = next;
+        out.power = v.power * s.weight * (dielectric ? s.pdf : 1.f);
+        if (!(max3(out.power) > 0)) return false;
+        out.direction = s.wi;
+        out.dp_du = dp_du;
+        out.dp_dv = dp_dv;
+        out.dd_du = scatter_differential(tri, hit, s, dir, dp_du, v.dd_du);
+        out.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, v.dd_dv);
+        left_by = s.transmitted ? Scatter::refract : Scatter::reflect;
+        return true;
+      };
+      PathVertex reflected, refracted;
+      Scatter reflected_by = Scatter::reflect, refracted_by = Scatter::refract;
+      bool has_reflected = false, has_refracted = false;
+      if (delta && scatter != Scatter::refract)
+        has_reflected = leave(true, reflected, reflected_by);
+      if (delta && scatter != Scatter::reflect)
+        has_refracted = leave(false, refracted, refracted_by);
+      if (has_reflected && has_refracted) {
+        if (waiting_count == kMaxSplitParts)
+          throw Error("photon tracer: a policy split one path more than " +
+                      std::to_string(kMaxSplitParts) + " times");
+        waiting[waiting_count++] = {k + 1, decision.state, reflected_by, reflected};
+      }
+      if (has_reflected || has_refracted) {
+        verts.push_back(has_refracted ? refracted : reflected);
+        arrived_by = has_refracted ? refracted_by : reflected_by;
+        state = decision.state;
+        ++k;
+        continue;
+      }
+    } else if (scatter == Scatter::sample) {
       glm::vec4 xi = c.sample(task, 1 + k);
       BsdfSample s;
-      alive = bsdf.sample(-dir, {xi.x, xi.y, xi.z}, Transport::importance, s);
+      bool alive = bsdf.sample(-dir, {xi.x, xi.y, xi.z}, Transport::importance, s);
       glm::vec3 power = alive ? v.power * s.weight : glm::vec3(0.f);
       alive = alive && max3(power) > 0 && std::isfinite(max3(power));
       float survival = 1.f;
@@ -218,19 +284,10 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
         next.direction = s.wi;
         next.power = power;
         next.survival = survival;
-        if (diffuse && c.photon_differentials) {
-          // Seed 003 §4.3: absorption and re-emission. New directional differentials by Eq. 8 in
-          // the surface's frame, the same Delta, and a virtual origin v behind the hit (Eq. 11)
-          // chosen so that the footprint keeps its area (Eqs. 10-13; Eq. 8's vectors are unit and
-          // orthogonal, so Eq. 13 is v = sqrt |dp_du x dp_dv| with the arriving differentials).
-          Frame f(s.normal);
-          glm::vec3 d1, d2;
-          isotropic_differentials(f.to_local(s.wi), d1, d2);
-          next.dd_du = f.to_world(d1);
-          next.dd_dv = f.to_world(d2);
-          float v_origin = std::sqrt(glm::length(glm::cross(dp_du, dp_dv)));
-          next.dp_du = v_origin * next.dd_du;
-          next.dp_dv = v_origin * next.dd_dv;
+        if (diffuse && footprint_hooks) {
+          Footprint f = arriving;
+          policy->scattered_diffusely(s.normal, s.wi, f);
+          set_footprint(next, f);
         } else if (diffuse) {
           // The new direction depends on this bounce's two sample dimensions only: restart the
           // differentials from the cosine map (finite differences) about this point.
@@ -252,18 +309,21 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
           next.dd_du = scatter_differential(tri, hit, s, dir, dp_du, v.dd_du);
           next.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, v.dd_dv);
         }
-        if (c.photon_differentials && survival < 1.f) {
-          // Seed 003 §4.2: footprints grow with the inverse of the survival probability.
-          float grow = 1.f / std::sqrt(survival);
-          next.dp_du *= grow, next.dp_dv *= grow, next.dd_du *= grow, next.dd_dv *= grow;
+        if (footprint_hooks && survival < 1.f) {
+          Footprint f = footprint_of(next);
+          policy->survived_roulette(survival, f);
+          set_footprint(next, f);
         }
         verts.push_back(next);
+        arrived_by = Scatter::sample;
+        state = decision.state;
+        ++k;
         continue;
       }
     }
     next.flags |= PathVertex::kTerminated;
     verts.push_back(next);
-    return rays;
+    ++k;
   }
 }
 
@@ -371,8 +431,15 @@ void check_settings(const TraceSettings& s) {
   if (s.paths < 1) throw InputError("photon tracer: paths must be at least 1");
   if ((s.store & ~uint32_t(kAllPhotons)) != 0 || s.store == 0)
     throw InputError("photon tracer: store must be a non-empty PhotonKind mask");
-  if (s.photon_differentials && (s.aaps || s.keep_paths))
-    throw InputError("photon tracer: photon_differentials goes with neither aaps nor keep_paths");
+  if (s.keep_light_paths && (s.emission || s.policy))
+    throw InputError(
+        "photon tracer: keep_light_paths goes with the tracer's own emission and decisions only "
+        "(a kept path is re-traced by them)");
+  if (s.photon_target > 0 && (s.emission || s.policy))
+    throw InputError(
+        "photon tracer: photon_target goes with the tracer's own emission and decisions only (its "
+        "waves rescale power and footprints after the trace, which a policy's flags cannot "
+        "follow)");
 }
 
 }  // namespace detail
@@ -420,12 +487,33 @@ uint32_t EmbreePhotonTracer::path_seed(const TraceSettings& settings) const {
 }
 EmbreePhotonTracer::~EmbreePhotonTracer() = default;
 
+uint32_t EmbreePhotonTracer::frame_seed(const TraceSettings& settings) const {
+  return settings.seed_per_frame ? hash_combine(path_seed(settings), world_.state().frame)
+                                 : path_seed(settings);
+}
+
+Context EmbreePhotonTracer::trace_context(const TraceSettings& settings, const LightSet& lights,
+                                          uint32_t seed,
+                                          const std::vector<uint32_t>& emission_count) const {
+  Context c{&world_,      &lights,           &densities_,       seed,
+            settings.max_bounces, settings.store, settings.rr_start, &emission_count,
+            settings.policy,      &settings,      {}};
+  prepare_sample_seeds(c, lights.size());
+  return c;
+}
+
 uint32_t EmbreePhotonTracer::light_count() const { return LightSet(world_).size(); }
 
 glm::vec3 EmbreePhotonTracer::light_power(uint32_t light) const {
   LightSet lights(world_);
   if (light >= lights.size()) throw Error(fmt::format("photon tracer: no light {}", light));
   return lights.emitter(light).power;
+}
+
+EmitterInfo EmbreePhotonTracer::light(uint32_t light) const {
+  LightSet lights(world_);
+  if (light >= lights.size()) throw Error(fmt::format("photon tracer: no light {}", light));
+  return {emitter_kind(lights.emitter(light).type), lights.emitter(light).power};
 }
 
 void EmbreePhotonTracer::set_emission_density(uint32_t light, const EmissionDensity* density) {
@@ -438,13 +526,62 @@ void EmbreePhotonTracer::set_emission_density(uint32_t light, const EmissionDens
       density ? std::make_shared<Distribution2D>(density->width, density->height, density->texels)
               : nullptr;
   ++density_version_[light];
-  grid_densities_.resize(densities_.size());
-  grid_densities_[light] = density ? *density : EmissionDensity{};
+}
+
+TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, PhotonBatch& out) {
+  auto t0 = std::chrono::steady_clock::now();
+  LightSet lights(world_);
+  std::vector<EmitterInfo> emitters(lights.size());
+  for (uint32_t e = 0; e < lights.size(); ++e)
+    emitters[e] = {emitter_kind(lights.emitter(e).type), lights.emitter(e).power};
+  EmissionSampler& sampler = *settings.emission;
+  const uint64_t total = sampler.prepare({emitters, world_.state().frame, seed_scramble_});
+  if (total > std::numeric_limits<uint32_t>::max())
+    throw InputError(
+        fmt::format("photon tracer: an emission sampler asks for {} photons, more "
+                    "than 2^32",
+                    total));
+  out.photons.clear();
+  out.paths = LightPaths{};
+  out.emitted_power.assign(total, 0.f);
+  // A sampled emission draws no random numbers at emission; its interactions draw from the
+  // Sobol sequence of its index, as a path of the tracer's own emission does.
+  std::vector<uint32_t> emission_count(lights.size(), 1u);
+  Context c = trace_context(settings, lights, frame_seed(settings), emission_count);
+  const uint32_t blocks = uint32_t((total + kBlockSize - 1) / kBlockSize);
+  std::vector<BlockOutput>& outputs = scratch_->blocks;
+  reset_blocks(outputs, blocks);
+  tbb::parallel_for(
+      tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+        std::vector<PathVertex> verts;
+        for (uint32_t b = r.begin(); b != r.end(); ++b) {
+          BlockOutput& o = outputs[b];
+          const uint32_t end = uint32_t(std::min<uint64_t>(total, uint64_t(b + 1) * kBlockSize));
+          for (uint32_t i = b * kBlockSize; i < end; ++i) {
+            const EmissionPoint point = sampler.emission(i);
+            if (point.light >= lights.size())
+              throw Error(fmt::format("photon tracer: emission {} names light {} of {}", i,
+                                      point.light, lights.size()));
+            const EmissionRay ray = lights.emit(point.light, point.uv, point.direction);
+            verts.clear();
+            verts.push_back(start_vertex(c, point.light, ray, point.photon_density));
+            out.emitted_power[i] = mean3(verts.back().power);
+            o.rays += continue_path(c, {point.light, i}, point.id, verts, o.photons);
+          }
+        }
+      });
+  TraceStats stats;
+  gather(outputs, blocks, 0, false, out, stats);
+  stats.paths = total;
+  stats.photons = out.photons.size();
+  stats.seconds = io::seconds_since(t0);
+  out.stats = stats;
+  return stats;
 }
 
 TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch& out) {
   check_settings(settings);
-  if (settings.aaps) return trace_aaps(settings, out);
+  if (settings.emission) return trace_sampled(settings, out);
   auto t0 = std::chrono::steady_clock::now();
   LightSet lights(world_);
   densities_.resize(std::max<size_t>(densities_.size(), lights.size()));
@@ -455,24 +592,13 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   out.photons.clear();
   out.paths = LightPaths{};
   TraceStats stats;
-  uint32_t seed = settings.seed_per_frame ? hash_combine(path_seed(settings), world_.state().frame)
-                                          : path_seed(settings);
+  const uint32_t seed = frame_seed(settings);
 
   std::vector<uint32_t> emitted(lights.size(), 0);  // paths emitted so far per light
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
   for (auto& n : emission_count) n = std::max(n, 1u);
-  Context c{&world_,
-            &lights,
-            &densities_,
-            seed,
-            settings.max_bounces,
-            settings.store,
-            settings.rr_start,
-            &emission_count,
-            settings.photon_differentials,
-            {}};  // sample_seeds: filled by prepare_sample_seeds
-  prepare_sample_seeds(c, lights.size());
-  bool keep = settings.keep_paths;
+  Context c = trace_context(settings, lights, seed, emission_count);
+  bool keep = settings.keep_light_paths;
   uint32_t wave = settings.paths, total = 0;
   for (;;) {
     std::vector<uint32_t> alloc = split_paths(powers, wave);
@@ -523,8 +649,6 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     for (auto& p : out.photons)
       if (p.light == e) {
         p.power *= power_scale, p.footprint_u *= spacing_scale, p.footprint_v *= spacing_scale;
-        if (settings.photon_differentials)
-          p.flags = std::bit_cast<uint32_t>(std::bit_cast<float>(p.flags) * spacing_scale);
       }
     for (auto& path : out.paths.paths) {
       if (path.light != e) continue;

@@ -31,7 +31,9 @@ namespace pb::trace {
 
 namespace detail {
 struct TracerScratch;  // photon_paths.h
+struct Context;
 }
+class LightSet;
 
 class EmbreePhotonTracer final : public PhotonTracer {
  public:
@@ -43,6 +45,7 @@ class EmbreePhotonTracer final : public PhotonTracer {
   ~EmbreePhotonTracer() override;
   uint32_t light_count() const override;
   glm::vec3 light_power(uint32_t light) const override;
+  EmitterInfo light(uint32_t light) const override;
   void set_emission_density(uint32_t light, const EmissionDensity* density) override;
   TraceStats trace(const TraceSettings& settings, PhotonBatch& out) override;
   TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) override;
@@ -59,41 +62,18 @@ class EmbreePhotonTracer final : public PhotonTracer {
  private:
   // The seed light paths are traced with (before the per-frame hash of seed_per_frame).
   uint32_t path_seed(const TraceSettings& settings) const;
+  // The seed of this frame's paths: path_seed, hashed with the frame where seed_per_frame.
+  uint32_t frame_seed(const TraceSettings& settings) const;
+  // The paths' shared context, its per-light sample seeds prepared.
+  detail::Context trace_context(const TraceSettings& settings, const LightSet& lights,
+                                uint32_t seed, const std::vector<uint32_t>& emission_count) const;
   const EmbreeScene& world_;
   std::optional<uint32_t> seed_scramble_;
   std::unique_ptr<detail::TracerScratch> scratch_;
   std::vector<std::shared_ptr<const Distribution2D>> densities_;
   std::vector<uint32_t> density_version_;
-  std::vector<EmissionDensity> grid_densities_;  // the counts themselves, for TraceSettings::aaps
-  TraceStats trace_aaps(const TraceSettings& settings, PhotonBatch& out);
-};
-
-// AAPS's emission order (seed 004 §1.4): the tasks of one light's density, texels in the order a
-// sum-quadtree walk visits them (Morton order, x bit first), each texel's n = floor(sqrt(D))^2
-// tasks row by row over its m x m grid.
-class GridEmission {
- public:
-  explicit GridEmission(const EmissionDensity& counts);
-  uint32_t tasks() const { return total_; }
-  uint32_t side() const { return side_; }
-  struct Task {
-    uint32_t texel;  // row-major index (v * side + u)
-    uint32_t cell;   // row-major index in the texel's m x m grid
-    uint32_t m;
-    glm::vec2 uv;  // the cell centre in the emission domain
-  };
-  Task locate(uint32_t task) const;  // task < tasks()
-  // A fixed pseudo-random point of the task's cell (a hash of texel, cell and m), in place of its
-  // centre: TraceSettings::aaps_jitter. A seed axis' cell (the tracer's seed_scramble) hashes its
-  // scramble in too, so its photons lie at other points of the same cells: AAPS's emission has no
-  // other randomness, and without it every seed of a seed axis would render the same image.
-  glm::vec2 jittered(const Task& task, std::optional<uint32_t> seed_scramble = std::nullopt) const;
-
- private:
-  uint32_t side_ = 0, total_ = 0;
-  std::vector<uint32_t> texel_;  // Morton position -> row-major texel
-  std::vector<uint32_t> first_;  // Morton position -> its first task (exclusive prefix sum)
-  std::vector<uint32_t> m_;      // Morton position -> m
+  // A trace whose emissions an EmissionSampler lists (TraceSettings::emission).
+  TraceStats trace_sampled(const TraceSettings& settings, PhotonBatch& out);
 };
 
 std::unique_ptr<PhotonTracer> make_photon_tracer(

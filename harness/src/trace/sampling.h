@@ -19,29 +19,13 @@
 #include <glm/glm.hpp>
 #include <vector>
 
+#include "photonbench/trace_math.h"
+
 namespace pb::trace {
 
 inline constexpr float kPi = 3.14159265358979323846f;
 inline constexpr float kInvPi = 0.31830988618379067154f;
 inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
-
-// ---- hashing
-// -------------------------------------------------------------------------------------
-
-inline uint32_t hash_u32(uint32_t x) {  // a 32-bit integer finaliser (lowbias32 style)
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-inline uint32_t hash_combine(uint32_t a, uint32_t b) {
-  return hash_u32(a ^ (hash_u32(b) + 0x9e3779b9u + (a << 6) + (a >> 2)));
-}
-inline uint32_t hash_combine(uint32_t a, uint32_t b, uint32_t c) {
-  return hash_combine(hash_combine(a, b), c);
-}
 
 // ---- PCG32 (O'Neill 2014), independent streams
 // ----------------------------------------------------
@@ -192,23 +176,7 @@ inline glm::vec2 triangle_from_unit(glm::vec2 u) {
   return {1.f - su, u.y * su};
 }
 
-// An orthonormal basis around unit n (Duff et al. 2017, "Building an orthonormal basis,
-// revisited").
-struct Frame {
-  glm::vec3 t, b, n;
-  Frame() = default;
-  explicit Frame(const glm::vec3& normal) : n(normal) {
-    float sign = std::copysign(1.f, n.z);
-    float a = -1.f / (sign + n.z);
-    float bb = n.x * n.y * a;
-    t = {1.f + sign * n.x * n.x * a, sign * bb, -sign * n.x};
-    b = {bb, sign + n.y * n.y * a, -n.y};
-  }
-  glm::vec3 to_local(const glm::vec3& v) const {
-    return {glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)};
-  }
-  glm::vec3 to_world(const glm::vec3& v) const { return v.x * t + v.y * b + v.z * n; }
-};
+// Frame, the orthonormal basis around a unit normal: photonbench/trace_math.h.
 
 // ---- piecewise-constant 2D distribution ---------------------------------------------------------
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "../footprint.h"
+#include "../photon_rules.h"
 #include "../task_buffer.h"
 #include "io/image.h"
 #include "photonbench/error.h"
@@ -30,6 +31,22 @@
 namespace fs = std::filesystem;
 
 namespace aaps_test {
+
+// AAPS's tracer policies for a test: the task buffer of each light and the caustic rule.
+struct AapsPhotons {
+  explicit AapsPhotons(std::vector<const pb::trace::EmissionDensity*> counts) {
+    emission.set_counts(std::move(counts));
+  }
+  pb::trace::TraceSettings settings() {
+    pb::trace::TraceSettings s;
+    s.seed_per_frame = false;
+    s.emission = &emission;
+    s.policy = &rule;
+    return s;
+  }
+  aaps::GridEmission emission;
+  aaps::CausticSplitRule rule;
+};
 
 using namespace pb::testing;
 
@@ -53,7 +70,7 @@ TEST(AapsTaskBuffer, QuadtreeWalkIsTheTracersEmissionOrder) {
     counts.texels = mixed_density(side, side);
     aaps::SumQuadtree tree;
     tree.build(counts.texels, side);
-    pb::trace::GridEmission grid(counts);
+    aaps::TaskGrid grid(counts);
     uint32_t expected_total = 0;
     for (float d : counts.texels) expected_total += aaps::grid_side(d) * aaps::grid_side(d);
     ASSERT_EQ(tree.root(), expected_total);
@@ -62,7 +79,7 @@ TEST(AapsTaskBuffer, QuadtreeWalkIsTheTracersEmissionOrder) {
     uint32_t off_centre = 0;
     for (uint32_t t = 0; t < grid.tasks(); ++t) {
       aaps::SumQuadtree::Leaf leaf = tree.walk(t);
-      pb::trace::GridEmission::Task task = grid.locate(t);
+      aaps::TaskGrid::Task task = grid.locate(t);
       ASSERT_EQ(leaf.texel, task.texel) << "task " << t;
       ASSERT_EQ(leaf.cell, task.cell) << "task " << t;
       ASSERT_EQ(leaf.m, task.m);
@@ -193,10 +210,8 @@ TEST(AapsTrace, RulesAndEnergyOnCornellGlass) {
   pb::trace::EmissionDensity density;
   density.width = density.height = int(side);
   density.texels.assign(side * side, 17.f);  // floored to 16: a 4x4 grid per texel
-  tracer.set_emission_density(0, &density);
-  pb::trace::TraceSettings s;
-  s.aaps = true;
-  s.store = pb::trace::kCausticPhotons;
+  AapsPhotons aaps_photons({&density});
+  pb::trace::TraceSettings s = aaps_photons.settings();
   s.max_bounces = 8;
   pb::trace::PhotonBatch batch;
   pb::trace::TraceStats stats = tracer.trace(s, batch);
@@ -233,13 +248,11 @@ TEST(AapsTrace, ASeedAxisCellJittersWithinTheSameCells) {
   pb::trace::EmissionDensity density;
   density.width = density.height = int(side);
   density.texels.assign(side * side, 16.f);  // a 4x4 grid per texel
-  pb::trace::TraceSettings s;
-  s.aaps = true;
-  s.store = pb::trace::kCausticPhotons;
+  AapsPhotons aaps_photons({&density});
+  pb::trace::TraceSettings s = aaps_photons.settings();
   auto positions = [&](std::optional<uint32_t> scramble, bool jitter) {
     pb::trace::EmbreePhotonTracer tracer(c.world, scramble);
-    tracer.set_emission_density(0, &density);
-    s.aaps_jitter = jitter;
+    aaps_photons.emission.set_jitter(jitter);
     pb::trace::PhotonBatch batch;
     tracer.trace(s, batch);
     std::vector<glm::vec3> out;
@@ -255,10 +268,10 @@ TEST(AapsTrace, ASeedAxisCellJittersWithinTheSameCells) {
   // Without the jitter the grid is the cell centres whatever the seed.
   EXPECT_EQ(positions(std::nullopt, false), positions(7u, false));
   // Every scrambled point stays in its task's cell.
-  pb::trace::GridEmission grid(density);
+  aaps::TaskGrid grid(density);
   uint32_t moved = 0;
   for (uint32_t t = 0; t < grid.tasks(); ++t) {
-    const pb::trace::GridEmission::Task task = grid.locate(t);
+    const aaps::TaskGrid::Task task = grid.locate(t);
     const glm::vec2 cell = task.uv * float(side * task.m);
     const glm::vec2 j = grid.jittered(task, 7u) * float(side * task.m);
     EXPECT_EQ(std::floor(j.x), std::floor(cell.x)) << "task " << t;
@@ -284,29 +297,28 @@ TEST(AapsTrace, SpotTexelEnergiesFollowTheFalloff) {
   pb::trace::EmissionDensity density;
   density.width = density.height = int(side);
   density.texels.assign(side * side, 4.f);
-  tracer.set_emission_density(0, &density);
-  pb::trace::TraceSettings s;
-  s.aaps = true;
-  s.store = pb::trace::kCausticPhotons;
+  AapsPhotons aaps_photons({&density});
   pb::trace::PhotonBatch batch;
-  tracer.trace(s, batch);
-  ASSERT_EQ(batch.texel_power.size(), 1u);
-  ASSERT_EQ(batch.texel_power[0].size(), size_t(side) * side);
+  tracer.trace(aaps_photons.settings(), batch);
+  const std::vector<std::vector<float>> texel_power =
+      aaps_photons.emission.texel_power(batch.emitted_power);
+  ASSERT_EQ(texel_power.size(), 1u);
+  ASSERT_EQ(texel_power[0].size(), size_t(side) * side);
   const glm::vec3 power = tracer.light_power(0);
   const double light = (power.x + power.y + power.z) / 3.0;
-  const double sum = std::accumulate(batch.texel_power[0].begin(), batch.texel_power[0].end(), 0.0);
+  const double sum = std::accumulate(texel_power[0].begin(), texel_power[0].end(), 0.0);
   EXPECT_NEAR(sum / light, 1.0, 0.005);
   // The domain's u is 1 - cos(theta) over 1 - cos(outer): the inner cone is u < 0.362.
   const pb::scene::Light& spot = state.lights[0];
   const double co = std::cos(spot.spot_outer), ci = std::cos(spot.spot_inner);
   const double inner_share = (1 - co) / ((1 - ci) + 0.5 * (ci - co));
   for (uint32_t x = 0; x * (1 - co) < side * (1 - ci) - (1 - co); ++x)
-    EXPECT_NEAR(batch.texel_power[0][x] / (light / (side * side)), inner_share, 1e-3) << x;
-  pb::trace::GridEmission grid(density);
+    EXPECT_NEAR(texel_power[0][x] / (light / (side * side)), inner_share, 1e-3) << x;
+  aaps::TaskGrid grid(density);
   std::vector<double> fractions(size_t(side) * side, 0.0);
   for (const pb::trace::PhotonRecord& p : batch.photons) {
     uint32_t texel = grid.locate(p.path).texel;
-    fractions[texel] += aaps::energy_fraction(p.power, batch.texel_power[0][texel]);
+    fractions[texel] += aaps::energy_fraction(p.power, texel_power[0][texel]);
   }
   const double most = *std::max_element(fractions.begin(), fractions.end());
   std::printf(
@@ -321,17 +333,17 @@ TEST(AapsTrace, SpotTexelEnergiesFollowTheFalloff) {
 TEST(AapsTrace, RefusesKeptPathsAndMissingDensities) {
   CornellGlass c;
   pb::trace::EmbreePhotonTracer tracer(c.world);
-  pb::trace::TraceSettings s;
-  s.aaps = true;
-  s.store = pb::trace::kCausticPhotons;
+  AapsPhotons aaps_photons({});
+  pb::trace::TraceSettings s = aaps_photons.settings();
   pb::trace::PhotonBatch batch;
   EXPECT_THROW(tracer.trace(s, batch), pb::InputError);  // no density set
   pb::trace::EmissionDensity odd{3, 3, std::vector<float>(9, 4.f)};
-  tracer.set_emission_density(0, &odd);
+  aaps_photons.emission.set_counts({&odd});
   EXPECT_THROW(tracer.trace(s, batch), pb::InputError);  // not a power of two
   pb::trace::EmissionDensity ok{4, 4, std::vector<float>(16, 4.f)};
-  tracer.set_emission_density(0, &ok);
-  s.keep_paths = true;
+  aaps_photons.emission.set_counts({&ok});
+  EXPECT_NO_THROW(tracer.trace(s, batch));
+  s.keep_light_paths = true;
   EXPECT_THROW(tracer.trace(s, batch), pb::InputError);
 }
 

@@ -49,7 +49,7 @@ TraceSettings settings() {
   s.max_bounces = 5;
   s.store = kAllPhotons;
   s.seed_per_frame = false;
-  s.keep_paths = true;
+  s.keep_light_paths = true;
   return s;
 }
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "../differential_rules.h"
 #include "../footprint.h"
 #include "photonbench/gpu.h"
 #include "photonbench/photons.h"
@@ -43,11 +44,12 @@ struct TracedScene {
     tracer = std::make_unique<pb::trace::EmbreePhotonTracer>(*world);
   }
   pb::trace::PhotonBatch trace(pb::trace::TraceSettings s) {
-    s.photon_differentials = true;
+    s.policy = &rules;
     pb::trace::PhotonBatch batch;
     tracer->trace(s, batch);
     return batch;
   }
+  pd::DifferentialRules rules;
   fs::path dir;
   pb::scene::Scene scene;
   pb::scene::FrameState state;
