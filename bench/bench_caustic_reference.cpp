@@ -128,9 +128,9 @@ Truth load_or_render_truth(const scene::Scene& scene, const std::string& name, u
   trace::ReferenceOptions o;
   o.estimator = trace::Estimator::pt;
   o.samples = iterations;
-  o.sppm_photons = photons;
-  o.sppm_radius_footprints = footprints;
-  o.sppm_aimed_emission = true;
+  o.photon_mapping.photons = photons;
+  o.photon_mapping.radius_footprints = footprints;
+  o.photon_mapping.aimed_emission = true;
   o.seed = 0x7a07u;
   o.threads = threads;
   std::printf("  truth %s: rendering %u iterations of %u photon paths ...\n", name.c_str(),
@@ -187,8 +187,8 @@ ToTarget time_to_target(const trace::EmbreeScene& world, int w, int h, const Tru
     std::fprintf(stderr,
                  "    %s: %u iterations, %.2f s CPU, error %.4f, relative (1%% floor) %.4f (own "
                  "estimate %.4f)\n",
-                 o.sppm_aimed_emission ? "aimed" : "uniform", g.iterations, g.cpu, g.error,
-                 g.relative, g.own_error);
+                 o.photon_mapping.aimed_emission ? "aimed" : "uniform", g.iterations, g.cpu,
+                 g.error, g.relative, g.own_error);
     if (g.error <= target || g.cpu > max_cpu) break;
   }
   ToTarget out;
@@ -250,24 +250,26 @@ int main(int argc, char** argv) {
 
     trace::ReferenceOptions before;  // the settings before issue 30
     before.estimator = trace::Estimator::pt;
-    before.sppm_photons = 200000;
-    before.sppm_alpha = 2.f / 3.f;
-    before.sppm_radius_footprints = 3.f;
-    before.sppm_aimed_emission = false;
+    before.photon_mapping.photons = 200000;
+    before.photon_mapping.alpha = 2.f / 3.f;
+    before.photon_mapping.radius_footprints = 3.f;
+    before.photon_mapping.aimed_emission = false;
     before.threads = threads;
     trace::ReferenceOptions after;  // the defaults now
     after.estimator = trace::Estimator::pt;
     after.threads = threads;
     if (!a["--after-photons"].empty())
-      after.sppm_photons = uint32_t(std::stoul(a["--after-photons"]));
+      after.photon_mapping.photons = uint32_t(std::stoul(a["--after-photons"]));
     if (!a["--after-footprints"].empty())
-      after.sppm_radius_footprints = std::stof(a["--after-footprints"]);
-    if (!a["--after-alpha"].empty()) after.sppm_alpha = std::stof(a["--after-alpha"]);
-    if (!a["--after-aimed"].empty()) after.sppm_aimed_emission = a["--after-aimed"] != "0";
+      after.photon_mapping.radius_footprints = std::stof(a["--after-footprints"]);
+    if (!a["--after-alpha"].empty()) after.photon_mapping.alpha = std::stof(a["--after-alpha"]);
+    if (!a["--after-aimed"].empty())
+      after.photon_mapping.aimed_emission = a["--after-aimed"] != "0";
     auto describe = [](const trace::ReferenceOptions& o) {
       return fmt::format("{} photon paths, radius {} footprints, alpha {:.3f}, {} emission",
-                         o.sppm_photons, o.sppm_radius_footprints, o.sppm_alpha,
-                         o.sppm_aimed_emission ? "aimed" : "uniform");
+                         o.photon_mapping.photons, o.photon_mapping.radius_footprints,
+                         o.photon_mapping.alpha,
+                         o.photon_mapping.aimed_emission ? "aimed" : "uniform");
     };
     std::printf(
         "bench_caustic_reference: vector units: %s; class caustics, frame %u at %dx%d, time to "

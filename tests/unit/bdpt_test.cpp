@@ -45,7 +45,7 @@ TEST_P(EstimatorsAgree, OnEveryClassPixelByPixel) {
   EmbreeScene world(scene, scene.at(4));  // quick.yaml's first metric frame
   ReferenceOptions o;
   o.samples = param.pt_iterations;
-  o.sppm_photons = 1000;
+  o.photon_mapping.photons = 1000;
   o.estimator = Estimator::pt;
   o.seed = 5;
   ReferenceResult pt = render_reference_classes(world, 16, 9, kAllPathClasses, o);

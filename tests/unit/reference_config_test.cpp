@@ -5,10 +5,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 
 #include "cell/scoring.h"
 #include "config/config.h"
+#include "config/reference_rules.h"
 #include "photonbench/error.h"
 
 namespace pb {
@@ -73,6 +75,50 @@ TEST(ReferenceConfig, BadValuesNameFileLineColumnAndKey) {
   EXPECT_NE(e.find("no rule would stop a reference"), std::string::npos) << e;
   e = load_error("reference: {max_bounces: 65}\n");
   EXPECT_NE(e.find("reference.max_bounces"), std::string::npos) << e;
+}
+
+// One rule for the config, `photonbench reference` and the renderer: ReferenceOptions::validate
+// refuses what the config's reference block refuses, with the same words.
+TEST(ReferenceConfig, TheRendererRefusesTheStopRulesTheConfigRefuses) {
+  auto validate_error = [](float rel_error, double max_seconds, uint32_t samples) -> std::string {
+    trace::ReferenceOptions o;
+    o.rel_error = rel_error, o.max_seconds = max_seconds, o.samples = samples;
+    try {
+      o.validate();
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(validate_error(0.05f, 0, 1).find("samples: 0 (off) or at least 2 iterations"),
+            std::string::npos);
+  EXPECT_NE(
+      load_error("reference: {samples: 1}\n").find("samples: 0 (off) or at least 2 iterations"),
+      std::string::npos);
+  const std::string all_off = "rel_error, max_seconds and samples are all 0: no rule would stop";
+  EXPECT_NE(validate_error(0, 0, 0).find(all_off), std::string::npos);
+  EXPECT_NE(load_error("reference: {rel_error: 0, samples: 0}\n").find(all_off), std::string::npos);
+  for (uint32_t samples : {0u, 2u, 256u})
+    EXPECT_EQ(validate_error(samples ? 0.f : 0.05f, 0, samples), "") << samples;
+  EXPECT_EQ(validate_error(0, 10, 0), "");
+}
+
+// The estimator names: each one the config accepts is an Estimator of that name, and the
+// config's default is the automatic choice.
+TEST(ReferenceConfig, EstimatorNamesAreTheRenderersEstimators) {
+  ASSERT_EQ(config::estimator_names().size(), 3u);
+  for (const std::string& name : config::estimator_names()) {
+    config::Config c =
+        config::load_config(write_config("reference: {estimator: " + name + "}\n"), {});
+    std::optional<trace::Estimator> e = trace::parse_estimator(c.reference.estimator);
+    ASSERT_TRUE(e) << name;
+    EXPECT_EQ(trace::estimator_name(*e), name);
+    EXPECT_EQ(run::reference_options(c).estimator, *e);
+  }
+  EXPECT_EQ(run::reference_options(config::load_config(write_config(""), {})).estimator,
+            trace::Estimator::automatic);
+  EXPECT_NE(load_error("reference: {estimator: bdtp}\n").find("did you mean 'bdpt'?"),
+            std::string::npos);
 }
 
 }  // namespace reference_config_test

@@ -1,7 +1,7 @@
 // The reference renderer (src/reference/reference.h): analytic images first (camera model, white
 // furnace, a point light over a plane, a caustic through a flat mirror), then the statistics of
-// convergence (path tracing at samples^-1/2, SPPM's caustics converging), the path-class partition
-// and the cache.
+// convergence (path tracing at samples^-1/2, photon mapping's caustics converging), the
+// path-class partition and the cache.
 #include "reference/reference.h"
 
 #include <gtest/gtest.h>
@@ -83,7 +83,7 @@ TEST(Reference, CameraRaysMatchViewAndProjection) {
 ReferenceOptions quick(uint32_t samples) {
   ReferenceOptions o;
   o.samples = samples;
-  o.sppm_photons = 20000;
+  o.photon_mapping.photons = 20000;
   return o;
 }
 
@@ -201,8 +201,8 @@ TEST_P(ReferenceByEstimator, PointLightOverPlaneMatchesInverseSquareCosineLaw) {
 
 // Point light between a horizontal mirror and a diffuse ceiling: the ceiling's caustic (C D S L) is
 // the light of the mirror image of the source, a / pi * I cos / r^2 with r from the image below the
-// mirror. Only photons reach it (a point light seen through a perfect mirror), so this checks SPPM
-// end to end.
+// mirror. Only photons reach it (a point light seen through a perfect mirror), so this checks
+// photon mapping end to end.
 TEST(Reference, MirrorCausticMatchesTheImageSource) {
   TestScene t;
   const float albedo = 0.8f, intensity = 1.f;
@@ -214,8 +214,9 @@ TEST(Reference, MirrorCausticMatchesTheImageSource) {
   t.camera({0, 0.8f, 0.01f}, {0, 1, 0}, {0, 0, -1}, 90.f);
   const int w = 32, h = 24;
   ReferenceOptions o = quick(64);
-  o.sppm_photons = 100000;
-  o.sppm_radius = 0.1f;  // the caustic is smooth here (its source is 1.4 m away): blur bias < 1%
+  o.photon_mapping.photons = 100000;
+  // The caustic is smooth here (its source is 1.4 m away): blur bias < 1%.
+  o.photon_mapping.radius = 0.1f;
   EmbreeScene world(t.scene, t.state);
   ReferenceResult r = render_reference_classes(
       world, w, h, class_bit(PathClass::caustics) | class_bit(PathClass::direct), o);
@@ -274,8 +275,9 @@ TEST(Reference, PathTracerRmseFallsAsInverseSquareRootOfSamples) {
   RecordProperty("slope", std::to_string(slope));
 }
 
-// SPPM's caustic image on cornell-glass gets closer to a long render with every step in iterations.
-TEST(Reference, SppmCausticRelMseDecreasesOverIterations) {
+// Photon mapping's caustic image on cornell-glass gets closer to a long render with every step in
+// iterations.
+TEST(Reference, PhotonMappingCausticRelMseDecreasesOverIterations) {
   scene::Scene scene = load("cornell-glass.yaml");
   scene::FrameState state = scene.at(0);
   EmbreeScene world(scene, state);

@@ -64,6 +64,13 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
   if (!config.testing.slow_pass.empty())
     r.profiler.slow_down(config.testing.slow_pass, config.testing.slow_factor);
 
+  // The technique is set up at the first frame the cell plays (frames.start - warmup).
+  if (config.frames.first_frame() > 0) {
+    r.commands.begin();
+    r.world.advance_to(config.frames.first_frame());
+    r.commands.submit_and_wait();
+    r.commands.end_frame();
+  }
   const uint64_t harness_gpu_bytes = gpu::DeviceAccounting::allocated_bytes(r.device);
   TechniqueInstance technique = set_up_technique(plugin, cell, r, record);
   FrameLoop frames(config, r, log, record, dir, trace::reference_class_of(path_class),

@@ -62,7 +62,7 @@ FrameLoop::FrameLoop(const config::Config& config, Renderer& renderer, FrameLog&
                      CellRecord& record, const std::filesystem::path& cell_dir,
                      std::optional<trace::PathClass> own_class, uint64_t technique_gpu_bytes_from)
     : config_(config),
-      r_(renderer),
+      renderer_(renderer),
       log_(log),
       record_(record),
       images_(cell_dir / "images"),
@@ -70,30 +70,31 @@ FrameLoop::FrameLoop(const config::Config& config, Renderer& renderer, FrameLog&
       technique_gpu_bytes_from_(technique_gpu_bytes_from) {}
 
 std::vector<uint32_t> FrameLoop::run(Technique& technique) {
-  const uint32_t total = config_.frames.warmup + config_.frames.count;
+  const config::FrameSettings& frames = config_.frames;
+  const uint32_t total = frames.warmup + frames.count;
   const std::vector<uint32_t> scored = metric_frames(config_);
   std::vector<uint32_t> written;
-  for (uint32_t f = 0; f < total; ++f) {
+  for (uint32_t f = frames.first_frame(); f <= frames.last_frame(); ++f) {
     try {
-      const bool warmup = f < config_.frames.warmup;
+      const bool warmup = !frames.measured(f);
       const FrameTiming timing = render_timed(technique, f, warmup);
-      const uint64_t allocated = gpu::DeviceAccounting::allocated_bytes(r_.device);
+      const uint64_t allocated = gpu::DeviceAccounting::allocated_bytes(renderer_.device);
       // The technique's share is what was allocated since it was created; the harness may free
       // its own staging memory meanwhile, so the total can fall below that mark (then 0, never an
       // unsigned wrap).
       const uint64_t technique_bytes =
           allocated > technique_gpu_bytes_from_ ? allocated - technique_gpu_bytes_from_ : 0;
       log_.track_gpu_memory(technique_bytes, allocated);
-      if (!warmup) log_.add(timing, r_.ctx.counters());
+      if (!warmup) log_.add(timing, renderer_.ctx.counters());
       nlohmann::json declarations = nlohmann::json::object();
-      for (const auto& [name, declared] : r_.ctx.counter_declarations())
+      for (const auto& [name, declared] : renderer_.ctx.counter_declarations())
         declarations[name] = {{"kind", counter_kind_name(declared.kind)}, {"unit", declared.unit}};
       if (!declarations.empty()) record_.counters = std::move(declarations);
       // A counter named as a parameter is the value the technique resolved it to (blur_radius: -1
       // is automatic); the last frame's is kept.
-      for (const auto& [name, value] : r_.ctx.counters())
+      for (const auto& [name, value] : renderer_.ctx.counters())
         if (record_.cell.params.count(name)) record_.resolved_params[name] = value;
-      for (const std::string& warning : r_.ctx.warnings()) record_.warn(f, warning);
+      for (const std::string& warning : renderer_.ctx.warnings()) record_.warn(f, warning);
       check_output(f);
       if (std::find(scored.begin(), scored.end(), f) != scored.end()) {
         write_images(f);
@@ -104,7 +105,7 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
     } catch (const std::exception& e) {
       throw CellFailure{fmt::format("technique error at frame {}: {}", f, e.what()), f};
     }
-    std::printf("@frame %u %u\n", f + 1, total);
+    std::printf("@frame %u %u\n", f - frames.first_frame() + 1, total);
     std::fflush(stdout);
   }
   return written;
@@ -116,30 +117,30 @@ FrameTiming FrameLoop::render_timed(Technique& technique, uint32_t f, bool warmu
   // ---- timed region: scene-update, the technique's passes, submission and the fence ----
   const auto start = std::chrono::steady_clock::now();
   const double process_start = process_cpu_ms();
-  r_.profiler.begin_frame();
-  r_.commands.begin();
+  renderer_.profiler.begin_frame();
+  renderer_.commands.begin();
   {
-    auto scope = r_.ctx.pass("scene-update");
-    r_.world.advance_to(f);
+    auto scope = renderer_.ctx.pass("scene-update");
+    renderer_.world.advance_to(f);
   }
-  r_.ctx.begin_frame(FrameInfo{f, r_.world.state().time, warmup, config_.width, config_.height,
-                               r_.world.passes().camera_view()});
-  technique.render(r_.ctx);
-  r_.commands.submit_and_wait();
+  renderer_.ctx.begin_frame(FrameInfo{f, renderer_.world.state().time, warmup, config_.width,
+                                      config_.height, renderer_.world.passes().camera_view()});
+  technique.render(renderer_.ctx);
+  renderer_.commands.submit_and_wait();
   timing.wall_ms = ms_since(start);
   timing.process_cpu_ms = process_cpu_ms() - process_start;
   // ---- end of timed region ----
-  timing.passes = r_.profiler.end_frame();
-  r_.commands.end_frame();
+  timing.passes = renderer_.profiler.end_frame();
+  renderer_.commands.end_frame();
   return timing;
 }
 
 // Validation errors (counted only with the layers on) fail the cell at the frame that caused them;
 // so does an output holding NaN or Inf, which would poison every metric.
 void FrameLoop::check_output(uint32_t f) {
-  if (r_.device.validation_errors() > 0)
-    throw CellFailure{"Vulkan validation error: " + r_.device.first_validation_error(), f};
-  r_.device.read_image(r_.world.passes().output(), rgba_);
+  if (renderer_.device.validation_errors() > 0)
+    throw CellFailure{"Vulkan validation error: " + renderer_.device.first_validation_error(), f};
+  renderer_.device.read_image(renderer_.world.passes().output(), rgba_);
   const size_t bad =
       std::count_if(rgba_.begin(), rgba_.end(), [](float v) { return !std::isfinite(v); });
   if (bad > 0)
@@ -151,9 +152,9 @@ void FrameLoop::write_images(uint32_t f) {
   image.pixels = rgba_;
   io::write_image(images_ / fmt::format("frame_{:04d}.exr", f), image);
   io::write_image(images_ / fmt::format("frame_{:04d}.png", f), io::display_encode(image));
-  const gpu::ScenePasses& passes = r_.world.passes();
+  const gpu::ScenePasses& passes = renderer_.world.passes();
   if (own_class_ && *own_class_ != trace::PathClass::direct && passes.indirect_estimate())
-    write_class_estimate(r_.device, passes, images_ / class_image_name(f, *own_class_));
+    write_class_estimate(renderer_.device, passes, images_ / class_image_name(f, *own_class_));
 }
 
 }  // namespace pb::run

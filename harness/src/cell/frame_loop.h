@@ -1,4 +1,5 @@
-// The frames of a cell: the warm-up frames, then the measured ones. Each frame is one timed region
+// The frames of a cell: the warm-up frames, then the measured ones (config::FrameSettings: frames
+// start - warmup .. start + count - 1). Each frame is one timed region
 // (scene-update, the technique's passes, submission and the fence); after it, outside the timing,
 // its rows are logged, its output is checked (validation errors, NaN or Inf) and, at metric frames,
 // read back and written as images for scoring.
@@ -43,7 +44,8 @@ class FrameLoop {
             const std::filesystem::path& cell_dir, std::optional<trace::PathClass> own_class,
             uint64_t technique_gpu_bytes_from);
 
-  // Renders every frame, printing "@frame <done> <total>" after each for the parent. Returns the
+  // Renders every frame, printing "@frame <done> <total>" after each for the parent (counts of
+  // frames played, not frame numbers). Returns the
   // metric frames written (images/frame_NNNN.exr). Throws CellFailure naming the frame.
   std::vector<uint32_t> run(Technique& technique);
 
@@ -53,7 +55,7 @@ class FrameLoop {
   void write_images(uint32_t frame);
 
   const config::Config& config_;
-  Renderer& r_;
+  Renderer& renderer_;
   FrameLog& log_;
   CellRecord& record_;
   std::filesystem::path images_;

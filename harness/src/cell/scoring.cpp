@@ -45,7 +45,7 @@ std::vector<uint32_t> metric_frames(const config::Config& config) {
   // Windows that overlap (metrics_window > metrics_every) score each frame once.
   for (uint32_t start = 0; start < f.count; start += f.metrics_every)
     for (uint32_t i = start; i < std::min(f.count, start + f.metrics_window); ++i)
-      if (frames.empty() || frames.back() < f.warmup + i) frames.push_back(f.warmup + i);
+      if (frames.empty() || frames.back() < f.start + i) frames.push_back(f.start + i);
   return frames;
 }
 

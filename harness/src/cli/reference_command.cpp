@@ -10,6 +10,7 @@
 
 #include "cli/command.h"
 #include "config/config.h"
+#include "config/reference_rules.h"
 #include "photonbench/error.h"
 #include "plan/plugins.h"
 #include "reference/reference.h"
@@ -29,7 +30,7 @@ struct Args {
   uint32_t samples = pb::config::ReferenceSettings{}.samples;
   uint32_t max_bounces = 0;
   std::string estimator = pb::config::ReferenceSettings{}.estimator;
-  uint32_t photons = pb::trace::ReferenceOptions{}.sppm_photons;
+  uint32_t photons = pb::trace::PhotonMappingOptions{}.photons;
   std::string resolution = "640x360";
   std::string cache = "results/reference-cache";
   uint32_t seed = 1;
@@ -98,7 +99,7 @@ void add_reference(CLI::App& app, int& exit_code) {
          "auto (a pilot picks the cheaper of the two per frame, the default), bdpt "
          "(bidirectional path tracing) or pt (path tracing with next-event estimation, the "
          "anchor); photon mapping adds the caustic-type paths to each")
-      ->check(CLI::IsMember({"auto", "bdpt", "pt"}));
+      ->check(CLI::IsMember(pb::config::estimator_names()));
   cmd->add_option("--photons", args->photons, "photon paths per photon-mapping iteration")
       ->check(CLI::Range(1u, 1u << 26));
   cmd->add_option("--resolution", args->resolution, "WIDTHxHEIGHT");
@@ -126,19 +127,16 @@ void add_reference(CLI::App& app, int& exit_code) {
       if (!c) throw pb::InputError(fmt::format("--class: unknown path class '{}'", name));
       mask |= pb::trace::class_bit(*c);
     }
-    if (args->samples == 1) throw pb::InputError("--samples: 0 (off) or at least 2 iterations");
-    if (!(args->rel_error > 0) && !(args->max_seconds > 0) && args->samples == 0)
-      throw pb::InputError(
-          "--rel-error, --max-seconds and --samples are all 0: nothing would stop");
     pb::trace::ReferenceOptions options;
     options.rel_error = float(args->rel_error);
     options.max_seconds = args->max_seconds;
     options.samples = args->samples;
     options.max_bounces = args->max_bounces;
     options.estimator = *pb::trace::parse_estimator(args->estimator);
-    options.sppm_photons = args->photons;
+    options.photon_mapping.photons = args->photons;
     options.seed = args->seed;
     options.threads = args->threads;
+    options.validate();  // before any frame renders
     pb::trace::ReferenceCache cache(args->cache);
     std::printf(
         "reference: %s frames %u..%u, %dx%d, %d class(es), stop at rel. error %g / %g s / %u "

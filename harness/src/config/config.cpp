@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "config/key_table.h"
+#include "config/reference_rules.h"
 #include "photonbench/error.h"
 
 namespace pb::config {
@@ -118,15 +119,27 @@ const std::string kNamePattern =
 
 // The config format, one table per mapping (key_table.h): the reader below takes every key name,
 // range and default from these rows, and `photonbench schema config` prints them.
+// Each row's default is its struct's (config.h), written once there.
+const FrameSettings kFrameDefaults;
+const ReferenceSettings kReferenceDefaults;
+const Limits kLimitsDefaults;
+const TestingHooks kTestingDefaults;
+const MatchSettings kMatchDefaults{YamlView(YAML::Node(), nullptr, "")};  // no block: no node
+const Config kConfigDefaults;
+
 const KeyTable kFramesTable{
     "config.frames",
     "How many frames each cell plays and scores.",
-    {{"warmup", integer_type(0, kMaxWarmupFrames), false, 4,
-      "frames played before timing starts (not recorded)"},
-     {"count", integer_type(1, kMaxMeasuredFrames), false, 32, "measured frames"},
-     {"metrics_every", integer_type(0, kMaxMeasuredFrames), false, 8,
+    {{"warmup", integer_type(0, kMaxWarmupFrames), false, kFrameDefaults.warmup,
+      "frames played before timing starts (not recorded), just before `start`"},
+     {"count", integer_type(1, kMaxMeasuredFrames), false, kFrameDefaults.count, "measured frames"},
+     {"start", integer_type(0, kMaxFrames - 1), false, nullptr,
+      "the first measured frame (default: warmup); the warm-up frames are start - warmup .. "
+      "start - 1, and start + count is at most " +
+          std::to_string(kMaxFrames)},
+     {"metrics_every", integer_type(0, kMaxMeasuredFrames), false, kFrameDefaults.metrics_every,
       "score every Nth measured frame against its reference (0: never)"},
-     {"metrics_window", integer_type(1, kMaxMeasuredFrames), false, 1,
+     {"metrics_window", integer_type(1, kMaxMeasuredFrames), false, kFrameDefaults.metrics_window,
       "frames scored in a row from each of those: 2 or more also measures flicker, which "
       "compares consecutive frames only"}}};
 
@@ -134,31 +147,34 @@ const KeyTable kReferenceTable{
     "config.reference",
     "How references are rendered. A frame's render stops at the first stop rule reached (0 "
     "turns a rule off); naming any of rel_error, max_seconds and samples uses those alone.",
-    {{"rel_error", number_type(0, 1), false, 0.05,
+    {{"rel_error", number_type(0, 1), false, kReferenceDefaults.rel_error,
       "stop at this estimated relative RMS error of the mean"},
-     {"max_seconds", number_type(0, 1e7), false, 600, "stop after this many seconds per frame"},
-     {"samples", integer_type(0, 1 << 24), false, 0,
+     {"max_seconds", number_type(0, 1e7), false, kReferenceDefaults.max_seconds,
+      "stop after this many seconds per frame"},
+     {"samples", integer_type(0, 1 << 24), false, kReferenceDefaults.samples,
       "stop after this many iterations (0: off, else at least 2)"},
-     {"max_bounces", integer_type(0, 64), false, 0,
+     {"max_bounces", integer_type(0, 64), false, kReferenceDefaults.max_bounces,
       "scattering vertices on a full path (0: untruncated)"},
-     {"estimator", choice_type({"auto", "bdpt", "pt"}), false, "auto",
+     {"estimator", choice_type(estimator_names()), false, kReferenceDefaults.estimator,
       "the unbiased estimator: bidirectional path tracing, path tracing, or a pilot's choice"},
-     {"bounce_matched", boolean_type(), false, false,
+     {"bounce_matched", boolean_type(), false, kReferenceDefaults.bounce_matched,
       "also score techniques with a max_bounces parameter against a reference truncated like "
       "them"},
-     {"cache_dir", string_type(), false, "results/reference-cache",
+     {"cache_dir", string_type(), false, kReferenceDefaults.cache_dir.string(),
       "where rendered references are kept (shared by runs)"}}};
 
-const KeyTable kLimitsTable{"config.limits",
-                            "Limits on one cell.",
-                            {{"cell_seconds", number_type(0.1, 1e7), false, 1800,
-                              "a cell running longer is killed and recorded failed"}}};
+const KeyTable kLimitsTable{
+    "config.limits",
+    "Limits on one cell.",
+    {{"cell_seconds", number_type(0.1, 1e7), false, kLimitsDefaults.cell_seconds,
+      "a cell running longer is killed and recorded failed"}}};
 
-const KeyTable kTestingTable{
-    "config.testing",
-    "Testing hooks: never set in real benchmarks.",
-    {{"slow_pass", string_type(), false, "", "a pass made slower, to show a regression flagged"},
-     {"slow_factor", number_type(1, 100), false, 1.0, "how much slower slow_pass runs"}}};
+const KeyTable kTestingTable{"config.testing",
+                             "Testing hooks: never set in real benchmarks.",
+                             {{"slow_pass", string_type(), false, kTestingDefaults.slow_pass,
+                               "a pass made slower, to show a regression flagged"},
+                              {"slow_factor", number_type(1, 100), false,
+                               kTestingDefaults.slow_factor, "how much slower slow_pass runs"}}};
 
 // The parameters of techniques: what the loaded plugins declare (plan/plan.cpp checks them), so
 // `photonbench schema` replaces these two definitions with the plugins' parameter schemas.
@@ -199,12 +215,13 @@ const KeyTable kMatchTable{
       "at: quality, the error metric (of `metrics`) on the combined image"},
      {"value", number_type(0, 1e30), false, nullptr,
       "at: quality, the target mean error; at least 4x the reference's noise floor"},
-     {"tolerance", number_type(1e-4, 1), false, 0.05,
+     {"tolerance", number_type(1e-4, 1), false, kMatchDefaults.tolerance,
       "relative: a probe within tolerance x target of the target matches"},
      {"knob", string_type(), false, nullptr,
       "the budget knob searched for every technique (default: each technique's first)"},
-     {"max_probes", integer_type(1, 64), false, 12, "probe cells per scene and technique at most"},
-     {"rounds", integer_type(0, 50), false, 3,
+     {"max_probes", integer_type(1, 64), false, kMatchDefaults.max_probes,
+      "probe cells per scene and technique at most"},
+     {"rounds", integer_type(0, 50), false, kMatchDefaults.rounds,
       "re-measurements of each scene's found cells, in alternating order, for the achieved "
       "times"}}};
 
@@ -221,13 +238,14 @@ const KeyTable kConfigTable{
     {{"name", string_type(kNamePattern), false, nullptr,
       "names the run folder: letters, digits, '.', '_' and '-' (default: the file's name)"},
      {"resolution", tuple_type({integer_type(16, 8192), integer_type(16, 8192)}), false,
-      json::array({640, 360}), "[width, height] in pixels"},
+      json::array({kConfigDefaults.width, kConfigDefaults.height}), "[width, height] in pixels"},
      {"frames", table_type(kFramesTable), false, nullptr, ""},
-     {"seed", integer_type(0, int64_t(1) << 53), false, 1,
+     {"seed", integer_type(0, int64_t(1) << 53), false, kConfigDefaults.seed,
       "seeds the references (and, with seeds > 1, the photons of every cell but the first seed's)"},
-     {"seeds", integer_type(1, 1000), false, 1,
+     {"seeds", integer_type(1, 1000), false, kConfigDefaults.seeds,
       "K > 1: every cell runs K times, with seeds seed, seed + 1, ..., seed + K - 1"},
-     {"seed_order", choice_type({"grouped", "rounds"}), false, "grouped",
+     {"seed_order", choice_type({"grouped", "rounds"}), false,
+      kConfigDefaults.seed_rounds ? "rounds" : "grouped",
       "with seeds > 1: grouped runs each cell's K seeds next to each other; rounds runs K rounds "
       "over every cell, alternately forward and backward, so that a shared machine's drift falls "
       "on every cell alike (time ratios between cells)"},
@@ -349,6 +367,22 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   config.frames.count = uint32_t(kFramesTable.integer(frames, "count"));
   config.frames.metrics_every = uint32_t(kFramesTable.integer(frames, "metrics_every"));
   config.frames.metrics_window = uint32_t(kFramesTable.integer(frames, "metrics_window"));
+  config.frames.start = config.frames.warmup;
+  if (auto start = frames.get("start")) {
+    const Key& start_key = kFramesTable.key("start");
+    config.frames.start = uint32_t(start_key.type.integer(*start));
+    if (config.frames.start < config.frames.warmup)
+      start->fail(fmt::format(
+          "the first measured frame {} leaves no room for the {} warm-up frames, which run just "
+          "before it (frames start - warmup .. start - 1): start at {} or later, or warm up less",
+          config.frames.start, config.frames.warmup, config.frames.warmup));
+  }
+  if (uint64_t(config.frames.start) + config.frames.count > kMaxFrames)
+    (frames.has("start") ? frames["start"] : frames["count"])
+        .fail(fmt::format("frames {} .. {} (start + count) go past the last frame a run may play, "
+                          "{}",
+                          config.frames.start,
+                          uint64_t(config.frames.start) + config.frames.count - 1, kMaxFrames - 1));
   config.seed = uint64_t(kConfigTable.integer(root, "seed"));
   config.seeds = uint32_t(kConfigTable.integer(root, "seeds"));
   config.seed_rounds = kConfigTable.string(root, "seed_order") == "rounds";
@@ -421,13 +455,10 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
       r.max_seconds = kReferenceTable.number(reference, "max_seconds");
       r.samples = uint32_t(kReferenceTable.integer(reference, "samples"));
     }
-    if (r.samples == 1)  // one iteration has no variance and an empty odd half
-      reference["samples"].fail("0 (off) or at least 2 iterations");
+    if (auto problem = stop_rule_problem(r.rel_error, r.max_seconds, r.samples))
+      (problem->key.empty() ? reference : reference[problem->key]).fail(problem->message);
     r.max_bounces = uint32_t(kReferenceTable.integer(reference, "max_bounces"));
     r.estimator = kReferenceTable.string(reference, "estimator");
-    if (!(r.rel_error > 0) && !(r.max_seconds > 0) && r.samples == 0)
-      reference.fail(
-          "rel_error, max_seconds and samples are all 0: no rule would stop a reference");
     r.bounce_matched = kReferenceTable.boolean(reference, "bounce_matched");
     r.cache_dir = kReferenceTable.string(reference, "cache_dir");
   }

@@ -12,8 +12,9 @@
 
 namespace pb::config {
 
-// A run plays at most kMaxWarmupFrames + kMaxMeasuredFrames frames: every frame number a run, a
-// scene's default animation or `reference --frames` names is below kMaxFrames.
+// A run plays at most kMaxWarmupFrames + kMaxMeasuredFrames frames, and every frame number a run
+// (frames.start + frames.count), a scene's default animation or `reference --frames` names is
+// below kMaxFrames.
 inline constexpr uint32_t kMaxWarmupFrames = 100000;
 inline constexpr uint32_t kMaxMeasuredFrames = 1000000;
 inline constexpr uint32_t kMaxFrames = kMaxWarmupFrames + kMaxMeasuredFrames;
@@ -25,11 +26,23 @@ inline constexpr size_t kMaxNameLength = 100;
 // A match at a frame time takes each probe's median over at least this many measured frames.
 inline constexpr uint32_t kMinMatchFrames = 5;
 
+// The defaults of this file's structs are the config format's: config.cpp's key tables take each
+// default from a default-constructed struct (`photonbench schema config` prints them).
+
+// A cell plays frames first_frame() .. last_frame(): `warmup` frames, then `count` measured ones
+// from `start` on. The warm-up frames run just before the first measured frame, so a run can
+// measure frames 298.. of an animation with 4 warm-up frames (294..297) rather than 298.
 struct FrameSettings {
   uint32_t warmup = 4;
   uint32_t count = 32;
   uint32_t metrics_every = 8;   // score every Nth measured frame (0: never)
   uint32_t metrics_window = 1;  // and the frames after it: this many scored in a row (flicker)
+  // The first measured frame; at least `warmup`. An absent `start` is `warmup` (frames 0 .. warmup
+  // - 1 warm up), so configs written before it play the frames they did.
+  uint32_t start = warmup;
+  uint32_t first_frame() const { return start - warmup; }
+  uint32_t last_frame() const { return start + count - 1; }
+  bool measured(uint32_t frame) const { return frame >= start; }
 };
 
 // How references are rendered (reference/reference.h): a frame's render stops at the first
@@ -46,7 +59,7 @@ struct ReferenceSettings {
   // like it (trace::bounces_matching_photon_technique): metrics.csv rows with reference
   // "bounce_matched" beside the "full" ones, so a study separates estimator error from truncation.
   bool bounce_matched = false;
-  std::filesystem::path cache_dir;  // default: results/reference-cache
+  std::filesystem::path cache_dir = "results/reference-cache";  // shared by runs
 };
 
 struct Limits {

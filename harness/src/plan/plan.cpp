@@ -228,12 +228,12 @@ RunPlan plan_run(const std::filesystem::path& config_file,
 std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins) {
   std::vector<std::filesystem::path> scene_files;
   std::set<std::filesystem::path> checked;
-  const uint32_t last_frame = config.frames.warmup + config.frames.count - 1;
   for (const config::SceneEntry& scene : config.scenes) {
     try {
       scene_files.push_back(scene::find_scene(scene.scene, config.scene_dirs));
       if (checked.insert(scene_files.back()).second)
-        scene::check_frames(scene::load_scene(scene_files.back()), 0, last_frame);
+        scene::check_frames(scene::load_scene(scene_files.back()), config.frames.first_frame(),
+                            config.frames.last_frame());
     } catch (const InputError& e) {
       scene.name_node.fail(e.what());
     }

@@ -1,10 +1,13 @@
-// The reference's unbiased estimators and their switches, below the renderer (reference.h) so that
-// bidirectional path tracing (bdpt.h) and the path-space rule (path_space.h) can name them.
+// The reference's estimators and their switches, below the renderer (reference.h) so that its
+// passes (path_tracing_pass.h, bdpt.h, photon_mapping_pass.h, estimator_pilot.h) and the
+// path-space rule (path_space.h) can name them.
 #pragma once
 
 #include <cstdint>
 #include <optional>
 #include <string_view>
+
+#include "config/reference_rules.h"
 
 namespace pb::trace {
 
@@ -38,9 +41,11 @@ enum class MisHeuristic : uint8_t { power, uniform };
 // whose hotspot makes it 8x slower there), so only path tracing may be picked on a short pilot.
 // Rays rather than seconds where the render is not ended by its time limit, so that a seed
 // gives one image; a ray of bidirectional path tracing counts kBdptRayCost of path tracing's.
+// Their names are config::estimator_names(), in this order: what the config's reference block and
+// `photonbench reference --estimator` accept.
 enum class Estimator : uint8_t { pt, bdpt, automatic };
 inline std::string_view estimator_name(Estimator e) {  // "pt", "bdpt", "auto"
-  return e == Estimator::pt ? "pt" : e == Estimator::bdpt ? "bdpt" : "auto";
+  return config::estimator_names().at(size_t(e));
 }
 inline std::optional<Estimator> parse_estimator(std::string_view name) {
   for (Estimator e : {Estimator::pt, Estimator::bdpt, Estimator::automatic})
@@ -61,9 +66,40 @@ inline constexpr double kPilotMargin = 1.1;
 // Bidirectional path tracing's time per ray over path tracing's, measured (`photonbench reference
 // --estimator pt|bdpt`, 320x180, 16 iterations, 3 alternating rounds: on cornell-box its Mrays/s
 // are 0.53 of path tracing's, on pillars 0.64-0.76; 0.74 and 0.76 before path tracing ran as a
-// wavefront of ray streams, issue 30). Its vertex bookkeeping and MIS weights surround the same
-// Embree queries, one at a time. The upper end: the pilot's grid rays cost more than a full
-// iteration's (a lone pixel's paths, splats to the whole frame).
+// wavefront of ray streams, README "Ray throughput"). Its vertex bookkeeping and MIS weights
+// surround the same Embree queries, one at a time. The upper end: the pilot's grid rays cost more
+// than a full iteration's (a lone pixel's paths, splats to the whole frame).
 inline constexpr double kBdptRayCost = 1.8;
+
+// What the automatic choice saw when it decided (reference.h's error estimate for one iteration,
+// squared; rays per iteration of the whole image; photon mapping's rays apart), and the predicted
+// cost (rays, BDPT's weighted by kBdptRayCost) of reaching the target with each.
+struct PilotReport {
+  bool ran = false;
+  double pt_error2 = 0, bdpt_error2 = 0;
+  double pt_rays = 0, bdpt_rays = 0, photon_rays = 0;
+  double pt_cost = 0, bdpt_cost = 0;
+  double seconds = 0;            // the pilot's own time (its bidirectional iterations on the grid)
+  uint32_t iterations = 0;       // render iterations watched (path tracing's)
+  uint32_t bdpt_iterations = 0;  // bidirectional iterations on the grid
+  double pilot_rays = 0;  // the pilot's own rays, bidirectional ones weighted by kBdptRayCost
+  double budget = 0;  // kPilotBudget of path tracing's predicted render, rays (at the last check)
+  uint32_t dropped_iterations = 0;  // path tracing's, when bidirectional path tracing restarted
+  double pt_rays_per_iteration() const { return pt_rays + photon_rays; }
+};
+
+// Progressive photon mapping in its probabilistic form (Knaus & Zwicker 2011; README "Path space
+// and the two estimators" and "Photon mapping's cost"), for the paths it owns.
+struct PhotonMappingOptions {
+  uint32_t photons = 50000;        // photon paths per photon pass (one pass an iteration)
+  float alpha = 2.f / 3.f;         // the radius reduction (Knaus & Zwicker 2011, eq. 20)
+  float radius = 0;                // the initial radius in metres; 0: radius_footprints below
+  float radius_footprints = 1.5f;  // the initial radius in pixel footprints at the visible point
+  // Point, spot and directional lights emit photons only towards texels of their emission domain
+  // whose rays may reach a specular surface (README "Photon mapping's cost", aimed emission):
+  // photon mapping keeps only photons whose first interaction was specular, so the others were
+  // traced for nothing.
+  bool aimed_emission = true;
+};
 
 }  // namespace pb::trace

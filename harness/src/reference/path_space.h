@@ -1,7 +1,7 @@
-// What the reference renderer's estimators share (reference.cpp: path tracing and photon mapping;
-// bdpt.cpp: bidirectional path tracing): the camera rig, the classification of a full path into its
+// What the reference renderer's estimators share (path_tracing_pass.cpp, bdpt.cpp,
+// photon_mapping_pass.cpp): the camera rig, the classification of a full path into its
 // path class (reference.h), and the rule that splits path space between the unbiased estimators
-// and photon mapping. Internal to src/trace.
+// and photon mapping. Internal to reference/.
 #pragma once
 
 #include <algorithm>
@@ -142,7 +142,8 @@ inline bool in_grid(int x, int y, int stride) {
 // from the unshifted point with the unshifted length instead, the shadow ray of a sample on an area
 // light reaches that light's own plane inside its range whenever the offset along the normal
 // outruns the 1e-4 relative shortening, and the light's geometry shadows its own sample: quad
-// lights a few centimetres from a surface read 0.1-0.8 of the closed form there, issue 17.)
+// lights a few centimetres from a surface read 0.1-0.8 of the closed form there: README
+// "Near-field area lights".)
 // shadow_ray() is that ray, or none where the target lies within the offset (then the segment
 // counts as clear); a target at infinity (`infinite`: a directional light) is the direction
 // `target`.

@@ -5,10 +5,11 @@
 // full solution with nothing counted twice (the design and its measurements: README.md here):
 //   * an unbiased estimator for every path whose vertex next to the light is diffuse, or that has
 //     no diffuse vertex at all: path tracing with next-event estimation and MIS (power heuristic,
-//     Veach 1997 ch. 9), or bidirectional path tracing with MIS (Veach 1997 ch. 10, bdpt.h), chosen
-//     per render by a pilot (Estimator);
+//     Veach 1997 ch. 9; path_tracing_pass.h), or bidirectional path tracing with MIS (Veach 1997
+//     ch. 10, bdpt.h), chosen per render by a pilot (Estimator, estimator_pilot.h);
 //   * progressive photon mapping in its probabilistic form (Knaus & Zwicker 2011: every iteration
-//     an independent photon-map estimate, the radius shrinking from one iteration to the next) for
+//     an independent photon-map estimate, the radius shrinking from one iteration to the next;
+//     photon_mapping_pass.h) for
 //     every path with a diffuse vertex whose vertex next to the light is specular (L S ... ): the
 //     caustic-type paths that a path tracer cannot sample when the light is a point and the S a
 //     perfect mirror or glass. Visible points are the first diffuse camera vertex (C S* D), photons
@@ -22,7 +23,7 @@
 // mean's luminance over the pixels, sqrt(mean(var(L) / (L^2 + f^2))), with the floor f = 1% of the
 // class's mean luminance so that dark pixels do not dominate; over several classes, the RMS of the
 // classes' errors (a class that is black everywhere is left out). It is checked after every even
-// iteration from min_samples on.
+// iteration from min_samples on (accumulator.h).
 //
 // Path classes: path_class.h.
 //
@@ -47,6 +48,7 @@
 
 #include "io/image.h"
 #include "reference/estimators.h"
+#include "reference/options.h"
 #include "reference/path_class.h"
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
@@ -57,62 +59,13 @@ namespace pb::trace {
 // cache key, so old references are not reused by mistake). 2: mean, variance and halves; photon
 // mapping as independent per-iteration estimates; max_bounces counts full-path scattering vertices.
 // 3: shadow rays aimed from their offset origin (area lights near surfaces were biased low).
-// 4: photon mapping's aimed emission and new default photon counts and radius (issue 30).
+// 4: photon mapping's aimed emission and new default photon counts and radius.
 inline constexpr int kReferenceRendererVersion = 4;
 
 // Which stop rule ended a render (the first one reached wins).
 enum class StopRule : uint8_t { rel_error, max_seconds, samples };
 std::string_view stop_rule_name(StopRule rule);  // "rel_error", "max_seconds", "samples"
 std::optional<StopRule> parse_stop_rule(std::string_view name);
-
-// What the automatic choice saw when it decided (reference.h's error estimate for one iteration,
-// squared; rays per iteration of the whole image; photon mapping's rays apart), and the predicted
-// cost (rays, BDPT's weighted by kBdptRayCost) of reaching the target with each.
-struct PilotReport {
-  bool ran = false;
-  double pt_error2 = 0, bdpt_error2 = 0;
-  double pt_rays = 0, bdpt_rays = 0, photon_rays = 0;
-  double pt_cost = 0, bdpt_cost = 0;
-  double seconds = 0;            // the pilot's own time (its bidirectional iterations on the grid)
-  uint32_t iterations = 0;       // render iterations watched (path tracing's)
-  uint32_t bdpt_iterations = 0;  // bidirectional iterations on the grid
-  double pilot_rays = 0;  // the pilot's own rays, bidirectional ones weighted by kBdptRayCost
-  double budget = 0;  // kPilotBudget of path tracing's predicted render, rays (at the last check)
-  uint32_t dropped_iterations = 0;  // path tracing's, when bidirectional path tracing restarted
-  double pt_rays_per_iteration() const { return pt_rays + photon_rays; }
-};
-
-// One iteration renders one camera sample per pixel with the unbiased estimator and, where photon
-// mapping has work (a scene with specular surfaces and a wanted class it feeds), one photon pass;
-// the iteration's image is one independent, identically seeded-apart estimate of the frame, so
-// the mean, its variance and the two halves below all come from the spread of iteration images.
-struct ReferenceOptions {
-  // Stop rules: the render ends at the first one reached; 0 turns a rule off, at least one is on.
-  float rel_error = 0;     // estimated relative RMS error of the mean (reference.h, error estimate)
-  double max_seconds = 0;  // wall-clock seconds (the image is as good as the iterations done)
-  uint32_t samples = 256;  // iterations (camera samples per pixel)
-  uint32_t min_samples = 16;  // the error estimate is trusted from this many iterations on
-  // Scattering vertices on a full path between camera and emitter (C L: 0, C D L: 1, ...); 0:
-  // untruncated. A photon technique's `max_bounces: B` matches max_bounces = B
-  // (bounces_matching_photon_technique).
-  uint32_t max_bounces = 0;
-  // Photon mapping (README "Photon mapping's settings"): photon paths per photon pass, the radius
-  // reduction (Knaus & Zwicker 2011, eq. 20), the initial radius in metres (0: that many pixel
-  // footprints at the visible point).
-  uint32_t sppm_photons = 50000;
-  float sppm_alpha = 2.f / 3.f;
-  float sppm_radius = 0;
-  float sppm_radius_footprints = 1.5f;
-  // Point, spot and directional lights emit photons only towards texels of their emission domain
-  // whose rays may reach a specular surface (README "Aimed emission"): photon mapping keeps only
-  // photons whose first interaction was specular, so the others were traced for nothing.
-  bool sppm_aimed_emission = true;
-  Estimator estimator = Estimator::automatic;
-  LightStrategies light_strategies = LightStrategies::mis;  // pt only
-  MisHeuristic mis_heuristic = MisHeuristic::power;         // bdpt only
-  uint32_t seed = 1;
-  int threads = 0;  // 0: all cores
-};
 
 // The reference depth that matches a photon technique's `max_bounces: B` parameter
 // (TraceSettings::max_bounces in photonbench/photons.h): its light paths make at most B surface

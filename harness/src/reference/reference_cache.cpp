@@ -294,7 +294,7 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
         {"target_samples", options.samples},
         {"max_bounces", options.max_bounces},
         {"estimator", std::string(estimator_name(img.estimator))},
-        {"photons_per_iteration", r.photon_paths > 0 ? options.sppm_photons : 0u},
+        {"photons_per_iteration", r.photon_paths > 0 ? options.photon_mapping.photons : 0u},
         {"rays", r.rays},
         {"images",
          {{"mean", k + kImageSuffix[0]},

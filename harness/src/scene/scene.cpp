@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -142,6 +143,7 @@ glm::vec3 Light::surface_point(glm::vec2 uv, glm::vec3* dp_du, glm::vec3* dp_dv)
 Light LightTrack::at(float time) const {
   Light out = light;
   out.position = position.at(time);
+  if (!power.empty()) out.radiant = color * std::max(0.f, power.at(time));
   if (target) {
     glm::vec3 d = target->at(time) - out.position;
     float length = glm::length(d);

@@ -78,12 +78,18 @@ struct Light {
 };
 
 // A light and how it moves: its position (point, spot; a quad's corner or a disc's centre, moving
-// its whole surface) and, for spot and directional lights, an optional aim point that sets
-// `direction` each frame.
+// its whole surface), for spot and directional lights an optional aim point that sets `direction`
+// each frame, and optionally its power over time.
 struct LightTrack {
   Light light;
   PositionTrack position;
   std::optional<PositionTrack> target;
+  // The light's quantity over time, keyframed in the file (`power: {keys: ...}`, or intensity,
+  // irradiance, radiance) and kept in Light::radiant's unit before `color`: radiant at time t is
+  // color x power.at(t), never below 0 (a Catmull-Rom curve may overshoot its keys). Empty: the
+  // constant light.radiant. Its area never changes, so watts and radiance keep one ratio.
+  Keyframes<float> power;
+  glm::vec3 color{1.0f};
   std::string where;  // "file:line:col: lights[i]", for errors about the light at some frame
   Light at(float time) const;
 };

@@ -104,16 +104,20 @@ KeyTable light_table(const std::string& type, std::string doc, std::vector<Key> 
 }
 
 const ValueType kRadiant = config::number_type(0, kHuge);
+// A light's quantity (power, intensity, irradiance or radiance): a number, or keyframes of it, its
+// power over time (LightTrack::power).
+const KeyTable kQuantityKeys = keyframes_table("scene.light_quantity_keys", kRadiant);
+const ValueType kQuantity = config::any_of_type({kRadiant, config::table_type(kQuantityKeys)});
 const std::vector<KeyTable> kLightTables = {
     light_table("point", "A point light.",
                 {{"position", kPosition, true},
-                 {"intensity", kRadiant, false, nullptr, "W/sr, or power"},
-                 {"power", kRadiant, false, nullptr, "W (4 pi intensity), or intensity"}}),
+                 {"intensity", kQuantity, false, nullptr, "W/sr, or power"},
+                 {"power", kQuantity, false, nullptr, "W (4 pi intensity), or intensity"}}),
     light_table("spot", "A spot light, aimed at target or along direction.",
                 {{"position", kPosition, true},
                  {"target", kPosition, false, nullptr, "or direction"},
                  {"direction", kCoordinates, false, nullptr, "or target"},
-                 {"intensity", kRadiant, true, nullptr, "W/sr"},
+                 {"intensity", kQuantity, true, nullptr, "W/sr"},
                  {"inner_deg", config::number_type(0, 89), false, 30,
                   "full intensity inside this half-angle"},
                  {"outer_deg", config::number_type(0.1, 89.9), false, nullptr,
@@ -122,19 +126,19 @@ const std::vector<KeyTable> kLightTables = {
                 {{"direction", kCoordinates, false, nullptr, "or position and target"},
                  {"position", kPosition, false, nullptr, ""},
                  {"target", kPosition, false, nullptr, ""},
-                 {"irradiance", kRadiant, true, nullptr, "W/m^2"}}),
+                 {"irradiance", kQuantity, true, nullptr, "W/m^2"}}),
     light_table("quad", "A one-sided parallelogram emitter at position spanned by edge_u, edge_v.",
                 {{"position", kPosition, true},
                  {"edge_u", kCoordinates, true},
                  {"edge_v", kCoordinates, true},
-                 {"radiance", kRadiant, false, nullptr, "W/(m^2 sr), or power"},
-                 {"power", kRadiant, false, nullptr, "W (pi radiance area), or radiance"}}),
+                 {"radiance", kQuantity, false, nullptr, "W/(m^2 sr), or power"},
+                 {"power", kQuantity, false, nullptr, "W (pi radiance area), or radiance"}}),
     light_table("disc", "A one-sided circular emitter at position (its centre) facing normal.",
                 {{"position", kPosition, true, nullptr, "the centre"},
                  {"normal", kCoordinates, true, nullptr, "the emitting side, not the zero vector"},
                  {"radius", config::number_type(1e-4, 1e4), true, nullptr, "m"},
-                 {"radiance", kRadiant, false, nullptr, "W/(m^2 sr), or power"},
-                 {"power", kRadiant, false, nullptr, "W (pi radiance area), or radiance"}})};
+                 {"radiance", kQuantity, false, nullptr, "W/(m^2 sr), or power"},
+                 {"power", kQuantity, false, nullptr, "W (pi radiance area), or radiance"}})};
 
 const ValueType kAlbedo = config::vec3_type(0, 1);
 const ValueType kIor = config::number_type(1, 4);
@@ -341,21 +345,38 @@ LightTrack read_light(const YamlView& v, size_t index) {
   light.name = v.has("name") ? table.string(v, "name") : fmt::format("light{}", index);
   glm::vec3 color = table.vec3(v, "color");
   // Exactly one of the quantities named in `choices` must be given.
-  auto quantity = [&](std::initializer_list<const char*> choices) -> std::pair<std::string, float> {
+  auto quantity = [&](std::initializer_list<const char*> choices) -> std::string {
     std::vector<const char*> given;
     for (auto c : choices)
       if (v.has(c)) given.push_back(c);
     std::string names;
     for (auto c : choices) names += (names.empty() ? "'" : " or '") + std::string(c) + "'";
     if (given.size() != 1) v.fail(fmt::format("a {} light needs exactly one of {}", type, names));
-    return {given[0], number(v[given[0]], table.key(given[0]).type)};
+    return given[0];
   };
+  // The quantity `key` as Light::radiant, a number or keyframes (then its power over time,
+  // LightTrack::power), each value converted to radiant's unit by `to_radiant`.
+  auto set_radiant = [&](const std::string& key, auto to_radiant) {
+    const YamlView value = v[key];
+    if (!is_track(value)) {
+      light.radiant = color * to_radiant(number(value, kRadiant));
+      return;
+    }
+    kQuantityKeys.allow(value);
+    track.power = read_keys<float>(
+        kQuantityKeys, value, [&](const YamlView& x) { return to_radiant(number(x, kRadiant)); });
+    track.color = color;
+  };
+  auto as_is = [](float value) { return value; };
   if (type == "point") {
     light.type = LightType::point;
     track.position = read_position(v["position"]);
-    auto [key, value] = quantity({"intensity", "power"});
+    std::string key = quantity({"intensity", "power"});
     // A point light's power is 4 pi I (it radiates I W/sr into every direction).
-    light.radiant = color * (key == "power" ? value / (4 * glm::pi<float>()) : value);
+    if (key == "power")
+      set_radiant(key, [](float power) { return power / (4 * glm::pi<float>()); });
+    else
+      set_radiant(key, as_is);
   } else if (type == "spot") {
     light.type = LightType::spot;
     track.position = read_position(v["position"]);
@@ -363,7 +384,7 @@ LightTrack read_light(const YamlView& v, size_t index) {
       v["direction"].fail("give either 'target' or 'direction'");
     if (auto target = v.get("target")) track.target = read_position(*target);
     if (auto direction = v.get("direction")) light.direction = unit_direction(*direction);
-    light.radiant = color * quantity({"intensity"}).second;
+    set_radiant(quantity({"intensity"}), as_is);
     float inner = float(table.number(v, "inner_deg"));
     float outer = float(table.number_or(v, "outer_deg", std::max(40.0f, inner)));
     if (inner > outer)
@@ -382,7 +403,7 @@ LightTrack read_light(const YamlView& v, size_t index) {
       track.position = read_position(v["position"]);
       track.target = read_position(v["target"]);
     }
-    light.radiant = color * quantity({"irradiance"}).second;
+    set_radiant(quantity({"irradiance"}), as_is);
   } else {  // quad, disc
     track.position = read_position(v["position"]);
     if (type == "quad") {
@@ -399,12 +420,16 @@ LightTrack read_light(const YamlView& v, size_t index) {
       light.edge_u = radius * glm::vec3(1.f + sign * n.x * n.x * a, sign * b, -sign * n.x);
       light.edge_v = radius * glm::vec3(b, sign + n.y * n.y * a, -n.y);
     }
-    auto [key, value] = quantity({"radiance", "power"});
+    std::string key = quantity({"radiance", "power"});
     // A one-sided Lambertian emitter of radiance L and area A emits pi L A watts.
-    light.radiant = color * (key == "power" ? value / (glm::pi<float>() * light.area()) : value);
+    const float area = light.area();
+    if (key == "power")
+      set_radiant(key, [area](float power) { return power / (glm::pi<float>() * area); });
+    else
+      set_radiant(key, as_is);
   }
   track.light.position = track.position.at(0);
-  if (track.target) track.light = track.at(0);
+  if (track.target || !track.power.empty()) track.light = track.at(0);
   return track;
 }
 
