@@ -16,29 +16,6 @@ namespace {
 
 using namespace pb::toolkit;
 
-const pb_param_spec kParams[] = {
-    kPhotonsParam,
-    kRadiusParam,
-    kMaxBouncesParam,
-    kShadowMapSizeParam,
-    ClusterSplat::kVariantParam,
-    kLayoutParam,
-    kTopLevelsParam,
-    kMaxJobsParam,
-    ClusterSplat::kMaxListEntriesParam,
-    kStoreFirstHitParam,
-    kLoopBudgetParam,
-    kListCheckHookParam,
-    kProfileParam,
-};
-
-// The budget knobs (match: in a config): more light paths cost more and lower the error; a wider
-// radius costs more (each photon touches more pixels) and trades variance for bias.
-const pb_budget_knob kBudget[] = {
-    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
-    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
-};
-
 using Cluster = SplatTechnique<ClusterSplat>;
 
 }  // namespace
@@ -47,4 +24,5 @@ PB_EXPORT_TECHNIQUE(
     Cluster, "cluster", "indirect",
     "Paper I's photon splatting into a view-sample cluster hierarchy: per-node photon lists; "
     "variants plain, cone (normal-cone rejection) and trivial (per-node flux)",
-    kParams, .counters = Cluster::kCounters, .check = &Cluster::check, .budget = kBudget)
+    Cluster::kSchema.rows, .counters = Cluster::kCounters, .check = &Cluster::check,
+    .budget = kSplatBudgetKnobs)

@@ -15,19 +15,15 @@
 
 namespace {
 
-// The shared passes' shadow rows (their defaults the shared passes' own: photonbench/context.h).
-const pb_param_spec kParams[] = {
-    pb::toolkit::kShadowMapSizeParam,
-    pb::toolkit::kShadowBiasParam,
-    pb::toolkit::kShadowNormalOffsetParam,
-};
+using pb::toolkit::kShadowParams;
 
+// Its parameters are the shared passes' shadow settings (the toolkit's rows; their defaults the
+// shared passes' own: photonbench/context.h).
 class Direct final : public pb::Technique {
  public:
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    ctx.shared().configure_shadows(uint32_t(params.integer("shadow_map_size")),
-                                   float(params.number("shadow_bias")),
-                                   float(params.number("shadow_normal_offset")));
+    const pb::toolkit::ShadowParams shadow = kShadowParams.read(params);
+    ctx.shared().configure_shadows(shadow.map_size, shadow.bias, shadow.normal_offset);
   }
 
   void render(pb::Context& ctx) override {
@@ -40,4 +36,4 @@ class Direct final : public pb::Technique {
 }  // namespace
 
 PB_EXPORT_TECHNIQUE(Direct, "direct", "C L | C D L",
-                    "G-buffer + shadow-mapped direct light; no indirect light", kParams)
+                    "G-buffer + shadow-mapped direct light; no indirect light", kShadowParams.rows)

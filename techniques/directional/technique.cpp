@@ -14,34 +14,6 @@
 namespace {
 
 using namespace pb::toolkit;
-using D = DirectionalSplat;
-
-const pb_param_spec kParams[] = {
-    kPhotonsParam,
-    kRadiusParam,
-    kMaxBouncesParam,
-    kShadowMapSizeParam,
-    D::kDepositParam,
-    D::kWeightingParam,
-    kLayoutParam,
-    D::kAccumulateAtParam,
-    kTopLevelsParam,
-    kMaxJobsParam,
-    D::kBlurRadiusParam,
-    D::kBlurDepthSigmaParam,
-    D::kBlurNormalSigmaParam,
-    kStoreFirstHitParam,
-    kLoopBudgetParam,
-    kProfileParam,
-    D::kDebugIrradianceParam,
-};
-
-// The budget knobs (match: in a config): more light paths cost more and lower the error; a wider
-// radius costs more (each photon touches more pixels) and trades variance for bias.
-const pb_budget_knob kBudget[] = {
-    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
-    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
-};
 
 using Directional = SplatTechnique<DirectionalSplat>;
 
@@ -52,4 +24,5 @@ PB_EXPORT_TECHNIQUE(
     "Paper I's directional approximation: photons splatted into the view-sample cluster hierarchy "
     "accumulate flux per node in 8 view-space octant buckets; per-sample 2cos-weighted irradiance, "
     "depth- and normal-aware blur",
-    kParams, .counters = Directional::kCounters, .check = &Directional::check, .budget = kBudget)
+    Directional::kSchema.rows, .counters = Directional::kCounters, .check = &Directional::check,
+    .budget = kSplatBudgetKnobs)

@@ -38,127 +38,107 @@ using pathverification::LayoutBytes;
 using pathverification::PathInfo;
 using pathverification::PhotonMap;
 
+// Its own parameters (Paper II), beside the toolkit's photon rows and every splatter's.
+enum class SplatterName : uint32_t { kTiled, kCluster, kDirectional };
+enum class Reuse : uint32_t { kNone, kNaive, kErrorBased };
+struct VerificationParams {
+  SplatterName splatter;
+  Reuse reuse;
+  float energy_threshold;
+  bool light_reuse;
+  uint32_t dm_position_cells;
+  uint32_t dm_direction_cells;
+  uint32_t max_photons_per_path;
+};
 // clang-format off
-constexpr pb_param_spec kSplatterParam = {
-    "splatter", PB_PARAM_ENUM, 0, 0, 2, "tiled|cluster|directional", "",
-    "Paper I splatter the photons go through (Paper II builds on Paper I's engine); each reads its "
-    "own rows below"};
-constexpr pb_param_spec kReuseParam = {
-    "reuse", PB_PARAM_ENUM, 2, 0, 2, "none|naive|error_based", "",
-    "none: the baseline, every path re-traced each frame; naive: re-trace from the first segment "
-    "a moved object's box touches (§3.2); error_based: Algorithm 1 with energy_threshold (§3.3)"};
-constexpr pb_param_spec kEnergyThresholdParam = {
-    "energy_threshold", PB_PARAM_FLOAT, 0.001, 0, 1, nullptr, "",
-    "T of Eq. 2: a moved hit is kept while the reflected energy differs from the original by at "
-    "most this fraction in every channel (Paper II's experiments: 0.1%)"};
-constexpr pb_param_spec kLightReuseParam = {
-    "light_reuse", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
-    "keep the paths of a moved light by moving their origins (§3.1), with the distribution maps' "
-    "prune and fill; false: re-emit a moved light's paths whole (Table 1's 'reuse obj.')"};
-constexpr pb_param_spec kDmPositionCellsParam = {
-    "dm_position_cells", PB_PARAM_INT, 8, 1, 1024, nullptr, "cells",
-    "distribution-map cells along each position axis of an area light (Figs. 7/8: 8)"};
-constexpr pb_param_spec kDmDirectionCellsParam = {
-    "dm_direction_cells", PB_PARAM_INT, 64, 1, 4096, nullptr, "cells",
-    "distribution-map cells along each direction axis (Figs. 7/8: 64; point and spot lights "
-    "have only these two)"};
-constexpr pb_param_spec kMaxPhotonsPerPathParam = {
-    "max_photons_per_path", PB_PARAM_INT, 7, 1, 16, nullptr, "photons",
-    "rows of the bounce-major photon map (Paper II: 7); max_bounces - 1 may not exceed it"};
+constexpr auto kVerificationParams = pb::params(
+    pb::param("splatter", &VerificationParams::splatter, SplatterName::kTiled,
+              "tiled|cluster|directional",
+              "Paper I splatter the photons go through (Paper II builds on Paper I's engine); each "
+              "reads its own rows below"),
+    pb::param("reuse", &VerificationParams::reuse, Reuse::kErrorBased, "none|naive|error_based",
+              "none: the baseline, every path re-traced each frame; naive: re-trace from the first "
+              "segment a moved object's box touches (§3.2); error_based: Algorithm 1 with "
+              "energy_threshold (§3.3)"),
+    pb::param("energy_threshold", &VerificationParams::energy_threshold, 0.001, {0, 1}, "",
+              "T of Eq. 2: a moved hit is kept while the reflected energy differs from the "
+              "original by at most this fraction in every channel (Paper II's experiments: 0.1%)"),
+    pb::param("light_reuse", &VerificationParams::light_reuse, true,
+              "keep the paths of a moved light by moving their origins (§3.1), with the "
+              "distribution maps' prune and fill; false: re-emit a moved light's paths whole "
+              "(Table 1's 'reuse obj.')"),
+    pb::param("dm_position_cells", &VerificationParams::dm_position_cells, 8, {1, 1024}, "cells",
+              "distribution-map cells along each position axis of an area light (Figs. 7/8: 8)"),
+    pb::param("dm_direction_cells", &VerificationParams::dm_direction_cells, 64, {1, 4096},
+              "cells",
+              "distribution-map cells along each direction axis (Figs. 7/8: 64; point and spot "
+              "lights have only these two)"),
+    pb::param("max_photons_per_path", &VerificationParams::max_photons_per_path, 7, {1, 16},
+              "photons",
+              "rows of the bounce-major photon map (Paper II: 7); max_bounces - 1 may not exceed "
+              "it"));
 // clang-format on
 
-const pb_param_spec kParams[] = {
-    kPhotonsParam,
-    kRadiusParam,
-    // At most the 15 segments the path-information word holds (4 bits, Paper II §4).
+// The toolkit's photon rows, max_bounces at most the 15 segments the path-information word holds
+// (4 bits, Paper II §4).
+constexpr auto kPathPhotonParams = kPhotonParams.with_row(
     with_range(kMaxBouncesParam, kMaxBouncesParam.default_value, kMaxBouncesParam.min_value,
                pathverification::PathInfo::kMaxSegments,
                "surface interactions per light path; photons are stored at hits 2 to max_bounces "
                "(Paper I §4.2); at most 15, the segments a path-information word holds (Paper II "
-               "§4)"),
-    kShadowMapSizeParam,
-    kSplatterParam,
-    kReuseParam,
-    kEnergyThresholdParam,
-    kLightReuseParam,
-    kDmPositionCellsParam,
-    kDmDirectionCellsParam,
-    kMaxPhotonsPerPathParam,
-    kStoreFirstHitParam,
-    // The splatters' own rows (each reads only its own).
-    TiledSplat::kTileSizeParam,
-    TiledSplat::kMaxListEntriesParam,
-    kListCheckHookParam,
-    ClusterSplat::kVariantParam,
-    kLayoutParam,
-    kTopLevelsParam,
-    kMaxJobsParam,
-    kLoopBudgetParam,
-    kProfileParam,
-    DirectionalSplat::kDepositParam,
-    DirectionalSplat::kWeightingParam,
-    DirectionalSplat::kAccumulateAtParam,
-    DirectionalSplat::kBlurRadiusParam,
-    DirectionalSplat::kBlurDepthSigmaParam,
-    DirectionalSplat::kBlurNormalSigmaParam,
-    DirectionalSplat::kDebugIrradianceParam,
-};
+               "§4)"));
 
-// The budget knobs (match: in a config): more light paths (traced, kept and verified) cost more
-// and lower the error; a wider radius costs more (each photon touches more pixels) and trades
-// variance for bias.
-const pb_budget_knob kBudget[] = {
-    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
-    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
-};
+// `max_list_entries` is one key for the two list splatters: tiled's row (to 2^28; cluster's own
+// stops at 2^25), the device's storage range refusing a capacity the splatter cannot hold.
+constexpr auto kClusterParams =
+    ClusterSplat::kParams.with_row(TiledSplat::kParams.row("max_list_entries"));
+
+// The photon rows, its own, then the splatters' (each reads only its own; rows two splatters
+// share are listed once).
+constexpr auto kSchema = pb::merge_rows<kPathPhotonParams, kVerificationParams, TiledSplat::kParams,
+                                        kClusterParams, DirectionalSplat::kParams>();
 
 // The counters of the reuse steps (Paper II Figs. 7 and 8) and of the data layout (Table 1).
 // clang-format off
-constexpr pb_counter_spec kPathsKept{"paths_kept", PB_COUNTER_WORK, "paths",
-                                     "paths with no segment re-traced"};
-constexpr pb_counter_spec kPathsMoved{"paths_moved", PB_COUNTER_WORK, "paths",
-                                      "error_based: kept with a vertex or an origin moved"};
-constexpr pb_counter_spec kPathsRetraced{"paths_retraced", PB_COUNTER_WORK, "paths",
-                                         "paths re-traced from a segment or whole"};
-constexpr pb_counter_spec kRaysTraced{"rays_traced", PB_COUNTER_WORK, "rays",
-                                      "every ray: re-traced segments plus visibility rays"};
-constexpr pb_counter_spec kSegmentsRetraced{"segments_retraced", PB_COUNTER_WORK, "rays",
-                                            "re-traced segments"};
-constexpr pb_counter_spec kVisibilityRays{"visibility_rays", PB_COUNTER_WORK, "rays",
-                                          "the reuse steps' rays that are not re-traced segments"};
-constexpr pb_counter_spec kFullRetraceRays{"full_retrace_rays", PB_COUNTER_WORK, "rays",
-                                           "the segments of this frame's paths (tracing all)"};
-constexpr pb_counter_spec kPathsPruned{"paths_pruned", PB_COUNTER_WORK, "paths",
-                                       "paths the prune removed (Eq. 1)"};
-constexpr pb_counter_spec kPathsRefilled{"paths_refilled", PB_COUNTER_WORK, "paths",
-                                         "paths the fill emitted into under-full cells"};
-constexpr pb_counter_spec kDmDistance{"dm_distance", PB_COUNTER_RATIO, "paths",
-                                      "total-variation distance of DM_C from DM_T after the fill"};
-constexpr pb_counter_spec kBytesPathInformation{"bytes_path_information", PB_COUNTER_SIZE,
-                                                "bytes", "one word per path (§4)"};
-constexpr pb_counter_spec kBytesPathOrigins{"bytes_path_origins", PB_COUNTER_SIZE, "bytes",
-                                            "the kept paths' origins"};
-constexpr pb_counter_spec kBytesDistributionMaps{"bytes_distribution_maps", PB_COUNTER_SIZE,
-                                                 "bytes", "DM_T and DM_C of every light"};
-constexpr pb_counter_spec kBytesPrunedPaths{"bytes_pruned_paths", PB_COUNTER_SIZE, "bytes",
-                                            "the pruned-paths array"};
-constexpr pb_counter_spec kBytesPhotonMap{"bytes_photon_map", PB_COUNTER_SIZE, "bytes",
-                                          "the bounce-major photon map (ours, compacted)"};
-constexpr pb_counter_spec kBytesPhotonMapPaper{"bytes_photon_map_paper", PB_COUNTER_SIZE, "bytes",
-                                               "the paper's fixed layout at this path count"};
+constexpr auto kVerificationCounters = pb::counters({
+    {"paths_kept", PB_COUNTER_WORK, "paths", "paths with no segment re-traced"},
+    {"paths_moved", PB_COUNTER_WORK, "paths", "error_based: kept with a vertex or an origin moved"},
+    {"paths_retraced", PB_COUNTER_WORK, "paths", "paths re-traced from a segment or whole"},
+    {"rays_traced", PB_COUNTER_WORK, "rays", "every ray: re-traced segments plus visibility rays"},
+    {"segments_retraced", PB_COUNTER_WORK, "rays", "re-traced segments"},
+    {"visibility_rays", PB_COUNTER_WORK, "rays",
+     "the reuse steps' rays that are not re-traced segments"},
+    {"full_retrace_rays", PB_COUNTER_WORK, "rays",
+     "the segments of this frame's paths (tracing all)"},
+    {"paths_pruned", PB_COUNTER_WORK, "paths", "paths the prune removed (Eq. 1)"},
+    {"paths_refilled", PB_COUNTER_WORK, "paths", "paths the fill emitted into under-full cells"},
+    {"dm_distance", PB_COUNTER_RATIO, "paths",
+     "total-variation distance of DM_C from DM_T after the fill"},
+    {"bytes_path_information", PB_COUNTER_SIZE, "bytes", "one word per path (§4)"},
+    {"bytes_path_origins", PB_COUNTER_SIZE, "bytes", "the kept paths' origins"},
+    {"bytes_distribution_maps", PB_COUNTER_SIZE, "bytes", "DM_T and DM_C of every light"},
+    {"bytes_pruned_paths", PB_COUNTER_SIZE, "bytes", "the pruned-paths array"},
+    {"bytes_photon_map", PB_COUNTER_SIZE, "bytes", "the bounce-major photon map (ours, compacted)"},
+    {"bytes_photon_map_paper", PB_COUNTER_SIZE, "bytes",
+     "the paper's fixed layout at this path count"},
+});
 // clang-format on
 
-// Its own counters, then every splatter's (each cell emits its splatter's alone).
-constexpr auto kCounters = join_counters(
-    std::array{kPhotonsStoredCounter, kPathsKept, kPathsMoved, kPathsRetraced, kRaysTraced,
-               kSegmentsRetraced, kVisibilityRays, kFullRetraceRays, kPathsPruned, kPathsRefilled,
-               kDmDistance, kBytesPathInformation, kBytesPathOrigins, kBytesDistributionMaps,
-               kBytesPrunedPaths, kBytesPhotonMap, kBytesPhotonMapPaper},
-    TiledSplat::kCounters, ClusterSplat::kCounters, DirectionalSplat::kCounters);
+// The stored photons, its own counters, then every splatter's (each cell emits its splatter's
+// alone).
+constexpr auto kCounters =
+    join_counters(std::array{kPhotonsStoredCounter}, std::to_array(kVerificationCounters.specs),
+                  TiledSplat::kCounters, ClusterSplat::kCounters, DirectionalSplat::kCounters);
 
-std::unique_ptr<Splatter> make_splatter(const std::string& name) {
-  if (name == "tiled") return std::make_unique<TiledSplat>();
-  if (name == "cluster") return std::make_unique<ClusterSplat>();
+std::unique_ptr<Splatter> make_splatter(SplatterName name) {
+  switch (name) {
+    case SplatterName::kTiled:
+      return std::make_unique<TiledSplat>();
+    case SplatterName::kCluster:
+      return std::make_unique<ClusterSplat>();
+    case SplatterName::kDirectional:
+      break;
+  }
   return std::make_unique<DirectionalSplat>();
 }
 
@@ -167,43 +147,47 @@ class PathVerification final : public Technique {
   // The parameters together: the photon map's rows, the path-information word, and the chosen
   // splatter's own rows.
   static std::string check(const Params& params) {
-    const PhotonParams photon = PhotonParams::read(params);
+    const PhotonParams photon = kPathPhotonParams.read(params);
+    const VerificationParams verification = kVerificationParams.read(params);
     // Photons are stored at hits 2..max_bounces (Paper I §4.2), one row per stored photon.
     const uint32_t stored = photon.max_bounces - (photon.store_first_hit ? 0 : 1);
-    const int64_t rows = params.integer(kMaxPhotonsPerPathParam.name);
+    const uint32_t rows = verification.max_photons_per_path;
     if (stored > rows)
       return fmt::format(
           "max_bounces: {} stores up to {} photons per path, more than max_photons_per_path = {}",
           photon.max_bounces, stored, rows);
-    const uint64_t d = uint64_t(params.integer(kDmDirectionCellsParam.name));
-    const uint64_t p = uint64_t(params.integer(kDmPositionCellsParam.name));
+    const uint64_t d = verification.dm_direction_cells;
+    const uint64_t p = verification.dm_position_cells;
     if (std::string limits =
             pathverification::check_packing_limits(photon.max_bounces, d * d * p * p);
         !limits.empty())
       return limits;
-    const std::string& splatter = params.choice(kSplatterParam.name);
-    return splatter == "tiled"     ? TiledSplat::check(params)
-           : splatter == "cluster" ? ClusterSplat::check(params)
-                                   : DirectionalSplat::check(params);
+    switch (verification.splatter) {
+      case SplatterName::kTiled:
+        return TiledSplat::check(params);
+      case SplatterName::kCluster:
+        return ClusterSplat::check(params);
+      case SplatterName::kDirectional:
+        break;
+    }
+    return DirectionalSplat::check(params);
   }
 
   void setup(Context& ctx, const Params& params) override {
-    photon_ = PhotonParams::read(params);
-    const std::string& reuse = params.choice(kReuseParam.name);
-    reuse_enabled_ = reuse != "none";
-    reuse_.rule = reuse == "naive" ? trace::ReuseRule::naive : trace::ReuseRule::error_based;
-    reuse_.energy_threshold = float(params.number(kEnergyThresholdParam.name));
-    max_photons_ = uint32_t(params.integer(kMaxPhotonsPerPathParam.name));
-    reuse_.update_origins = params.flag(kLightReuseParam.name);
-    dm_position_cells_ = uint32_t(params.integer(kDmPositionCellsParam.name));
-    dm_direction_cells_ = uint32_t(params.integer(kDmDirectionCellsParam.name));
+    photon_ = kPathPhotonParams.read(params);
+    verification_ = kVerificationParams.read(params);
+    reuse_enabled_ = verification_.reuse != Reuse::kNone;
+    reuse_.rule = verification_.reuse == Reuse::kNaive ? trace::ReuseRule::naive
+                                                       : trace::ReuseRule::error_based;
+    reuse_.energy_threshold = verification_.energy_threshold;
+    reuse_.update_origins = verification_.light_reuse;
     settings_ = photon_.trace_settings();
     // Every variant traces the same sample sequence each frame (the paths keep the seed they were
     // first traced with), so that on a static scene the baseline's photons are the reuse's.
     settings_.seed_per_frame = false;
     settings_.keep_light_paths = true;
     configure_shadows(ctx, photon_.shadow_map_size);
-    splatter_ = make_splatter(params.choice(kSplatterParam.name));
+    splatter_ = make_splatter(verification_.splatter);
     splatter_->setup(ctx, params, photon_);
   }
 
@@ -217,7 +201,8 @@ class PathVerification final : public Technique {
       stats.paths_retraced = stats.paths;
       stats.segments_retraced = stats.rays;
       stats.full_retrace_rays = stats.rays;
-      if (reuse_enabled_) maps_.setup(batch_, dm_position_cells_, dm_direction_cells_);
+      if (reuse_enabled_)
+        maps_.setup(batch_, verification_.dm_position_cells, verification_.dm_direction_cells);
     } else {
       // Paper II §4's order: origins and DM_C in one step, then the occlusion tests (they need
       // the new origins), then prune and fill, then the tracing of what they scheduled.
@@ -248,7 +233,7 @@ class PathVerification final : public Technique {
     {
       auto scope = ctx.pass("photon-upload");
       pack_path_information();
-      photon_map_.build(batch_, max_photons_);
+      photon_map_.build(batch_, verification_.max_photons_per_path);
       upload_photon_map(ctx);
     }
     PhotonSet set{&photons_, photon_map_.records};
@@ -294,16 +279,16 @@ class PathVerification final : public Technique {
 
   void report(Context& ctx, const trace::TraceStats& stats, uint64_t pruned, uint64_t refilled) {
     pb::count(ctx, kPhotonsStoredCounter, double(batch_.photons.size()));
-    pb::count(ctx, kPathsKept, double(stats.paths - stats.paths_retraced));
-    pb::count(ctx, kPathsMoved, double(stats.paths_moved));
-    pb::count(ctx, kPathsRetraced, double(stats.paths_retraced));
-    pb::count(ctx, kRaysTraced, double(stats.rays));
-    pb::count(ctx, kSegmentsRetraced, double(stats.segments_retraced));
-    pb::count(ctx, kVisibilityRays, double(stats.visibility_rays));
-    pb::count(ctx, kFullRetraceRays, double(stats.full_retrace_rays));
+    pb::count(ctx, kVerificationCounters["paths_kept"], double(stats.paths - stats.paths_retraced));
+    pb::count(ctx, kVerificationCounters["paths_moved"], double(stats.paths_moved));
+    pb::count(ctx, kVerificationCounters["paths_retraced"], double(stats.paths_retraced));
+    pb::count(ctx, kVerificationCounters["rays_traced"], double(stats.rays));
+    pb::count(ctx, kVerificationCounters["segments_retraced"], double(stats.segments_retraced));
+    pb::count(ctx, kVerificationCounters["visibility_rays"], double(stats.visibility_rays));
+    pb::count(ctx, kVerificationCounters["full_retrace_rays"], double(stats.full_retrace_rays));
     if (reuse_enabled_ && reuse_.update_origins) {
-      pb::count(ctx, kPathsPruned, double(pruned));
-      pb::count(ctx, kPathsRefilled, double(refilled));
+      pb::count(ctx, kVerificationCounters["paths_pruned"], double(pruned));
+      pb::count(ctx, kVerificationCounters["paths_refilled"], double(refilled));
       // DM_C against DM_T after this frame's fill: the total-variation distance of all lights.
       double distance = 0, weight = 0;
       for (const auto& m : maps_.maps()) {
@@ -311,15 +296,16 @@ class PathVerification final : public Technique {
         for (float t : m.target) paths += t;
         distance += m.distance() * paths, weight += paths;
       }
-      pb::count(ctx, kDmDistance, weight > 0 ? distance / weight : 0);
+      pb::count(ctx, kVerificationCounters["dm_distance"], weight > 0 ? distance / weight : 0);
     }
     LayoutBytes bytes = layout_bytes();
-    pb::count(ctx, kBytesPathInformation, double(bytes.path_information));
-    pb::count(ctx, kBytesPathOrigins, double(bytes.path_origins));
-    pb::count(ctx, kBytesDistributionMaps, double(bytes.distribution_maps));
-    pb::count(ctx, kBytesPrunedPaths, double(bytes.pruned_paths));
-    pb::count(ctx, kBytesPhotonMap, double(bytes.photon_map));
-    pb::count(ctx, kBytesPhotonMapPaper, double(bytes.photon_map_paper));
+    pb::count(ctx, kVerificationCounters["bytes_path_information"], double(bytes.path_information));
+    pb::count(ctx, kVerificationCounters["bytes_path_origins"], double(bytes.path_origins));
+    pb::count(ctx, kVerificationCounters["bytes_distribution_maps"],
+              double(bytes.distribution_maps));
+    pb::count(ctx, kVerificationCounters["bytes_pruned_paths"], double(bytes.pruned_paths));
+    pb::count(ctx, kVerificationCounters["bytes_photon_map"], double(bytes.photon_map));
+    pb::count(ctx, kVerificationCounters["bytes_photon_map_paper"], double(bytes.photon_map_paper));
   }
 
   LayoutBytes layout_bytes() const {
@@ -337,21 +323,20 @@ class PathVerification final : public Technique {
       b.pruned_paths = paths * sizeof(uint32_t);  // capacity: every path may be pruned
     }
     b.photon_map = uint64_t(photon_map_.records.size()) * sizeof(trace::PhotonRecord);
-    b.photon_map_paper = paths * max_photons_ * 32;  // §4's 32-byte record
+    b.photon_map_paper = paths * verification_.max_photons_per_path * 32;  // §4's 32-byte record
     return b;
   }
 
   PhotonParams photon_;
   trace::TraceSettings settings_;
   trace::ReuseSettings reuse_;
+  VerificationParams verification_ = kVerificationParams.defaults();
   bool reuse_enabled_ = true;
-  uint32_t max_photons_ = 7;
   std::unique_ptr<Splatter> splatter_;
   trace::PhotonBatch batch_;
   std::vector<uint32_t> path_info_;
   pathverification::DistributionMaps maps_;
   std::vector<uint32_t> pruned_paths_;
-  uint32_t dm_position_cells_ = 8, dm_direction_cells_ = 64;
   PhotonMap photon_map_;
   gpu::Buffer photons_;
 };
@@ -362,4 +347,5 @@ PB_EXPORT_TECHNIQUE(
     PathVerification, "path-verification", "indirect",
     "Paper II's path verification: light paths kept across frames, re-validated against moving "
     "objects (none | naive | error_based reuse) and splatted by a Paper I splatter",
-    kParams, .counters = kCounters, .check = &PathVerification::check, .budget = kBudget)
+    kSchema.rows, .counters = kCounters, .check = &PathVerification::check,
+    .budget = kSplatBudgetKnobs)

@@ -15,24 +15,6 @@ namespace {
 
 using namespace pb::toolkit;
 
-const pb_param_spec kParams[] = {
-    kPhotonsParam,
-    kRadiusParam,
-    TiledSplat::kTileSizeParam,
-    TiledSplat::kMaxListEntriesParam,
-    kMaxBouncesParam,
-    kShadowMapSizeParam,
-    kStoreFirstHitParam,
-    kListCheckHookParam,
-};
-
-// The budget knobs (match: in a config): more light paths cost more and lower the error; a wider
-// radius costs more (each photon touches more pixels) and trades variance for bias.
-const pb_budget_knob kBudget[] = {
-    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
-    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
-};
-
 using Tiled = SplatTechnique<TiledSplat>;
 
 }  // namespace
@@ -41,4 +23,5 @@ PB_EXPORT_TECHNIQUE(
     Tiled, "tiled", "indirect",
     "Paper I's tiled photon splatting (Mara et al. 2013): 32x32 tiles with depth bounds, "
     "per-tile photon lists, constant-kernel radiance estimate",
-    kParams, .counters = Tiled::kCounters, .check = &Tiled::check, .budget = kBudget)
+    Tiled::kSchema.rows, .counters = Tiled::kCounters, .check = &Tiled::check,
+    .budget = kSplatBudgetKnobs)

@@ -163,6 +163,7 @@ typedef const pb_technique_descriptor* (*pb_technique_entry)(uint32_t host_api_v
 #include <map>
 #include <span>
 #include <string>
+#include <string_view>
 
 #include "photonbench/context.h"
 
@@ -178,6 +179,14 @@ class Params {
   int64_t integer(const std::string& name) const;
   bool flag(const std::string& name) const;
   const std::string& choice(const std::string& name) const;
+  // An enum parameter's value as the index of its name among `choices` ("a|b|c"), or as the
+  // enumerator of that index; a name that is none of them throws pb::Error naming the parameter,
+  // the value and the choices (never a fallback).
+  uint32_t choice_index(const std::string& name, std::string_view choices) const;
+  template <class E>
+  E choice(const std::string& name, std::string_view choices) const {
+    return E(choice_index(name, choices));
+  }
   const std::map<std::string, std::string>& all() const { return values_; }
 
  private:

@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <vector>
 
 #include "photonbench/error.h"
 #include "photonbench/plugin.h"
@@ -23,5 +24,22 @@ int64_t Params::integer(const std::string& name) const {
 }
 bool Params::flag(const std::string& name) const { return raw(name) == "true"; }
 const std::string& Params::choice(const std::string& name) const { return raw(name); }
+
+uint32_t Params::choice_index(const std::string& name, std::string_view choices) const {
+  const std::string& value = raw(name);
+  std::vector<std::string_view> names;
+  for (size_t start = 0;;) {
+    const size_t bar = choices.find('|', start);
+    names.push_back(choices.substr(start, bar - start));
+    if (bar == std::string_view::npos) break;
+    start = bar + 1;
+  }
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i] == value) return uint32_t(i);
+  // The plan refuses such a value at its config key (with the closest name), so this is a
+  // technique whose enum and choices disagree.
+  throw Error(
+      fmt::format("parameter '{}': '{}' is not one of {}", name, value, fmt::join(names, ", ")));
+}
 
 }  // namespace pb

@@ -33,29 +33,25 @@ constexpr uint32_t kModeCount = 0, kModeInsert = 1;
 
 void ClusterSplat::setup(Context& ctx, const Params& params, const PhotonParams& photon) {
   radius_ = photon.radius;
-  const std::string& variant = params.choice(kVariantParam.name);
-  variant_ = variant == "trivial" ? kTrivial : variant == "cone" ? kCone : kPlain;
-  top_levels_ = uint32_t(params.integer(kTopLevelsParam.name));
-  budget_ = uint32_t(params.integer(kLoopBudgetParam.name));
-  insert_radius_scale_ = float(params.number(kListCheckHookParam.name));
-  const uint32_t job_capacity = uint32_t(params.integer(kMaxJobsParam.name));
-  const uint32_t list_capacity = uint32_t(params.integer(kMaxListEntriesParam.name));
+  options_ = kParams.read(params);
+  top_levels_ = options_.top_levels;
+  const uint32_t job_capacity = options_.max_jobs;
+  const uint32_t list_capacity = options_.max_list_entries;
   auto& gpu = ctx.gpu();
   check_storage_range(gpu, uint64_t(job_capacity) * 8,
                       fmt::format("cluster: max_jobs = {} (8 bytes each)", job_capacity));
   check_storage_range(gpu, uint64_t(list_capacity) * 4,
                       fmt::format("cluster: max_list_entries = {} (4 bytes each)", list_capacity));
-  const std::string& layout = params.choice(kLayoutParam.name);
-  auto options = HierarchyOptions::named_layout(layout);
-  options.normal_cones = variant_ != kPlain;
-  hierarchy_.setup(gpu, options);
+  auto layout = HierarchyOptions::named_layout(options_.layout);
+  layout.normal_cones = options_.variant != kPlain;
+  hierarchy_.setup(gpu, layout);
   // The top pass stops at the level above the leaves at the latest: leaves are stored, not walked.
   top_levels_ = std::min(top_levels_, hierarchy_.accumulation_level());
 
   scan_.setup(gpu);
   jobs_.setup(gpu, job_capacity, kJobsPerThread, "cluster");
   lists_.setup(gpu, list_capacity, "cluster");
-  const bool profile = params.flag(kProfileParam.name);
+  const bool profile = options_.profile;
   profile_.setup(gpu, {"top", "count", "insert"}, profile);
   stats_ = storage_buffer(gpu, "cluster/stats", kStatWords * 4, gpu::Memory::host_visible);
   node_flux_.setup(gpu);
@@ -85,8 +81,9 @@ void ClusterSplat::ensure_resources(Context& ctx) {
   jobs_.resize(gpu, scan_, nodes);
   lists_.resize(gpu, scan_, nodes);
   // trivial: node flux for every level (a photon can be accepted at any node); else a placeholder.
-  node_flux_.resize(gpu, hierarchy_, variant_ == kTrivial ? hierarchy_.leaf_level() : 0,
-                    variant_ == kTrivial ? 3 : 0, "cluster/node-flux", "cluster: node flux");
+  node_flux_.resize(gpu, hierarchy_, options_.variant == kTrivial ? hierarchy_.leaf_level() : 0,
+                    options_.variant == kTrivial ? 3 : 0, "cluster/node-flux",
+                    "cluster: node flux");
   indirect_ = gpu.create_image("cluster/indirect", {frame.width, frame.height},
                                vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage);
 }
@@ -101,9 +98,9 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
   push.view = frame.camera.view;
   push.photon_count = photons.count();
   push.radius = radius_;
-  push.flags = variant_;
+  push.flags = options_.variant;
   push.top_level = top_levels_;
-  push.budget = budget_;
+  push.budget = options_.loop_budget;
   push.estimate_radius = radius_;
   push.units_per_watt = glm::vec4(scale.units_per_watt, 0.0f);
 
@@ -136,7 +133,7 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
     // The leaf passes, twice (Paper I §4.3).
     lists_.record_runs(ctx, scan_, [&](vk::CommandBuffer cmd, bool insert) {
       push.mode = insert ? kModeInsert : kModeCount;
-      push.radius = insert ? radius_ * insert_radius_scale_ : radius_;
+      push.radius = insert ? radius_ * options_.insert_radius_scale : radius_;
       leaf_pipeline_.bind(cmd, resources, push);
       jobs_.dispatch_consumers(cmd);
     });
@@ -145,7 +142,7 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
   {
     auto scope = ctx.pass("radiance-estimate");
     auto cmd = ctx.cmd();
-    if (variant_ == kTrivial) {  // the node flux in watts for the estimate
+    if (options_.variant == kTrivial) {  // the node flux in watts for the estimate
       node_flux_.resolve(cmd, hierarchy_, scale);
       gpu::full_barrier(cmd);
     }
@@ -161,13 +158,13 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
 void ClusterSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
   auto wide = [&](uint32_t at) { return double(uint64_t(s[at]) | (uint64_t(s[at + 1]) << 32)); };
-  lists_.report(ctx, "cluster: per-node photon lists", kMaxListEntriesParam.name);
+  lists_.report(ctx, "cluster: per-node photon lists", "max_list_entries");
   jobs_.report(ctx, "cluster");
-  report_truncated(ctx, "cluster", s[kStatTruncated], budget_);
+  report_truncated(ctx, "cluster", s[kStatTruncated], options_.loop_budget);
   pb::count(ctx, kPhotonsReadCounter, wide(kStatRead));
   pb::count(ctx, kPhotonsRejectedCounter, wide(kStatRejected));
-  if (variant_ == kTrivial) pb::count(ctx, kTrivialAcceptsCounter, double(s[kStatTrivial]));
-  if (variant_ != kPlain) pb::count(ctx, kConeRejectsCounter, double(s[kStatCone]));
+  if (options_.variant == kTrivial) pb::count(ctx, kTrivialAcceptsCounter, double(s[kStatTrivial]));
+  if (options_.variant != kPlain) pb::count(ctx, kConeRejectsCounter, double(s[kStatCone]));
   uint64_t nodes = 0;
   for (uint32_t l = 0; l < hierarchy_.levels(); ++l) nodes += hierarchy_.occupied(l);
   pb::count(ctx, kHierarchyNodesCounter, double(nodes));
@@ -176,7 +173,8 @@ void ClusterSplat::report(Context& ctx, const PhotonSet&) {
   pb::count(ctx, kBytesClusterHierarchyCounter, double(hierarchy_.bytes_hierarchy()));
   pb::count(ctx, kBytesFinalBoundsCounter, double(hierarchy_.bytes_final_bounds()));
   pb::count(ctx, kBytesNormalConeCounter, double(hierarchy_.bytes_normal_cone()));
-  pb::count(ctx, kBytesAccumFluxCounter, variant_ == kTrivial ? double(node_flux_.bytes()) : 0.0);
+  pb::count(ctx, kBytesAccumFluxCounter,
+            options_.variant == kTrivial ? double(node_flux_.bytes()) : 0.0);
   pb::count(ctx, kBytesJobsCounter, double(jobs_.bytes()));
   pb::count(ctx, kBytesPhotonListsCounter, double(lists_.bytes() + scan_.scratch_bytes()));
   profile_.report(ctx);

@@ -41,25 +41,20 @@ constexpr uint32_t kBucketWords = 24;  // 8 octants x RGB (Paper I §5.2: "24 fl
 
 void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonParams& photon) {
   radius_ = photon.radius;
-  blur_radius_ = int32_t(params.integer(kBlurRadiusParam.name));
-  blur_depth_sigma_ = float(params.number(kBlurDepthSigmaParam.name));
-  blur_normal_sigma_ = float(params.number(kBlurNormalSigmaParam.name));
-  top_levels_ = uint32_t(params.integer(kTopLevelsParam.name));
-  budget_ = uint32_t(params.integer(kLoopBudgetParam.name));
-  const bool profile = params.flag(kProfileParam.name);
-  flags_ = (params.choice(kDepositParam.name) == "paper" ? kFlagDepositPaper : 0u) |
-           (params.choice(kWeightingParam.name) == "clip" ? kFlagWeightClip : 0u) |
-           (params.choice(kDebugIrradianceParam.name) == "normal" ? kFlagDebugNormal : 0u);
-  at_leaves_ = params.choice(kAccumulateAtParam.name) == "leaves";
-  const uint32_t job_capacity = uint32_t(params.integer(kMaxJobsParam.name));
+  options_ = kParams.read(params);
+  top_levels_ = options_.top_levels;
+  const bool profile = options_.profile;
+  flags_ = (options_.deposit == Deposit::kPaper ? kFlagDepositPaper : 0u) |
+           (options_.weighting == Weighting::kClip ? kFlagWeightClip : 0u) |
+           (options_.debug_irradiance == DebugIrradiance::kNormal ? kFlagDebugNormal : 0u);
+  const uint32_t job_capacity = options_.max_jobs;
   auto& gpu = ctx.gpu();
   check_storage_range(gpu, uint64_t(job_capacity) * 8,
                       fmt::format("directional: max_jobs = {} (8 bytes each)", job_capacity));
   // The hierarchy without normal cones (Paper I Table 1: "Normal Cone -" for directional).
-  const std::string& layout = params.choice(kLayoutParam.name);
-  auto options = HierarchyOptions::named_layout(layout);
-  options.normal_cones = false;
-  hierarchy_.setup(gpu, options);
+  auto layout = HierarchyOptions::named_layout(options_.layout);
+  layout.normal_cones = false;
+  hierarchy_.setup(gpu, layout);
   top_levels_ = std::min(top_levels_, stop_level());
 
   scan_.setup(gpu);
@@ -91,7 +86,8 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
 }
 
 uint32_t DirectionalSplat::stop_level() const {
-  return at_leaves_ ? hierarchy_.leaf_level() : hierarchy_.accumulation_level();
+  return (options_.accumulate_at == AccumulateAt::kLeaves) ? hierarchy_.leaf_level()
+                                                           : hierarchy_.accumulation_level();
 }
 
 void DirectionalSplat::ensure_resources(Context& ctx) {
@@ -102,10 +98,12 @@ void DirectionalSplat::ensure_resources(Context& ctx) {
   height_ = frame.height;
   // Buckets for every node from the roots down to the stop level, indexed by compact id: the
   // hierarchy hands out ids level by level, so those levels' ids are [0, end of the stop level).
-  flux_.resize(gpu, hierarchy_, stop_level(), kBucketWords, "directional/accum-flux",
-               fmt::format("directional: accumulate_at = {} at {}x{} (the direction buckets; use "
-                           "accumulate_at = accumulation or a lower resolution)",
-                           at_leaves_ ? "leaves" : "accumulation", width_, height_));
+  flux_.resize(
+      gpu, hierarchy_, stop_level(), kBucketWords, "directional/accum-flux",
+      fmt::format("directional: accumulate_at = {} at {}x{} (the direction buckets; use "
+                  "accumulate_at = accumulation or a lower resolution)",
+                  (options_.accumulate_at == AccumulateAt::kLeaves) ? "leaves" : "accumulation",
+                  width_, height_));
   leaf_counts_ = storage_buffer(gpu, "directional/leaf-counts",
                                 uint64_t(hierarchy_.node_capacity(hierarchy_.leaf_level())) * 16);
   jobs_.resize(gpu, scan_, hierarchy_.node_capacity());
@@ -128,7 +126,7 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
   p.scale_radius = glm::vec4(scale.units_per_watt, radius_);
   p.inverse_area = glm::vec4(scale.watts_per_unit, 1.0f / (3.14159265358979f * radius_ * radius_));
   p.counts = glm::uvec4(photons.count(), stop, flags_, top_levels_);
-  p.limits = glm::uvec4(budget_, width_, height_, 0);
+  p.limits = glm::uvec4(options_.loop_budget, width_, height_, 0);
 
   std::vector<gpu::Resource> resources;
   hierarchy_.append_bindings(resources);
@@ -187,10 +185,12 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
     auto scope = ctx.pass("blur");
     auto cmd = ctx.cmd();
     // The blockiness the blur hides has the size of a stop-level node (Paper I §4.7).
-    const int32_t radius =
-        blur_radius_ >= 0 ? blur_radius_ : int32_t(hierarchy_.node_footprint_px(stop) / 2);
+    const int32_t radius = options_.blur_radius >= 0
+                               ? options_.blur_radius
+                               : int32_t(hierarchy_.node_footprint_px(stop) / 2);
     blur_taps_ = radius;
-    BlurPush push{width_, height_, radius, 0, blur_depth_sigma_, blur_normal_sigma_, 0, 0};
+    BlurPush push{width_, height_, radius, 0, options_.blur_depth_sigma, options_.blur_normal_sigma,
+                  0,      0};
     const gpu::Image* source = &irradiance_;
     if (radius > 0) {
       blur_pipeline_.bind(cmd, {gbuf.position, gbuf.normal, gbuf.albedo, &irradiance_, &blur_tmp_},
@@ -214,7 +214,7 @@ void DirectionalSplat::report(Context& ctx, const PhotonSet&) {
             double(uint64_t(s[kStatDeposits]) | (uint64_t(s[kStatDeposits + 1]) << 32)));
   pb::count(ctx, kPhotonsMissedCounter, double(s[kStatMissed]));
   jobs_.report(ctx, "directional");
-  report_truncated(ctx, "directional", s[kStatTruncated], budget_);
+  report_truncated(ctx, "directional", s[kStatTruncated], options_.loop_budget);
   pb::count(ctx, kBytesClusterHierarchyCounter, double(hierarchy_.bytes_hierarchy()));
   pb::count(ctx, kBytesFinalBoundsCounter, double(hierarchy_.bytes_final_bounds()));
   pb::count(ctx, kBytesAccumFluxCounter, double(flux_.bytes()));

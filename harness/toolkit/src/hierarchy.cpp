@@ -53,6 +53,18 @@ HierarchyOptions HierarchyOptions::named_layout(const std::string& name) {
   throw InputError("cluster hierarchy: unknown layout '" + name + "' (default, shallow or deep)");
 }
 
+HierarchyOptions HierarchyOptions::named_layout(HierarchyLayout layout) {
+  switch (layout) {
+    case HierarchyLayout::kShallow:
+      return named_layout("shallow");
+    case HierarchyLayout::kDeep:
+      return named_layout("deep");
+    case HierarchyLayout::kDefault:
+      break;
+  }
+  return named_layout("default");
+}
+
 HierarchyOptions HierarchyOptions::parse_layout(const std::string& layout,
                                                 const std::string& what) {
   HierarchyOptions options;

@@ -9,16 +9,7 @@
 
 namespace pb::toolkit {
 
-PhotonParams PhotonParams::read(const Params& params) {
-  PhotonParams p;
-  p.paths = uint32_t(params.integer("photons"));
-  p.radius = float(params.number("radius"));
-  p.max_bounces = uint32_t(params.integer("max_bounces"));
-  p.shadow_map_size = uint32_t(params.integer("shadow_map_size"));
-  if (params.all().count(kStoreFirstHitParam.name))
-    p.store_first_hit = params.flag("store_first_hit");
-  return p;
-}
+PhotonParams PhotonParams::read(const Params& params) { return kPhotonParams.read(params); }
 
 trace::TraceSettings PhotonParams::trace_settings() const {
   trace::TraceSettings settings;

@@ -29,19 +29,19 @@ constexpr uint32_t kModeCount = 0, kModeInsert = 1;
 }  // namespace
 
 std::string TiledSplat::check(const Params& params) {
-  const int64_t tile_size = params.integer(kTileSizeParam.name);
+  const uint32_t tile_size = kParams.read(params).tile_size;
   if (tile_size % 8 != 0)
     return fmt::format(
-        "{}: {} is not a multiple of 8 (the 8x8 work groups of tile-bounds must lie in one tile)",
-        kTileSizeParam.name, tile_size);
+        "tile_size: {} is not a multiple of 8 (the 8x8 work groups of tile-bounds must lie in one "
+        "tile)",
+        tile_size);
   return "";
 }
 
 void TiledSplat::setup(Context& ctx, const Params& params, const PhotonParams& photon) {
   radius_ = photon.radius;
-  tile_size_ = uint32_t(params.integer(kTileSizeParam.name));
-  insert_radius_scale_ = float(params.number(kListCheckHookParam.name));
-  const uint32_t capacity = uint32_t(params.integer(kMaxListEntriesParam.name));
+  options_ = kParams.read(params);
+  const uint32_t capacity = options_.max_list_entries;
   auto& gpu = ctx.gpu();
   check_storage_range(gpu, uint64_t(capacity) * 4,
                       fmt::format("tiled: max_list_entries = {} (4 bytes each)", capacity));
@@ -67,8 +67,8 @@ void TiledSplat::ensure_resources(Context& ctx) {
   auto& gpu = ctx.gpu();
   width_ = frame.width;
   height_ = frame.height;
-  tiles_x_ = gpu::groups_for(width_, tile_size_);
-  tiles_y_ = gpu::groups_for(height_, tile_size_);
+  tiles_x_ = gpu::groups_for(width_, options_.tile_size);
+  tiles_y_ = gpu::groups_for(height_, options_.tile_size);
   tile_count_ = tiles_x_ * tiles_y_;
   bounds_ = storage_buffer(gpu, "tiled/tile-bounds", uint64_t(tile_count_) * 8);
   lists_.resize(gpu, scan_, tile_count_);
@@ -89,7 +89,7 @@ const gpu::Image& TiledSplat::render(Context& ctx, const PhotonSet& photons) {
   push.tiles_x = tiles_x_;
   push.tiles_y = tiles_y_;
   push.photon_count = photons.count();
-  push.tile_size = tile_size_;
+  push.tile_size = options_.tile_size;
   push.tile_count = tile_count_;
   push.radius = radius_;
   push.estimate_radius = radius_;
@@ -122,7 +122,7 @@ const gpu::Image& TiledSplat::render(Context& ctx, const PhotonSet& photons) {
     auto splat = ctx.pass("splat");
     lists_.record_runs(ctx, scan_, [&](vk::CommandBuffer cmd, bool insert) {
       push.mode = insert ? kModeInsert : kModeCount;
-      push.radius = insert ? radius_ * insert_radius_scale_ : radius_;
+      push.radius = insert ? radius_ * options_.insert_radius_scale : radius_;
       splat_pipeline_.bind(cmd, resources, push);
       cmd.dispatch(photon_groups, 1, 1);
     });
@@ -144,7 +144,7 @@ const gpu::Image& TiledSplat::render(Context& ctx, const PhotonSet& photons) {
 void TiledSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
   auto wide = [&](uint32_t at) { return double(uint64_t(s[at]) | (uint64_t(s[at + 1]) << 32)); };
-  lists_.report(ctx, "tiled: per-tile photon lists", kMaxListEntriesParam.name);
+  lists_.report(ctx, "tiled: per-tile photon lists", "max_list_entries");
   pb::count(ctx, kPhotonsReadCounter, wide(kStatRead));
   pb::count(ctx, kPhotonsRejectedCounter, wide(kStatRejected));
   pb::count(ctx, kBytesTileBoundsCounter, double(bounds_.size()));

@@ -19,14 +19,31 @@ namespace pb::toolkit {
 class ClusterSplat final : public Splatter {
  public:
   static constexpr const char* kName = "cluster";
+  enum Variant : uint32_t { kPlain = 0, kCone = 1, kTrivial = 2 };
+  struct Options {
+    Variant variant;
+    HierarchyLayout layout;
+    uint32_t top_levels;
+    uint32_t max_jobs;
+    uint32_t max_list_entries;
+    float insert_radius_scale;  // the test hook kListCheckHookParam
+    uint32_t loop_budget;
+    bool profile;
+  };
   // clang-format off
-  static constexpr pb_param_spec kVariantParam = {
-      "variant", PB_PARAM_ENUM, 0, 0, 2, "plain|cone|trivial", "",
-      "plain; cone: normal-cone rejection (Paper I §4.5); trivial: cone + per-node flux (§4.6)"};
-  static constexpr pb_param_spec kMaxListEntriesParam = {
-      "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 25, nullptr, "entries",
-      "capacity of all per-node photon lists together; overflowing entries are dropped and "
-      "counted (list_overflows)"};
+  static constexpr auto kParams = pb::params(
+      pb::param("variant", &Options::variant, kPlain, "plain|cone|trivial",
+                "plain; cone: normal-cone rejection (Paper I §4.5); trivial: cone + per-node flux "
+                "(§4.6)"),
+      pb::bind(kLayoutParam, &Options::layout),
+      pb::bind(kTopLevelsParam, &Options::top_levels),
+      pb::bind(kMaxJobsParam, &Options::max_jobs),
+      pb::param("max_list_entries", &Options::max_list_entries, 1 << 22, {1, 1 << 25}, "entries",
+                "capacity of all per-node photon lists together; overflowing entries are dropped "
+                "and counted (list_overflows)"),
+      pb::bind(kListCheckHookParam, &Options::insert_radius_scale),
+      pb::bind(kLoopBudgetParam, &Options::loop_budget),
+      pb::bind(kProfileParam, &Options::profile));
   static constexpr pb_counter_spec kTrivialAcceptsCounter = {
       "trivial_accepts", PB_COUNTER_WORK, "nodes", "photon-node flux adds (variant trivial)"};
   static constexpr pb_counter_spec kConeRejectsCounter = {
@@ -48,7 +65,6 @@ class ClusterSplat final : public Splatter {
       PB_TOOLKIT_PROFILE_COUNTERS("top"), PB_TOOLKIT_PROFILE_COUNTERS("count"),
       PB_TOOLKIT_PROFILE_COUNTERS("insert"));
   static std::string check(const Params&) { return ""; }
-  enum Variant : uint32_t { kPlain = 0, kCone = 1, kTrivial = 2 };
 
   void setup(Context& ctx, const Params& params, const PhotonParams& photon) override;
   const gpu::Image& render(Context& ctx, const PhotonSet& photons) override;
@@ -58,8 +74,9 @@ class ClusterSplat final : public Splatter {
  private:
   void ensure_resources(Context& ctx);
 
-  float radius_ = 0, insert_radius_scale_ = 1;
-  uint32_t variant_ = kPlain, top_levels_ = 3, budget_ = PB_LOOP_BUDGET;
+  Options options_ = kParams.defaults();
+  float radius_ = 0;
+  uint32_t top_levels_ = 3;  // top_levels, at most the level above the leaves
   Hierarchy hierarchy_;
   PrefixSum scan_;
   JobQueue jobs_;

@@ -22,34 +22,57 @@ namespace pb::toolkit {
 class DirectionalSplat final : public Splatter {
  public:
   static constexpr const char* kName = "directional";
+  enum class Deposit : uint32_t { kCoverage, kPaper };
+  enum class Weighting : uint32_t { kCos2, kClip };
+  enum class AccumulateAt : uint32_t { kAccumulation, kLeaves };
+  enum class DebugIrradiance : uint32_t { kPhotons, kNormal };
+  struct Options {
+    Deposit deposit;
+    Weighting weighting;
+    HierarchyLayout layout;
+    AccumulateAt accumulate_at;
+    uint32_t top_levels;
+    uint32_t max_jobs;
+    int32_t blur_radius;  // -1: automatic
+    float blur_depth_sigma;
+    float blur_normal_sigma;
+    uint32_t loop_budget;
+    bool profile;
+    DebugIrradiance debug_irradiance;
+  };
   // clang-format off
-  static constexpr pb_param_spec kDepositParam = {
-      "deposit", PB_PARAM_ENUM, 0, 0, 1, "coverage|paper", "",
-      "flux an intersected (not enclosed) stop-level node receives: coverage = the photon's flux "
-      "times the share of the node's leaf clusters inside its sphere; paper = the whole flux"};
-  static constexpr pb_param_spec kWeightingParam = {
-      "weighting", PB_PARAM_ENUM, 0, 0, 1, "cos2|clip", "",
-      "octant weight at a sample: cos2 = Paper I's max(0, 2cos(n, d)); clip = share of the octant "
-      "above the tangent plane (the correction Paper I describes and approximates)"};
-  static constexpr pb_param_spec kAccumulateAtParam = {
-      "accumulate_at", PB_PARAM_ENUM, 0, 0, 1, "accumulation|leaves", "",
-      "lowest level with buckets: accumulation = one above the leaves (Paper I's level 4, "
-      "default); leaves = the leaf clusters (finer, Paper I §5.2 sizes buckets down to them)"};
-  static constexpr pb_param_spec kBlurRadiusParam = {
-      "blur_radius", PB_PARAM_INT, -1, -1, 64, nullptr, "pixels",
-      "taps on each side of the separable depth/normal-aware blur; 0 turns the blur off; -1 "
-      "(default) = half the screen side of a stop-level node (16 for the 32-pixel accumulation "
-      "level)"};
-  static constexpr pb_param_spec kBlurDepthSigmaParam = {
-      "blur_depth_sigma", PB_PARAM_FLOAT, 0.02, 1e-6, 1e6, nullptr, "",
-      "blur depth awareness: distance from the tangent plane, relative to the camera distance"};
-  static constexpr pb_param_spec kBlurNormalSigmaParam = {
-      "blur_normal_sigma", PB_PARAM_FLOAT, 0.2, 1e-6, 1e6, nullptr, "rad",
-      "blur normal awareness: angle between the normals"};
-  static constexpr pb_param_spec kDebugIrradianceParam = {
-      "debug_irradiance", PB_PARAM_ENUM, 0, 0, 1, "photons|normal", "",
-      "test hook: normal = irradiance is |world normal| instead of the photon estimate (checks "
-      "that the blur keeps surfaces apart)"};
+  static constexpr auto kParams = pb::params(
+      pb::param("deposit", &Options::deposit, Deposit::kCoverage, "coverage|paper",
+                "flux an intersected (not enclosed) stop-level node receives: coverage = the "
+                "photon's flux times the share of the node's leaf clusters inside its sphere; "
+                "paper = the whole flux"),
+      pb::param("weighting", &Options::weighting, Weighting::kCos2, "cos2|clip",
+                "octant weight at a sample: cos2 = Paper I's max(0, 2cos(n, d)); clip = share of "
+                "the octant above the tangent plane (the correction Paper I describes and "
+                "approximates)"),
+      pb::bind(kLayoutParam, &Options::layout),
+      pb::param("accumulate_at", &Options::accumulate_at, AccumulateAt::kAccumulation,
+                "accumulation|leaves",
+                "lowest level with buckets: accumulation = one above the leaves (Paper I's level "
+                "4, default); leaves = the leaf clusters (finer, Paper I §5.2 sizes buckets down "
+                "to them)"),
+      pb::bind(kTopLevelsParam, &Options::top_levels),
+      pb::bind(kMaxJobsParam, &Options::max_jobs),
+      pb::param("blur_radius", &Options::blur_radius, -1, {-1, 64}, "pixels",
+                "taps on each side of the separable depth/normal-aware blur; 0 turns the blur off; "
+                "-1 (default) = half the screen side of a stop-level node (16 for the 32-pixel "
+                "accumulation level)"),
+      pb::param("blur_depth_sigma", &Options::blur_depth_sigma, 0.02, {1e-6, 1e6}, "",
+                "blur depth awareness: distance from the tangent plane, relative to the camera "
+                "distance"),
+      pb::param("blur_normal_sigma", &Options::blur_normal_sigma, 0.2, {1e-6, 1e6}, "rad",
+                "blur normal awareness: angle between the normals"),
+      pb::bind(kLoopBudgetParam, &Options::loop_budget),
+      pb::bind(kProfileParam, &Options::profile),
+      pb::param("debug_irradiance", &Options::debug_irradiance, DebugIrradiance::kPhotons,
+                "photons|normal",
+                "test hook: normal = irradiance is |world normal| instead of the photon estimate "
+                "(checks that the blur keeps surfaces apart)"));
   static constexpr pb_counter_spec kNodeDepositsCounter = {
       "node_deposits", PB_COUNTER_WORK, "deposits", "bucket adds (64-bit exact)"};
   static constexpr pb_counter_spec kPhotonsMissedCounter = {
@@ -80,10 +103,10 @@ class DirectionalSplat final : public Splatter {
   void ensure_resources(Context& ctx);
   uint32_t stop_level() const;
 
-  float radius_ = 0, blur_depth_sigma_ = 0.02f, blur_normal_sigma_ = 0.2f;
-  int32_t blur_radius_ = -1, blur_taps_ = 0;  // as set (-1: automatic); as resolved
-  uint32_t flags_ = 0, top_levels_ = 3, budget_ = PB_LOOP_BUDGET, width_ = 0, height_ = 0;
-  bool at_leaves_ = false;
+  Options options_ = kParams.defaults();
+  float radius_ = 0;
+  int32_t blur_taps_ = 0;  // blur_radius as resolved
+  uint32_t flags_ = 0, top_levels_ = 3, width_ = 0, height_ = 0;
   Hierarchy hierarchy_;
   PrefixSum scan_;
   JobQueue jobs_;

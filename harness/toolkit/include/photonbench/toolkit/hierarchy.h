@@ -46,6 +46,7 @@
 
 #include "photonbench/context.h"
 #include "photonbench/gpu.h"
+#include "photonbench/param_table.h"
 #include "photonbench/plugin.h"
 #include "photonbench/toolkit/hierarchy_layout.h"
 
@@ -55,10 +56,11 @@ namespace pb::toolkit {
 // sweep compares them on the same hierarchy. Each keeps the level above the leaves at 32x32 pixels
 // (Paper I's "leaf node at most contains 32x32 view samples" of its fastest version).
 // clang-format off
-inline constexpr pb_param_spec kLayoutParam = {
-    "layout", PB_PARAM_ENUM, 0, 0, 2, "default|shallow|deep", "",
+enum class HierarchyLayout : uint32_t { kDefault, kShallow, kDeep };
+inline constexpr pb_param_spec kLayoutParam = pb::row<HierarchyLayout>(
+    "layout", HierarchyLayout::kDefault, "default|shallow|deep",
     "hierarchy levels: default 256:2x2x8,2x2x8,2x2x8,4x4x2; shallow 128:2x2x8,2x2x8,4x4x2; deep "
-    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2"};
+    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2");
 // clang-format on
 
 // The hierarchy's memory, per Paper I Table 1 row (cluster and directional report them).
@@ -88,6 +90,7 @@ struct HierarchyOptions {
   //   shallow "128:2x2x8,2x2x8,4x4x2"            4 levels, 128 slices
   //   deep    "512:2x2x4,2x2x4,2x2x4,2x2x4,4x4x2" 6 levels, 512 slices (large dense map)
   static HierarchyOptions named_layout(const std::string& name);
+  static HierarchyOptions named_layout(HierarchyLayout layout);
   std::string layout_string() const;
 };
 

@@ -19,6 +19,7 @@
 
 #include "photonbench/context.h"
 #include "photonbench/gpu.h"
+#include "photonbench/param_table.h"
 #include "photonbench/plugin.h"
 #include "photonbench/toolkit/gpu_scan.h"
 #include "photonbench/toolkit/jobs_layout.h"
@@ -27,15 +28,15 @@ namespace pb::toolkit {
 
 // The rows of every splatter with a top pass and jobs (cluster, directional).
 // clang-format off
-inline constexpr pb_param_spec kTopLevelsParam = {
-    "top_levels", PB_PARAM_INT, 3, 0, 5, nullptr, "levels",
+inline constexpr pb_param_spec kTopLevelsParam = pb::row<uint32_t>(
+    "top_levels", 3, {0, 5}, "levels",
     "levels the top splat pass walks below the roots before it hands (photon, node) jobs to the "
     "per-node passes (Paper I §4.3: 3); larger values mean the level the splat stops at (cluster: "
-    "the level above the leaves)"};
-inline constexpr pb_param_spec kMaxJobsParam = {
-    "max_jobs", PB_PARAM_INT, 1 << 22, 1, 1 << 24, nullptr, "jobs",
+    "the level above the leaves)");
+inline constexpr pb_param_spec kMaxJobsParam = pb::row<uint32_t>(
+    "max_jobs", 1 << 22, {1, 1 << 24}, "jobs",
     "capacity of the (photon, node) job list of the top pass; overflowing jobs are dropped and "
-    "counted (job_overflows)"};
+    "counted (job_overflows)");
 
 // The counters JobQueue::report emits.
 inline constexpr pb_counter_spec kJobsCounter = {

@@ -17,6 +17,7 @@
 
 #include "photonbench/context.h"
 #include "photonbench/gpu.h"
+#include "photonbench/param_table.h"
 #include "photonbench/plugin.h"
 #include "photonbench/toolkit/gpu_scan.h"
 #include "photonbench/toolkit/photon_lists_layout.h"
@@ -26,10 +27,10 @@ namespace pb::toolkit {
 // The test hook of every count / insert splatter (tiled, cluster): the insert run tests spheres of
 // radius x this, so that the two runs disagree and the consistency check must report it.
 // clang-format off
-inline constexpr pb_param_spec kListCheckHookParam = {
-    "debug_insert_radius", PB_PARAM_FLOAT, 1, 0.25, 4, nullptr, "",
+inline constexpr pb_param_spec kListCheckHookParam = pb::row<float>(
+    "debug_insert_radius", 1, {0.25, 4}, "",
     "test hook: the insert run's sphere radius relative to the count run's (1: the same); "
-    "anything else makes them disagree, which is counted (list_mismatches) and warned about"};
+    "anything else makes them disagree, which is counted (list_mismatches) and warned about");
 
 // The counters PhotonLists::report emits.
 inline constexpr pb_counter_spec kListEntriesCounter = {

@@ -1,14 +1,12 @@
 // What every photon technique shares, so that each is written once (harness/toolkit/README.md): the
-// parameter rows and their defaults, the trace settings they make, the shadow set-up, storage-
-// range checks, sliced dispatch for llvmpipe's loop limit, the G-buffer's bindings, and the frame
-// of a splatting technique (trace, upload, G-buffer, direct light, splat and estimate, shade,
-// counters) around a Splatter, so that a technique is its parameter schema and one Splatter:
+// parameters and their defaults, the trace settings they make, the shadow set-up, storage-range
+// checks, sliced dispatch for llvmpipe's loop limit, the G-buffer's bindings, and the frame of a
+// splatting technique (trace, upload, G-buffer, direct light, splat and estimate, shade, counters)
+// around a Splatter, so that a technique is one Splatter (whose pb::params table declares its own
+// parameters, photonbench/param_table.h):
 //
-//   const pb_param_spec kParams[] = {
-//       pb::toolkit::kPhotonsParam, pb::toolkit::kRadiusParam, pb::toolkit::kMaxBouncesParam,
-//       pb::toolkit::kShadowMapSizeParam, ...the splatter's rows...};
 //   using Tiled = pb::toolkit::SplatTechnique<pb::toolkit::TiledSplat>;
-//   PB_EXPORT_TECHNIQUE(Tiled, "tiled", "indirect", "...", kParams)
+//   PB_EXPORT_TECHNIQUE(Tiled, "tiled", "indirect", "...", Tiled::kSchema.rows)
 //
 // A technique with its own photons (path verification's re-validated paths) calls a Splatter's
 // render() with its own PhotonSet instead.
@@ -23,42 +21,77 @@
 #include <string_view>
 
 #include "photonbench/context.h"
+#include "photonbench/param_table.h"
 #include "photonbench/plugin.h"
 #include "photonbench/toolkit/limits.h"
 
 namespace pb::toolkit {
 
-// ---- Parameter rows every photon technique lists first (defaults chosen for lavapipe; Paper I's
-// values in the docs). `photons` counts light paths, not stored photons (Paper I §5 counts stored).
-// Each shared parameter has one row, here; a technique whose paper needs another default or range
-// lists it through with_range (its README gives the reason).
-// clang-format off
-inline constexpr pb_param_spec kPhotonsParam = {
-    "photons", PB_PARAM_INT, 100000, 1, 5e7, nullptr, "paths",
-    "light paths traced per frame (Paper I counts stored photons; default kept small for "
-    "lavapipe)"};
-inline constexpr pb_param_spec kRadiusParam = {
-    "radius", PB_PARAM_FLOAT, 0.05, 1e-5, 1e4, nullptr, "m",
-    "photon sphere radius, one for every photon (Paper I Table 2 sets it per scene)"};
-inline constexpr pb_param_spec kMaxBouncesParam = {
-    "max_bounces", PB_PARAM_INT, 4, 2, 31, nullptr, "hits",
-    "surface interactions per light path; photons are stored at hits 2 to max_bounces, so full "
-    "paths of 2 to max_bounces surface vertices are estimated (Paper I §4.2: four bounces)"};
+// ---- The parameters every photon technique shares (defaults chosen for lavapipe; Paper I's values
+// in the docs). `photons` counts light paths, not stored photons (Paper I §5 counts stored). Each
+// shared parameter is declared once, here; a technique whose paper needs another default or range
+// lists its row through with_range (its README gives the reason).
+
 // The shared passes' shadow settings (photonbench/context.h holds their defaults).
-inline constexpr pb_param_spec kShadowMapSizeParam = {
-    "shadow_map_size", PB_PARAM_INT, kDefaultShadowMapSize, 16, 4096, nullptr, "texels",
-    "shadow-map tile side of the direct light"};
-inline constexpr pb_param_spec kShadowBiasParam = {
-    "shadow_bias", PB_PARAM_FLOAT, kDefaultShadowRelativeBias, 0, 0.2, nullptr, "fraction",
-    "relative depth bias of the shadow test"};
-inline constexpr pb_param_spec kShadowNormalOffsetParam = {
-    "shadow_normal_offset", PB_PARAM_FLOAT, kDefaultShadowNormalOffsetM, 0, 1, nullptr, "m",
-    "receiver offset along its normal before the shadow test"};
-inline constexpr pb_param_spec kStoreFirstHitParam = {
-    "store_first_hit", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
-    "test hook: also store photons at the first hit (L D), so the estimate includes direct light "
-    "(checked against closed-form irradiance); Paper I: false"};
+struct ShadowParams {
+  uint32_t map_size = kDefaultShadowMapSize;
+  float bias = float(kDefaultShadowRelativeBias);
+  float normal_offset = float(kDefaultShadowNormalOffsetM);
+};
+// clang-format off
+inline constexpr auto kShadowParams = pb::params(
+    pb::param("shadow_map_size", &ShadowParams::map_size, kDefaultShadowMapSize, {16, 4096},
+              "texels", "shadow-map tile side of the direct light"),
+    pb::param("shadow_bias", &ShadowParams::bias, kDefaultShadowRelativeBias, {0, 0.2},
+              "fraction", "relative depth bias of the shadow test"),
+    pb::param("shadow_normal_offset", &ShadowParams::normal_offset, kDefaultShadowNormalOffsetM,
+              {0, 1}, "m", "receiver offset along its normal before the shadow test"));
 // clang-format on
+static_assert(kShadowParams.member_defaults_match());
+
+// The shared rows' values of one cell (kPhotonParams below).
+struct PhotonParams {
+  uint32_t paths = 100000;
+  float radius = 0.05f;
+  uint32_t max_bounces = 4;
+  uint32_t shadow_map_size = kDefaultShadowMapSize;
+  bool store_first_hit = false;
+
+  static PhotonParams read(const Params& params);
+  // Paper I's photons (§4.2: "at each bounce (except the first), a photon is stored"), of the
+  // `indirect` path class C D (D|S)* D (D|S)* L: without pure caustics L S+ D (stored photons on
+  // diffuse surfaces only; Russian roulette from the second hit on, so a stored photon carries the
+  // emitted flux times the first hit's albedo).
+  trace::TraceSettings trace_settings() const;
+};
+// clang-format off
+inline constexpr auto kPhotonParams = pb::params(
+    pb::param("photons", &PhotonParams::paths, 100000, {1, 5e7}, "paths",
+              "light paths traced per frame (Paper I counts stored photons; default kept small for "
+              "lavapipe)"),
+    pb::param("radius", &PhotonParams::radius, 0.05, {1e-5, 1e4}, "m",
+              "photon sphere radius, one for every photon (Paper I Table 2 sets it per scene)"),
+    pb::param("max_bounces", &PhotonParams::max_bounces, 4, {2, 31}, "hits",
+              "surface interactions per light path; photons are stored at hits 2 to max_bounces, "
+              "so full paths of 2 to max_bounces surface vertices are estimated (Paper I §4.2: "
+              "four bounces)"),
+    pb::bind(kShadowParams.row("shadow_map_size"), &PhotonParams::shadow_map_size),
+    pb::param("store_first_hit", &PhotonParams::store_first_hit, false,
+              "test hook: also store photons at the first hit (L D), so the estimate includes "
+              "direct light (checked against closed-form irradiance); Paper I: false"));
+// clang-format on
+// PhotonParams keeps member initialisers (techniques fill one field by field): they are the
+// declaration's.
+static_assert(kPhotonParams.member_defaults_match());
+
+// Each shared row by name, for a technique that lists rows one by one.
+inline constexpr pb_param_spec kPhotonsParam = kPhotonParams.row("photons");
+inline constexpr pb_param_spec kRadiusParam = kPhotonParams.row("radius");
+inline constexpr pb_param_spec kMaxBouncesParam = kPhotonParams.row("max_bounces");
+inline constexpr pb_param_spec kShadowMapSizeParam = kShadowParams.row("shadow_map_size");
+inline constexpr pb_param_spec kShadowBiasParam = kShadowParams.row("shadow_bias");
+inline constexpr pb_param_spec kShadowNormalOffsetParam = kShadowParams.row("shadow_normal_offset");
+inline constexpr pb_param_spec kStoreFirstHitParam = kPhotonParams.row("store_first_hit");
 
 // A shared row with a technique's own default, range and doc; its name, type and unit stay the
 // row's, so one name means one thing in every schema (aaps's max_bounces: 8 in [1, 31]).
@@ -93,20 +126,12 @@ constexpr std::array<pb_counter_spec, (N + ...)> join_counters(
 inline constexpr std::array<pb_counter_spec, 2> kPhotonFrameCounters = {kPhotonsStoredCounter,
                                                                         kBytesPhotonsCounter};
 
-// The shared rows' values of one cell.
-struct PhotonParams {
-  uint32_t paths = 100000;
-  float radius = 0.05f;
-  uint32_t max_bounces = 4;
-  uint32_t shadow_map_size = 512;
-  bool store_first_hit = false;  // read only where the technique lists kStoreFirstHitParam
-
-  static PhotonParams read(const Params& params);
-  // Paper I's photons (§4.2: "at each bounce (except the first), a photon is stored"), of the
-  // `indirect` path class C D (D|S)* D (D|S)* L: without pure caustics L S+ D (stored photons on
-  // diffuse surfaces only; Russian roulette from the second hit on, so a stored photon carries the
-  // emitted flux times the first hit's albedo).
-  trace::TraceSettings trace_settings() const;
+// The budget knobs of a splatting technique (match: in a config): more light paths cost more and
+// lower the error; a wider radius costs more (each photon touches more pixels) and trades variance
+// for bias.
+inline constexpr pb_budget_knob kSplatBudgetKnobs[] = {
+    {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+    {"radius", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LOG},
 };
 
 // The shared passes' default shadow biases (photonbench/context.h), with this map size.
@@ -143,7 +168,7 @@ struct PhotonSet {
 class Splatter {
  public:
   virtual ~Splatter() = default;
-  // In Technique::setup: reads the splatter's own parameter rows, creates pipelines.
+  // In Technique::setup: reads the splatter's own parameters (its kParams), creates pipelines.
   virtual void setup(Context& ctx, const Params& params, const PhotonParams& photon) = 0;
   // Per frame, after ctx.shared().gbuffer() and direct_light(): records the splat and the radiance
   // estimate of `photons`; returns the indirect radiance image (RGBA32F) for ctx.shared().shade().
@@ -164,11 +189,13 @@ template <class S>
 class SplatTechnique final : public Technique {
  public:
   // The descriptor's counters and check: the shared frame's and the splatter's.
+  // The descriptor's rows (the shared ones, then the splatter's), counters and check.
+  static constexpr auto kSchema = join_rows(kPhotonParams, S::kParams);
   static constexpr auto kCounters = join_counters(kPhotonFrameCounters, S::kCounters);
   static std::string check(const Params& params) { return S::check(params); }
 
   void setup(Context& ctx, const Params& params) override {
-    photon_ = PhotonParams::read(params);
+    photon_ = kPhotonParams.read(params);
     configure_shadows(ctx, photon_.shadow_map_size);
     splatter_.setup(ctx, params, photon_);
   }

@@ -15,14 +15,20 @@ namespace pb::toolkit {
 class TiledSplat final : public Splatter {
  public:
   static constexpr const char* kName = "tiled";
+  // Its parameters (tile_size a multiple of 8: check()).
+  struct Options {
+    uint32_t tile_size;
+    uint32_t max_list_entries;
+    float insert_radius_scale;  // the test hook kListCheckHookParam
+  };
   // clang-format off
-  static constexpr pb_param_spec kTileSizeParam = {
-      "tile_size", PB_PARAM_INT, 32, 8, 256, nullptr, "pixels",
-      "tile side, a multiple of 8; Paper I §5.1 uses 32"};
-  static constexpr pb_param_spec kMaxListEntriesParam = {
-      "max_list_entries", PB_PARAM_INT, 1 << 22, 1, 1 << 28, nullptr, "entries",
-      "capacity of all per-tile lists together (photon indices); overflowing entries are dropped "
-      "and counted"};
+  static constexpr auto kParams = pb::params(
+      pb::param("tile_size", &Options::tile_size, 32, {8, 256}, "pixels",
+                "tile side, a multiple of 8; Paper I §5.1 uses 32"),
+      pb::param("max_list_entries", &Options::max_list_entries, 1 << 22, {1, 1 << 28}, "entries",
+                "capacity of all per-tile lists together (photon indices); overflowing entries are "
+                "dropped and counted"),
+      pb::bind(kListCheckHookParam, &Options::insert_radius_scale));
   static constexpr pb_counter_spec kBytesTileBoundsCounter = {
       "bytes_tile_bounds", PB_COUNTER_SIZE, "bytes",
       "2 floats per tile (Paper I Table 1's Tiles z-Bounds)"};
@@ -40,8 +46,9 @@ class TiledSplat final : public Splatter {
  private:
   void ensure_resources(Context& ctx);
 
-  float radius_ = 0, insert_radius_scale_ = 1;
-  uint32_t tile_size_ = 32, width_ = 0, height_ = 0, tiles_x_ = 0, tiles_y_ = 0, tile_count_ = 0;
+  Options options_ = kParams.defaults();
+  float radius_ = 0;
+  uint32_t width_ = 0, height_ = 0, tiles_x_ = 0, tiles_y_ = 0, tile_count_ = 0;
   PrefixSum scan_;
   PhotonLists lists_;
   gpu::Buffer bounds_, stats_;

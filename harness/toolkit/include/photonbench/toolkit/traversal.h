@@ -13,26 +13,27 @@
 
 #include "photonbench/context.h"
 #include "photonbench/gpu.h"
+#include "photonbench/param_table.h"
 #include "photonbench/plugin.h"
 #include "photonbench/toolkit/limits.h"
 
 namespace pb::toolkit {
 
 // clang-format off
-inline constexpr pb_param_spec kProfileParam = {
-    "profile", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
+inline constexpr pb_param_spec kProfileParam = pb::row<bool>(
+    "profile", false,
     "count loop steps, nodes visited, atomics and idle SIMD lanes per splat pass (counters "
-    "profile_*; slower)"};
+    "profile_*; slower)");
 // clang-format on
 
 // The `loop_budget` test hook: iterations a traversal may take per invocation (the default is
 // llvmpipe's loop limit less room for other loops); lower, it makes traversals run out, to check
 // that they are counted (truncated_traversals) and warned about.
 // clang-format off
-inline constexpr pb_param_spec kLoopBudgetParam = {
-    "loop_budget", PB_PARAM_INT, PB_LOOP_BUDGET, 1, PB_LOOP_BUDGET, nullptr, "steps",
+inline constexpr pb_param_spec kLoopBudgetParam = pb::row<uint32_t>(
+    "loop_budget", PB_LOOP_BUDGET, {1, PB_LOOP_BUDGET}, "steps",
     "test hook: loop steps one splat invocation may take (llvmpipe's limit is 65535); traversals "
-    "that run out are counted (truncated_traversals) and warned about"};
+    "that run out are counted (truncated_traversals) and warned about");
 // clang-format on
 
 // Counter "truncated_traversals" (walks that ran out of `budget` steps), with a warning when
