@@ -1,6 +1,6 @@
 # `photonbench schema` validates every shipped config and scene with a real JSON Schema validator
-# (python3-jsonschema), and each error-path case of config_errors.sh, bad_config.sh and
-# bad_scene.sh is rejected by the schema and by `photonbench validate` alike, except the few
+# (python3-jsonschema), and each error-path case of tests/unit/bad_input_test.cpp's table is
+# rejected by the schema and by `photonbench validate` alike, except the few
 # semantic errors a schema cannot express, listed below with the reason.
 source "$(dirname "$0")/lib.bash"
 check() { /usr/bin/python3 "$SRC/tests/e2e/schema_check.py" "$@"; }
@@ -41,7 +41,7 @@ write "${base[@]}"
 expect_exit 0 "the probe config is valid" -- "$PB" validate "$cfg"
 expect_exit 0 "the probe config satisfies the schema" -- check "$WORK/config.json" "$cfg"
 
-# config_errors.sh
+# bad_input_test.cpp: the config rows
 write "${base[@]}" "  - technique: [direct"; rejected "bad YAML syntax (the YAML parser)"
 write "${base[@]}" "frame: {count: 3}"; rejected "unknown top-level key"
 write "${base[@]/count: 2/count: many}"; rejected "wrong type"
@@ -62,7 +62,7 @@ write "${base[@]/technique: direct/technique: aaps}" "    params: {density_min: 
 semantic "aaps: a density ceiling below its floor" "a technique's check relates two parameters"
 write "${base[@]/technique: direct/technique: tiled}" "    params: {tile_size: [32, 12]}"
 semantic "tiled: a tile side that is not a multiple of 8" "a technique's check, not a range"
-# bad_config.sh
+# bad_input_test.cpp: the config file rows
 : > "$cfg"; rejected "an empty config"
 echo "- 1" > "$cfg"; rejected "a list as a config"
 head -c 4000 /dev/urandom > "$cfg"; rejected "a binary file as a config"
@@ -76,7 +76,7 @@ write "${base[@]/cornell-box/cornel-box}"; semantic "an unknown scene" "scene na
 # plugins, and an alias bomb (the reader's node limit; a validator walking the expanded tree is
 # what the limit exists to prevent).
 
-# bad_scene.sh: each scene fails `validate` of a config naming it and, unless semantic, the schema.
+# bad_input_test.cpp's scene rows: each scene fails `validate` of a config naming it and, unless semantic, the schema.
 scene_file="$WORK/s.yaml"
 scene() {
   local camera="camera: {position: [0, 1, 3], target: [0, 1, 0], fov_deg: 40}"

@@ -163,47 +163,19 @@ inline std::string warnings(const fs::path& cell) {
   return read_json(cell / "cell.json")["warnings"].dump();
 }
 
-// The loop-budget boundary of a hierarchy technique: `params` (one photon, so that which jobs share
-// an invocation is fixed) run once with `profile: true` gives the most loop steps an invocation
-// took, M (the largest `profile_*_steps_max`); then runs with loop_budget M and M - 1. What each
-// reported. expect_budget_boundary checks it: with M nothing is truncated (a walk whose last step
-// takes the last unit is complete), with M - 1 some traversal is, counted and warned about.
+// The loop-budget boundary of a hierarchy splatter (splat_bench.h's budget_boundary fills it): one
+// photon, profiled, gives the most loop steps an invocation took, M (the largest
+// `profile_*_steps_max`); then loop_budget M and M - 1, and what each reported.
+// expect_budget_boundary checks it: with M nothing is truncated (a walk whose last step takes the
+// last unit is complete), with M - 1 some traversal is, counted and warned about.
 struct BudgetBoundary {
   int most = 0;
   double photons = 0, truncated_unlimited = -1, truncated_at_most = -1, truncated_below = -1;
   std::string warnings_at_most, warnings_below;
 };
-inline BudgetBoundary budget_boundary(const fs::path& dir, const std::string& header,
-                                      const std::string& technique, const std::string& params) {
-  BudgetBoundary b;
-  std::string p = params + ", profile: true";
-  auto run = [&](const std::string& extra) {
-    fs::remove_all(dir / "run");
-    return run_config(dir, header + "techniques:\n  - {technique: " + technique + ", params: {" +
-                               p + extra + "}}\n");
-  };
-  if (run("") != 0) return b;
-  auto sums = counters(find_cell(dir, technique));
-  b.photons = sums["photons_stored"];
-  b.truncated_unlimited = sums["truncated_traversals"];
-  for (const auto& [name, value] : sums)
-    if (name.rfind("profile_", 0) == 0 && name.size() > 10 &&
-        name.substr(name.size() - 10) == "_steps_max")
-      b.most = std::max(b.most, int(value));
-  for (int budget : {b.most, b.most - 1}) {
-    if (budget < 1 || run(", loop_budget: " + std::to_string(budget)) != 0) return b;
-    fs::path cell = find_cell(dir, technique);
-    (budget == b.most ? b.truncated_at_most : b.truncated_below) =
-        counters(cell)["truncated_traversals"];
-    (budget == b.most ? b.warnings_at_most : b.warnings_below) = warnings(cell);
-  }
-  return b;
-}
 
-inline void expect_budget_boundary(const fs::path& dir, const std::string& header,
-                                   const std::string& technique, const std::string& params) {
-  auto b = budget_boundary(dir, header, technique, params);
-  ASSERT_EQ(b.photons, 1) << "see " << (dir / "log.txt");
+inline void expect_budget_boundary(const BudgetBoundary& b) {
+  ASSERT_EQ(b.photons, 1);
   ASSERT_EQ(b.truncated_unlimited, 0);
   ASSERT_GT(b.most, 2);
   EXPECT_EQ(b.truncated_at_most, 0) << "budget " << b.most;
@@ -259,10 +231,12 @@ inline double worst_channel_ratio(const io::Image& image, int weak, int strong, 
   return worst;
 }
 
-inline void expect_green_ratio(const fs::path& cell) {
-  auto image = frame_image(cell, 0, "indirect");
+inline void expect_green_ratio(const io::Image& image, const std::string& what = "") {
   double worst = worst_channel_ratio(image, 1, 0, 1e-5, 1e-4 * mean_rgb(image));
-  EXPECT_LT(worst, 1e-3) << cell.filename() << ": green / red off by " << worst;
+  EXPECT_LT(worst, 1e-3) << what << ": green / red off by " << worst;
+}
+inline void expect_green_ratio(const fs::path& cell) {
+  expect_green_ratio(frame_image(cell, 0, "indirect"), cell.filename().string());
 }
 
 }  // namespace pb::testing

@@ -203,27 +203,42 @@ YAML::Node read_techniques(const config::YamlView& root, const std::vector<fs::p
   PluginRegistry plugins(plugin_dirs);
   YAML::Node techniques(YAML::NodeType::Sequence);
   std::vector<std::string> names;
-  for (const config::YamlView& t : root["techniques"].elements()) {
-    if (!t.is_map()) t.fail("expected {technique: NAME, params: {...}, when_built: true|false}");
-    t.allow_keys({"technique", "params", "when_built"});
-    const std::string name = t["technique"].as_string();
+  auto add = [&](const std::string& name, YAML::Node entry, bool when_built) {
     names.push_back(name);
     const Plugin* plugin = plugins.find(name);
-    if (t.bool_or("when_built", false) && !plugin) {
+    if (when_built && !plugin) {
       spec.absent.push_back(name);
-      continue;
+      return;
     }
     if (!chosen.empty() && !listed(chosen, name) && name != spec.rules.no_gi_technique) {
       spec.left_out.push_back(name);
-      continue;
+      return;
     }
-    YAML::Node entry = YAML::Clone(t.node());
     entry.remove("when_built");
     techniques.push_back(entry);
     spec.techniques.push_back(name);
     if (plugin && plugin->loaded())
       for (uint32_t i = 0; i < plugin->descriptor->param_count; ++i)
         spec.params.insert(plugin->descriptor->params[i].name);
+  };
+  const config::YamlView list = root["techniques"];
+  if (list.is_scalar() && list.as_string() == "built") {
+    // Every plugin the suite can load, with its defaults, in name order: a technique joins the
+    // suite by being built.
+    for (const std::string& name : plugins.names()) {
+      YAML::Node entry;
+      entry["technique"] = name;
+      add(name, entry, false);
+    }
+  } else {
+    for (const config::YamlView& t : list.elements()) {
+      if (!t.is_map())
+        t.fail(
+            "expected `built` or a list of {technique: NAME, params: {...}, when_built: "
+            "true|false}");
+      t.allow_keys({"technique", "params", "when_built"});
+      add(t["technique"].as_string(), YAML::Clone(t.node()), t.bool_or("when_built", false));
+    }
   }
   for (const std::string& name : chosen)
     if (!listed(names, name))

@@ -3,10 +3,11 @@
 // samples with the same list of photons: only the way those lists are computed changes", §5.3), and
 // the cone and trivial optimisations are exact on diffuse scenes (§4.5, §4.6): on cornell-box and
 // on pillars (depth discontinuities inside every tile) every variant must give tiled's image, and
-// the list-based variants must accept exactly tiled's photons. Also: long per-sample lists are read
-// whole (lavapipe's loop limit); each overflow is counted in its own unit and warned, not fatal; a
-// traversal that runs out of its loop budget is counted exactly at the budget; the trivial node
-// flux keeps a weak colour channel (fixed point per channel).
+// the list-based variants must accept exactly tiled's photons. Its splatter in-process
+// (pb::toolkit::ClusterSplat on a synthetic frame, with validation): long per-sample lists are
+// read whole (lavapipe's loop limit); each overflow is counted in its own unit and warned, not
+// fatal; a traversal that runs out of its loop budget is counted exactly at the budget; the trivial
+// node flux keeps a weak colour channel (fixed point per channel).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -16,7 +17,10 @@
 
 #include "io/image.h"
 #include "metrics/metrics.h"
+#include "photonbench/toolkit/cluster_splat.h"
+#include "photonbench/toolkit/tiled_splat.h"
 #include "run_fixture.h"
+#include "splat_bench.h"
 
 namespace fs = std::filesystem;
 
@@ -113,89 +117,90 @@ TEST(Cluster, EveryVariantGivesTiledsImageOnPillars) {
   expect_tiled_image("pillars", "40000, radius: 0.3");
 }
 
+// ---- The splatter in-process (tests/support/splat_bench.h)
+
 // A sample's lists (leaf and ancestors) far longer than 65535 entries together (llvmpipe ends an
 // invocation's loops after 65535 iterations in all) must be read whole: the image must not depend
-// on the photon count beyond noise.
-TEST(Cluster, LongListsAreReadWhole) {
-  fs::path dir = work_dir("long");
-  std::string yaml =
-      header(dir) +
-      "techniques:\n"
-      "  - technique: cluster\n"
-      "    params: {photons: [30000, 120000], radius: 1.0, max_list_entries: 30000000}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  fs::path few = find_cell(dir, "cluster", {{"photons", "30000"}});
-  fs::path many = find_cell(dir, "cluster", {{"photons", "120000"}});
-  expect_ok(few);
-  expect_ok(many);
-  auto sums = counters(many);
-  // More than 65535 entries read per sample on average: some samples' lists exceed the limit.
-  EXPECT_GT(sums["photons_read"] / (96.0 * 54.0), 65535.0);
-  EXPECT_EQ(sums["list_overflows"] + sums["job_overflows"] + sums["truncated_traversals"], 0);
-  EXPECT_NEAR(mean_rgb(frame_image(few)) / mean_rgb(frame_image(many)), 1.0, 0.03);
-  fs::remove_all(dir);
+// on the photon count beyond noise. A 48x27 frame (the lists' length, not the pixel count, is what
+// is tested) and a radius that reaches most of the floor in view.
+TEST(ClusterSplat, LongListsAreReadWhole) {
+  constexpr uint32_t kWidth = 48, kHeight = 27;
+  SplatBench bench(kWidth, kHeight);
+  std::vector<double> means;
+  for (uint32_t photons : {30000u, 120000u}) {
+    pb::toolkit::ClusterSplat splatter;
+    auto report = bench.run(
+        splatter, SplatBench::params("cluster", "radius: 1.5, max_list_entries: 30000000"),
+        bench.photons(photons, 1.0f));
+    EXPECT_EQ(report.counter("list_overflows") + report.counter("job_overflows") +
+                  report.counter("truncated_traversals"),
+              0);
+    // More than 65535 entries read per sample on average: some samples' lists exceed the limit.
+    if (photons == 120000u)
+      EXPECT_GT(report.counter("photons_read") / double(kWidth * kHeight), 65535.0);
+    means.push_back(mean_rgb(report.indirect));
+  }
+  EXPECT_GT(means[1], 0);
+  EXPECT_NEAR(means[0] / means[1], 1.0, 0.03) << means[0] << " vs " << means[1];
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 // Each capacity overflows in its own counter (entries, jobs) and warns naming its parameter; the
 // other counters stay zero; the count / insert disagreement hook is reported as for tiled.
-TEST(Cluster, EachOverflowIsCountedInItsOwnUnitAndWarned) {
-  fs::path dir = work_dir("overflow");
-  std::string yaml = header(dir) +
-                     "techniques:\n"
-                     "  - technique: cluster\n"
-                     "    params: {photons: 5000, radius: 0.08, max_list_entries: 16}\n"
-                     "  - technique: cluster\n"
-                     "    params: {photons: 5000, radius: 0.08, max_jobs: 16}\n"
-                     "  - technique: cluster\n"
-                     "    params: {photons: 5000, radius: 0.08, debug_insert_radius: 2}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  fs::path lists = find_cell(dir, "cluster", {{"max_list_entries", "16"}});
-  fs::path jobs = find_cell(dir, "cluster", {{"max_jobs", "16"}});
-  fs::path mismatch = find_cell(dir, "cluster", {{"debug_insert_radius", "2"}});
-  for (const fs::path& cell : {lists, jobs, mismatch}) expect_ok(cell);
-  auto l = counters(lists), j = counters(jobs), m = counters(mismatch);
-  EXPECT_GT(l["list_overflows"], 0);
-  EXPECT_EQ(l["job_overflows"] + l["truncated_traversals"] + l["list_mismatches"], 0);
-  EXPECT_NE(warnings(lists).find("max_list_entries"), std::string::npos) << warnings(lists);
-  EXPECT_GT(j["job_overflows"], 0);
-  EXPECT_EQ(j["list_overflows"] + j["truncated_traversals"] + j["list_mismatches"], 0);
-  EXPECT_NE(warnings(jobs).find("max_jobs"), std::string::npos) << warnings(jobs);
-  EXPECT_GT(m["list_mismatches"], 0);
-  EXPECT_EQ(m["list_overflows"] + m["job_overflows"] + m["truncated_traversals"], 0);
-  EXPECT_NE(warnings(mismatch).find("disagree"), std::string::npos) << warnings(mismatch);
-  fs::remove_all(dir);
+TEST(ClusterSplat, EachOverflowIsCountedInItsOwnUnitAndWarned) {
+  SplatBench bench(96, 54);
+  const auto photons = bench.photons(5000, 1.0f);
+  auto run = [&](const std::string& params) {
+    pb::toolkit::ClusterSplat splatter;
+    return bench.run(splatter, SplatBench::params("cluster", "radius: 0.08, " + params), photons);
+  };
+  const auto l = run("max_list_entries: 16"), j = run("max_jobs: 16"),
+             m = run("debug_insert_radius: 2");
+  EXPECT_GT(l.counter("list_overflows"), 0);
+  EXPECT_EQ(
+      l.counter("job_overflows") + l.counter("truncated_traversals") + l.counter("list_mismatches"),
+      0);
+  EXPECT_TRUE(l.warned("max_list_entries"));
+  EXPECT_GT(j.counter("job_overflows"), 0);
+  EXPECT_EQ(j.counter("list_overflows") + j.counter("truncated_traversals") +
+                j.counter("list_mismatches"),
+            0);
+  EXPECT_TRUE(j.warned("max_jobs"));
+  EXPECT_GT(m.counter("list_mismatches"), 0);
+  EXPECT_EQ(
+      m.counter("list_overflows") + m.counter("job_overflows") + m.counter("truncated_traversals"),
+      0);
+  EXPECT_TRUE(m.warned("disagree"));
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 // One photon, profiled: the most loop steps an invocation took is M. With loop_budget = M nothing
 // is truncated (a walk that ends with no budget left is complete: it used to be reported
 // truncated); with M - 1 some traversal is, counted and warned about.
-TEST(Cluster, TraversalsAreTruncatedExactlyPastTheBudget) {
-  fs::path dir = work_dir("budget");
-  expect_budget_boundary(dir, header(dir), "cluster",
-                         "photons: 1, radius: 0.6, max_bounces: 2, variant: trivial");
-  fs::remove_all(dir);
+TEST(ClusterSplat, TraversalsAreTruncatedExactlyPastTheBudget) {
+  SplatBench bench(96, 54);
+  expect_budget_boundary(budget_boundary<pb::toolkit::ClusterSplat>(
+      bench, "cluster", "radius: 0.6, variant: trivial"));
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
-// The light's green is 1e-5 of its red and every surface is the same grey, so every photon and
-// every pixel of an exact estimate has green / red = 1e-5. The trivial variant's node flux is fixed
-// point: per-channel scales keep the ratio (the old scale, set by the total red flux, gave each
-// photon 1e-5 x 2^31 / 1e5 = 0.2 units of green, rounded to 0 -- the same loss as a channel at 1e-3
-// at Paper I's 1e7 photons).
-TEST(Cluster, TrivialNodeFluxKeepsAWeakChannel) {
-  fs::path dir = work_dir("weak");
-  fs::path scene = grey_box_scene(dir, "grey-box", "[1, 1e-5, 1]");
-  std::string yaml =
-      header(dir, scene.string()) +
-      "techniques:\n"
-      "  - {technique: tiled, params: {photons: 80000, radius: 0.1}}\n"
-      "  - {technique: cluster, params: {photons: 80000, radius: 0.1, variant: trivial}}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  fs::path tiled = find_cell(dir, "tiled"), trivial = find_cell(dir, "cluster");
-  expect_ok(trivial);
-  ASSERT_GT(counters(trivial)["trivial_accepts"], 0);
-  ASSERT_GT(counters(trivial)["photons_stored"], 100000);
-  for (const fs::path& cell : {tiled, trivial}) expect_green_ratio(cell);
-  fs::remove_all(dir);
+// The light's green is 1e-5 of its red and the floor is grey, so every photon and every pixel of
+// an exact estimate has green / red = 1e-5. The trivial variant's node flux is fixed point:
+// per-channel scales keep the ratio (the old scale, set by the total red flux, gave each photon
+// 1e-5 x 2^31 / 1e5 = 0.2 units of green, rounded to 0 -- the same loss as a channel at 1e-3 at
+// Paper I's 1e7 photons).
+TEST(ClusterSplat, TrivialNodeFluxKeepsAWeakChannel) {
+  SplatBench bench(96, 54);
+  const auto photons = bench.photons(120000, 1.0f, 7, glm::vec3(1, 1e-5f, 1));
+  pb::toolkit::TiledSplat tiled;
+  expect_green_ratio(bench.run(tiled, SplatBench::params("tiled", "radius: 0.3"), photons).indirect,
+                     "tiled");
+  pb::toolkit::ClusterSplat trivial;
+  auto report =
+      bench.run(trivial, SplatBench::params("cluster", "radius: 0.3, variant: trivial"), photons);
+  ASSERT_GT(report.counter("trivial_accepts"), 0);
+  expect_green_ratio(report.indirect, "cluster trivial");
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 }  // namespace cluster_test

@@ -1,9 +1,9 @@
-// direct end to end through `photonbench run` (with Vulkan validation), in the order a technique's
-// tests go: it runs, it rejects bad parameters with the key, and its image is the closed form its
-// passes compute. The scene is lit by one point light alone, so that the direct light it estimates
-// has no soft shadows or emitter its passes leave out (README "Deviations"): the `direct` class
-// reference (path traced, next-event estimation of a point light) is then its exact answer up to
-// anti-aliased edges and the shadow test's bias.
+// direct, in the order a technique's tests go: it rejects bad parameters with the key (the run's
+// own call, in-process), and end to end through `photonbench run` (with Vulkan validation) its
+// image is the closed form its passes compute. The scene is lit by one point light alone, so that
+// the direct light it estimates has no soft shadows or emitter its passes leave out (README
+// "Deviations"): the `direct` class reference (path traced, next-event estimation of a point light)
+// is then its exact answer up to anti-aliased edges and the shadow test's bias.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +12,8 @@
 #include <string>
 
 #include "io/image.h"
+#include "photonbench/error.h"
+#include "run/runner.h"
 #include "run_fixture.h"
 
 namespace fs = std::filesystem;
@@ -66,14 +68,25 @@ pb::io::Image reference(const fs::path& dir, const std::string& path_class) {
   return {};
 }
 
-TEST(Direct, RejectsAParameterOutsideItsRangeNamingTheKey) {
+// `run` in-process (run::run_benchmark, which the command calls): pb::InputError, the command's
+// exit 2, before anything runs.
+TEST(DirectParams, RejectsAParameterOutsideItsRangeNamingTheKey) {
   fs::path dir = work_dir("bad_param");
-  EXPECT_EQ(run_config(dir, config(dir, "shadow_map_size: 8")), 2 << 8);  // exit status 2
-  std::ifstream log(dir / "log.txt");
-  std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  std::ofstream(dir / "config.yaml") << config(dir, "shadow_map_size: 8");
+  pb::run::RunOptions options;
+  options.config_file = dir / "config.yaml";
+  options.out_dir = dir / "run";
+  options.overrides = {"plugin_dirs+=" PB_BINARY_DIR "/plugins"};
+  std::string text = "(no error)";
+  try {
+    pb::run::run_benchmark(options);
+  } catch (const pb::InputError& e) {
+    text = e.what();
+  }
   EXPECT_NE(text.find("config.yaml:"), std::string::npos) << text;
   EXPECT_NE(text.find("shadow_map_size"), std::string::npos) << text;
   EXPECT_FALSE(fs::exists(dir / "run" / "cells")) << "nothing is run before the config is valid";
+  fs::remove_all(dir);
 }
 
 TEST(Direct, PointLightImageIsTheDirectReference) {

@@ -1,8 +1,10 @@
 // directional technique, end to end through `photonbench run` (with Vulkan validation): on
 // cornell-box its image is close to tiled's with the same photons (FLIP and the mean of the added
-// indirect light), its blur does not carry irradiance across depth or normal edges, its buckets
-// keep a weak colour channel (fixed point per channel), and a traversal that runs out of its loop
-// budget is counted exactly past the budget and warned about instead of being lost silently. (Its
+// indirect light), and its blur does not carry irradiance across depth or normal edges. Its
+// splatter in-process (pb::toolkit::DirectionalSplat on a synthetic frame, with validation): its
+// buckets keep a weak colour channel (fixed point per channel), and a traversal that runs out of
+// its loop budget is counted exactly past the budget and warned about instead of being lost
+// silently. (Its
 // irradiance against a closed form, with both octant weightings, both deposits and the deep layout:
 // tests/unit/paper1_analytic_test.cpp.)
 #include <gtest/gtest.h>
@@ -21,7 +23,9 @@
 
 #include "io/image.h"
 #include "metrics/metrics.h"
+#include "photonbench/toolkit/directional_splat.h"
 #include "run_fixture.h"
+#include "splat_bench.h"
 
 namespace fs = std::filesystem;
 
@@ -145,60 +149,49 @@ TEST(Directional, BlurKeepsDepthAndNormalEdges) {
   fs::remove_all(dir);
 }
 
+// ---- The splatter in-process (tests/support/splat_bench.h)
+
 // One photon, profiled: the most loop steps an invocation took is M. With loop_budget = M nothing
-// is truncated; with M - 1 some traversal is, counted and warned about, and the cell still
-// succeeds. This exercises pb_step's shared guard inside the traversal; the root loop's own
-// budget check (a walk ending at 0 used to wrap it to 2^32 - 1) is RootLoopStopsAtTheBudget's.
-TEST(Directional, TraversalsAreTruncatedExactlyPastTheBudget) {
-  fs::path dir = work_dir("budget");
-  expect_budget_boundary(dir, header(dir), "directional",
-                         "photons: 1, radius: 0.6, max_bounces: 2");
-  fs::remove_all(dir);
+// is truncated; with M - 1 some traversal is, counted and warned about, and nothing throws. This
+// exercises pb_step's shared guard inside the traversal; the root loop's own budget check (a walk
+// ending at 0 used to wrap it to 2^32 - 1) is RootLoopStopsAtTheBudget's.
+TEST(DirectionalSplat, TraversalsAreTruncatedExactlyPastTheBudget) {
+  SplatBench bench(160, 90);
+  expect_budget_boundary(
+      budget_boundary<pb::toolkit::DirectionalSplat>(bench, "directional", "radius: 0.6"));
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 // At 1280x720 the frame has several roots (256-pixel root tiles), so the top pass's root loop
 // itself runs out of a budget of one step. Every invocation then stops at the budget: the most
 // steps any pass took is 1. (The root loop used to decrement without a `budget > 0` check: there
 // the budget wrapped and the top pass ran 504 steps, unguarded and uncounted.)
-TEST(Directional, RootLoopStopsAtTheBudget) {
-  fs::path dir = work_dir("roots");
-  std::string yaml =
-      "name: directional-test\nresolution: [1280, 720]\nseed: 1\nscenes: [cornell-box]\n"
-      "limits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 0}\n"
-      "techniques:\n  - {technique: directional, params: {photons: 1, radius: 0.6, "
-      "max_bounces: 2, profile: true, loop_budget: 1}}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells_with_prefix(dir, "cornell-box__directional__");
-  ASSERT_EQ(found.size(), 1u);
-  expect_ok(found[0]);
-  auto sums = counters(found[0]);
-  ASSERT_TRUE(sums.contains("profile_top_steps_max")) << "no profile of the top pass";
-  for (const auto& [name, value] : sums)
+TEST(DirectionalSplat, RootLoopStopsAtTheBudget) {
+  SplatBench bench(1280, 720);
+  auto photon = bench.photons(1, 1.0f);
+  photon[0].position = glm::vec3(0);
+  pb::toolkit::DirectionalSplat splatter;
+  auto report = bench.run(
+      splatter, SplatBench::params("directional", "radius: 0.6, profile: true, loop_budget: 1"),
+      photon);
+  ASSERT_TRUE(report.counters.count("profile_top_steps_max")) << "no profile of the top pass";
+  for (const auto& [name, value] : report.counters)
     if (name.ends_with("_steps_max")) EXPECT_LE(value, 1) << name << " past a budget of 1";
-  EXPECT_GE(sums["truncated_traversals"], 1) << "a budget of 1 truncates the walk";
-  fs::remove_all(dir);
+  EXPECT_GE(report.counter("truncated_traversals"), 1) << "a budget of 1 truncates the walk";
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
-// The light's green is 1e-5 of its red and every surface is the same grey, so every bucket, and
-// every pixel, has green / red = 1e-5. The old scale (4e9 / the total red flux) gave each photon
+// The light's green is 1e-5 of its red and the floor is grey, so every bucket, and every pixel,
+// has green / red = 1e-5. The old scale (4e9 / the total red flux) gave each photon
 // 1e-5 x 4e9 / 1.1e5 = 0.4 units of green, rounded to 0: the image had no green at all (the same
 // loss as a channel at 1e-3 at Paper I's 1e7 photons).
-TEST(Directional, BucketsKeepAWeakChannel) {
-  fs::path dir = work_dir("weak");
-  fs::path scene = grey_box_scene(dir, "grey-box", "[1, 1e-5, 1]");
-  std::string yaml =
-      "name: directional-test\nresolution: [160, 90]\nseed: 1\nscenes: [" + scene.string() +
-      "]\nlimits: {cell_seconds: 300}\nframes: {warmup: 0, count: 1, metrics_every: 1}\n"
-      "metrics: [psnr]\nreference: {samples: 2, cache_dir: " +
-      (dir / "refs").string() +
-      "}\ntechniques:\n  - {technique: directional, params: {photons: 80000, radius: 0.1}}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  auto found = cells_with_prefix(dir, "grey-box__directional__");
-  ASSERT_EQ(found.size(), 1u);
-  expect_ok(found[0]);
-  ASSERT_GT(counters(found[0])["photons_stored"], 100000);
-  expect_green_ratio(found[0]);
-  fs::remove_all(dir);
+TEST(DirectionalSplat, BucketsKeepAWeakChannel) {
+  SplatBench bench(160, 90);
+  pb::toolkit::DirectionalSplat splatter;
+  auto report = bench.run(splatter, SplatBench::params("directional", "radius: 0.1"),
+                          bench.photons(120000, 1.0f, 7, glm::vec3(1, 1e-5f, 1)));
+  expect_green_ratio(report.indirect, "directional");
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 }  // namespace directional_test

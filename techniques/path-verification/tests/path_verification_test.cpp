@@ -7,12 +7,12 @@
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "../../../tests/unit/test_scenes.h"
 #include "../distribution_map.h"
 #include "../path_layout.h"
 #include "photonbench/error.h"
 #include "photonbench/photons.h"
 #include "run_fixture.h"
+#include "test_scenes.h"
 #include "trace/embree_scene.h"
 #include "trace/photon_tracer.h"
 

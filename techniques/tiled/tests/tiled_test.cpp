@@ -1,6 +1,7 @@
-// tiled technique, end to end through `photonbench run` (with Vulkan validation): on cornell-box it
+// tiled technique: end to end through `photonbench run` (with Vulkan validation), on cornell-box it
 // adds indirect light on top of the direct light (about as much as the path-traced indirect
-// reference says), reads long tile lists whole (llvmpipe's loop limit), reports an undersized list
+// reference says); its splatter in-process (pb::toolkit::TiledSplat on a synthetic frame, with
+// validation) reads long tile lists whole (llvmpipe's loop limit), reports an undersized list
 // capacity as an overflow without reading past what was written, and reports a disagreement of its
 // count and insert runs (the list consistency check) instead of reading another tile's entries.
 #include <gtest/gtest.h>
@@ -10,7 +11,9 @@
 #include <vector>
 
 #include "io/image.h"
+#include "photonbench/toolkit/tiled_splat.h"
 #include "run_fixture.h"
+#include "splat_bench.h"
 
 namespace fs = std::filesystem;
 
@@ -82,79 +85,62 @@ TEST(Tiled, CornellBoxAddsIndirectLightOnTopOfDirect) {
   fs::remove_all(dir);
 }
 
+// ---- The splatter in-process (tests/support/splat_bench.h)
+
 // The estimate must not depend on the photon count beyond noise: a tile list far longer than 65535
 // entries (llvmpipe ends an invocation's loops after 65535 iterations in all) must be read whole.
-TEST(Tiled, LongTileListsAreReadWhole) {
-  fs::path dir = work_dir("long");
-  std::string yaml =
-      std::string(kHeader) + "frames: {warmup: 0, count: 1, metrics_every: 1}\n" +
-      "metrics: [psnr]\nreference: {samples: 2, cache_dir: " + (dir / "refs").string() +
-      "}\n"
-      "techniques:\n"
-      "  - technique: tiled\n"
-      "    params: {photons: [30000, 120000], radius: 0.05, tile_size: 256}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+// One 256-pixel tile holds the whole 48x27 frame, so its list holds every photon.
+TEST(TiledSplat, LongTileListsAreReadWhole) {
+  SplatBench bench(48, 27);
   std::vector<double> means;
-  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells")) {
-    means.push_back(mean_rgb(frame_image(entry.path())));
-    auto sums = counters(entry.path());
-    EXPECT_GT(sums["photons_read"], sums["photons_rejected"]);
+  for (uint32_t photons : {30000u, 120000u}) {
+    pb::toolkit::TiledSplat splatter;
+    auto report = bench.run(splatter, SplatBench::params("tiled", "radius: 0.05, tile_size: 256"),
+                            bench.photons(photons, 1.0f));
+    EXPECT_GT(report.counter("photons_read"), report.counter("photons_rejected"));
+    means.push_back(mean_rgb(report.indirect));
   }
-  ASSERT_EQ(means.size(), 2u);
+  EXPECT_GT(means[1], 0);
   EXPECT_NEAR(means[0] / means[1], 1.0, 0.03) << means[0] << " vs " << means[1];
-  fs::remove_all(dir);
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
-// An undersized capacity: entries past it are dropped, counted and warned about, the cell
-// succeeds, and the estimate reads no more than was written: 16 entries per frame, each read by at
-// most the 32 x 32 pixels of its tile.
-TEST(Tiled, ListOverflowIsCountedAndWarnedNotFatal) {
-  fs::path dir = work_dir("overflow");
-  std::string yaml = std::string(kHeader) + "frames: {warmup: 0, count: 2, metrics_every: 0}\n" +
-                     "techniques:\n"
-                     "  - technique: tiled\n"
-                     "    params: {photons: 5000, radius: 0.08, max_list_entries: 16}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
-  fs::path tiled = cell_dir(dir, "cornell-box__tiled__");
-  ASSERT_FALSE(tiled.empty());
-  auto record = read_json(tiled / "cell.json");
-  EXPECT_EQ(record["status"], "ok") << record.dump();
-  auto sums = counters(tiled);
-  EXPECT_GT(sums["list_overflows"], 0);
-  EXPECT_GT(sums["photons_read"], 0);
-  EXPECT_LE(sums["photons_read"], 2 * 16 * 32 * 32);
-  EXPECT_NE(warnings(tiled).find("overflowed"), std::string::npos) << warnings(tiled);
-  fs::remove_all(dir);
+// An undersized capacity: entries past it are dropped, counted and warned about, nothing throws,
+// and the estimate reads no more than was written: 16 entries per frame, each read by at most the
+// 32 x 32 pixels of its tile.
+TEST(TiledSplat, ListOverflowIsCountedAndWarnedNotFatal) {
+  SplatBench bench(96, 54);
+  pb::toolkit::TiledSplat splatter;
+  auto report =
+      bench.run(splatter, SplatBench::params("tiled", "radius: 0.08, max_list_entries: 16"),
+                bench.photons(5000, 1.0f), /* frames */ 2);
+  EXPECT_GT(report.counter("list_overflows"), 0);
+  EXPECT_GT(report.counter("photons_read"), 0);
+  EXPECT_LE(report.counter("photons_read"), 2 * 16 * 32 * 32);
+  EXPECT_TRUE(report.warned("overflowed"));
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 // The count and insert runs made to disagree (the debug_insert_radius test hook: the insert run
 // tests larger, or smaller, spheres): the check pass counts the tiles whose lists differ from their
-// counts and the technique warns; the cell still succeeds with a finite image, and (validation on)
-// no insert writes outside the lists.
-TEST(Tiled, CountInsertDisagreementIsCountedAndWarned) {
-  fs::path dir = work_dir("mismatch");
-  std::string yaml =
-      std::string(kHeader) + "frames: {warmup: 0, count: 1, metrics_every: 1}\n" +
-      "metrics: [psnr]\nreference: {samples: 2, cache_dir: " + (dir / "refs").string() +
-      "}\n"
-      "techniques:\n"
-      "  - technique: tiled\n"
-      "    params: {photons: 5000, radius: 0.08, debug_insert_radius: [0.5, 1.0, 2.0]}\n";
-  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
+// counts and the splatter warns; the image stays finite, and (validation on) no insert writes
+// outside the lists.
+TEST(TiledSplat, CountInsertDisagreementIsCountedAndWarned) {
+  SplatBench bench(96, 54);
+  const auto photons = bench.photons(5000, 1.0f);
   for (const char* scale : {"0.5", "1", "2"}) {
     SCOPED_TRACE(scale);
-    fs::path cell = find_cell(dir, "tiled", {{"debug_insert_radius", scale}});
-    ASSERT_FALSE(cell.empty());
-    auto record = read_json(cell / "cell.json");
-    EXPECT_EQ(record["status"], "ok") << record.dump();
-    EXPECT_EQ(record["validation"], true);
-    EXPECT_TRUE(all_finite(frame_image(cell)));
-    auto sums = counters(cell);
-    bool agree = std::string(scale) == "1";
-    EXPECT_EQ(sums["list_mismatches"] == 0, agree) << sums["list_mismatches"];
-    EXPECT_EQ(warnings(cell).find("disagree") == std::string::npos, agree) << warnings(cell);
+    pb::toolkit::TiledSplat splatter;
+    auto report = bench.run(
+        splatter,
+        SplatBench::params("tiled", std::string("radius: 0.08, debug_insert_radius: ") + scale),
+        photons);
+    EXPECT_TRUE(all_finite(report.indirect));
+    const bool agree = std::string(scale) == "1";
+    EXPECT_EQ(report.counter("list_mismatches") == 0, agree) << report.counter("list_mismatches");
+    EXPECT_EQ(report.warned("disagree"), !agree);
   }
-  fs::remove_all(dir);
+  EXPECT_EQ(bench.validation_errors(), 0u) << bench.first_validation_error();
 }
 
 }  // namespace tiled_test
