@@ -262,8 +262,8 @@ def knn_settings(settings: List[Setting]) -> Dict[str, Setting]:
     (knn's defaults, the stronger baseline); cells of seed 003's own (`search: kdtree`, `heap: global`)
     are left out here."""
     return {str(s.param("rebuild", "every_frame")): s for s in settings
-            if is_technique(s, KNN) and str(s.param("search", "grid")) == "grid"
-            and str(s.param("heap", "private")) == "private"}
+            if is_technique(s, KNN) and str(s.param("search", "grid")) in ("grid", "")
+            and str(s.param("heap", "private")) in ("private", "")}
 
 
 def label(s: Setting) -> str:
