@@ -43,6 +43,51 @@ float automatic_cell_size(glm::vec3 extent, uint32_t photons, uint32_t k, float 
   return float(std::min<double>(radius, r_max));
 }
 
+std::vector<KnnPhoton> build_kdtree(std::span<const pb::trace::PhotonRecord> records) {
+  const size_t n = records.size();
+  std::vector<uint32_t> order(n);
+  for (uint32_t i = 0; i < n; ++i) order[i] = i;
+  std::vector<KnnPhoton> tree(n);
+  // Nodes in a complete tree of `count` nodes left of its root: the full levels' half, and the
+  // last level's nodes up to half its capacity.
+  auto left_size = [](size_t count) -> size_t {
+    if (count <= 1) return 0;
+    size_t levels = 0;
+    while ((size_t(2) << levels) <= count) ++levels;  // 2^levels <= count < 2^(levels + 1)
+    const size_t full = (size_t(1) << levels) - 1, last = count - full;
+    const size_t half = size_t(1) << (levels - 1);
+    return (full - 1) / 2 + std::min(last, half);
+  };
+  struct Task {
+    size_t first, end, node;
+  };
+  std::vector<Task> tasks{{0, n, 0}};
+  while (!tasks.empty()) {
+    const Task t = tasks.back();
+    tasks.pop_back();
+    if (t.first >= t.end) continue;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+    for (size_t i = t.first; i < t.end; ++i) {
+      lo = glm::min(lo, records[order[i]].position);
+      hi = glm::max(hi, records[order[i]].position);
+    }
+    const glm::vec3 extent = hi - lo;
+    const uint32_t axis = extent.x >= extent.y && extent.x >= extent.z ? 0
+                          : extent.y >= extent.z                       ? 1
+                                                                       : 2;
+    const size_t median = t.first + left_size(t.end - t.first);
+    std::nth_element(order.begin() + t.first, order.begin() + median, order.begin() + t.end,
+                     [&](uint32_t a, uint32_t b) {
+                       return records[a].position[axis] < records[b].position[axis];
+                     });
+    const pb::trace::PhotonRecord& p = records[order[median]];
+    tree[t.node] = KnnPhoton{p.position, order[median], p.power, axis, p.direction, 0.0f};
+    tasks.push_back({t.first, median, 2 * t.node + 1});
+    tasks.push_back({median + 1, t.end, 2 * t.node + 2});
+  }
+  return tree;
+}
+
 GridLayout plan_grid(std::span<const pb::trace::PhotonRecord> records, const Settings& settings) {
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
   for (const auto& p : records) {
@@ -86,6 +131,8 @@ void KnnGrid::setup(pb::gpu::Device& gpu, const Settings& settings) {
   std::vector<Binding> build(kBuildBindings, Binding::storage_buffer);
   std::vector<Binding> gather = build;
   gather.insert(gather.end(), 4, Binding::storage_image);
+  gather.push_back(Binding::storage_buffer);  // the heap (knn_common.glsl, binding 11)
+  heap_ = pb::toolkit::storage_buffer(gpu, "knn/heap", 8);
   keys_pipeline_ =
       gpu.create_compute_pipeline("build/keys", kknn_keys_comp_spv, build, sizeof(KnnPush));
   ranges_pipeline_ =
@@ -112,6 +159,8 @@ KnnPush KnnGrid::push() const {
   p.bin_width = settings_.bin_width;
   p.sparse = settings_.sparse;
   p.budget = settings_.budget;
+  p.search = settings_.search;
+  p.heap = settings_.heap;
   return p;
 }
 
@@ -120,6 +169,18 @@ void KnnGrid::build(vk::CommandBuffer cmd, pb::gpu::Device& gpu, const pb::gpu::
   layout_ = plan_grid(records, settings_);
   photon_count_ = uint32_t(records.size());
   photons_ = &photons;
+  if (settings_.search == KNN_SEARCH_KDTREE) {
+    // Seed 003's baseline: the tree built on the CPU (as the paper's, "prebuilt on the CPU") and
+    // uploaded; the gather reads it where it reads the grid's photons. The grid's push fields
+    // still bound the photons' box.
+    const std::vector<KnnPhoton> tree = build_kdtree(records);
+    const uint64_t bytes = std::max<uint64_t>(tree.size(), 1) * sizeof(KnnPhoton);
+    if (!tree_ || tree_.size() < bytes)
+      tree_ = pb::toolkit::storage_buffer(gpu, "knn/kdtree", bytes + bytes / 4,
+                                          pb::gpu::Memory::host_visible);
+    if (!tree.empty()) std::memcpy(tree_.mapped(), tree.data(), tree.size() * sizeof(KnnPhoton));
+    return;
+  }
   const uint64_t n = std::max<uint64_t>(photon_count_, 1);
   grow(gpu, items_, "knn/items", n * 8);
   grow(gpu, sorted_, "knn/sorted", n * 8);
@@ -159,12 +220,23 @@ void KnnGrid::gather(vk::CommandBuffer cmd, pb::gpu::Device& gpu, const pb::GBuf
     p.debug_stride = 2 + settings_.k;
     grow(gpu, debug_, "knn/debug", uint64_t(width) * height * p.debug_stride * 4);
   }
-  std::vector<pb::gpu::Resource> list = {photons_,  &items_, &sorted_, &cells_,
-                                         &compact_, &stats_, &debug_};
+  const bool tree = settings_.search == KNN_SEARCH_KDTREE;
+  if (settings_.heap == KNN_HEAP_GLOBAL)
+    grow(gpu, heap_, "knn/heap", uint64_t(width) * height * settings_.k * 8);
+  // The grid's buffers are empty with the kd-tree: the tree stands in for them (never read).
+  std::vector<pb::gpu::Resource> list = {photons_,
+                                         tree ? &tree_ : &items_,
+                                         tree ? &tree_ : &sorted_,
+                                         tree ? &tree_ : &cells_,
+                                         tree ? &tree_ : &compact_,
+                                         &stats_,
+                                         &debug_};
   const auto g = pb::toolkit::gbuffer_resources(gbuffer);
   list.insert(list.end(), g.begin(), g.end());
   list.push_back(&indirect);
+  list.push_back(&heap_);
   cmd.fillBuffer(stats_.handle(), 0, KNN_STAT_QUERY_WORDS * 4, 0u);
+  cmd.fillBuffer(stats_.handle(), KNN_STAT_HEAP * 4, 8, 0u);
   if (debug) cmd.fillBuffer(debug_.handle(), 0, VK_WHOLE_SIZE, 0u);
   pb::gpu::full_barrier(cmd);
   gather_pipeline_.bind(cmd, list, p);
@@ -178,6 +250,7 @@ Stats KnnGrid::read_stats() const {
   out.visited = wide(KNN_STAT_VISITED);
   out.cells_opened = wide(KNN_STAT_CELLS);
   out.found = wide(KNN_STAT_FOUND);
+  out.heap_entries = wide(KNN_STAT_HEAP);
   out.queries = s[KNN_STAT_QUERIES];
   out.short_queries = s[KNN_STAT_SHORT];
   out.truncated = s[KNN_STAT_TRUNCATED];
@@ -202,7 +275,7 @@ std::vector<KnnGrid::Query> KnnGrid::debug_queries(pb::gpu::Device& gpu) const {
 
 uint64_t KnnGrid::bytes() const {
   return cells_.size() + items_.size() + sorted_.size() + compact_.size() + sort_.bytes() +
-         scan_.scratch_bytes() + args_.size();
+         scan_.scratch_bytes() + args_.size() + tree_.size() + heap_.size();
 }
 
 }  // namespace knn

@@ -32,6 +32,8 @@ struct Settings {
   uint32_t sparse = KNN_SPARSE_RMAX;
   float bin_width = 0.05f;  // m, the radius histogram's
   uint32_t budget = 60000;  // loop steps per query invocation
+  uint32_t search = KNN_SEARCH_GRID;
+  uint32_t heap = KNN_HEAP_PRIVATE;
 };
 
 // The grid's cells most: 2^21 (20 bytes a cell with the sort's counters: 40 MiB). A finer cell
@@ -56,9 +58,15 @@ float automatic_cell_size(glm::vec3 extent, uint32_t photons, uint32_t k, float 
 // settings.cell_size (or automatic_cell_size), coarsened until there are at most kMaxGridCells.
 GridLayout plan_grid(std::span<const pb::trace::PhotonRecord> records, const Settings& settings);
 
+// The balanced kd-tree of seed 003's baseline (Jensen 1996, "balanced"): each node a photon, in
+// the implicit order of a complete binary tree (node i's children 2i + 1 and 2i + 2; the last
+// level filled from the left), the node the median along the axis of its subtree's largest extent,
+// `axis` set. `index` is the photon's record index, as the grid's.
+std::vector<KnnPhoton> build_kdtree(std::span<const pb::trace::PhotonRecord> records);
+
 // One frame's query statistics (KNN_STAT_* words) and the build's occupied cells.
 struct Stats {
-  uint64_t visited = 0, cells_opened = 0, found = 0;
+  uint64_t visited = 0, cells_opened = 0, found = 0, heap_entries = 0;
   uint32_t queries = 0, short_queries = 0, truncated = 0, occupied = 0;
   std::array<uint32_t, KNN_RADIUS_BINS> histogram{};
 };
@@ -102,6 +110,8 @@ class KnnGrid {
   pb::toolkit::PrefixSum scan_;
   pb::toolkit::CountingSort sort_;
   pb::gpu::Buffer items_, sorted_, cells_, compact_, stats_, debug_, args_;
+  pb::gpu::Buffer tree_;  // search kdtree: the nodes (host-visible), bound where compact_ is
+  pb::gpu::Buffer heap_;  // heap global: k entries per pixel (a stand-in of 8 bytes otherwise)
   const pb::gpu::Buffer* photons_ = nullptr;  // the buffer the last build read
   pb::gpu::Pipeline keys_pipeline_, ranges_pipeline_, gather_pipeline_;
 };

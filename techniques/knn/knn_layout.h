@@ -34,13 +34,18 @@ using uint = uint32_t;
 #define KNN_STAT_HISTOGRAM 10u    // KNN_RADIUS_BINS words: queries per radius bin
 #define KNN_STAT_QUERY_WORDS 31u  // the words above, cleared before each gather
 #define KNN_STAT_OCCUPIED 31u     // grid cells holding at least one photon (cleared by the build)
-#define KNN_STAT_WORDS 32u
+#define KNN_STAT_HEAP 32u         // heap entries read or written (64-bit; cleared before a gather)
+#define KNN_STAT_WORDS 34u
 
 // Modes of the gather's push block.
 #define KNN_KERNEL_UNIFORM 0u       // K = 1 / (pi r^2): Jensen's estimate
 #define KNN_KERNEL_EPANECHNIKOV 1u  // K = 2 / (pi r^2) (1 - d^2 / r^2)
 #define KNN_SPARSE_RMAX 0u          // fewer than k found: r = r_max (the disc searched)
 #define KNN_SPARSE_FARTHEST 1u      // fewer than k found: r = the farthest photon found
+#define KNN_SEARCH_GRID 0u          // the uniform grid in shells near to far (the stronger)
+#define KNN_SEARCH_KDTREE 1u        // seed 003's: a balanced kd-tree from r_max (Jensen 1996)
+#define KNN_HEAP_PRIVATE 0u         // the k candidates in the invocation's own array
+#define KNN_HEAP_GLOBAL 1u          // in a storage buffer, seed 003 §7's "slow global memory"
 
 // The grid and the query settings, one push block for every kernel (96 bytes).
 struct KnnPush {
@@ -54,16 +59,19 @@ struct KnnPush {
   uint sparse, budget;
   uint debug;         // 1: write each query's photons to the debug buffer (tests)
   uint debug_stride;  // words per query in the debug buffer
-  uint pad0, pad1;
+  uint search;        // KNN_SEARCH_*: with the kd-tree, `compact` holds the tree's nodes
+  uint heap;          // KNN_HEAP_*
 };
 
 // A photon as the gather reads it, in cell order (48 bytes): position, flux, direction of travel,
-// and the index of its PhotonRecord (tests compare photon identities).
+// and the index of its PhotonRecord (tests compare photon identities). In the kd-tree the photons
+// are the nodes, in the implicit order of a balanced tree (node i's children 2i + 1 and 2i + 2),
+// and `axis` is the splitting axis (0, 1, 2).
 struct KnnPhoton {
   vec3 position;
   uint index;
   vec3 power;
-  float pad0;
+  uint axis;
   vec3 direction;
   float pad1;
 };

@@ -46,6 +46,14 @@ constexpr pb_param_spec kRebuildParam = {
     "rebuild", PB_PARAM_ENUM, 0, 0, 0, "every_frame|static", "",
     "every_frame: trace and build each frame; static: traced and built once in setup (seed 003's "
     "baseline: static light), each frame only gathers"};
+constexpr pb_param_spec kSearchParam = {
+    "search", PB_PARAM_ENUM, 0, 0, 0, "grid|kdtree", "",
+    "grid: the uniform grid searched in shells near to far (the stronger baseline); kdtree: seed "
+    "003's, a balanced kd-tree built on the CPU and searched from r_max (Jensen 1996)"};
+constexpr pb_param_spec kHeapParam = {
+    "heap", PB_PARAM_ENUM, 0, 0, 0, "private|global", "",
+    "where a query's k candidates live: private (the invocation's own array) or global (a "
+    "storage buffer, seed 003 §7's \"slow global memory\")"};
 constexpr pb_param_spec kCellSizeParam = {
     "cell_size", PB_PARAM_FLOAT, 0, 0, 1e4, nullptr, "m",
     "grid cell side; 0: automatic, the k-th-neighbour distance of photons spread evenly over "
@@ -75,9 +83,13 @@ constexpr pb_param_spec kQueryBudgetParam = with_range(
 // clang-format on
 
 const pb_param_spec kParams[] = {
-    kPhotonsParam,        kKParam,           kRMaxParam,          kRebuildParam,
-    kCellSizeParam,       kKernelParam,      kSparseRadiusParam,  kFreshPhotonsParam,
-    kRadiusBinWidthParam, kMaxBouncesParam,  kShadowMapSizeParam, kCausticsParam,
+    kPhotonsParam,        kKParam,
+    kRMaxParam,           kRebuildParam,
+    kSearchParam,         kHeapParam,
+    kCellSizeParam,       kKernelParam,
+    kSparseRadiusParam,   kFreshPhotonsParam,
+    kRadiusBinWidthParam, kMaxBouncesParam,
+    kShadowMapSizeParam,  kCausticsParam,
     kStoreFirstHitParam,  kQueryBudgetParam,
 };
 
@@ -109,6 +121,13 @@ constexpr pb_counter_spec kCellsVisited = {
     "cells_visited", PB_COUNTER_WORK, "cells", "grid cells a query opened"};
 constexpr pb_counter_spec kVisitedPerQuery = {
     "photons_visited_per_query", PB_COUNTER_RATIO, "photons", "photons_visited / queries"};
+constexpr pb_counter_spec kHeapEntries = {
+    "heap_entries", PB_COUNTER_WORK, "entries",
+    "heap entries the queries read or wrote (8 bytes each; buffer traffic with heap: global)"};
+constexpr pb_counter_spec kBytesPerQuery = {
+    "bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
+    "memory a query reads or writes: (cells_visited 8 + (photons_visited + found) 48, plus "
+    "heap_entries 8 with heap: global) / queries"};
 constexpr pb_counter_spec kMeanK = {
     "mean_k", PB_COUNTER_RATIO, "photons", "photons found per query (k where k lie within r_max)"};
 constexpr pb_counter_spec kShortQueries = {
@@ -151,7 +170,7 @@ constexpr auto kCounters = join_counters(
     kPhotonFrameCounters,
     std::array{kGridCells, kGridCellsOccupied, kCellSize, kGridBuilds, kSetupBuilds, kSetupTraceMs,
                kSetupBuildMs, kQueries, kPhotonsVisited, kCellsVisited, kVisitedPerQuery, kMeanK,
-               kShortQueries, kTruncatedQueries, kBytesGrid},
+               kHeapEntries, kBytesPerQuery, kShortQueries, kTruncatedQueries, kBytesGrid},
     kRadiusBins);
 
 double ms_since(std::chrono::steady_clock::time_point start) {
@@ -188,6 +207,10 @@ class Knn final : public pb::Technique {
                                                                             : KNN_SPARSE_RMAX;
     settings_.bin_width = float(params.number(kRadiusBinWidthParam.name));
     settings_.budget = uint32_t(params.integer(kQueryBudgetParam.name));
+    settings_.search =
+        params.choice(kSearchParam.name) == "kdtree" ? KNN_SEARCH_KDTREE : KNN_SEARCH_GRID;
+    settings_.heap =
+        params.choice(kHeapParam.name) == "global" ? KNN_HEAP_GLOBAL : KNN_HEAP_PRIVATE;
     static_ = params.choice(kRebuildParam.name) == "static";
     trace_ = photon_.trace_settings();
     trace_.seed_per_frame = params.flag(kFreshPhotonsParam.name);
@@ -262,6 +285,13 @@ class Knn final : public pb::Technique {
     const double queries = std::max<double>(s.queries, 1);
     pb::count(ctx, kVisitedPerQuery, double(s.visited) / queries);
     pb::count(ctx, kMeanK, double(s.found) / queries);
+    pb::count(ctx, kHeapEntries, double(s.heap_entries));
+    const double heap_bytes =
+        settings_.heap == KNN_HEAP_GLOBAL ? double(s.heap_entries) * sizeof(glm::uvec2) : 0.0;
+    pb::count(ctx, kBytesPerQuery,
+              (double(s.cells_opened) * sizeof(glm::uvec2) +
+               double(s.visited + s.found) * sizeof(knn::KnnPhoton) + heap_bytes) /
+                  queries);
     pb::count(ctx, kShortQueries, double(s.short_queries));
     pb::count(ctx, kTruncatedQueries, double(s.truncated));
     pb::count(ctx, kBytesGrid, double(grid_.bytes()));

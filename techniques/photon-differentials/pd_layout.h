@@ -71,6 +71,7 @@ struct PdNode {
 #define PD_CTL_NODES_VISITED 20u  // 2 words: nodes whose box contained the query point
 #define PD_CTL_TRUNCATED 22u      // queries cut short by the loop budget
 #define PD_CTL_CLAMPED 23u        // semi-axes clamped to r_max
+#define PD_CTL_NODES_FETCHED 24u  // 2 words: nodes a query read (popped), boxes tested or not
 #define PD_CTL_HISTOGRAM 32u      // PD_RADIUS_BINS words: Table 3's semi-axis lengths
 #define PD_CTL_WORDS 64u
 #define PD_RADIUS_BINS 21u  // 0.05 m wide to 1.00 m, then "> 1.00"

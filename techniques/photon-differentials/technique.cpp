@@ -134,6 +134,15 @@ constexpr pb_counter_spec kMismatches{"query_mismatches", PB_COUNTER_WORK, "samp
                                       "verify: sampled queries off the brute-force sum"};
 constexpr pb_counter_spec kChecked{"query_checked", PB_COUNTER_WORK, "samples",
                                    "verify: sampled queries compared"};
+constexpr pb_counter_spec kFetched{"nodes_fetched", PB_COUNTER_WORK, "nodes",
+                                   "nodes the queries read (popped), boxes tested or not"};
+constexpr pb_counter_spec kBytesPerQuery{
+    "bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
+    "node and footprint records a query reads: (nodes_fetched 48 + hits_tested 96) / queries"};
+constexpr pb_counter_spec kFootprintsOff{"footprints_off", PB_COUNTER_WORK, "footprints",
+                                        "verify: GPU footprints off footprint.h's make_footprint"};
+constexpr pb_counter_spec kTotalsOff{"totals_off", PB_COUNTER_WORK, "totals",
+                                     "verify: area sum, T_auto, histogram bins off the CPU's"};
 
 #define PD_BIN(name) {"radius_" name, PB_COUNTER_WORK, "semi-axes", "Table 3's semi-axis bins"}
 constexpr pb_counter_spec kHistogram[PD_RADIUS_BINS] = {
@@ -146,7 +155,7 @@ constexpr pb_counter_spec kHistogram[PD_RADIUS_BINS] = {
 #undef PD_BIN
 // clang-format on
 
-constexpr std::array<pb_counter_spec, 26> kMain = {kHits,
+constexpr std::array<pb_counter_spec, 30> kMain = {kHits,
                                                    kThreshold,
                                                    kTAuto,
                                                    kRuns,
@@ -157,6 +166,8 @@ constexpr std::array<pb_counter_spec, 26> kMain = {kHits,
                                                    kTested,
                                                    kContributing,
                                                    kVisited,
+                                                   kFetched,
+                                                   kBytesPerQuery,
                                                    kPerQuery,
                                                    kTestedPerQuery,
                                                    kTruncated,
@@ -170,6 +181,8 @@ constexpr std::array<pb_counter_spec, 26> kMain = {kHits,
                                                    kViolations,
                                                    kMismatches,
                                                    kChecked,
+                                                   kFootprintsOff,
+                                                   kTotalsOff,
                                                    tk::kPhotonsStoredCounter,
                                                    tk::kBytesPhotonsCounter};
 constexpr auto kCounters = [] {
@@ -420,6 +433,12 @@ class PhotonDifferentials final : public pb::Technique {
     pb::count(ctx, kTested, wide(PD_CTL_TESTED));
     pb::count(ctx, kContributing, wide(PD_CTL_CONTRIBUTING));
     pb::count(ctx, kVisited, wide(PD_CTL_NODES_VISITED));
+    pb::count(ctx, kFetched, wide(PD_CTL_NODES_FETCHED));
+    pb::count(ctx, kBytesPerQuery,
+              queries > 0 ? (wide(PD_CTL_NODES_FETCHED) * sizeof(pd::PdNode) +
+                             wide(PD_CTL_TESTED) * sizeof(pd::PdFootprint)) /
+                                queries
+                          : 0.0);
     pb::count(ctx, kPerQuery, queries > 0 ? wide(PD_CTL_CONTRIBUTING) / queries : 0.0);
     pb::count(ctx, kTestedPerQuery, queries > 0 ? wide(PD_CTL_TESTED) / queries : 0.0);
     pb::count(ctx, kTruncated, c[PD_CTL_TRUNCATED]);
@@ -438,11 +457,85 @@ class PhotonDifferentials final : public pb::Technique {
     if (c[PD_CTL_LONG_RUNS] > 0)
       ctx.warn(fmt::format("photon-differentials: {} Morton runs longer than the loop budget",
                            c[PD_CTL_LONG_RUNS]));
-    size_t violations = 0, mismatches = 0, checked = 0;
-    if (verify_ && count > 0) verify(ctx, count, runs, violations, mismatches, checked);
+    size_t violations = 0, mismatches = 0, checked = 0, footprints_off = 0, totals_off = 0;
+    if (verify_ && count > 0) {
+      verify(ctx, count, runs, violations, mismatches, checked);
+      verify_postprocess(ctx, count, surface, footprints_off, totals_off);
+    }
     pb::count(ctx, kViolations, double(violations));
     pb::count(ctx, kMismatches, double(mismatches));
     pb::count(ctx, kChecked, double(checked));
+    pb::count(ctx, kFootprintsOff, double(footprints_off));
+    pb::count(ctx, kTotalsOff, double(totals_off));
+  }
+
+  // The verify hook's second half: the GPU's post-processing (pd_postprocess.comp) against the
+  // CPU's footprint.h on the photons uploaded this frame, every footprint record (semi-axes
+  // compressed, smoothed and clamped, the ellipsoid's inverse, area, flux density); and the totals
+  // of pd_postprocess.comp and pd_reduce.comp against CPU sums: the footprints' area, T_auto (§5.3)
+  // and Table 3's histogram bins.
+  void verify_postprocess(pb::Context& ctx, uint32_t count, float surface, size_t& footprints_off,
+                          size_t& totals_off) {
+    const auto* sorted = static_cast<const pd::PdFootprint*>(sorted_.mapped());
+    const uint32_t* c = static_cast<const uint32_t*>(control_.mapped());
+    auto near = [](float got, float want, float scale) {
+      return std::abs(got - want) <= 1e-4f * scale + 1e-12f;
+    };
+    auto near3 = [&](const glm::vec3& got, const glm::vec3& want) {
+      const float scale = std::max(glm::length(want), glm::length(got));
+      return near(got.x, want.x, scale) && near(got.y, want.y, scale) && near(got.z, want.z, scale);
+    };
+    std::vector<uint32_t> seen(count, 0), histogram(PD_RADIUS_BINS, 0);
+    double area = 0;
+    for (uint32_t j = 0; j < count; ++j) {
+      const pd::PdFootprint& got = sorted[j];
+      if (got.photon >= count || seen[got.photon]++ > 0) {
+        ++footprints_off;
+        continue;
+      }
+      const pb::trace::PhotonRecord& p = batch_.photons[kept_[got.photon]];
+      glm::vec3 a1, a2;
+      pd::scaled_semiaxes(p, post_, a1, a2);
+      ++histogram[pd::radius_bin(glm::length(a1))];
+      ++histogram[pd::radius_bin(glm::length(a2))];
+      pd::PdFootprint want;
+      pd::PdBox box;
+      if (pd::make_footprint(p, got.photon, post_, want, box)) area += want.area;
+      const bool same = got.position == want.position && got.kind == want.kind &&
+                        near(got.area, want.area, want.area) &&
+                        near(got.radius_major, want.radius_major, want.radius_major) &&
+                        near(got.radius_minor, want.radius_minor, want.radius_major) &&
+                        near3(got.flux_density, want.flux_density) &&
+                        near3(got.incoming, want.incoming) && near3(got.inverse0, want.inverse0) &&
+                        near3(got.inverse1, want.inverse1) && near3(got.inverse2, want.inverse2);
+      if (!same && footprints_off++ == 0)
+        ctx.warn(fmt::format(
+            "photon-differentials verify: footprint of photon {}: GPU area {} radii {} {}, "
+            "footprint.h area {} radii {} {}",
+            got.photon, got.area, got.radius_major, got.radius_minor, want.area, want.radius_major,
+            want.radius_minor));
+    }
+    const double gpu_area = std::bit_cast<float>(c[PD_CTL_AREA]);
+    if (std::abs(gpu_area - area) > 1e-4 * area) {
+      ++totals_off;
+      ctx.warn(
+          fmt::format("photon-differentials verify: footprint area GPU {} CPU {}", gpu_area, area));
+    }
+    // T_auto from the CPU's sum, unless the GPU's float sum may round the other way (c sum / A
+    // within 1e-4 of a half).
+    const double t = surface > 0 ? double(t_constant_) * area / double(surface) : 0;
+    const bool at_a_half = std::abs(t - std::floor(t) - 0.5) < 1e-4 * std::max(1.0, t);
+    if (!at_a_half && c[PD_CTL_T_AUTO] != pd::t_auto(area, surface, t_constant_)) {
+      ++totals_off;
+      ctx.warn(fmt::format("photon-differentials verify: T_auto GPU {} CPU {}", c[PD_CTL_T_AUTO],
+                           pd::t_auto(area, surface, t_constant_)));
+    }
+    for (uint32_t b = 0; b < PD_RADIUS_BINS; ++b)
+      if (c[PD_CTL_HISTOGRAM + b] != histogram[b]) {
+        if (totals_off++ == 0)
+          ctx.warn(fmt::format("photon-differentials verify: radius bin {} GPU {} CPU {}", b,
+                               c[PD_CTL_HISTOGRAM + b], histogram[b]));
+      }
   }
 
   // The verify hook: the BVH's invariants (footprint.h check_bvh), and every 41st lit pixel's

@@ -424,7 +424,13 @@ class RsmPhotons final : public pb::Technique {
     // warped through its map's pyramid. The points start the RSM pass's paths again (their
     // `kRefill` restart, photons.h: a path emitted from a given emission sample, its power divided
     // by the light's density there, which is the map's P / P0, §5.3.3), round after round, one
-    // round per RSM ray count; each round is a whole estimate, so its photons carry 1 / rounds.
+    // round per RSM ray count. Round r holds the points r * m .. (r + 1) * m - 1 of the set (m per
+    // light a round: the strip x in [r / rounds, (r + 1) / rounds) of the unit square), so a round
+    // alone is not an estimate of the whole map; all the rounds together are, and each photon
+    // carries 1 / rounds of the power the tracer gives it (it divides by m, not by n). A path's
+    // bounces draw the tracer's Sobol points of its sample index: giving each point its own index
+    // i (not the path's, which every round shares) makes the n photons' bounces n distinct
+    // points of one sequence, so more photons buy more independent bounce samples.
     const std::vector<uint32_t>& per_light = rsm_batch_.paths.paths_per_light;
     uint64_t per_round = 0;
     for (uint32_t m : per_light) per_round += m;
@@ -441,6 +447,7 @@ class RsmPhotons final : public pb::Technique {
         const uint32_t n = per_light[l] * rounds, i = round * per_light[l] + index[l]++;
         const glm::vec2 u = rsm::hammersley(i, n, shift);
         path.emission_uv = lights_[l].active ? lights_[l].pyramid.warp(u).uv : u;
+        path.sample = i;
         // A surface emitter's direction (cosine-distributed from this point): the next
         // Hammersley dimensions would be correlated with the position, so a hash of the index.
         const uint32_t h = (i + 1) * 0x9e3779b9u ^ (f.index * 0x85ebca6bu);

@@ -117,6 +117,25 @@ TEST(StabilityClassifier, WorseThanNoIndirectLightAtAllIsDegraded) {
   EXPECT_EQ(classify_cell(leaking, &base, rules, &failed_direct).verdict, StabilityClass::ok);
 }
 
+TEST(StabilityClassifier, WorseThanNoIndirectLightResolvedIsDegradedWithFactorOne) {
+  // A leak through a thin wall: 0.745 against direct's 0.690 passes the 2x rule; with
+  // no_gi_factor 1 it is worse than no indirect light, resolved when the difference (0.055) is
+  // beyond the two noise floors together.
+  StabilityRules rules;
+  rules.no_gi_technique = "direct";
+  const CellOutcome base = scored(0.5, 0.01), direct = scored(0.690, 0.02);
+  const CellOutcome leaking = scored(0.745, 0.02);
+  EXPECT_EQ(classify_cell(leaking, &base, rules, &direct).verdict, StabilityClass::ok);
+  rules.no_gi_factor = 1;
+  const Verdict v = classify_cell(leaking, &base, rules, &direct);
+  EXPECT_EQ(v.verdict, StabilityClass::degraded);
+  EXPECT_NE(v.reason.find("1.08x direct's 0.69"), std::string::npos) << v.reason;
+  // Floors of 0.03 each: the difference is within them, so the order is not resolved.
+  const CellOutcome noisy_direct = scored(0.690, 0.03);
+  EXPECT_EQ(classify_cell(scored(0.745, 0.03), &base, rules, &noisy_direct).verdict,
+            StabilityClass::ok);
+}
+
 TEST(StabilityClassifier, ReadsTheOutcomeOfACellRecord) {
   const auto file = std::filesystem::temp_directory_path() / "stability_test_cell.json";
   std::ofstream(file) << R"({"status": "ok", "reason": "",

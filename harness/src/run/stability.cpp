@@ -57,13 +57,15 @@ Verdict classify_cell(const CellOutcome& cell, const CellOutcome* baseline,
         std::nullopt};
   const bool resolved =
       !cell.flip_floor || *cell.flip >= rules.resolved_floor_factor * *cell.flip_floor;
+  const double no_gi_factor = rules.no_gi_factor.value_or(rules.degraded_factor);
   if (no_gi && no_gi->status == "ok" && no_gi->flip && resolved &&
-      *cell.flip > rules.degraded_factor * *no_gi->flip)
+      *cell.flip > no_gi_factor * *no_gi->flip &&
+      *cell.flip - *no_gi->flip > cell.flip_floor.value_or(0) + no_gi->flip_floor.value_or(0))
     return {StabilityClass::degraded,
             fmt::format("FLIP {:.3g} = {:.3g}x {}'s {:.3g} on this scenario (no indirect light at "
                         "all; bound {:.3g}x)",
                         *cell.flip, *cell.flip / std::max(*no_gi->flip, 1e-12),
-                        rules.no_gi_technique, *no_gi->flip, rules.degraded_factor),
+                        rules.no_gi_technique, *no_gi->flip, no_gi_factor),
             std::nullopt};
   if (!baseline) return {StabilityClass::ok, fmt::format("FLIP {:.3g}", *cell.flip), std::nullopt};
   if (baseline->status != "ok" || !baseline->frame_warnings.empty() || !baseline->flip)
@@ -180,13 +182,14 @@ size_t add_baseline(StabilitySpec& spec, EntrySpec entry, const std::string& lab
 }
 
 StabilityRules read_rules(const config::YamlView& rules) {
-  rules.allow_keys(
-      {"degraded_factor", "resolved_floor_factor", "flicker_bound", "no_gi_technique", "baseline"});
+  rules.allow_keys({"degraded_factor", "resolved_floor_factor", "flicker_bound", "no_gi_technique",
+                    "no_gi_factor", "baseline"});
   StabilityRules out;
   out.no_gi_technique = rules.string_or("no_gi_technique", "");
   out.degraded_factor = rules.number_or("degraded_factor", 2.0, 1.0, 1e6);
   out.resolved_floor_factor = rules.number_or("resolved_floor_factor", 4.0, 0.0, 1e6);
   if (auto bound = rules.get("flicker_bound")) out.flicker_bound = bound->as_number(0, 1e6);
+  if (auto factor = rules.get("no_gi_factor")) out.no_gi_factor = factor->as_number(1, 1e6);
   return out;
 }
 

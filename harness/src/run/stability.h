@@ -37,10 +37,13 @@ struct StabilityRules {
   // (README, "Scores and their noise floors"), so it cannot be called degraded.
   double resolved_floor_factor = 4.0;
   std::optional<double> flicker_bound;  // degraded above it (see CellOutcome::flicker)
-  // Degraded also when FLIP is above degraded_factor times this technique's on the same scenario
-  // (`direct`: no indirect light at all), so that a technique adding wrong light where there is
-  // almost none (a leak out of a closed box) shows even though its baseline error is larger.
+  // Degraded also when FLIP is above no_gi_factor (unset: degraded_factor) times this technique's
+  // on the same scenario (`direct`: no indirect light at all), so that a technique adding wrong
+  // light where there is almost none (a leak out of a closed box) shows even though its baseline
+  // error is larger; 1: worse than no indirect light. Resolved when the difference is beyond the
+  // two noise floors together.
   std::string no_gi_technique;
+  std::optional<double> no_gi_factor;
 };
 
 enum class StabilityClass { ok, degraded, failed, unrated, skipped };

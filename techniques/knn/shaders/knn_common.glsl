@@ -20,6 +20,9 @@ layout(std430, binding = 6) buffer Debug { uint debug_words[]; };
 #define PB_GBUFFER_BINDING 7
 #include "toolkit/gbuffer.glsl"
 layout(binding = 10, rgba32f) writeonly uniform image2D indirect_out;
+// heap: global: each query's k candidates (squared distance bits, place in `compact`) at
+// k x its pixel's index (KNN_HEAP_GLOBAL; a one-entry stand-in otherwise).
+layout(std430, binding = 11) buffer Heap { uvec2 heap_global[]; };
 #endif
 
 layout(push_constant) uniform Push { KnnPush push; };

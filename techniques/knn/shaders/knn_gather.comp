@@ -1,13 +1,17 @@
 #version 460
 // gather: classic photon mapping's density estimate per view sample (seed 003 §3.1; Jensen 1996).
 // The k nearest photons within r_max that arrive from above the sample's tangent plane are found
-// by searching the uniform grid in growing shells of cells around the sample's cell, keeping the
-// candidates in a fixed-size max-heap of k entries (the heap's top is the current k-th distance,
-// which bounds the search once k are held: seed 003's "temporary set of k candidate hits ...
-// updated as closer ones are found"). The bandwidth r is the radius of the found photons'
-// bounding sphere around x, i.e. the k-th distance (fewer than k within r_max: r_max, or the
-// farthest found, by `sparse`); L = (albedo / pi) * sum(Phi_i K_i) with K = 1 / (pi r^2)
-// (uniform) or 2 / (pi r^2) (1 - d_i^2 / r^2) (Epanechnikov).
+// by searching the uniform grid in growing shells of cells around the sample's cell (search:
+// grid), or seed 003's baseline, a balanced kd-tree walked near child first, far children only
+// while their splitting plane lies within the bound (search: kdtree, Jensen's locate_photons),
+// keeping the candidates in a fixed-size max-heap of k entries (the heap's top is the current
+// k-th distance, which bounds the search once k are held: seed 003's "temporary set of k
+// candidate hits ... updated as closer ones are found"), in the invocation's own array (heap:
+// private) or in a storage buffer (heap: global, §7's "residing in slow global memory"). The
+// bandwidth r is the radius of the found photons' bounding sphere around x, i.e. the k-th
+// distance (fewer than k within r_max: r_max, or the farthest found, by `sparse`); L = (albedo /
+// pi) * sum(Phi_i K_i) with K = 1 / (pi r^2) (uniform) or 2 / (pi r^2) (1 - d_i^2 / r^2)
+// (Epanechnikov).
 //
 // Every loop step counts against push.budget (llvmpipe ends an invocation's loops after 65535
 // iterations in all, silently): a query that reaches it stops where it is, is counted
@@ -17,23 +21,43 @@
 #include "toolkit/atomics.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
-float heap_d[KNN_MAX_K];  // squared distances; a max-heap on them
+float heap_d[KNN_MAX_K];  // squared distances; a max-heap on them (heap: private)
 uint heap_i[KNN_MAX_K];   // the photons' places in `compact`
 uint heap_n = 0u;
+uint heap_base = 0u;     // heap: global, this query's first entry in heap_global
+uint heap_touched = 0u;  // entries read or written (the heap's memory traffic)
 uint steps = 0u;
+
+// The heap's entries wherever they live.
+float heap_distance(uint j) {
+  ++heap_touched;
+  return push.heap == KNN_HEAP_GLOBAL ? uintBitsToFloat(heap_global[heap_base + j].x) : heap_d[j];
+}
+uint heap_place(uint j) {
+  ++heap_touched;
+  return push.heap == KNN_HEAP_GLOBAL ? heap_global[heap_base + j].y : heap_i[j];
+}
+void heap_set(uint j, float d, uint at) {
+  ++heap_touched;
+  if (push.heap == KNN_HEAP_GLOBAL) {
+    heap_global[heap_base + j] = uvec2(floatBitsToUint(d), at);
+  } else {
+    heap_d[j] = d;
+    heap_i[j] = at;
+  }
+}
 
 void heap_push(float d, uint at) {
   uint j = heap_n++;
   while (j > 0u) {
     ++steps;
     uint parent = (j - 1u) / 2u;
-    if (heap_d[parent] >= d) break;
-    heap_d[j] = heap_d[parent];
-    heap_i[j] = heap_i[parent];
+    float parent_d = heap_distance(parent);
+    if (parent_d >= d) break;
+    heap_set(j, parent_d, heap_place(parent));
     j = parent;
   }
-  heap_d[j] = d;
-  heap_i[j] = at;
+  heap_set(j, d, at);
 }
 
 // Replaces the farthest entry (the top) and sifts the new one down.
@@ -44,17 +68,38 @@ void heap_replace_top(float d, uint at) {
     uint l = 2u * j + 1u;
     if (l >= heap_n) break;
     uint r = l + 1u;
-    uint m = (r < heap_n && heap_d[r] > heap_d[l]) ? r : l;
-    if (heap_d[m] <= d) break;
-    heap_d[j] = heap_d[m];
-    heap_i[j] = heap_i[m];
+    float dl = heap_distance(l);
+    uint m = l;
+    float dm = dl;
+    if (r < heap_n) {
+      float dr = heap_distance(r);
+      if (dr > dl) m = r, dm = dr;
+    }
+    if (dm <= d) break;
+    heap_set(j, dm, heap_place(m));
     j = m;
   }
-  heap_d[j] = d;
-  heap_i[j] = at;
+  heap_set(j, d, at);
 }
 
-shared uint group_visited, group_cells, group_found, group_queries, group_short, group_truncated;
+// One candidate photon (at place i of `compact`) for the query at x with normal n: kept when it
+// arrives from the side the normal faces (the tangent-plane test) and lies within the bound,
+// which becomes the k-th distance once k are held.
+void consider(KnnPhoton p, uint i, vec3 x, vec3 n, inout float bound2) {
+  vec3 d = p.position - x;
+  float d2 = dot(d, d);
+  if (d2 > bound2 || dot(n, p.direction) >= 0.0) return;
+  if (heap_n < push.k) {
+    heap_push(d2, i);
+    if (heap_n == push.k) bound2 = heap_distance(0u);
+  } else if (d2 < heap_distance(0u)) {
+    heap_replace_top(d2, i);
+    bound2 = heap_distance(0u);
+  }
+}
+
+shared uint group_visited, group_cells, group_found, group_queries, group_short, group_truncated,
+    group_heap;
 
 void main() {
   if (gl_LocalInvocationIndex == 0u) {
@@ -64,6 +109,7 @@ void main() {
     group_queries = 0u;
     group_short = 0u;
     group_truncated = 0u;
+    group_heap = 0u;
   }
   barrier();
 
@@ -76,9 +122,41 @@ void main() {
       bool stop = false;
       float r_max2 = push.r_max * push.r_max;
       float bound2 = r_max2;  // r_max^2 until k are held, then the k-th squared distance
-      // Nothing within r_max when x is farther than r_max from the grid's box.
+      heap_base = (uint(pixel.y) * push.width + uint(pixel.x)) * push.k;
+      // Nothing within r_max when x is farther than r_max from the photons' box.
       vec3 outside = max(max(push.origin - x, x - push.grid_max), vec3(0.0));
-      if (dot(outside, outside) <= r_max2) {
+      if (push.search == KNN_SEARCH_KDTREE && dot(outside, outside) <= r_max2) {
+        // Jensen's search: from the root, the child on x's side of the splitting plane first;
+        // the other child waits on the stack with its plane's squared distance and is entered
+        // only if that is still within the bound when it comes off.
+        uint stack_node[64];
+        float stack_plane[64];
+        uint top = 0u;
+        stack_node[top] = 0u;
+        stack_plane[top++] = 0.0;
+        while (top > 0u) {
+          if (++steps >= push.budget) {
+            stop = true;
+            break;
+          }
+          --top;
+          uint i = stack_node[top];
+          if (i >= push.photon_count || stack_plane[top] > bound2) continue;
+          ++visited;
+          KnnPhoton p = compact[i];
+          float delta = x[p.axis] - p.position[p.axis];
+          uint near_child = delta < 0.0 ? 2u * i + 1u : 2u * i + 2u;
+          if (top + 2u > 64u) {
+            stop = true;
+            break;
+          }
+          stack_node[top] = delta < 0.0 ? 2u * i + 2u : 2u * i + 1u;
+          stack_plane[top++] = delta * delta;
+          stack_node[top] = near_child;
+          stack_plane[top++] = 0.0;
+          consider(p, i, x, n, bound2);
+        }
+      } else if (dot(outside, outside) <= r_max2) {
         ivec3 dims = ivec3(knn_dims());
         vec3 rel = (x - push.origin) / push.cell;
         ivec3 c0 = ivec3(floor(rel));
@@ -123,18 +201,7 @@ void main() {
                     break;
                   }
                   ++visited;
-                  KnnPhoton p = compact[i];
-                  vec3 d = p.position - x;
-                  float d2 = dot(d, d);
-                  // Tangent-plane test: only photons arriving from the side the normal faces.
-                  if (d2 > bound2 || dot(n, p.direction) >= 0.0) continue;
-                  if (heap_n < push.k) {
-                    heap_push(d2, i);
-                    if (heap_n == push.k) bound2 = heap_d[0];
-                  } else if (d2 < heap_d[0]) {
-                    heap_replace_top(d2, i);
-                    bound2 = heap_d[0];
-                  }
+                  consider(compact[i], i, x, n, bound2);
                 }
               }
             }
@@ -145,12 +212,14 @@ void main() {
       // ---- the estimate over what was found ----
       float r2 = 0.0;
       if (heap_n > 0u) {
-        r2 = (heap_n == push.k || push.sparse == KNN_SPARSE_FARTHEST) ? heap_d[0] : r_max2;
+        bool full = heap_n == push.k || push.sparse == KNN_SPARSE_FARTHEST;
+        r2 = full ? heap_distance(0u) : r_max2;
         r2 = max(r2, 1e-12);
         vec3 flux = vec3(0.0);
         for (uint j = 0u; j < heap_n; ++j) {
-          float w = push.kernel == KNN_KERNEL_EPANECHNIKOV ? 2.0 * (1.0 - heap_d[j] / r2) : 1.0;
-          flux += compact[heap_i[j]].power * w;
+          float w =
+              push.kernel == KNN_KERNEL_EPANECHNIKOV ? 2.0 * (1.0 - heap_distance(j) / r2) : 1.0;
+          flux += compact[heap_place(j)].power * w;
         }
         radiance = albedo * PB_INV_PI * flux / (PB_PI * r2);
         radius = sqrt(r2);
@@ -163,12 +232,14 @@ void main() {
       atomicAdd(group_queries, 1u);
       if (heap_n < push.k) atomicAdd(group_short, 1u);
       if (stop) atomicAdd(group_truncated, 1u);
+      atomicAdd(group_heap, heap_touched);
 
       if (push.debug != 0u) {
         uint base = (uint(pixel.y) * push.width + uint(pixel.x)) * push.debug_stride;
         debug_words[base] = heap_n;
         debug_words[base + 1u] = floatBitsToUint(radius);
-        for (uint j = 0u; j < heap_n; ++j) debug_words[base + 2u + j] = compact[heap_i[j]].index;
+        for (uint j = 0u; j < heap_n; ++j)
+          debug_words[base + 2u + j] = compact[heap_place(j)].index;
       }
     }
     imageStore(indirect_out, pixel, vec4(radiance, 1.0));
@@ -182,5 +253,6 @@ void main() {
     atomicAdd(stats[KNN_STAT_QUERIES], group_queries);
     atomicAdd(stats[KNN_STAT_SHORT], group_short);
     atomicAdd(stats[KNN_STAT_TRUNCATED], group_truncated);
+    PB_ADD64(stats, KNN_STAT_HEAP, group_heap);
   }
 }

@@ -16,5 +16,5 @@ void main() {
   }
   if (i + 1u == push.photon_count || sorted_items[i + 1u].y != key) cells[key].y = i + 1u;
   PhotonRecord ph = photons[item.x];
-  compact[i] = KnnPhoton(ph.position, item.x, ph.power, 0.0, ph.direction, 0.0);
+  compact[i] = KnnPhoton(ph.position, item.x, ph.power, 0u, ph.direction, 0.0);
 }

@@ -8,7 +8,7 @@
 #include "pd_common.glsl"
 #include "toolkit/atomics.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-shared uint group_tested[64], group_contributing[64], group_nodes[64];
+shared uint group_tested[64], group_contributing[64], group_nodes[64], group_fetched[64];
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -17,7 +17,7 @@ void main() {
   bool lit =
       pb_in_frame(pixel, uvec2(push.width, push.height)) && pb_lit_sample(pixel, x, n, albedo);
   vec3 irradiance = vec3(0.0);
-  uint tested = 0u, contributing = 0u, visited = 0u, steps = 0u;
+  uint tested = 0u, contributing = 0u, visited = 0u, fetched = 0u, steps = 0u;
   bool truncated = false;
   uint runs = control[PD_CTL_RUNS], threshold = control[PD_CTL_THRESHOLD];
   bool epanechnikov = (push.flags & PD_FLAG_EPANECHNIKOV) != 0u;
@@ -33,6 +33,7 @@ void main() {
       }
       uint i = stack[--top];
       PdNode node = nodes[i];
+      ++fetched;  // a node's own box is in its record: read before it is tested (§6.3 differs)
       if (any(lessThan(x, node.lo)) || any(greaterThan(x, node.hi))) continue;
       ++visited;
       if (node.left != PD_NONE && node.count > threshold) {
@@ -70,6 +71,7 @@ void main() {
   group_tested[id] = tested;
   group_contributing[id] = contributing;
   group_nodes[id] = visited;
+  group_fetched[id] = fetched;
   if (lit) atomicAdd(control[PD_CTL_QUERIES], 1u);
   if (truncated) atomicAdd(control[PD_CTL_TRUNCATED], 1u);
   barrier();
@@ -78,6 +80,7 @@ void main() {
       group_tested[id] += group_tested[id + step];
       group_contributing[id] += group_contributing[id + step];
       group_nodes[id] += group_nodes[id + step];
+      group_fetched[id] += group_fetched[id + step];
     }
     barrier();
   }
@@ -85,5 +88,6 @@ void main() {
     PB_ADD64(control, PD_CTL_TESTED, group_tested[0]);
     PB_ADD64(control, PD_CTL_CONTRIBUTING, group_contributing[0]);
     PB_ADD64(control, PD_CTL_NODES_VISITED, group_nodes[0]);
+    PB_ADD64(control, PD_CTL_NODES_FETCHED, group_fetched[0]);
   }
 }

@@ -313,7 +313,9 @@ std::string header(const std::string& scenes, const std::string& size = "[96, 64
 // cornell-glass with caustics (s = 5 photons too), at T_auto and two fixed thresholds: the verify
 // hook finds every footprint in exactly one leaf reached from the root, every node's box holding
 // its children's and every leaf's its footprints', and each sampled query equal to the sum over
-// every footprint; Table 3's histogram holds two semi-axes per hit.
+// every footprint; every GPU footprint record equal to footprint.h's make_footprint of the same
+// photon, and the GPU's area sum, T_auto and Table 3 histogram equal to the CPU's counts (the
+// histogram holds two semi-axes per hit).
 TEST(PhotonDifferentialsRun, BvhAndQueryMatchTheBruteForceCheck) {
   fs::path dir = work_dir("pd", "verify");
   std::string yaml = header("cornell-box, cornell-glass") +
@@ -332,6 +334,8 @@ TEST(PhotonDifferentialsRun, BvhAndQueryMatchTheBruteForceCheck) {
     EXPECT_EQ(sums["bvh_violations"], 0) << warnings(cell);
     EXPECT_GT(sums["query_checked"], 100);
     EXPECT_EQ(sums["query_mismatches"], 0) << warnings(cell);
+    EXPECT_EQ(sums["footprints_off"], 0) << warnings(cell);
+    EXPECT_EQ(sums["totals_off"], 0) << warnings(cell);
     EXPECT_EQ(sums["truncated_queries"], 0);
     EXPECT_GT(sums["hits_contributing"], 0);
     double histogram = 0;

@@ -1,10 +1,13 @@
 #version 460
 // rsm-photons gathering, pass 5 of 5, "Gathering" (seed 000 §6.3): one workgroup per tile loads
-// the tile's kernels into shared memory, 64 at a time; each pixel transforms its receiver point
-// into each kernel's frame, keeps the kernels whose ellipsoid holds it (Eq. 6.5) and sums their
+// the tile's kernels into shared memory, 64 at a time; each pixel transforms its two receiver
+// points (those of its block's nearest and farthest G-buffer pixels, §6.2.1, rsm_block.glsl)
+// into each kernel's frame, keeps the kernels whose ellipsoid holds both (Eq. 6.5) and sums their
 // irradiance and power-weighted light direction: what the splat's additive blending sums, in the
 // same two targets. A tile wider than the 8x8 group is done in 8x8 blocks.
 #include "rsm_gather.glsl"
+// After the G-buffer bindings it reads:
+#include "rsm_block.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 shared Kernel cache[64];
 void main() {
@@ -21,17 +24,14 @@ void main() {
       uvec2 local = uvec2(bx, by) + gl_LocalInvocationID.xy;
       ivec2 pixel = ivec2(origin + local);
       bool receives = local.x < side && local.y < side && all(lessThan(pixel, pixels));
-      vec3 receiver = vec3(0.0);
+      vec3 near_point = vec3(0.0), far_point = vec3(0.0);
       if (receives) {
-        ivec2 g_pixel = min(pixel * scale + scale / 2, ivec2(view.size.xy) - 1);
-        vec4 g = imageLoad(gbuffer_position, g_pixel);
-        receives = g.w > 0.0;
         // The ray through the pixel's centre, as the splat's fragment sees it.
         vec2 ndc = (vec2(pixel) + 0.5) / vec2(pixels) * 2.0 - 1.0;
         vec4 p = view.inverse_view_projection * vec4(ndc, 0.5, 1.0);
         vec3 ray = normalize(p.xyz / p.w - view.camera.xyz);
-        receiver =
-            receiver_point(view.camera.xyz, ray, g.xyz, imageLoad(gbuffer_normal, g_pixel).xyz);
+        receives = block_receivers(pixel, scale, ivec2(view.size.xy), view.camera.xyz, ray,
+                                   near_point, far_point);
       }
       vec3 e = vec3(0.0), wdir = vec3(0.0);
       for (uint base = 0u; base < count; base += 64u) {
@@ -42,7 +42,7 @@ void main() {
         if (receives)
           for (uint j = 0u; j < n; ++j) {
             Kernel k = cache[j];
-            if (!inside_kernel(k, receiver)) continue;
+            if (!inside_kernel(k, near_point) || !inside_kernel(k, far_point)) continue;
             vec3 ek = k.irradiance.rgb;
             e += ek;
             wdir += (ek.r + ek.g + ek.b) * k.light_dir.xyz;

@@ -17,8 +17,9 @@ bool inside_kernel(Kernel k, vec3 point) {
   return a * a + b * b + c * c <= 1.0;
 }
 
-// The point a reduced-resolution pixel tests (README, Deviations: half resolution): where the ray
-// from the camera along `ray` meets the tangent plane of the G-buffer point `g` with normal `n`.
+// A point a reduced-resolution pixel tests (rsm_block.glsl; README, Deviations: half resolution):
+// where the ray from the camera along `ray` meets the tangent plane of the G-buffer point `g` with
+// normal `n`.
 vec3 receiver_point(vec3 camera, vec3 ray, vec3 g, vec3 n) {
   float cosine = dot(ray, n);
   return abs(cosine) > 1e-3 ? camera + ray * (dot(g - camera, n) / cosine) : g;

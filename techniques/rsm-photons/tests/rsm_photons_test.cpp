@@ -198,6 +198,44 @@ TEST(RsmPhotonsFilters, ChainLeavesAConstantImageConstant) {
   for (const glm::vec3& v : rsm::upsample(small, 20, 12, 40, 24, 2)) ASSERT_NEAR(v.y, c.y, 1e-6);
 }
 
+// The pair of the test above, which a filter doing nothing passes too: on the same plane (no edge:
+// every w_z and w_n is 1) an image of independent noise about a mean comes out of the a-trous chain
+// with that mean (to 1%) and its spread cut at least tenfold (four iterations of the B3 kernel,
+// 2^i apart, with the clipped details' small remainder: 0.577 to 0.050 measured, 0.086 of it; a
+// filter doing nothing keeps all of it); and the bilinear upsampling of a ramp gives each interior
+// full-resolution pixel the ramp's value at its centre (a nearest-neighbour copy is 1/4 step off).
+TEST(RsmPhotonsFilters, ChainSmoothsNoiseAndUpsamplesARamp) {
+  const rsm::Geometry g = plane(64, 48);
+  const size_t n = g.position.size();
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> noise(0.f, 2.f);
+  std::vector<glm::vec3> e(n), dir(n, glm::vec3(0, 1, 0));
+  for (glm::vec3& v : e) v = glm::vec3(noise(random));
+  auto mean_and_spread = [&](const std::vector<glm::vec3>& image) {
+    double sum = 0, squares = 0;
+    for (const glm::vec3& v : image) sum += v.x, squares += double(v.x) * v.x;
+    const double mean = sum / double(image.size());
+    return std::pair{mean, std::sqrt(std::max(0.0, squares / double(image.size()) - mean * mean))};
+  };
+  const auto [mean_in, spread_in] = mean_and_spread(e);
+  rsm::FilterParams f;
+  rsm::atrous(g, f, e, dir);
+  const auto [mean_out, spread_out] = mean_and_spread(e);
+  std::printf("a-trous on noise: mean %.4f -> %.4f, spread %.4f -> %.4f\n", mean_in, mean_out,
+              spread_in, spread_out);
+  EXPECT_NEAR(mean_out, mean_in, 0.01 * mean_in);
+  EXPECT_LT(spread_out, 0.1 * spread_in);
+  // The upsampling of a ramp along x (value = the small pixel's x).
+  const int small_width = 20, small_height = 12;
+  std::vector<glm::vec3> ramp(size_t(small_width) * small_height);
+  for (int y = 0; y < small_height; ++y)
+    for (int x = 0; x < small_width; ++x) ramp[size_t(y) * small_width + x] = glm::vec3(float(x));
+  const std::vector<glm::vec3> up = rsm::upsample(ramp, small_width, small_height, 40, 24, 2);
+  for (int y = 0; y < 24; ++y)
+    for (int x = 1; x < 39; ++x)
+      ASSERT_NEAR(up[size_t(y) * 40 + x].x, (float(x) + 0.5f) / 2 - 0.5f, 1e-5) << x << "," << y;
+}
+
 // Eq. 7.3-7.4 on a static view: alpha = alpha_max where the history's depth and normal agree (w_z =
 // w_n = 1), so n frames of E = 1 from an empty history give 1 - alpha^n; a history whose normals
 // are turned 90 degrees has w_n = 0 and is ignored (S = E); one at 10 times the depth tolerance has
@@ -366,6 +404,10 @@ double image_mean(const pb::io::Image& image) {
 // conserve a photon's power on a flat receiver (E = Phi / A over the ellipse of area A), so what is
 // lost is what the frustum cull drops at the screen's edges and what the ellipsoid test misses on
 // curved or narrow receivers (the blocks' edges): the bound, 15%, is fixed in advance.
+// Each region's ratio, bound 35%: 0.72 to 0.89 measured without filters, 0.88 to 0.97 with both
+// (the blocks §6.2.1's rule leaves dark lie unevenly, most in the regions of the boxes' edges).
+// Light moved 0.25 m along x, or mirrored across the box, puts regions at 0.02 to 0.59 and 1.25.
+constexpr double kRegionBound = 0.35;
 TEST(RsmPhotons, IndirectEnergyMatchesTheReference) {
   fs::path dir = work_dir("energy");
   const int width = 128, height = 72, frame = 8;
@@ -389,9 +431,22 @@ TEST(RsmPhotons, IndirectEnergyMatchesTheReference) {
   pb::trace::ReferenceOptions options;
   options.samples = kReferenceSamples;
   options.max_bounces = 2;
-  const double reference = image_mean(cache.get_or_render(
-      scene, scene.at(uint32_t(frame)), pb::trace::PathClass::indirect, width, height, options));
+  const pb::io::Image reference_image = cache.get_or_render(
+      scene, scene.at(uint32_t(frame)), pb::trace::PathClass::indirect, width, height, options);
+  const double reference = image_mean(reference_image);
   ASSERT_GT(reference, 0);
+  // Energy where it belongs: the screen in 4 x 2 regions of 32 x 36 pixels, each region's indirect
+  // light over the reference's there, for the regions holding at least a quarter of the screen's
+  // mean (elsewhere the ratio of two small numbers says little).
+  auto region_means = [&](const pb::io::Image& image) {
+    std::vector<double> means(8, 0.0);
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        for (int c = 0; c < 3; ++c) means[(y / 36) * 4 + x / 32] += image.at(x, y, c);
+    for (double& m : means) m /= 3.0 * 32 * 36;
+    return means;
+  };
+  const std::vector<double> reference_regions = region_means(reference_image);
   for (const char* filters : {"false", "true"}) {
     fs::path cell = find_cell(dir, "rsm-photons", {{"temporal", filters}, {"spatial", filters}});
     ASSERT_FALSE(cell.empty()) << filters;
@@ -403,6 +458,16 @@ TEST(RsmPhotons, IndirectEnergyMatchesTheReference) {
     const double ratio = image_mean(image) / reference;
     std::printf("filters %s: screen indirect / reference = %.4f\n", filters, ratio);
     EXPECT_NEAR(ratio, 1.0, 0.15) << "filters " << filters;
+    const std::vector<double> regions = region_means(image);
+    int compared = 0;
+    for (int r = 0; r < 8; ++r) {
+      if (reference_regions[r] < 0.25 * reference) continue;
+      ++compared;
+      const double region_ratio = regions[r] / reference_regions[r];
+      std::printf("  region %d (reference %.4f): %.3f\n", r, reference_regions[r], region_ratio);
+      EXPECT_NEAR(region_ratio, 1.0, kRegionBound) << "filters " << filters << ", region " << r;
+    }
+    EXPECT_GE(compared, 4);
     const auto sums = counters(cell);
     EXPECT_GT(sums["splats"], 1000);
     EXPECT_GT(sums["rsm_texels_active"], 0);
@@ -415,11 +480,13 @@ TEST(RsmPhotons, IndirectEnergyMatchesTheReference) {
 // tile lists hold, and the tile cull is conservative, so the two indirect images differ only where
 // rounding moves a receiver point across a kernel's boundary (the splat's ray comes from the
 // proxy's interpolated position, the gather's from the inverse view-projection): there a pixel
-// gains or loses that kernel. On cornell-spot at 128x72, 20,000 photons: 2 of the 2,304 splat
-// pixels (32 of 9,216 after the upsampling) differ, the mean absolute difference is 1.1e-3 of the
-// mean; the bounds, at most 1% of the pixels and 5e-3 of the mean. A third cell's index buffer
-// holds 5% of a kernel's entries (gather_capacity 0.05): entries are dropped, counted and warned
-// about, and the image loses light (the thesis's "clearly visible corruption").
+// gains or loses that kernel. On cornell-spot at 128x72, 20,000 photons: 32 of 9,216 pixels
+// differ after the upsampling (2 splat pixels), the mean absolute difference is 1.2e-2 of the
+// mean (1.1e-3 when each pixel tested one point: with §6.2.1's two, a point where the ray meets
+// a tangent plane at a grazing angle moves further with the ray's rounding, and the kernels there
+// are small and bright); the bounds, at most 1% of the pixels and 2e-2 of the mean. A third cell's
+// index buffer holds 5% of a kernel's entries (gather_capacity 0.05): entries are dropped, counted
+// and warned about, and the image loses light (the thesis's "clearly visible corruption").
 TEST(RsmPhotons, GatheringAgreesWithSplatting) {
   fs::path dir = work_dir("gather");
   const std::string config = fmt::format(
@@ -466,13 +533,193 @@ TEST(RsmPhotons, GatheringAgreesWithSplatting) {
   std::printf("gather - splat: %d of %zu pixels differ, mean |difference| %.3g of the mean\n",
               differing, size_t(a.pixel_count()), difference / mean);
   EXPECT_LT(differing, a.pixel_count() / 100);
-  EXPECT_LT(difference, 5e-3 * mean);
+  EXPECT_LT(difference, 2e-2 * mean);
   auto sums = counters(gather), short_sums = counters(short_list);
   EXPECT_GT(sums["gather_entries"], sums["splats"]);  // each kernel in at least one tile's list
   EXPECT_EQ(sums["gather_dropped"], 0);
   EXPECT_GT(short_sums["gather_dropped"], 0);
   EXPECT_NE(warnings(short_list).find("raise gather_capacity"), std::string::npos);
   EXPECT_LT(image_mean(frame_image(short_list, 0, "indirect")), 0.9 * mean);
+}
+
+// §6.2.1's rule at a depth edge. A panel 1.5 m in front of a wall, its right edge slanted (so that
+// the edge crosses the half-resolution blocks at every offset), a point light between the two:
+// the panel's front, which the camera sees, receives no light at all (nothing lies in front of
+// it), while the wall beside it is lit indirectly by the panel's back. Every bit of indirect light
+// on the panel's pixels next to the edge is light of the wall spread across the edge. Measured on
+// the raw half-resolution estimate (no filters): the panel's band (pixels within 2 of a wall pixel)
+// over the wall's light 3 to 6 pixels from the panel. The upsampling is bilinear (the thesis's),
+// so where the edge falls on a block boundary a panel pixel still takes a quarter of the wall
+// block beside it; where a block straddles the edge it takes nothing (the block is rejected). Half
+// the edge's rows do each: about 1/8 of the wall's light on the pixel next to the edge, 1/16 over
+// the 2-pixel band (0.040 measured, splat and gather alike). Testing one G-buffer pixel of each
+// block (the splat before §6.2.1's rule), a straddling block whose tested pixel is the wall's
+// spreads the wall's light over the block's panel pixels too: 0.246 measured. Bound: 0.15.
+TEST(RsmPhotons, HalfResolutionKeepsLightOnItsSideOfADepthEdge) {
+  fs::path dir = work_dir("depth_edge");
+  const int width = 128, height = 72;
+  const fs::path scene_file = dir / "panel.yaml";
+  std::ofstream(scene_file) << R"(purpose: a lit wall behind an unlit panel (rsm-photons test)
+fps: 30
+frames: 2
+camera: {position: [0, 0, 3], target: [0, 0, 0], fov_deg: 40}
+lights:
+  - {name: bulb, type: point, position: [-0.5, 0, 0.25], color: [1, 1, 1], intensity: 4}
+materials:
+  white: {type: diffuse, albedo: 0.8}
+objects:
+  - {name: wall, shape: {type: quad, size: [6, 6]}, material: white,
+     transform: {translate: [0, 0, -1], rotate_deg: [90, 0, 0]}}
+  - {name: panel, shape: {type: box, size: [2, 3, 0.02]}, material: white,
+     transform: {translate: [-0.9, 0, 0.5], rotate_deg: [0, 0, 7]}}
+)";
+  const std::string config = fmt::format(
+      "name: rsm-depth-edge\n"
+      "resolution: [{}, {}]\n"
+      "seed: 1\n"
+      "scenes: [{}]\n"
+      "limits: {{cell_seconds: 300}}\n"
+      "frames: {{warmup: 0, count: 1, metrics_every: 1}}\n"
+      "metrics: [psnr]\n"
+      "reference: {{samples: 2, max_bounces: 2, cache_dir: {}}}\n"
+      "techniques:\n"
+      "  - technique: rsm-photons\n"
+      "    params: {{photons: 40000, temporal: false, spatial: false, estimate: [splat, "
+      "gather]}}\n",
+      width, height, scene_file.string(), (dir / "refs").string());
+  ASSERT_EQ(run_config(dir, config), 0) << "see " << (dir / "log.txt");
+  // Which pixels are the panel's: no direct light reaches its front (the light is behind it).
+  pb::scene::Scene scene = pb::scene::load_scene(scene_file);
+  pb::trace::ReferenceCache cache(dir / "refs");
+  pb::trace::ReferenceOptions options;
+  options.samples = 4;
+  const pb::io::Image direct = cache.get_or_render(
+      scene, scene.at(0u), pb::trace::PathClass::direct, width, height, options);
+  auto brightness = [](const pb::io::Image& image, int x, int y) {
+    return (double(image.at(x, y, 0)) + image.at(x, y, 1) + image.at(x, y, 2)) / 3;
+  };
+  std::vector<int> panel(size_t(width) * height);
+  int panel_pixels = 0;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const bool unlit = brightness(direct, x, y) < 1e-6;
+      panel[size_t(y) * width + x] = unlit;
+      panel_pixels += unlit;
+    }
+  ASSERT_GT(panel_pixels, width * height / 4);
+  ASSERT_LT(panel_pixels, width * height * 3 / 4);
+  // Each pixel's distance (Chebyshev, up to 7) to the nearest pixel of the other kind.
+  auto distance_to_other = [&](int x, int y) {
+    const int mine = panel[size_t(y) * width + x];
+    for (int r = 1; r <= 6; ++r)
+      for (int dy = -r; dy <= r; ++dy)
+        for (int dx = -r; dx <= r; ++dx) {
+          const int qx = x + dx, qy = y + dy;
+          if (qx < 0 || qy < 0 || qx >= width || qy >= height) continue;
+          if (panel[size_t(qy) * width + qx] != mine) return r;
+        }
+    return 7;
+  };
+  for (const char* estimate : {"splat", "gather"}) {
+    const fs::path cell = find_cell(dir, "rsm-photons", {{"estimate", estimate}});
+    ASSERT_FALSE(cell.empty()) << estimate;
+    EXPECT_EQ(read_json(cell / "cell.json")["status"], "ok") << estimate;
+    const pb::io::Image indirect = frame_image(cell, 0, "indirect");
+    double band = 0, wall = 0;
+    int band_pixels = 0, wall_pixels = 0;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        const int d = distance_to_other(x, y);
+        if (panel[size_t(y) * width + x] && d <= 2) {
+          band += brightness(indirect, x, y), ++band_pixels;
+        } else if (!panel[size_t(y) * width + x] && d >= 3 && d <= 6) {
+          wall += brightness(indirect, x, y), ++wall_pixels;
+        }
+      }
+    ASSERT_GT(band_pixels, 2 * height);
+    ASSERT_GT(wall_pixels, 4 * height);
+    ASSERT_GT(wall, 0) << estimate;
+    const double bleed = (band / band_pixels) / (wall / wall_pixels);
+    std::printf("%s: the panel's edge band holds %.3f of the wall's light beside it\n", estimate,
+                bleed);
+    EXPECT_LT(bleed, 0.15) << estimate;
+  }
+}
+
+// The wavelet sampler's budget (§5.3): 16 times the photons must mean 16 times the independent
+// samples, bounces included. A narrow spot lights a spot of floor about 7 cm across in a closed
+// grey box, so where a photon's second hit lands (all the indirect light seen: walls and ceiling)
+// is decided by its bounce direction, hardly by its start point. Kernels of one fixed radius
+// (kernel_min_radius = kernel_max_radius; Eq. 6.2's density radius would shrink them as photons
+// grow and keep each pixel's kernel count, and so its noise, about constant), no filters: the
+// frame-to-frame difference of the indirect image (each frame draws fresh samples) falls as
+// 1 / sqrt(photons) for independent photons, to 1/4 at 16 times the photons (0.249 measured).
+// With every round re-using the bounce samples of one round's paths (a path's own sample index in
+// every round), the 16 rounds bounce in the same 4,096 directions and the difference hardly falls
+// (0.894 measured). Bound: 0.45.
+TEST(RsmPhotons, WaveletRoundsDrawIndependentBounces) {
+  fs::path dir = work_dir("wavelet_budget");
+  const fs::path scene_file = dir / "narrow-spot.yaml";
+  std::ofstream(scene_file) << R"(purpose: a narrow spot in a grey box (rsm-photons test)
+fps: 30
+frames: 2
+camera: {position: [0.5, 0.5, 2.44], target: [0.5, 0.5, 0], fov_deg: 39.3}
+lights:
+  - {name: spot, type: spot, position: [0.5, 0.95, 0.5], target: [0.5, 0, 0.5], intensity: 40,
+     color: [1, 1, 1], inner_deg: 1.5, outer_deg: 2}
+materials:
+  grey: {type: diffuse, albedo: 0.7}
+objects:
+  - {name: floor, shape: {type: quad}, material: grey, transform: {translate: [0.5, 0, 0.5]}}
+  - {name: ceiling, shape: {type: quad}, material: grey,
+     transform: {translate: [0.5, 1, 0.5], rotate_deg: [180, 0, 0]}}
+  - {name: back, shape: {type: quad}, material: grey,
+     transform: {translate: [0.5, 0.5, 0], rotate_deg: [90, 0, 0]}}
+  - {name: left, shape: {type: quad}, material: grey,
+     transform: {translate: [0, 0.5, 0.5], rotate_deg: [0, 0, -90]}}
+  - {name: right, shape: {type: quad}, material: grey,
+     transform: {translate: [1, 0.5, 0.5], rotate_deg: [0, 0, 90]}}
+)";
+  const std::string config = fmt::format(
+      "name: rsm-wavelet-budget\n"
+      "resolution: [128, 72]\n"
+      "seed: 1\n"
+      "scenes: [{}]\n"
+      "limits: {{cell_seconds: 300}}\n"
+      "frames: {{warmup: 0, count: 2, metrics_every: 1}}\n"
+      "metrics: [psnr]\n"
+      "reference: {{samples: 2, max_bounces: 2, cache_dir: {}}}\n"
+      "techniques:\n"
+      "  - technique: rsm-photons\n"
+      "    params: {{photons: [4096, 65536], sampler: wavelet, temporal: false, spatial: false,\n"
+      "             kernel_min_radius: 0.04, kernel_max_radius: 0.04}}\n",
+      scene_file.string(), (dir / "refs").string());
+  ASSERT_EQ(run_config(dir, config), 0) << "see " << (dir / "log.txt");
+  auto frame_difference = [&](const std::string& photons) {
+    const fs::path cell = find_cell(dir, "rsm-photons", {{"photons", photons}});
+    EXPECT_FALSE(cell.empty()) << photons;
+    if (cell.empty()) return 0.0;
+    EXPECT_EQ(read_json(cell / "cell.json")["status"], "ok") << photons;
+    const pb::io::Image a = frame_image(cell, 0, "indirect"), b = frame_image(cell, 1, "indirect");
+    double squares = 0, sum = 0;
+    for (int y = 0; y < a.height; ++y)
+      for (int x = 0; x < a.width; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const double d = double(a.at(x, y, c)) - b.at(x, y, c);
+          squares += d * d;
+          sum += 0.5 * (double(a.at(x, y, c)) + b.at(x, y, c));
+        }
+    const double n = 3.0 * a.pixel_count();
+    EXPECT_GT(sum, 0) << photons;
+    return sum > 0 ? std::sqrt(squares / n) / (sum / n) : 0.0;
+  };
+  const double few = frame_difference("4096"), many = frame_difference("65536");
+  ASSERT_GT(few, 0);
+  std::printf(
+      "frame-to-frame RMS difference over the mean: %.4f at 4,096 photons, %.4f at 65,536 "
+      "(ratio %.3f)\n",
+      few, many, many / few);
+  EXPECT_LT(many / few, 0.45);
 }
 
 }  // namespace rsm_photons_test
