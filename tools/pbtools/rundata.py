@@ -62,6 +62,9 @@ COUNTERS_COLUMNS = ("frame", "name", "value")
 CLOCK_COLUMNS = {"gpu": "gpu_ms", "cpu": "cpu_ms", "process": "process_cpu_ms"}
 
 _IMAGE_RE = re.compile(r"^(frame|flip|reference)_(\d+)(?:_(.+))?\.(png|exr)$")
+# A match run's re-measurement of a found cell (run/match.cpp: "<found id>__round<r>"): the same
+# setting and seed timed again, never a seed of its own.
+_ROUND_RE = re.compile(r"__round(\d+)$")
 
 
 class RunError(Exception):
@@ -191,6 +194,13 @@ class Cell:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    @property
+    def match_round(self) -> Optional[int]:
+        """A match run's re-measurement round r of a found cell (None for any other cell): the
+        same setting and seed again, for the time's spread; no seed of its own."""
+        m = _ROUND_RE.search(self.id)
+        return int(m.group(1)) if m else None
 
     def text(self, column: str) -> str:
         """A summary.csv field as written ("" when the column is absent)."""
@@ -415,9 +425,13 @@ class Run:
             {c: pd.Series([param_value(t) for t in self.text[c]], dtype=object)
              for c in param_columns}, index=self.text.index)
         self.cells: List[Cell] = []
+        # (A frame without columns gives no records at all: a run whose techniques have no
+        # parameters still has one cell per row.)
+        param_rows = (self.params.to_dict("records") if param_columns
+                      else [{} for _ in range(len(self.text))])
         for i, (text, values, params) in enumerate(zip(self.text.to_dict("records"),
                                                        self.summary.to_dict("records"),
-                                                       self.params.to_dict("records"))):
+                                                       param_rows)):
             set_params = {k[len(PARAM_PREFIX):]: v for k, v in params.items() if v is not None}
             self.cells.append(Cell(self.path, text, values, set_params, i))
         self._by_id: Dict[str, Cell] = {}
@@ -491,6 +505,9 @@ class Run:
         # `run --seeds K`: K cells of one setting (with_seed False: the setting, for all K)
         if with_seed and cell.text("seed") and self._seed_axis():
             parts.append(f"seed={cell.text('seed')}")
+        # A match run's re-measurement: the found cell's setting again, marked as its round.
+        if cell.match_round is not None:
+            parts.append(f"round {cell.match_round}")
         setting = ", ".join(parts)
         if not with_technique:
             return setting or cell.technique
