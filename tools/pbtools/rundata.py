@@ -62,9 +62,7 @@ COUNTERS_COLUMNS = ("frame", "name", "value")
 CLOCK_COLUMNS = {"gpu": "gpu_ms", "cpu": "cpu_ms", "process": "process_cpu_ms"}
 
 _IMAGE_RE = re.compile(r"^(frame|flip|reference)_(\d+)(?:_(.+))?\.(png|exr)$")
-# A match run's re-measurement of a found cell (run/match.cpp: "<found id>__round<r>"): the same
-# setting and seed timed again, never a seed of its own.
-_ROUND_RE = re.compile(r"__round(\d+)$")
+
 
 
 class RunError(Exception):
@@ -170,6 +168,7 @@ class Cell:
         self._samples: Dict[str, Dict[str, tuple]] = {}
         self._metric_groups: Optional[Dict[tuple, np.ndarray]] = None  # (class, reference) -> rows
         self._series: Dict[tuple, tuple] = {}
+        self._match_round: Optional[int] = None
 
     def __repr__(self) -> str:
         return f"Cell({self.id!r})"
@@ -197,10 +196,10 @@ class Cell:
 
     @property
     def match_round(self) -> Optional[int]:
-        """A match run's re-measurement round r of a found cell (None for any other cell): the
-        same setting and seed again, for the time's spread; no seed of its own."""
-        m = _ROUND_RE.search(self.id)
-        return int(m.group(1)) if m else None
+        """A match run's re-measurement round r (1, 2, ...) of a found cell, None for any other
+        cell: the same setting and seed again, for the time's spread; no seed of its own (Run reads
+        the roles from RUN/match/cells.json)."""
+        return self._match_round
 
     def text(self, column: str) -> str:
         """A summary.csv field as written ("" when the column is absent)."""
@@ -393,6 +392,25 @@ class Cell:
         return out
 
 
+def match_rounds(run_dir: str) -> Dict[str, int]:
+    """cell id -> its round number, for a match run's re-measurement cells (RUN/match/cells.json,
+    role "round", numbered per setting in the order they ran); empty for any other run."""
+    path = os.path.join(run_dir, "match", "cells.json")
+    if not os.path.isfile(path):
+        return {}
+    with open(path, encoding="utf-8") as f:
+        entries = json.load(f)
+    counts: Dict[tuple, int] = {}
+    out = {}
+    for e in entries:
+        if e.get("role") != "round":
+            continue
+        key = (e.get("scene"), e.get("technique"), json.dumps(e.get("params"), sort_keys=True))
+        counts[key] = counts.get(key, 0) + 1
+        out[str(e.get("id"))] = counts[key]
+    return out
+
+
 class Run:
     """A run directory: run.json, summary.csv (as `text`, the fields as written, and `summary`,
     numeric columns converted; one row per cell in the config's order) and its cells."""
@@ -437,6 +455,9 @@ class Run:
         self._by_id: Dict[str, Cell] = {}
         for c in self.cells:
             self._by_id.setdefault(c.id, c)
+        for cell_id, r in match_rounds(self.path).items():
+            if cell_id in self._by_id:
+                self._by_id[cell_id]._match_round = r
         self._label_params: Optional[Dict[tuple, List[str]]] = None
 
     @property

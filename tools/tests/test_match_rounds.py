@@ -1,4 +1,4 @@
-"""A match run's re-measurement rounds ("<found cell>__round<r>", run/match.cpp) are the found cell's
+"""A match run's re-measurement rounds (role "round" in RUN/match/cells.json, run/match.cpp) are the found cell's
 setting and seed timed again: never counted as seeds, and marked as rounds wherever a cell is
 labelled (tables and plots take their row names from Run.label)."""
 
@@ -33,6 +33,12 @@ def write_run(path, cells):
                        "params": {"photons": "20000"}}, f)
     with open(os.path.join(path, "run.json"), "w", encoding="utf-8") as f:
         json.dump({"name": "match"}, f)
+    # The run's extra cells with their roles, as run/match.cpp lists them.
+    os.makedirs(os.path.join(path, "match"))
+    with open(os.path.join(path, "match", "cells.json"), "w", encoding="utf-8") as f:
+        json.dump([{"id": cell, "scene": "box", "technique": "tiled", "params": {"photons": "20000"},
+                    "seed": 1, "seed_group": group, "role": "round" if "__round" in cell else "probe"}
+                   for cell, group in cells], f)
 
 
 class MatchRoundsTest(unittest.TestCase):
