@@ -22,11 +22,20 @@ done
   || fail "a test plugin was installed"
 installed="$prefix/bin/photonbench"
 
-# Out of the repository: only the installed package may be found (no source tree paths).
+# Out of the repository: only the installed package may be found (no source tree paths). The
+# example is configured and built by its README's own commands, word for word (no build type: the
+# package must supply one that runs).
 cp -r "$SRC/examples/out-of-tree-technique" "$WORK/ambient"
-expect_exit 0 "the example configures against the installed package" -- cmake -S "$WORK/ambient" \
-  -B "$WORK/ambient/build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$prefix"
-expect_exit 0 "the example builds" -- cmake --build "$WORK/ambient/build"
+readme_build=$(grep -E '^cmake -S \. -B build' "$SRC/examples/out-of-tree-technique/README.md")
+expect_match "the README's build commands are the ones run here" \
+  '^cmake -S \. -B build -G Ninja -DCMAKE_PREFIX_PATH=PREFIX && cmake --build build$' "$readme_build"
+cd "$WORK/ambient" || exit 1
+expect_exit 0 "the example configures against the installed package" -- \
+  cmake -S . -B build -G Ninja -DCMAKE_PREFIX_PATH="$prefix"
+expect_exit 0 "the example builds" -- cmake --build build
+host_type=$(grep '^CMAKE_BUILD_TYPE:' "$BUILD/CMakeCache.txt" | cut -d= -f2)
+expect_match "the package gave the example photonbench's build type ($host_type)" \
+  "^CMAKE_BUILD_TYPE:STRING=$host_type$" "$(grep '^CMAKE_BUILD_TYPE:' build/CMakeCache.txt)"
 # glslc's dependency list of the shader: its includes resolved in the prefix, not the tree.
 shader_deps="$(cat "$WORK/ambient/build/spv/ambient.comp.inc.d")"
 expect_match "its shader includes come from the installed package" \
@@ -51,7 +60,7 @@ techniques:
     params: {ambient: 0.1}
 YAML
 expect_exit 0 "the installed photonbench runs it from --plugin-dir" -- "$installed" run \
-  "$WORK/ambient.yaml" --out "$WORK/run" --plugin-dir "$WORK/ambient/build/plugins"
+  "$WORK/ambient.yaml" --out "$WORK/run" --plugin-dir build/plugins
 cells="$WORK/run/cells"
 cell() { ls "$cells"/cornell-box__"$1"__*/cell.json 2>/dev/null | head -1; }
 expect_match "direct (an installed plugin) ran" "^ok$" "$(json_field "$(cell direct)" status)"
@@ -60,6 +69,21 @@ expect_match "ambient was scored on its own path class" "'indirect'" \
   "$(json_field "$(cell ambient)" metrics)"
 expect_match "its counter carries kind and unit" "'ambient_pixels': \{'kind': 'work', 'unit': 'pixels'\}" \
   "$(json_field "$(cell ambient)" counters)"
+
+# Built with another NDEBUG than photonbench's, the plugin is refused at load, naming the difference,
+# instead of crashing in Vulkan-Hpp's dispatchers (photonbench is built with NDEBUG here).
+expect_match "photonbench is built with NDEBUG" "^(Release|RelWithDebInfo|MinSizeRel)$" "$host_type"
+expect_exit 0 "the example configures as a Debug build" -- \
+  cmake -S . -B debug-build -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_PREFIX_PATH="$prefix"
+expect_exit 0 "the Debug build builds" -- cmake --build debug-build
+expect_exit 1 "its cell fails" -- "$installed" run "$WORK/ambient.yaml" --out "$WORK/debug-run" \
+  --plugin-dir debug-build/plugins
+debug_cell=$(ls "$WORK"/debug-run/cells/cornell-box__ambient__*/cell.json | head -1)
+expect_match "refused at load, naming NDEBUG and the build type to use" \
+  "failed to load: .*built without NDEBUG .*photonbench: built with NDEBUG .*-DCMAKE_BUILD_TYPE=Release" \
+  "$(json_field "$debug_cell" reason)"
+expect_match "the installed direct still ran beside it" "^ok$" \
+  "$(json_field "$(ls "$WORK"/debug-run/cells/cornell-box__direct__*/cell.json | head -1)" status)"
 
 expect_exit 0 "the example installs into the prefix" -- cmake --install "$WORK/ambient/build" --prefix "$prefix"
 expect_exit 0 "the installed photonbench lists its plugins" -- "$installed" list techniques

@@ -2,6 +2,7 @@
 // that the message names both sides; and the loader's use of it on the test plugins.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -72,6 +73,39 @@ TEST(PluginAbi, ClassSizeAndLibraryAbiEachFail) {
                          host.standard_library_abi + ")"),
             std::string::npos)
       << message;
+}
+
+TEST(PluginAbi, AssertionsFailNamingNdebugAndTheBuildTypeToUse) {
+  EditableRecord module;
+  const pb_build_record& host = *detail::this_build();
+  module.record.assertions = host.assertions ? 0u : 1u;
+  const std::string message = build_mismatch(host, module.record);
+  const std::string plugin_side = host.assertions ? "built with NDEBUG" : "built without NDEBUG";
+  const std::string host_side = host.assertions ? "built without NDEBUG" : "built with NDEBUG";
+  EXPECT_EQ(message.find(plugin_side), 0u) << message;
+  EXPECT_NE(message.find("(photonbench: " + host_side), std::string::npos) << message;
+  EXPECT_NE(message.find(std::string("configure the plugin with -DCMAKE_BUILD_TYPE=") +
+                         (host.assertions ? "Debug" : "Release")),
+            std::string::npos)
+      << message;
+  // A module older than the field: its record ends before it, so it is not read.
+  EXPECT_EQ(build_mismatch(host, module.record, /*records_assertions=*/false), "");
+}
+
+TEST(PluginAbi, RecordsVulkanHppDispatcherSizes) {
+  // NDEBUG adds a header version and a flag to each dispatcher (vk::DispatchLoaderBase): a plugin
+  // that reads the host's dispatchers must agree on their size.
+  const pb_build_record& host = *detail::this_build();
+  std::vector<std::string> names;
+  for (uint32_t i = 0; i < host.class_size_count; ++i) names.push_back(host.class_sizes[i].name);
+  for (const char* dispatcher : {"vk::raii::ContextDispatcher", "vk::raii::InstanceDispatcher",
+                                 "vk::raii::DeviceDispatcher"})
+    EXPECT_NE(std::find(names.begin(), names.end(), dispatcher), names.end()) << dispatcher;
+  EditableRecord module;
+  for (auto& size : module.sizes)
+    if (std::string(size.name) == "vk::raii::DeviceDispatcher") size.bytes += 16;
+  EXPECT_NE(build_mismatch(host, module.record).find("sizeof(vk::raii::DeviceDispatcher)"),
+            std::string::npos);
 }
 
 TEST(PluginAbi, MissingClassFails) {

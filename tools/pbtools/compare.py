@@ -421,11 +421,18 @@ def _md_escape(text: str) -> str:
     return str(text).replace("|", "\\|")
 
 
-def _pass_table(rows: List[PassRow]) -> List[str]:
-    out = ["| cell | pass | frames | base ms | new ms | change | p | limit | |",
-           "|---|---|--:|--:|--:|--:|--:|--:|---|"]
+CLOCK_SHORT = {"process": "process CPU", "gpu": "GPU", "cpu": "CPU", "auto": "max(GPU, CPU)"}
+
+
+def _pass_table(rows: List[PassRow], floor_samples: int) -> List[str]:
+    """Each row's level on its clock: the mean of the FLOOR_SAMPLES fastest frames (a floor, not the
+    wall-clock median of `run` and summary.csv)."""
+    out = [f"| cell | pass | clock | frames | base ms (mean of {floor_samples} fastest) | "
+           f"new ms (mean of {floor_samples} fastest) | change | p | limit | |",
+           "|---|---|---|--:|--:|--:|--:|--:|--:|---|"]
     for r in rows:
-        out.append(f"| {_md_escape(r.label)} | `{_md_escape(r.pass_name)}` | {r.n_base}/{r.n_new} | "
+        out.append(f"| {_md_escape(r.label)} | `{_md_escape(r.pass_name)}` | "
+                   f"{CLOCK_SHORT.get(r.clock, r.clock)} | {r.n_base}/{r.n_new} | "
                    f"{_ms(r.base_ms)} | {_ms(r.new_ms)} | {_pct(r.change_pct)} | {_p(r.p)} | "
                    f"±{r.limit_pct:.1f}% | {VERDICT_TEXT[r.verdict]} |")
     return out
@@ -497,13 +504,13 @@ def markdown(c: Comparison) -> str:
         out += ["### Cells that now fail", "", "| cell | base | new |", "|---|---|---|"]
         out += [f"| {_md_escape(r.label)} | {r.base} | {r.new} |" for r in broken] + [""]
     if slower:
-        out += ["### Slower", ""] + _pass_table(slower) + [""]
+        out += ["### Slower", ""] + _pass_table(slower, s["floor_samples"]) + [""]
     if worse:
         out += ["### Worse images", ""] + _metric_table(worse) + [""]
     if faster or better:
         out += ["### Improvements", ""]
         if faster:
-            out += _pass_table(faster) + [""]
+            out += _pass_table(faster, s["floor_samples"]) + [""]
         if better:
             out += _metric_table(better) + [""]
     if other_status:
@@ -512,7 +519,8 @@ def markdown(c: Comparison) -> str:
                 for r in other_status] + [""]
     if na:
         out += [f"_{len(na)} pass(es) not tested: fewer than {MIN_SAMPLES} frames on a side._", ""]
-    out += ["<details><summary>All passes</summary>", ""] + _pass_table(c.passes) + ["", "</details>", ""]
+    out += (["<details><summary>All passes</summary>", ""] + _pass_table(c.passes, s["floor_samples"])
+            + ["", "</details>", ""])
     if c.metrics:
         out += ["<details><summary>All metrics</summary>", ""] + _metric_table(c.metrics) + ["", "</details>", ""]
     return "\n".join(out)

@@ -1,8 +1,14 @@
 """photonbench history: a performance history across commits, and its trend plots.
 
-  history append RUN_DIR [--file F]        add the run's summary to F (JSON Lines, one run per line),
-                                           keyed by (git_commit, device) from run.json; appending the
-                                           same key again replaces that entry in place
+  history append RUN_DIR [--file F] [--label L]
+                                           add the run's summary to F (JSON Lines, one run per line),
+                                           keyed by (key, device): the key is --label when given (what
+                                           the user changed: "radius 0.05", "my-plugin v2"), else
+                                           photonbench's commit and a digest of the run's plugin
+                                           builds (run.json "plugins": each technique's module path,
+                                           byte hash and API version), so a rebuilt plugin is a new
+                                           entry; appending the same key again replaces that entry
+                                           in place. Each cell's entry holds its plugin's record.
   history plot [--file F] [--out DIR]      one figure per device and cell: median frame time and each
                                            pass's median over the history, change points marked
 
@@ -22,6 +28,7 @@ is found in 96% (tools/tests/test_history.py checks the detection and the no-cha
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -43,7 +50,24 @@ K = 3.0
 
 
 # ---- data ------------------------------------------------------------------------------------------
-def entry_of(run: Run) -> dict:
+def plugins_digest(run: Run) -> str:
+    """8 hex digits of the run's plugin builds (run.json "plugins": each technique's byte hash);
+    "" for a run that does not record them."""
+    plugins = run.info.get("plugins") or {}
+    if not plugins:
+        return ""
+    text = ";".join(f"{name}={(p or {}).get('fnv1a64', '')}" for name, p in sorted(plugins.items()))
+    return hashlib.sha256(text.encode()).hexdigest()[:8]
+
+
+def entry_key(entry: dict) -> str:
+    """What an entry is keyed by (with its device): its label; entries from before labels, their
+    commit."""
+    return str(entry.get("label") or entry.get("commit"))
+
+
+def entry_of(run: Run, label: Optional[str] = None) -> dict:
+    plugins = run.info.get("plugins") or {}
     cells = {}
     for c in run.cells:
         def v(col):
@@ -54,8 +78,12 @@ def entry_of(run: Run) -> dict:
             "frames": v("frames"), "frame_ms_median": v("frame_ms_median"), "frame_ms_p5": v("frame_ms_p5"),
             "frame_ms_p95": v("frame_ms_p95"), "flip_mean": v("flip_mean"), "ssim_mean": v("ssim_mean"),
             "psnr_mean": v("psnr_mean"), "passes": c.pass_medians(),
+            "plugin": plugins.get(c.technique),
         }
-    return {"commit": run.commit, "device": run.device, "run": run.name, "start": run.info.get("start"),
+    digest = plugins_digest(run)
+    key = label or (f"{run.commit[:12]}+plugins:{digest}" if digest else run.commit)
+    return {"label": key, "commit": run.commit, "device": run.device, "run": run.name,
+            "start": run.info.get("start"),
             "end": run.info.get("end"), "tool_version": run.info.get("tool_version"),
             "config_hash": run.info.get("config_hash"), "cells": cells}
 
@@ -76,15 +104,15 @@ def load(path: str) -> List[dict]:
     return out
 
 
-def append(run_dir: str, path: str) -> Tuple[dict, bool]:
-    """Adds the run; returns (entry, replaced) where replaced says an entry with the same commit and
-    device was overwritten in place."""
+def append(run_dir: str, path: str, label: Optional[str] = None) -> Tuple[dict, bool]:
+    """Adds the run; returns (entry, replaced) where replaced says an entry with the same key
+    (entry_key) and device was overwritten in place."""
     run = Run(run_dir)
-    entry = entry_of(run)
+    entry = entry_of(run, label)
     entries = load(path)
     replaced = False
     for i, e in enumerate(entries):
-        if e.get("commit") == entry["commit"] and e.get("device") == entry["device"]:
+        if entry_key(e) == entry_key(entry) and e.get("device") == entry["device"]:
             entries[i] = entry
             replaced = True
             break
@@ -176,7 +204,8 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
     sections = []  # one per device, for templates/history.html.j2
     for device in devices:
         dev_entries = [e for e in entries if e["device"] == device]
-        commits = [e["commit"][:8] for e in dev_entries]
+        commits = [e["label"] if e.get("label") and e["label"] != e.get("commit") else e["commit"][:8]
+                   for e in dev_entries]
         cells = list(dict.fromkeys(c for e in dev_entries for c in e["cells"]))
         section = {"name": device, "runs": len(dev_entries), "figures": []}
         sections.append(section)
@@ -202,8 +231,8 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
                                     (after / before - 1) * 100 if before else math.nan])
             ax.set_xticks(x)
             ax.set_xticklabels(commits, rotation=60, ha="right", fontsize=5)
-            ax.set_xlabel("commit (history order)")
-            ax.set_ylabel("median time [ms]")
+            ax.set_xlabel("history entry: --label, or commit and plugin builds")
+            ax.set_ylabel("median [ms]: frame wall clock;\npasses max(GPU, CPU)", fontsize=6)
             ax.set_title(f"{info.get('scene', '')} / {info.get('label', cell)}", fontsize=7)
             ax.plot([], [], ls="none", marker="v", color="#777777", markeredgecolor="black",
                     markeredgewidth=0.4, label="change point")
@@ -225,9 +254,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="photonbench history",
                                  description="Keep a performance history across commits and plot its trends.")
     sub = ap.add_subparsers(dest="action", required=True)
-    a_app = sub.add_parser("append", help="add a run's summary, keyed by commit and device")
+    a_app = sub.add_parser("append", help="add a run's summary, keyed by --label (or commit and plugin builds) and device")
     a_app.add_argument("run_dir", metavar="RUN_DIR")
     a_app.add_argument("--file", default=DEFAULT_FILE, help="history file, JSON Lines (default %(default)s)")
+    a_app.add_argument("--label", help="the entry's key: what you changed (default: photonbench's "
+                       "commit and the plugin builds' digest)")
     a_plot = sub.add_parser("plot", help="plot the trend of each cell and pass, marking change points")
     a_plot.add_argument("--file", default=DEFAULT_FILE, help="history file (default %(default)s)")
     a_plot.add_argument("--out", metavar="DIR", help="output folder (default: history-plots beside the file)")
@@ -238,8 +269,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     try:
         if a.action == "append":
-            entry, replaced = append(a.run_dir, a.file)
-            print(f"{'replaced' if replaced else 'appended'} {entry['commit'][:12]} on {entry['device']} "
+            entry, replaced = append(a.run_dir, a.file, a.label)
+            print(f"{'replaced' if replaced else 'appended'} {entry['label']} on {entry['device']} "
                   f"({len(entry['cells'])} cells) in {a.file}")
         else:
             out = a.out or os.path.join(os.path.dirname(os.path.abspath(a.file)), "history-plots")

@@ -21,7 +21,7 @@ import pandas as pd
 
 from . import figures as F
 from . import images as I
-from . import matching, pages, robustness, seeds, stats, style, tables
+from . import floors, matching, pages, robustness, seeds, stats, style, tables, verdict
 from .rundata import Run, RunError
 
 def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
@@ -60,12 +60,35 @@ def config_text(run: Run) -> Optional[str]:
     return config if isinstance(config, str) else json.dumps(config, indent=2)
 
 
+LOG_LINES_SHOWN = 4  # of a crashed cell's log, in its failed row (the console shows as many)
+
+
+def log_end(cell) -> dict:
+    """Where a cell that ended without its record (a crash, a kill) left its log, and the log's last
+    lines: the assertion or the technique's last words. Empty for a cell that failed in an orderly
+    way (its reason says it all)."""
+    tail = str(cell.json.get("log_tail") or "")
+    lines = [line for line in tail.splitlines() if line.strip()]
+    if not lines:
+        return {}
+    return {"log": os.path.join("logs", cell.id + ".log"), "lines": lines[-LOG_LINES_SHOWN:]}
+
+
 def status_view(run: Run) -> dict:
-    failed = [c for c in run.cells if not c.ok]
+    """The cells' outcome: ok, failed (with the reason and, for a crash, the log's end), and for a
+    run a signal stopped (run.json: interrupted) the cells it did not run."""
+    not_run = [c for c in run.cells if c.status == "not_run"]
+    failed = [c for c in run.cells if not c.ok and c.status != "not_run"]
+    interrupted = run.info.get("interrupted") or {}
     return {
-        "cells": len(run.cells), "ok": len(run.cells) - len(failed),
+        "cells": len(run.cells), "ok": len(run.cells) - len(failed) - len(not_run),
+        "not_run": len(not_run),
+        "interrupted": ({"signal": interrupted.get("signal", "?"), "at": interrupted.get("at", "?"),
+                         "resume": f"photonbench run --resume --out {run.path}"}
+                        if interrupted else None),
         "failed": [{"scene": c.scene, "label": run.label(c), "reason": c.reason,
-                    "frame": "" if c.failed_frame is None else str(c.failed_frame)}
+                    "frame": "" if c.failed_frame is None else str(c.failed_frame),
+                    "log_end": log_end(c)}
                    for c in failed],
         "warnings": [{"scene": c.scene, "label": run.label(c), "message": w["message"],
                       "frame": "" if w["frame"] is None else str(w["frame"])}
@@ -144,6 +167,12 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
     """Builds the report; returns the path of index.html. Writes into a temporary folder and swaps it
     in at the end, so a reader never sees half a report."""
     run = Run(run_dir)
+    # The harness and the tools share one resolve factor (run.json: the harness's kResolveFactor).
+    factor = run.info.get("resolve_factor")
+    if isinstance(factor, (int, float)) and factor != floors.RESOLVE_FACTOR:
+        print(f"report: warning: {run.path}/run.json's resolve_factor {factor:g} is not the tools' "
+              f"{floors.RESOLVE_FACTOR:g} (tools/pbtools/floors.py): scores are read with the "
+              "tools'", file=sys.stderr)
     final = os.path.abspath(out_dir or os.path.join(run.path, "report"))
     tmp = final + f".tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
@@ -197,7 +226,8 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         floors=tables.floors_view(run, floor_rows), sections=sections, cells=cells_view(run),
         clock=clock,
         stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k),
-        robustness=robustness_section, matching=matched)
+        robustness=robustness_section, matching=matched, verdicts=verdict.view(run),
+        verdict_alpha=stats.ALPHA)
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"

@@ -64,6 +64,7 @@ CLOCK_COLUMNS = {"gpu": "gpu_ms", "cpu": "cpu_ms", "process": "process_cpu_ms"}
 _IMAGE_RE = re.compile(r"^(frame|flip|reference)_(\d+)(?:_(.+))?\.(png|exr)$")
 
 
+
 class RunError(Exception):
     """A run directory that cannot be read (bad input: the command exits 2)."""
 
@@ -167,6 +168,7 @@ class Cell:
         self._samples: Dict[str, Dict[str, tuple]] = {}
         self._metric_groups: Optional[Dict[tuple, np.ndarray]] = None  # (class, reference) -> rows
         self._series: Dict[tuple, tuple] = {}
+        self._match_round: Optional[int] = None
 
     def __repr__(self) -> str:
         return f"Cell({self.id!r})"
@@ -191,6 +193,13 @@ class Cell:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    @property
+    def match_round(self) -> Optional[int]:
+        """A match run's re-measurement round r (1, 2, ...) of a found cell, None for any other
+        cell: the same setting and seed again, for the time's spread; no seed of its own (Run reads
+        the roles from RUN/match/cells.json)."""
+        return self._match_round
 
     def text(self, column: str) -> str:
         """A summary.csv field as written ("" when the column is absent)."""
@@ -383,6 +392,25 @@ class Cell:
         return out
 
 
+def match_rounds(run_dir: str) -> Dict[str, int]:
+    """cell id -> its round number, for a match run's re-measurement cells (RUN/match/cells.json,
+    role "round", numbered per setting in the order they ran); empty for any other run."""
+    path = os.path.join(run_dir, "match", "cells.json")
+    if not os.path.isfile(path):
+        return {}
+    with open(path, encoding="utf-8") as f:
+        entries = json.load(f)
+    counts: Dict[tuple, int] = {}
+    out = {}
+    for e in entries:
+        if e.get("role") != "round":
+            continue
+        key = (e.get("scene"), e.get("technique"), json.dumps(e.get("params"), sort_keys=True))
+        counts[key] = counts.get(key, 0) + 1
+        out[str(e.get("id"))] = counts[key]
+    return out
+
+
 class Run:
     """A run directory: run.json, summary.csv (as `text`, the fields as written, and `summary`,
     numeric columns converted; one row per cell in the config's order) and its cells."""
@@ -415,14 +443,21 @@ class Run:
             {c: pd.Series([param_value(t) for t in self.text[c]], dtype=object)
              for c in param_columns}, index=self.text.index)
         self.cells: List[Cell] = []
+        # (A frame without columns gives no records at all: a run whose techniques have no
+        # parameters still has one cell per row.)
+        param_rows = (self.params.to_dict("records") if param_columns
+                      else [{} for _ in range(len(self.text))])
         for i, (text, values, params) in enumerate(zip(self.text.to_dict("records"),
                                                        self.summary.to_dict("records"),
-                                                       self.params.to_dict("records"))):
+                                                       param_rows)):
             set_params = {k[len(PARAM_PREFIX):]: v for k, v in params.items() if v is not None}
             self.cells.append(Cell(self.path, text, values, set_params, i))
         self._by_id: Dict[str, Cell] = {}
         for c in self.cells:
             self._by_id.setdefault(c.id, c)
+        for cell_id, r in match_rounds(self.path).items():
+            if cell_id in self._by_id:
+                self._by_id[cell_id]._match_round = r
         self._label_params: Optional[Dict[tuple, List[str]]] = None
 
     @property
@@ -491,6 +526,9 @@ class Run:
         # `run --seeds K`: K cells of one setting (with_seed False: the setting, for all K)
         if with_seed and cell.text("seed") and self._seed_axis():
             parts.append(f"seed={cell.text('seed')}")
+        # A match run's re-measurement: the found cell's setting again, marked as its round.
+        if cell.match_round is not None:
+            parts.append(f"round {cell.match_round}")
         setting = ", ".join(parts)
         if not with_technique:
             return setting or cell.technique

@@ -27,6 +27,10 @@ SPREAD_METRICS = ("flip", "ssim", "psnr", "flicker")
 
 
 def seed_group(cell: Cell) -> str:
+    # A match run's round re-measures its found cell with the same seed: a group of its own (runs
+    # recorded before rounds had their own group name the found cell's in cell.json).
+    if cell.match_round is not None:
+        return cell.id
     return str(cell.json.get("seed_group") or cell.id)
 
 

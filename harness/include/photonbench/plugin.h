@@ -112,10 +112,14 @@ typedef struct pb_class_size {
 } pb_class_size;
 
 // What a module was built with. The host requires the same standard library ABI, the same
-// Vulkan-Hpp headers (the vk::raii types of the public classes are inline) and the same size of
-// every public class; the compiler and the library's release are reported, not compared (GCC and
-// Clang share the Itanium C++ ABI, and a newer library than the host's fails in dlopen with the
-// loader's message).
+// Vulkan-Hpp headers (the vk::raii types of the public classes are inline), the same NDEBUG and the
+// same size of every public class and of Vulkan-Hpp's dispatchers; the compiler and the library's
+// release are reported, not compared (GCC and Clang share the Itanium C++ ABI, and a newer library
+// than the host's fails in dlopen with the loader's message). NDEBUG is part of the ABI: without
+// it Vulkan-Hpp's dispatchers (vk::DispatchLoaderBase) hold a header version and a flag before
+// their function pointers, so a module and a host that differ read each other's dispatchers at
+// other offsets (CMake's build type sets NDEBUG: Release and RelWithDebInfo do, Debug and none do
+// not).
 typedef struct pb_build_record {
   const char* compiler;              // "GCC 12.2.0"
   const char* standard_library;      // "libstdc++ 12 (20230210)"
@@ -123,6 +127,7 @@ typedef struct pb_build_record {
   uint32_t vulkan_hpp_version;       // VK_HEADER_VERSION: must equal the host's
   uint32_t class_size_count;
   const pb_class_size* class_sizes;  // each must equal the host's
+  uint32_t assertions;               // 1: built without NDEBUG; must equal the host's
 } pb_build_record;
 
 typedef struct pb_technique_descriptor {
@@ -266,6 +271,10 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
       {"pb::gpu::GraphicsPipelineDesc", sizeof(gpu::GraphicsPipelineDesc)},
       {"pb::trace::TraceSettings", sizeof(trace::TraceSettings)},
       {"pb::trace::PhotonBatch", sizeof(trace::PhotonBatch)},
+      {"vk::raii::ContextDispatcher", sizeof(*std::declval<vk::raii::Context&>().getDispatcher())},
+      {"vk::raii::InstanceDispatcher",
+       sizeof(*std::declval<vk::raii::Instance&>().getDispatcher())},
+      {"vk::raii::DeviceDispatcher", sizeof(*std::declval<vk::raii::Device&>().getDispatcher())},
   };
   static const pb_build_record record = {
 #if defined(__clang__)
@@ -291,7 +300,12 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
 #endif
     VK_HEADER_VERSION,
     uint32_t(sizeof(sizes) / sizeof(sizes[0])),
-    sizes
+    sizes,
+#ifdef NDEBUG
+    0u
+#else
+    1u
+#endif
   };
   return &record;
 }

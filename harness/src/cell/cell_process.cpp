@@ -104,6 +104,8 @@ ChildOutcome run_cell_process(const std::filesystem::path& run_dir, const Cell& 
       // The child prints "@frame <done> <total>" after each frame.
       for (size_t eol; (eol = buffer.find('\n')) != std::string::npos; buffer.erase(0, eol + 1)) {
         uint32_t done = 0, total = 0;
+        char stage[32];
+        if (std::sscanf(buffer.c_str(), "@stage %31s", stage) == 1) outcome.stage = stage;
         if (std::sscanf(buffer.c_str(), "@frame %u %u", &done, &total) == 2) {
           outcome.frames_done = done;
           progress.update(index, cell.id, done, total, elapsed);
@@ -115,9 +117,15 @@ ChildOutcome run_cell_process(const std::filesystem::path& run_dir, const Cell& 
       outcome.timed_out = true;
       break;
     }
+    if (options.stop && options.stop()) {
+      kill(pid, SIGKILL);
+      outcome.stopped = true;
+      break;
+    }
   }
   close(pipe_fds[0]);
-  waitpid(pid, &outcome.exit_status, 0);
+  while (waitpid(pid, &outcome.exit_status, 0) < 0 && errno == EINTR) {
+  }
   return outcome;
 }
 
@@ -140,8 +148,13 @@ void record_abnormal_end(const std::filesystem::path& run_dir, const Cell& cell,
   // set-up.
   std::optional<int64_t> failed_frame;
   if (outcome.frames_done > 0 || outcome.timed_out) failed_frame = outcome.frames_done;
-  const std::string where =
-      failed_frame ? fmt::format("at frame {}", outcome.frames_done) : "during set-up";
+  // After the last frame the child names its stage: scoring, then teardown (the technique's and
+  // the device's destructors).
+  const std::string where = !outcome.stage.empty()
+                                ? fmt::format("during {}, after its last frame", outcome.stage)
+                            : failed_frame ? fmt::format("at frame {}", outcome.frames_done)
+                                           : "during set-up";
+  if (!outcome.stage.empty()) failed_frame.reset();
   std::string reason;
   if (outcome.timed_out) {
     reason = fmt::format("exceeded limits.cell_seconds = {} s {}", limit_s, where);

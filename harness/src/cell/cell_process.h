@@ -29,15 +29,18 @@ class Progress {
 };
 
 struct CellProcessOptions {
-  std::string device;       // --device
-  bool validation = false;  // --validation
-  double limit_s = 0;       // limits.cell_seconds
+  std::string device;        // --device
+  bool validation = false;   // --validation
+  double limit_s = 0;        // limits.cell_seconds
+  bool (*stop)() = nullptr;  // true: kill the child now (the run was interrupted: run/interrupt.h)
 };
 
 struct ChildOutcome {
   int exit_status = 0;  // from waitpid
   bool timed_out = false;
   uint32_t frames_done = 0;
+  std::string stage;     // "scoring" or "teardown" once the frames are done ("@stage NAME")
+  bool stopped = false;  // killed because options.stop said so
 };
 
 // Runs the cell's child process to its end (or kills it at the limit); its stderr goes to

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cstdio>
+
 #include "cell/cell_record.h"
 #include "cell/extra_cells.h"
 #include "cell/frame_log.h"
@@ -31,6 +33,12 @@ const Plugin& loaded_plugin(PluginRegistry& plugins, const std::string& techniqu
                                   plugin ? plugin->load_error : "not found"),
                       std::nullopt};
   return *plugin;
+}
+
+// Tells the parent which stage a crash from here on happened in (cell_process.h: "@stage NAME").
+void announce_stage(const char* stage) {
+  std::printf("@stage %s\n", stage);
+  std::fflush(stdout);
 }
 
 // The technique made and set up. setup() may record GPU work (uploads, clears); it runs outside
@@ -78,12 +86,15 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
   const std::vector<uint32_t> written = frames.run(*technique);
 
   // Scoring against references: after the frames, never on the timed path.
+  announce_stage("scoring");
   ScoreResult scores = score_cell(config, cell, r.world.scene(), written, path_class, dir);
   for (const std::string& warning : scores.warnings) record.warn(std::nullopt, warning);
   record.metrics = scores.means;
   if (!scores.bounce_matched_means.is_null())
     record.metrics_bounce_matched = scores.bounce_matched_means;
   record.references = scores.references;
+  // What follows is the locals' destruction: the technique's, then the renderer's.
+  announce_stage("teardown");
 }
 
 }  // namespace

@@ -1,22 +1,39 @@
 // `photonbench list techniques|scenes|devices`: what can be named in a config (a technique with its
 // parameters, the counters it emits and its budget knobs).
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <set>
 #include <string>
 
 #include "cli/command.h"
+#include "config/yaml_view.h"
 #include "gpu/device_accounting.h"
+#include "photonbench/error.h"
 #include "plan/plugins.h"
 #include "scene/scene.h"
 
 namespace {
 
-void list_techniques(const std::vector<std::string>& plugin_dirs) {
+// Every technique found, or only those `only` names (an unknown name is bad input, with the
+// closest known one and where else plugins may be).
+void list_techniques(const std::vector<std::string>& plugin_dirs,
+                     const std::vector<std::string>& only) {
   std::vector<std::filesystem::path> dirs(plugin_dirs.begin(), plugin_dirs.end());
   pb::run::PluginRegistry plugins(dirs);
-  for (const auto& name : plugins.names()) {
+  const std::vector<std::string> known = plugins.names();
+  for (const std::string& name : only)
+    if (std::find(known.begin(), known.end(), name) == known.end()) {
+      const std::string hint = pb::config::closest_name(name, known);
+      throw pb::InputError(fmt::format(
+          "list techniques: unknown technique '{}'{} (available: {}); a plugin built elsewhere is "
+          "found with --plugin-dir DIR",
+          name, hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
+          fmt::join(known, ", ")));
+    }
+  for (const auto& name : only.empty() ? known : only) {
     const pb::run::Plugin* plugin = plugins.find(name);
     if (!plugin->loaded()) {
       std::printf("%s  (%s)\n  cannot load: %s\n\n", name.c_str(), plugin->file.c_str(),
@@ -78,12 +95,17 @@ void add_list(CLI::App& app, int& exit_code) {
   auto plugin_dirs = std::make_shared<std::vector<std::string>>();
   auto* cmd =
       app.add_subcommand("list", "list techniques (with their parameters), scenes or devices");
+  auto names = std::make_shared<std::vector<std::string>>();
   cmd->add_option("what", *what, "techniques, scenes or devices")
       ->required()
       ->check(CLI::IsMember({"techniques", "scenes", "devices"}));
+  cmd->add_option("names", *names, "techniques: only these (e.g. list techniques tiled)");
   cmd->add_option("--plugin-dir", *plugin_dirs, "also look for technique plugins here");
-  cmd->callback([what, plugin_dirs, &exit_code] {
-    if (*what == "techniques") list_techniques(*plugin_dirs);
+  cmd->callback([what, names, plugin_dirs, &exit_code] {
+    if (*what != "techniques" && !names->empty())
+      throw pb::InputError(
+          fmt::format("list {}: takes no names (list techniques NAME does)", *what));
+    if (*what == "techniques") list_techniques(*plugin_dirs, *names);
     if (*what == "scenes") list_scenes();
     if (*what == "devices")
       for (const auto& name : pb::gpu::list_devices()) std::printf("%s\n", name.c_str());

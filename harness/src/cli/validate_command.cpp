@@ -1,14 +1,31 @@
 // `photonbench validate CONFIG`: everything `run` checks before running (the scenes loaded, their
-// cameras and lights checked at every frame), and the cells it would run. Exit 0: valid; 1: valid,
+// cameras and lights checked at every frame), and the cells it would run. Given a scene file, it
+// checks the scene. Exit 0: valid; 1: valid,
 // but some cells will fail (their plugin does not load); 2: bad input.
+#include <yaml-cpp/yaml.h>
+
 #include <cstdio>
 #include <filesystem>
 
 #include "cli/command.h"
 #include "plan/match_plan.h"
 #include "plan/plan.h"
+#include "run/runner.h"
+#include "scene/scene.h"
 
 namespace {
+
+// A scene file given where a config belongs: a YAML mapping without `techniques` but with a camera
+// or objects. It is checked as a scene, not reported as a config of unknown keys.
+bool looks_like_scene(const std::filesystem::path& file) {
+  if (pb::run::is_benchmark_config(file)) return false;
+  try {
+    const YAML::Node root = YAML::LoadFile(file.string());
+    return root.IsMap() && (root["camera"].IsDefined() || root["objects"].IsDefined());
+  } catch (const YAML::Exception&) {
+    return false;
+  }
+}
 
 void add_validate(CLI::App& app, int& exit_code) {
   struct Args {
@@ -25,11 +42,21 @@ void add_validate(CLI::App& app, int& exit_code) {
                   "also load technique plugins from this folder (repeatable)")
       ->check(CLI::ExistingDirectory);
   cmd->callback([args, plugin_dirs, &exit_code] {
+    if (looks_like_scene(args->config)) {
+      const pb::scene::Scene scene = pb::scene::load_scene(args->config);
+      std::printf(
+          "%s: a valid scene ('%s'), not a benchmark config; a config runs it with scenes: [%s]\n",
+          args->config.c_str(), scene.name.c_str(), args->config.c_str());
+      exit_code = 0;
+      return;
+    }
     for (const auto& dir : *plugin_dirs)
       args->overrides.push_back("plugin_dirs+=" + std::filesystem::absolute(dir).string());
     const pb::run::RunPlan plan = pb::run::plan_run(args->config, args->overrides);
     const pb::run::MatchPlan matches = pb::run::plan_matches(plan);
-    const auto& [config, plugins, cells] = plan;
+    const auto& [config, plugins, cells, warnings] = plan;
+    for (const std::string& warning : warnings)
+      std::fprintf(stderr, "warning: %s\n", warning.c_str());
     std::printf("%s: valid, %zu cells (config hash %s)\n", args->config.c_str(), cells.size(),
                 config.hash.c_str());
     // A match run's cells are its searches' probes: each match starts at its first probe.

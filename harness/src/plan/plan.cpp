@@ -79,9 +79,11 @@ std::vector<ParamMap> technique_combos(const config::TechniqueEntry& entry,
   if (!plugin) {
     auto names = plugins.names();
     std::string hint = config::closest_name(entry.technique, names);
-    name_node.fail(fmt::format("unknown technique '{}'{} (available: {})", entry.technique,
-                               hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
-                               fmt::join(names, ", ")));
+    name_node.fail(fmt::format(
+        "unknown technique '{}'{} (available: {}); a technique built elsewhere is found with "
+        "--plugin-dir DIR or plugin_dirs: [DIR]",
+        entry.technique, hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint),
+        fmt::join(names, ", ")));
   }
   if (!plugin->loaded()) return {{}};  // fails when it runs, with the loader's error
   const pb_technique_descriptor& d = *plugin->descriptor;
@@ -100,12 +102,72 @@ std::vector<ParamMap> technique_combos(const config::TechniqueEntry& entry,
   return combos;
 }
 
+// A value as the config (or --set) wrote it: "20000", "[5000, 20000]".
+std::string value_text(const config::YamlView& value) {
+  std::vector<std::string> texts;
+  for (const config::YamlView& v : value.elements())
+    texts.push_back(v.is_scalar() ? v.as_string() : "...");
+  return value.is_sequence() ? fmt::format("[{}]", fmt::join(texts, ", ")) : texts.front();
+}
+
+// A scene's value replacing one the technique entry sets (in the file or by --set) would pass
+// unseen: a warning naming both keys. Where every scene a technique entry runs on replaces its
+// sweep by fewer values, the sweep makes no cell anywhere: an error at the first scene's key (a
+// sweep some scene keeps is the config's pattern of a per-scene exception, warned about only).
+class ShadowCheck {
+ public:
+  explicit ShadowCheck(std::vector<std::string>* warnings) : warnings_(warnings) {}
+
+  void scene_ran(size_t technique) { ++scenes_[technique]; }
+
+  void check(const config::YamlView& scene_value, const config::TechniqueEntry& entry,
+             size_t technique, const std::string& key, const std::string& scene_name) {
+    std::optional<config::YamlView> params = entry.node.get("params");
+    std::optional<config::YamlView> own = params ? params->get(key) : std::nullopt;
+    if (!own) return;
+    const size_t own_values = own->elements().size(), scene_values = scene_value.elements().size();
+    const std::string own_text = value_text(*own), scene_text = value_text(scene_value);
+    if (own_values > 1 && scene_values < own_values) {
+      Collapse& collapse = collapses_[{technique, key}];
+      if (collapse.scenes++ == 0) {
+        collapse.at = scene_value;
+        collapse.message = fmt::format(
+            "{} on scene '{}' replaces {} = {} ({}), collapsing that sweep of {} values to {} on "
+            "every scene '{}' runs on: set '{}' in one of the two places",
+            scene_text, scene_name, own->key_path(), own_text, own->location(), own_values,
+            scene_values, entry.technique, key);
+      }
+    }
+    if (warnings_ && own_text != scene_text)
+      warnings_->push_back(
+          fmt::format("{}: {} = {} replaces {} = {} ({}) for technique '{}' on scene '{}'",
+                      scene_value.location(), scene_value.key_path(), scene_text, own->key_path(),
+                      own_text, own->location(), entry.technique, scene_name));
+  }
+
+  // After every scene: a sweep no scene kept is an error.
+  void finish() const {
+    for (const auto& [where, collapse] : collapses_)
+      if (collapse.scenes == scenes_.at(where.first)) collapse.at->fail(collapse.message);
+  }
+
+ private:
+  struct Collapse {
+    size_t scenes = 0;
+    std::optional<config::YamlView> at;
+    std::string message;
+  };
+  std::vector<std::string>* warnings_;
+  std::map<size_t, size_t> scenes_;  // per technique entry, the scenes it runs on
+  std::map<std::pair<size_t, std::string>, Collapse> collapses_;
+};
+
 // A scene entry's `params` replace (and, given a list, sweep) the parameters of the same name of
 // every technique that has them; a name no technique of the config has is an error at its key.
 std::vector<ParamMap> with_scene_params(const config::SceneEntry& scene,
                                         const config::Config& config, size_t technique,
                                         const std::vector<ParamMap>& combos,
-                                        PluginRegistry& plugins) {
+                                        PluginRegistry& plugins, ShadowCheck& shadows) {
   std::optional<config::YamlView> overrides =
       scene.node.is_map() ? scene.node.get("params") : std::nullopt;
   if (!overrides) return combos;
@@ -121,8 +183,10 @@ std::vector<ParamMap> with_scene_params(const config::SceneEntry& scene,
   if (!plugin || !plugin->loaded()) return combos;
   std::vector<ParamMap> result = combos;
   for (const auto& [key, value] : overrides->entries())
-    if (const pb_param_spec* spec = find_spec(*plugin->descriptor, key))
-      result = sweep(result, key, *spec, value);  // else another technique's parameter
+    if (const pb_param_spec* spec = find_spec(*plugin->descriptor, key)) {
+      shadows.check(value, config.techniques[technique], technique, key, scene.scene);
+      result = sweep(result, key, *spec, value);
+    }  // else another technique's parameter
   return result;
 }
 
@@ -221,11 +285,12 @@ RunPlan plan_run(const std::filesystem::path& config_file,
   RunPlan plan;
   plan.config = config::load_config(config_file, overrides);
   plan.plugins = std::make_unique<PluginRegistry>(plan.config.plugin_dirs);
-  plan.cells = expand_cells(plan.config, *plan.plugins);
+  plan.cells = expand_cells(plan.config, *plan.plugins, &plan.warnings);
   return plan;
 }
 
-std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins) {
+std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins,
+                               std::vector<std::string>* warnings) {
   std::vector<std::filesystem::path> scene_files;
   std::set<std::filesystem::path> checked;
   for (const config::SceneEntry& scene : config.scenes) {
@@ -244,14 +309,16 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
 
   std::vector<Cell> cells;
   std::unordered_set<std::string> ids;
+  ShadowCheck shadows(warnings);
   for (size_t s = 0; s < config.scenes.size(); ++s)
     for (size_t t = 0; t < config.techniques.size(); ++t) {
       const std::vector<std::string>& only = config.techniques[t].scenes;
       if (!only.empty() &&
           std::find(only.begin(), only.end(), config.scenes[s].scene) == only.end())
         continue;
+      shadows.scene_ran(t);
       std::vector<ParamMap> scene_combos =
-          with_scene_params(config.scenes[s], config, t, combos[t], plugins);
+          with_scene_params(config.scenes[s], config, t, combos[t], plugins, shadows);
       if (cells.size() + scene_combos.size() > kMaxCells)
         config.scenes[s].node.fail(fmt::format(
             "with technique '{}' the config expands to {} cells or more, more than the {} a run "
@@ -267,6 +334,7 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
         if (ids.insert(cell.id).second) cells.push_back(std::move(cell));
       }
     }
+  shadows.finish();
   return with_seed_axis(std::move(cells), config);
 }
 

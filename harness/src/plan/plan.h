@@ -43,6 +43,9 @@ struct RunPlan {
   config::Config config;
   std::unique_ptr<PluginRegistry> plugins;
   std::vector<Cell> cells;
+  // What the plan did that the config may not mean, one line each with file:line:col (a scene's
+  // value replacing one its technique entry sets): `run` and `validate` print them.
+  std::vector<std::string> warnings;
 
   // The cell named `id`; pb::InputError when the config expands to no such cell.
   const Cell& cell(const std::string& id) const;
@@ -70,6 +73,10 @@ RunPlan plan_run(const std::filesystem::path& config_file,
 // seed indices in order).
 // A plugin that exists but fails to load is not an input error: its cells are returned with an
 // empty parameter map, to fail when they run.
-std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins);
+// A scene's params replacing a value its technique entry sets is a line in `warnings` (when given),
+// and an InputError at the scene's key where every scene the entry runs on would collapse its
+// sweep to fewer values.
+std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plugins,
+                               std::vector<std::string>* warnings = nullptr);
 
 }  // namespace pb::run

@@ -62,6 +62,11 @@ std::vector<std::string> PluginRegistry::names() const {
 
 namespace {
 
+std::string assertion_text(uint32_t assertions) {
+  return assertions ? "built without NDEBUG (a Debug build, or no build type)"
+                    : "built with NDEBUG (a Release build)";
+}
+
 std::string describe(const pb_build_record& build) {
   return fmt::format("{}, {}, Vulkan-Hpp {}", build.compiler, build.standard_library,
                      build.vulkan_hpp_version);
@@ -132,6 +137,7 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
                              pb_technique_entry entry) {
   if (!descriptor) return "the entry point returned no descriptor";
   const pb_build_record& host = *detail::this_build();
+  const uint32_t module_version = descriptor->api_version;
   if (descriptor->api_version >= PB_PLUGIN_API_OLDEST_LOADED &&
       descriptor->api_version < PB_PLUGIN_API_VERSION) {
     // Version 3 ends at `check`; the budget knobs after it stay empty.
@@ -164,7 +170,11 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
         describe(host));
   }
   if (!descriptor->build) return fmt::format("plugin {} has no build record", plugin.file.string());
-  if (std::string mismatch = build_mismatch(host, *descriptor->build); !mismatch.empty())
+  // The record's `assertions` is as new as this API version: an older module's record (an
+  // upgraded one) ends before it.
+  if (std::string mismatch =
+          build_mismatch(host, *descriptor->build, module_version == PB_PLUGIN_API_VERSION);
+      !mismatch.empty())
     return fmt::format(
         "plugin {} was built unlike this photonbench: {}; rebuild it against this "
         "photonbench's package",
@@ -187,7 +197,8 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
 
 }  // namespace
 
-std::string build_mismatch(const pb_build_record& host, const pb_build_record& module) {
+std::string build_mismatch(const pb_build_record& host, const pb_build_record& module,
+                           bool records_assertions) {
   std::vector<std::string> differences;
   const std::string sides =
       fmt::format("plugin built with {}; photonbench with {}", describe(module), describe(host));
@@ -197,6 +208,12 @@ std::string build_mismatch(const pb_build_record& host, const pb_build_record& m
   if (host.vulkan_hpp_version != module.vulkan_hpp_version)
     differences.push_back(fmt::format("Vulkan-Hpp headers {} (photonbench: {})",
                                       module.vulkan_hpp_version, host.vulkan_hpp_version));
+  // NDEBUG first: it also changes the dispatchers' sizes below, and it is the one to fix.
+  if (records_assertions && host.assertions != module.assertions)
+    differences.push_back(
+        fmt::format("{} (photonbench: {}; configure the plugin with -DCMAKE_BUILD_TYPE={})",
+                    assertion_text(module.assertions), assertion_text(host.assertions),
+                    host.assertions ? "Debug" : "Release"));
   for (uint32_t i = 0; i < host.class_size_count; ++i) {
     const pb_class_size& want = host.class_sizes[i];
     const pb_class_size* got = nullptr;

@@ -61,7 +61,9 @@ TechniqueInstance create_technique(const pb_technique_descriptor& descriptor);
 
 // Why a module built as `module` cannot run in a host built as `host`, naming both sides of each
 // difference; empty when they match (pb_build_record says what must match).
-std::string build_mismatch(const pb_build_record& host, const pb_build_record& module);
+// `records_assertions`: false for a module older than the record's `assertions` field.
+std::string build_mismatch(const pb_build_record& host, const pb_build_record& module,
+                           bool records_assertions = true);
 
 // The budget knob of `d` named `param`; null when `param` is none of its budget knobs.
 const pb_budget_knob* find_budget_knob(const pb_technique_descriptor& d, const std::string& param);

@@ -11,6 +11,7 @@
 #include "cell/stats.h"
 #include "io/results.h"
 #include "run/match_search.h"
+#include "run/run_record.h"
 
 namespace pb::run {
 
@@ -71,8 +72,8 @@ MatchCell run_match_cell(const RunPlan& plan, CellRuns& runs, const Cell& cell,
 }
 
 // What a probe's record measured for the match: its median frame time, or its mean error (the
-// target refused when it lies below 4x that error's noise floor: a score there is not resolved
-// from the reference's own noise).
+// target refused when it lies below kResolveFactor times that error's noise floor: a score there
+// is not resolved from the reference's own noise).
 Measured measure_probe(const config::MatchSettings& match, const MatchCell& probe) {
   const json& record = probe.record;
   if (record.value("status", "") != "ok")
@@ -88,12 +89,13 @@ Measured measure_probe(const config::MatchSettings& match, const MatchCell& prob
     return {std::nullopt, MatchStatus::failed,
             fmt::format("probe cell {} scored no {}", probe.cell.id, match.metric)};
   const std::optional<double> floor = combined_metric(record, match.metric + "_floor");
-  if (floor && match.value < 4 * *floor)
+  if (floor && match.value < kResolveFactor * *floor)
     return {std::nullopt, MatchStatus::below_floor,
-            fmt::format("the target {} {:g} is below 4x the reference's noise floor {:.4g} "
-                        "(4x = {:.4g}): a score there is not resolved from the reference's own "
+            fmt::format("the target {} {:g} is below {:g}x the reference's noise floor {:.4g} "
+                        "({:g}x = {:.4g}): a score there is not resolved from the reference's own "
                         "noise; aim at {:.4g} or above, or render the reference longer",
-                        match.metric, match.value, *floor, 4 * *floor, 4 * *floor)};
+                        match.metric, match.value, kResolveFactor, *floor, kResolveFactor,
+                        kResolveFactor * *floor, kResolveFactor * *floor)};
   return {error, MatchStatus::matched, ""};
 }
 
@@ -160,6 +162,7 @@ void run_rounds(const RunPlan& plan, CellRuns& runs, std::vector<MatchRecord>& r
         MatchRecord& m = *order[r % 2 == 1 ? k : order.size() - 1 - k];
         Cell cell = m.found->cell;
         cell.id = fmt::format("{}__round{}", m.found->cell.id, r);
+        cell.seed_group = cell.id;  // the found cell's seed again: a re-measurement, not a seed
         m.rounds.push_back(run_match_cell(plan, runs, cell, "round"));
       }
     }

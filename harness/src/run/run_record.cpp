@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <iterator>
 
 #include "build_commit.h"  // generated: PB_BUILD_COMMIT
 #include "io/results.h"
@@ -23,6 +24,28 @@ std::string cpu_model() {
   for (std::string line; std::getline(cpuinfo, line);)
     if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
   return "unknown";
+}
+
+// Which build of each technique the run loads: the module's path, a hash of its bytes (a rebuilt
+// plugin is another plugin, whatever its name) and the plugin API version it declares.
+json describe_plugins(const RunPlan& plan) {
+  json plugins = json::object();
+  for (const Cell& cell : plan.cells) {
+    if (plugins.contains(cell.technique)) continue;
+    const Plugin* plugin = plan.plugins->find(cell.technique);
+    if (!plugin) continue;
+    std::error_code ec;
+    const std::filesystem::path path = std::filesystem::canonical(plugin->file, ec);
+    std::ifstream in(plugin->file, std::ios::binary);
+    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    json record = {{"path", (ec ? plugin->file : path).string()},
+                   {"fnv1a64", config::stable_hash(bytes)},
+                   {"api_version",
+                    plugin->descriptor ? json(plugin->descriptor->api_version) : json(nullptr)}};
+    if (!plugin->loaded()) record["load_error"] = plugin->load_error;
+    plugins[cell.technique] = std::move(record);
+  }
+  return plugins;
 }
 
 }  // namespace
@@ -68,6 +91,8 @@ json describe_run(const std::filesystem::path& config_file,
                        "(lavapipe timestamps miss rasterisation)"
                      : "gpu timestamps per pass, bracketed by full barriers; cpu monotonic clock"},
       {"cells", plan.cells.size()},
+      {"resolve_factor", kResolveFactor},
+      {"plugins", describe_plugins(plan)},
       {"start", now_iso()},
       {"end", nullptr}};
   if (std::filesystem::exists(run_dir / "run.json")) {

@@ -11,6 +11,12 @@
 
 namespace pb::run {
 
+// A score is resolved from the reference's noise when it lies at least this many times its noise
+// floor (as a distance from the reference; tools/pbtools/floors.py says why 4: the noise then
+// inflates a norm by at most a quarter). One constant for the harness (a match's quality target)
+// and the tools, which read it from run.json ("resolve_factor").
+inline constexpr double kResolveFactor = 4.0;
+
 // UTC now, ISO 8601 ("2026-01-31T12:00:00Z").
 std::string now_iso();
 

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <signal.h>
 #include <sys/file.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -24,6 +25,7 @@
 #include "photonbench/error.h"
 #include "reference/reference.h"
 #include "run/cell_runs.h"
+#include "run/interrupt.h"
 #include "run/match.h"
 #include "run/run_record.h"
 #include "run/seed_stats.h"
@@ -108,9 +110,10 @@ void render_needed_references(const config::Config& config, const std::vector<Ce
   }
 }
 
-void write_summary(const std::filesystem::path& run_dir) {
+void write_summary(const std::filesystem::path& run_dir, const std::vector<Cell>& not_run) {
   std::vector<json> records;
   std::set<std::string> params, passes;
+  std::set<std::string> recorded;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(run_dir / "cells", ec)) {
     auto file = entry.path() / "cell.json";
@@ -118,10 +121,24 @@ void write_summary(const std::filesystem::path& run_dir) {
         !std::filesystem::exists(file))
       continue;
     records.push_back(json::parse(io::read_text(file)));
+    recorded.insert(records.back().value("cell", ""));
     for (const auto& [k, v] : records.back()["params"].items()) params.insert(k);
     if (records.back().contains("summary"))
       for (const auto& [k, v] : records.back()["summary"]["pass_ms_median"].items())
         passes.insert(k);
+  }
+  // An interrupted run's cells that have no record: a row each, so that the summary does not read
+  // as a complete run of fewer cells.
+  for (const Cell& cell : not_run) {
+    if (recorded.count(cell.id)) continue;
+    records.push_back({{"cell", cell.id},
+                       {"scene", cell.scene},
+                       {"technique", cell.technique},
+                       {"status", "not_run"},
+                       {"params", cell.params},
+                       {"reason", "not run: the run was interrupted (run.json: interrupted)"}});
+    if (cell.seed_index > 0) records.back()["seed"] = cell.seed;
+    for (const auto& [k, v] : cell.params) params.insert(k);
   }
   std::sort(records.begin(), records.end(),
             [](const json& a, const json& b) { return a["cell"] < b["cell"]; });
@@ -174,6 +191,7 @@ class RunDirLock {
  public:
   explicit RunDirLock(const std::filesystem::path& run_dir) {
     const std::filesystem::path file = run_dir / ".lock";
+    file_ = file;
     fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0)
       throw InputError(fmt::format("--out {}: cannot create {}: {}", run_dir.string(),
@@ -196,12 +214,18 @@ class RunDirLock {
     const std::string pid = std::to_string(::getpid());
     if (::ftruncate(fd_, 0) == 0) (void)!::pwrite(fd_, pid.data(), pid.size(), 0);
   }
-  ~RunDirLock() { ::close(fd_); }
+  // The file goes with the lock, so a finished or interrupted run leaves none behind (a run that
+  // is killed outright leaves the file, but no lock on it).
+  ~RunDirLock() {
+    ::unlink(file_.c_str());
+    ::close(fd_);
+  }
   RunDirLock(const RunDirLock&) = delete;
   RunDirLock& operator=(const RunDirLock&) = delete;
 
  private:
   int fd_ = -1;
+  std::filesystem::path file_;
 };
 
 struct RunDir {
@@ -273,10 +297,31 @@ CellTally run_cells(const RunPlan& plan, const RunOptions& options,
   return runs.tally();
 }
 
+// A run a signal stopped (run/interrupt.h): the summary lists the plan's cells not run, run.json
+// says so, and the resume command is printed. Returns the exit code a shell gives a process the
+// signal ended (128 + signal).
+int stop_interrupted(const RunPlan& plan, const std::filesystem::path& run_dir, json& run,
+                     int signal, const std::string& resume) {
+  write_summary(run_dir, plan.config.match ? std::vector<Cell>{} : plan.cells);
+  run["interrupted"] = {{"signal", signal == SIGTERM ? "SIGTERM" : "SIGINT"}, {"at", now_iso()}};
+  io::write_text_atomic(run_dir / "run.json", run.dump(2) + "\n");
+  size_t complete = 0;
+  for (const Cell& cell : plan.cells)
+    complete += std::filesystem::exists(cell_dir(run_dir, cell.id) / "cell.json");
+  std::fprintf(
+      stderr,
+      "photonbench: interrupted (%s): %zu of %zu cells have records; summary.csv lists the "
+      "rest as not_run. Resume with:\n  %s\n",
+      signal == SIGTERM ? "SIGTERM" : "SIGINT", complete, plan.cells.size(), resume.c_str());
+  return 128 + signal;
+}
+
 }  // namespace
 
 int run_benchmark(const RunOptions& options) {
   RunPlan plan = plan_run(options.config_file, options.overrides);
+  for (const std::string& warning : plan.warnings)
+    std::fprintf(stderr, "photonbench: warning: %s\n", warning.c_str());
   const MatchPlan matches = plan_matches(plan);  // bad match input: before any work
   if (plan.config.match && options.shard.sharded())
     plan.config.match->node.fail(
@@ -287,6 +332,10 @@ int run_benchmark(const RunOptions& options) {
   plan.cells = shard.cells;
   const RunDir opened = open_run_dir(options, plan.config);
   const std::filesystem::path& run_dir = opened.path;
+  const std::string resume =
+      resume_command(run_dir, options.device, options.validation,
+                     options.shard.sharded() ? options.shard.text() : std::string());
+  InterruptGuard interrupts(run_dir / ".lock", resume);
   if (options.resume) check_resumed_shard(run_dir, options.shard);
   json run = describe_run(options.config_file, options.overrides, options.device, plan, run_dir);
   if (options.shard.sharded()) run["shard"] = describe_shard(options.shard, shard);
@@ -309,15 +358,20 @@ int run_benchmark(const RunOptions& options) {
   // A match run starts the cells its searches ask for (run/match.h); a plain run every cell.
   int unmatched = 0;
   CellTally tally;
-  if (plan.config.match) {
-    CellRuns runs(run_dir, {options.device, options.validation, plan.config.limits.cell_seconds},
-                  options.resume, match_cell_bound(plan.config, matches),
-                  [&] { write_summary(run_dir); });
-    const MatchOutcome outcome = run_matches(plan, matches, runs);
-    tally = outcome.tally;
-    unmatched = outcome.unmatched;
-  } else {
-    tally = run_cells(plan, options, run_dir);
+  interrupts.stop_cleanly_from_now();
+  try {
+    if (plan.config.match) {
+      CellRuns runs(run_dir, {options.device, options.validation, plan.config.limits.cell_seconds},
+                    options.resume, match_cell_bound(plan.config, matches),
+                    [&] { write_summary(run_dir); });
+      const MatchOutcome outcome = run_matches(plan, matches, runs);
+      tally = outcome.tally;
+      unmatched = outcome.unmatched;
+    } else {
+      tally = run_cells(plan, options, run_dir);
+    }
+  } catch (const Interrupted& stop) {
+    return stop_interrupted(plan, run_dir, run, stop.signal, resume);
   }
 
   write_summary(run_dir);

@@ -34,7 +34,7 @@ void render_needed_references(const config::Config& config, const std::vector<Ce
 bool is_benchmark_config(const std::filesystem::path& file);
 
 // Rebuilds summary.csv from the cells/ folder (also used after each cell, so an interrupted run has
-// one).
-void write_summary(const std::filesystem::path& run_dir);
+// one). Each cell of `not_run` without a record gets a row of status not_run (an interrupted run).
+void write_summary(const std::filesystem::path& run_dir, const std::vector<Cell>& not_run = {});
 
 }  // namespace pb::run
