@@ -8,8 +8,11 @@
 // so the boundary is checked before anything else is called: the descriptor opens with the module's
 // API version and its build record (compiler, standard library, Vulkan-Hpp version, sizeof of each
 // public class), a layout kept from version 2 on (version 3 added the counters and the check at the
-// end, version 4 the budget knobs after them; a host of version 4 still loads a module of version
-// 3, whose descriptor is the first part of version 4's, as one without budget knobs). The entry
+// end, version 4 the budget knobs after them; version 5 changed no descriptor field but the photon
+// tracer's public types (tracer policies in photonbench/photons.h), which the build record's class
+// sizes catch: a module built against version 3 or 4 headers is refused there, naming
+// pb::trace::TraceSettings, and is rebuilt against version 5; a module whose record matches is
+// loaded as before, version 3 as one without budget knobs). The entry
 // point honours the host's version: given another version than its own it returns only that
 // opening, never a factory the host cannot use.
 // A mismatch fails only that plugin's cells, with a message naming both sides (plan/plugins.cpp).
@@ -29,7 +32,7 @@
 #include <cstdint>
 
 #ifndef PB_PLUGIN_API_VERSION  // a test plugin defines another to play a module of another day
-#define PB_PLUGIN_API_VERSION 4u
+#define PB_PLUGIN_API_VERSION 5u
 #endif
 // The oldest module version a host loads: version 3's descriptor is version 4's without the budget.
 #define PB_PLUGIN_API_OLDEST_LOADED 3u

@@ -495,9 +495,17 @@ uint32_t EmbreePhotonTracer::frame_seed(const TraceSettings& settings) const {
 Context EmbreePhotonTracer::trace_context(const TraceSettings& settings, const LightSet& lights,
                                           uint32_t seed,
                                           const std::vector<uint32_t>& emission_count) const {
-  Context c{&world_,      &lights,           &densities_,       seed,
-            settings.max_bounces, settings.store, settings.rr_start, &emission_count,
-            settings.policy,      &settings,      {}};
+  Context c{&world_,
+            &lights,
+            &densities_,
+            seed,
+            settings.max_bounces,
+            settings.store,
+            settings.rr_start,
+            &emission_count,
+            settings.policy,
+            &settings,
+            {}};
   prepare_sample_seeds(c, lights.size());
   return c;
 }

@@ -32,7 +32,7 @@ namespace pb::trace {
 namespace detail {
 struct TracerScratch;  // photon_paths.h
 struct Context;
-}
+}  // namespace detail
 class LightSet;
 
 class EmbreePhotonTracer final : public PhotonTracer {
