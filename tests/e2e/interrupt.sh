@@ -33,7 +33,7 @@ stopped_cleanly() {
   log=$(cat "$1.log")
   [ "$code" -eq "$3" ] && pass "$2: exit $code" || fail "$2: exit $code, expected $3; log: $log"
   expect_match "$2: says it was interrupted" "interrupted \($2\)" "$log"
-  expect_match "$2: prints the resume command" "^  .*photonbench run --resume --out $1$" "$log"
+  expect_match "$2: prints the resume command" "^  .*photonbench run --resume --out $1( --validation)?$" "$log"
   expect_no_match "$2: the stopped cell is not recorded failed" "FAILED" "$log"
   [ ! -e "$1/.lock" ] && pass "$2: no .lock left" || fail "$2: .lock left"
   [ -z "$(ls -d "$1"/cells/.partial-* 2>/dev/null)" ] && pass "$2: no partial folder left" ||
