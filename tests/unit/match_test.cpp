@@ -219,18 +219,13 @@ techniques:
 }
 
 TEST_F(MatchPlanTest, ATechniqueWithoutABudgetKnobIsAnErrorUnlessItIsABaseline) {
-  for (const char* technique : {"direct", "api_v3"}) {
-    const std::string e = error(kHead +
-                                "match: {at: time, frame_ms: 250}\ntechniques:\n"
-                                "  - technique: " +
-                                technique + "\n");
-    EXPECT_NE(e.find("config.yaml:7:"), std::string::npos) << e;
-    EXPECT_NE(e.find(std::string("techniques[0].technique: technique '") + technique +
-                     "' declares no budget knob"),
-              std::string::npos)
-        << e;
-    EXPECT_NE(e.find("give it `match: false`"), std::string::npos) << e;
-  }
+  const std::string e =
+      error(kHead + "match: {at: time, frame_ms: 250}\ntechniques:\n  - technique: direct\n");
+  EXPECT_NE(e.find("config.yaml:7:"), std::string::npos) << e;
+  EXPECT_NE(e.find("techniques[0].technique: technique 'direct' declares no budget knob"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("give it `match: false`"), std::string::npos) << e;
   EXPECT_EQ(error(kHead + "match: {at: time, frame_ms: 250}\ntechniques:\n"
                           "  - {technique: direct, match: false}\n  - technique: tiled\n"),
             "");
@@ -274,14 +269,18 @@ TEST_F(MatchPlanTest, BadMatchBlocksAreRefusedBeforeAnyWork) {
       << e;
 }
 
-TEST_F(MatchPlanTest, APluginOfApiVersion3LoadsWithoutBudgetKnobs) {
+TEST_F(MatchPlanTest, APluginOfApiVersion4IsRefusedNamingBothVersionsAndWhatChanged) {
   PluginRegistry plugins({fs::path(PB_BINARY_DIR) / "test-plugins"});
-  const Plugin* v3 = plugins.find("api_v3");
-  ASSERT_NE(v3, nullptr);
-  ASSERT_TRUE(v3->loaded()) << v3->load_error;
-  EXPECT_EQ(v3->descriptor->budget_count, 0u);
-  EXPECT_EQ(v3->descriptor->budget, nullptr);
-  EXPECT_STREQ(v3->descriptor->name, "api_v3");
+  const Plugin* v4 = plugins.find("api_v4");
+  ASSERT_NE(v4, nullptr);
+  EXPECT_FALSE(v4->loaded());
+  EXPECT_NE(v4->load_error.find("was built for plugin API version 4"), std::string::npos)
+      << v4->load_error;
+  EXPECT_NE(v4->load_error.find("this photonbench has 5"), std::string::npos) << v4->load_error;
+  EXPECT_NE(v4->load_error.find("version 5: the photon tracer's modes"), std::string::npos)
+      << v4->load_error;
+  EXPECT_EQ(v4->load_error.find("version 4:"), std::string::npos)
+      << "a version-4 module needs only version 5's change: " << v4->load_error;
   const Plugin* knob = plugins.find("budget_knob");
   ASSERT_TRUE(knob && knob->loaded()) << (knob ? knob->load_error : "not found");
   ASSERT_EQ(knob->descriptor->budget_count, 2u);

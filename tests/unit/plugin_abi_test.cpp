@@ -88,8 +88,6 @@ TEST(PluginAbi, AssertionsFailNamingNdebugAndTheBuildTypeToUse) {
                          (host.assertions ? "Debug" : "Release")),
             std::string::npos)
       << message;
-  // A module older than the field: its record ends before it, so it is not read.
-  EXPECT_EQ(build_mismatch(host, module.record, /*records_assertions=*/false), "");
 }
 
 TEST(PluginAbi, RecordsVulkanHppDispatcherSizes) {

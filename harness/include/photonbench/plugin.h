@@ -7,12 +7,10 @@
 // Plugins are built by other compilers on other days (out of tree, against the installed package),
 // so the boundary is checked before anything else is called: the descriptor opens with the module's
 // API version and its build record (compiler, standard library, Vulkan-Hpp version, sizeof of each
-// public class), a layout kept from version 2 on (version 3 added the counters and the check at the
-// end, version 4 the budget knobs after them; version 5 changed no descriptor field but the photon
-// tracer's public types (tracer policies in photonbench/photons.h), which the build record's class
-// sizes catch: a module built against version 3 or 4 headers is refused there, naming
-// pb::trace::TraceSettings, and is rebuilt against version 5; a module whose record matches is
-// loaded as before, version 3 as one without budget knobs). The entry
+// public class), a layout kept from version 2 on. Only a module of this version is loaded: one of
+// another version is refused at its version, the message naming both versions and what each later
+// version changed (version 3 added the counters and the check, version 4 the budget knobs, version
+// 5 turned the photon tracer's modes into tracer policies: photonbench/photons.h). The entry
 // point honours the host's version: given another version than its own it returns only that
 // opening, never a factory the host cannot use.
 // A mismatch fails only that plugin's cells, with a message naming both sides (plan/plugins.cpp).
@@ -34,8 +32,9 @@
 #ifndef PB_PLUGIN_API_VERSION  // a test plugin defines another to play a module of another day
 #define PB_PLUGIN_API_VERSION 5u
 #endif
-// The oldest module version a host loads: version 3's descriptor is version 4's without the budget.
-#define PB_PLUGIN_API_OLDEST_LOADED 3u
+// The oldest module version a host loads: version 5 changed the public photon tracer's types, which
+// every module's build record holds, so no older module can run in this host.
+#define PB_PLUGIN_API_OLDEST_LOADED 5u
 #define PB_TECHNIQUE_ENTRY_SYMBOL "photonbench_technique"
 
 extern "C" {

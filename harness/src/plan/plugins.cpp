@@ -129,52 +129,59 @@ std::string budget_problem(const pb_technique_descriptor& d) {
   return "";
 }
 
+// What each plugin API version changed for a module, so that a module of an older version is
+// refused with the change it needs, not only with the two numbers.
+std::string_view version_change(uint32_t version) {
+  switch (version) {
+    case 2:
+      return "a build record follows the version";
+    case 3:
+      return "counters and a check of the parameters close the descriptor";
+    case 4:
+      return "budget knobs follow the check";
+    case 5:
+      return "the photon tracer's modes (TraceSettings' aaps, aaps_jitter, photon_differentials "
+             "and keep_paths, PhotonBatch's texel_power) became tracer policies a technique "
+             "supplies: TraceSettings' emission (an EmissionSampler) and policy (a VertexPolicy), "
+             "keep_light_paths, and PhotonBatch's emitted_power (photonbench/photons.h)";
+    default:
+      return "";
+  }
+}
+
+std::string changes_since(uint32_t module_version) {
+  std::vector<std::string> changes;
+  for (uint32_t v = module_version + 1; v <= PB_PLUGIN_API_VERSION; ++v)
+    if (std::string_view change = version_change(v); !change.empty())
+      changes.push_back(fmt::format("version {}: {}", v, change));
+  return changes.empty() ? "" : fmt::format(" ({})", fmt::join(changes, "; "));
+}
+
 // The boundary checks, in the order the descriptor may be read: its version (the opening every
 // version keeps), then its build record, then its contents. Sets plugin.descriptor when all pass;
-// returns the error otherwise. A module of an older version the host still loads is asked again for
-// its own version's descriptor (`entry`), copied into the host's layout.
-std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* descriptor,
-                             pb_technique_entry entry) {
+// returns the error otherwise.
+std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* descriptor) {
   if (!descriptor) return "the entry point returned no descriptor";
   const pb_build_record& host = *detail::this_build();
-  const uint32_t module_version = descriptor->api_version;
-  if (descriptor->api_version >= PB_PLUGIN_API_OLDEST_LOADED &&
-      descriptor->api_version < PB_PLUGIN_API_VERSION) {
-    // Version 3 ends at `check`; the budget knobs after it stay empty.
-    const pb_technique_descriptor* own = entry(descriptor->api_version);
-    if (!own || !own->name) return "the entry point returned no descriptor for its own version";
-    plugin.upgraded = {};
-    plugin.upgraded.api_version = PB_PLUGIN_API_VERSION;
-    plugin.upgraded.build = own->build;
-    plugin.upgraded.name = own->name;
-    plugin.upgraded.path_class = own->path_class;
-    plugin.upgraded.summary = own->summary;
-    plugin.upgraded.params = own->params;
-    plugin.upgraded.param_count = own->param_count;
-    plugin.upgraded.create = own->create;
-    plugin.upgraded.destroy = own->destroy;
-    plugin.upgraded.counters = own->counters;
-    plugin.upgraded.counter_count = own->counter_count;
-    plugin.upgraded.check = own->check;
-    descriptor = &plugin.upgraded;
-  }
-  if (descriptor->api_version != PB_PLUGIN_API_VERSION) {
+  if (descriptor->api_version < PB_PLUGIN_API_OLDEST_LOADED ||
+      descriptor->api_version > PB_PLUGIN_API_VERSION) {
     // Version 1 descriptors had no build record; from 2 on it follows the version.
     const std::string built_with = descriptor->api_version >= 2 && descriptor->build
                                        ? fmt::format(" ({})", describe(*descriptor->build))
                                        : "";
+    const std::string needed =
+        descriptor->api_version < PB_PLUGIN_API_VERSION
+            ? fmt::format("; what changed since version {}{}", descriptor->api_version,
+                          changes_since(descriptor->api_version))
+            : "";
     return fmt::format(
-        "plugin {} was built for plugin API version {}{}, this photonbench has {} ({}); rebuild it "
-        "against this photonbench's package",
+        "plugin {} was built for plugin API version {}{}, this photonbench has {} ({}){}; "
+        "rebuild it against this photonbench's package",
         plugin.file.string(), descriptor->api_version, built_with, PB_PLUGIN_API_VERSION,
-        describe(host));
+        describe(host), needed);
   }
   if (!descriptor->build) return fmt::format("plugin {} has no build record", plugin.file.string());
-  // The record's `assertions` is as new as this API version: an older module's record (an
-  // upgraded one) ends before it.
-  if (std::string mismatch =
-          build_mismatch(host, *descriptor->build, module_version == PB_PLUGIN_API_VERSION);
-      !mismatch.empty())
+  if (std::string mismatch = build_mismatch(host, *descriptor->build); !mismatch.empty())
     return fmt::format(
         "plugin {} was built unlike this photonbench: {}; rebuild it against this "
         "photonbench's package",
@@ -197,8 +204,7 @@ std::string check_descriptor(Plugin& plugin, const pb_technique_descriptor* desc
 
 }  // namespace
 
-std::string build_mismatch(const pb_build_record& host, const pb_build_record& module,
-                           bool records_assertions) {
+std::string build_mismatch(const pb_build_record& host, const pb_build_record& module) {
   std::vector<std::string> differences;
   const std::string sides =
       fmt::format("plugin built with {}; photonbench with {}", describe(module), describe(host));
@@ -209,7 +215,7 @@ std::string build_mismatch(const pb_build_record& host, const pb_build_record& m
     differences.push_back(fmt::format("Vulkan-Hpp headers {} (photonbench: {})",
                                       module.vulkan_hpp_version, host.vulkan_hpp_version));
   // NDEBUG first: it also changes the dispatchers' sizes below, and it is the one to fix.
-  if (records_assertions && host.assertions != module.assertions)
+  if (host.assertions != module.assertions)
     differences.push_back(
         fmt::format("{} (photonbench: {}; configure the plugin with -DCMAKE_BUILD_TYPE={})",
                     assertion_text(module.assertions), assertion_text(host.assertions),
@@ -251,7 +257,7 @@ const Plugin* PluginRegistry::find(const std::string& name) {
       plugin->load_error =
           fmt::format("dlsym({}) failed: {}", PB_TECHNIQUE_ENTRY_SYMBOL, error ? error : "null");
     } else {
-      plugin->load_error = check_descriptor(*plugin, entry(PB_PLUGIN_API_VERSION), entry);
+      plugin->load_error = check_descriptor(*plugin, entry(PB_PLUGIN_API_VERSION));
     }
   }
   const Plugin* result = plugin.get();

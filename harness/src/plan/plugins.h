@@ -23,9 +23,6 @@ struct Plugin {
   // class): fails only this plugin's cells, with this message.
   std::string load_error;
   void* handle = nullptr;
-  // A module of an older API version the host still loads (PB_PLUGIN_API_OLDEST_LOADED): its
-  // descriptor copied into the host's layout, the fields it lacks empty; `descriptor` points here.
-  pb_technique_descriptor upgraded{};
   bool loaded() const { return descriptor != nullptr; }
 };
 
@@ -61,9 +58,7 @@ TechniqueInstance create_technique(const pb_technique_descriptor& descriptor);
 
 // Why a module built as `module` cannot run in a host built as `host`, naming both sides of each
 // difference; empty when they match (pb_build_record says what must match).
-// `records_assertions`: false for a module older than the record's `assertions` field.
-std::string build_mismatch(const pb_build_record& host, const pb_build_record& module,
-                           bool records_assertions = true);
+std::string build_mismatch(const pb_build_record& host, const pb_build_record& module);
 
 // The budget knob of `d` named `param`; null when `param` is none of its budget knobs.
 const pb_budget_knob* find_budget_knob(const pb_technique_descriptor& d, const std::string& param);
