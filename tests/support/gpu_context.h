@@ -108,6 +108,12 @@ class TestContext final : public Context {
     throw std::logic_error("test context: no tracer");
   }
   const gpu::Image& output() override { throw std::logic_error("test context: no output"); }
+  void camera_paths(const trace::CameraPathSettings&, trace::CameraPathBatch&) override {
+    throw std::logic_error("test context: no camera paths");
+  }
+  const gpu::Image& class_output(std::string_view) override {
+    throw std::logic_error("test context: no class outputs");
+  }
 
   std::map<std::string, double> counters;
   std::vector<std::string> warnings;

@@ -1,5 +1,6 @@
 // What a technique sees of the harness: the GPU, the frame being rendered, named pass scopes,
-// counters, warnings and the shared passes (G-buffer, shadow-mapped direct light, final shading).
+// counters, warnings, the shared passes (G-buffer, shadow-mapped direct light, final shading), the
+// photon and camera-path tracers, and the images it hands back to be scored.
 // It never reaches into the harness's internals; everything it needs is here.
 #pragma once
 
@@ -7,6 +8,7 @@
 #include <string>
 #include <string_view>
 
+#include "photonbench/camera_paths.h"
 #include "photonbench/gpu.h"
 #include "photonbench/photons.h"
 
@@ -130,6 +132,20 @@ class Context {
   virtual trace::PhotonTracer& photon_tracer() = 0;
   // The image the harness reads back and scores: RGBA32F, linear radiance. shade() writes it.
   virtual const gpu::Image& output() = 0;
+  // One path per pixel of this frame's camera, through specular vertices to the first diffuse one
+  // (photonbench/camera_paths.h), traced over the photon tracer's Embree scene; fills `out`,
+  // reusing its storage. Call it from render(): the paths follow the frame's camera.
+  virtual void camera_paths(const trace::CameraPathSettings& settings,
+                            trace::CameraPathBatch& out) = 0;
+  // The technique's estimate of one path class alone ("direct", "indirect", "caustics",
+  // "indirect_caustics", "specular", or its light path expression), scored against that class's
+  // reference beside the combined output: an RGBA32F storage image of the frame's size, made and
+  // cleared to 0 on the first call for the class and kept for the cell. The harness reads it back
+  // at each metric frame, outside the timed region, and scores its rgb as it is (metrics.csv rows
+  // with path_class = the class); for the technique's own class it replaces the estimate handed to
+  // shade(). The combined output stays what shade() writes. "combined" or an unknown name throws
+  // pb::Error naming the classes.
+  virtual const gpu::Image& class_output(std::string_view path_class) = 0;
 };
 
 // The photon techniques' first two passes: traces `settings` with the frame's tracer in pass
@@ -139,5 +155,12 @@ class Context {
 uint32_t trace_and_upload_photons(Context& ctx, const trace::TraceSettings& settings,
                                   trace::PhotonBatch& batch, gpu::Buffer& photons,
                                   std::string_view buffer_name);
+
+// The same two passes for camera paths: ctx.camera_paths(settings, batch) in pass "camera-paths",
+// then the records into `paths` (a host-visible storage buffer made or grown as needed, named
+// `buffer_name`) in pass "camera-path-upload". Returns the number of paths (one per pixel).
+uint32_t trace_and_upload_camera_paths(Context& ctx, const trace::CameraPathSettings& settings,
+                                       trace::CameraPathBatch& batch, gpu::Buffer& paths,
+                                       std::string_view buffer_name);
 
 }  // namespace pb

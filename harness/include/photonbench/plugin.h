@@ -273,6 +273,8 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
       {"pb::gpu::GraphicsPipelineDesc", sizeof(gpu::GraphicsPipelineDesc)},
       {"pb::trace::TraceSettings", sizeof(trace::TraceSettings)},
       {"pb::trace::PhotonBatch", sizeof(trace::PhotonBatch)},
+      {"pb::trace::CameraPathSettings", sizeof(trace::CameraPathSettings)},
+      {"pb::trace::CameraPathBatch", sizeof(trace::CameraPathBatch)},
       {"vk::raii::ContextDispatcher", sizeof(*std::declval<vk::raii::Context&>().getDispatcher())},
       {"vk::raii::InstanceDispatcher",
        sizeof(*std::declval<vk::raii::Instance&>().getDispatcher())},

@@ -87,7 +87,8 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
 
   // Scoring against references: after the frames, never on the timed path.
   announce_stage("scoring");
-  ScoreResult scores = score_cell(config, cell, r.world.scene(), written, path_class, dir);
+  ScoreResult scores =
+      score_cell(config, cell, r.world.scene(), written, path_class, dir, frames.class_outputs());
   for (const std::string& warning : scores.warnings) record.warn(std::nullopt, warning);
   record.metrics = scores.means;
   if (!scores.bounce_matched_means.is_null())

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <array>
+
 #include "photonbench/error.h"
+#include "trace/camera_paths.h"
 
 namespace pb::run {
 
@@ -68,6 +71,44 @@ void FrameContext::count(const Counter& counter, double value) {
   std::string name(counter.name);
   declarations_.try_emplace(name, d);
   counters_.emplace_back(std::move(name), value);
+}
+
+void FrameContext::camera_paths(const trace::CameraPathSettings& settings,
+                                trace::CameraPathBatch& out) {
+  if (frame_.width == 0)
+    throw Error("camera_paths: call it from render(), where the frame's camera is known");
+  const CameraView& view = frame_.camera;
+  const trace::CameraPathCamera camera{view.position, view.inverse_view_projection, view.fov_y,
+                                       frame_.width, frame_.height};
+  trace::trace_camera_paths(world_.embree_scene(), camera, frame_.index, world_.seed_scramble(),
+                            settings, out);
+}
+
+const gpu::Image& FrameContext::class_output(std::string_view name) {
+  const std::optional<trace::PathClass> path_class = trace::reference_class_of(name);
+  if (!path_class || *path_class == trace::PathClass::combined) {
+    std::string classes;
+    for (trace::PathClass c : trace::all_path_classes())
+      if (c != trace::PathClass::combined)
+        classes += (classes.empty() ? "" : ", ") + std::string(trace::path_class_name(c));
+    throw Error(fmt::format(
+        "class_output: '{}' is not a path class a technique can hand back (one of {}; combined "
+        "is the output shade() writes)",
+        name, classes));
+  }
+  for (const ClassOutput& output : class_outputs_)
+    if (output.path_class == *path_class) return *output.image;
+  const vk::Extent2D extent = world_.passes().output().extent();
+  auto image = std::make_unique<gpu::Image>(device_.create_image(
+      fmt::format("class-output/{}", trace::path_class_name(*path_class)), extent,
+      vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage));
+  device_.submit_and_wait([&](vk::CommandBuffer cmd) {
+    cmd.clearColorImage(image->handle(), vk::ImageLayout::eGeneral,
+                        vk::ClearColorValue(std::array<float, 4>{0.f, 0.f, 0.f, 0.f}),
+                        vk::ImageSubresourceRange{vk::ImageAspectFlagBits::eColor, 0, 1, 0, 1});
+  });
+  class_outputs_.push_back({*path_class, std::move(image)});
+  return *class_outputs_.back().image;
 }
 
 std::string_view counter_kind_name(CounterKind kind) {

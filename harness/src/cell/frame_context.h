@@ -1,11 +1,13 @@
 // What a technique renders through. FrameCommands owns the cell's command buffers: one frame is
 // recorded, submitted and waited for at a time, and a technique may flush mid-frame. FrameContext
 // is pb::Context, the technique's whole view of the harness: the commands, pass scopes (the
-// profiler), counters and warnings of the frame, and the scene side (the World).
+// profiler), counters and warnings of the frame, the scene side (the World) and the images of path
+// classes the technique hands back to be scored.
 #pragma once
 
 #include <cstddef>
 #include <map>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -16,6 +18,7 @@
 #include "cell/world.h"
 #include "photonbench/context.h"
 #include "photonbench/plugin.h"
+#include "reference/path_class.h"
 
 namespace pb::run {
 
@@ -76,6 +79,16 @@ class FrameContext final : public Context {
   SharedPasses& shared() override { return world_.passes(); }
   trace::PhotonTracer& photon_tracer() override { return world_.photon_tracer(); }
   const gpu::Image& output() override { return world_.passes().output(); }
+  void camera_paths(const trace::CameraPathSettings& settings,
+                    trace::CameraPathBatch& out) override;
+  const gpu::Image& class_output(std::string_view path_class) override;
+
+  // The images the technique asked for through class_output, in the order it first asked.
+  struct ClassOutput {
+    trace::PathClass path_class;
+    std::unique_ptr<gpu::Image> image;
+  };
+  const std::vector<ClassOutput>& class_outputs() const { return class_outputs_; }
 
  private:
   gpu::Device& device_;
@@ -87,6 +100,7 @@ class FrameContext final : public Context {
   std::map<std::string, CounterDeclaration> declarations_;
   std::map<std::string, CounterDeclaration, std::less<>> declared_;  // by the descriptor
   std::vector<std::string> warnings_;
+  std::vector<ClassOutput> class_outputs_;
 };
 
 std::string_view counter_kind_name(CounterKind kind);  // "work", "size", "ratio"

@@ -20,23 +20,27 @@ double ms_since(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
-// The technique's indirect estimate alone (what it handed to shade()), written next to the frame so
-// that its path class is scored by itself rather than only inside the combined image. Background
-// pixels are zeroed as shade() zeroes them (a technique need not clear its estimate where there is
-// no surface).
+// An image of one path class alone, written next to the frame so that the class is scored by
+// itself rather than only inside the combined image; alpha is set to 1.
+void write_class_image(std::vector<float> rgba, vk::Extent2D extent,
+                       const std::filesystem::path& file) {
+  for (size_t i = 3; i < rgba.size(); i += 4) rgba[i] = 1.f;
+  io::Image image(int(extent.width), int(extent.height), 4);
+  image.pixels = std::move(rgba);
+  io::write_image(file, image);
+}
+
+// The technique's indirect estimate alone (what it handed to shade()). Background pixels are
+// zeroed as shade() zeroes them (a technique need not clear its estimate where there is no
+// surface).
 void write_class_estimate(gpu::Device& device, const gpu::ScenePasses& passes,
                           const std::filesystem::path& file) {
   std::vector<float> estimate, position;
   device.read_image(*passes.indirect_estimate(), estimate);
   device.read_image(*passes.gbuffer_images().position, position);
-  for (size_t i = 0; i + 3 < estimate.size(); i += 4) {
+  for (size_t i = 0; i + 3 < estimate.size(); i += 4)
     if (position[i + 3] <= 0.f) estimate[i] = estimate[i + 1] = estimate[i + 2] = 0.f;
-    estimate[i + 3] = 1.f;
-  }
-  const auto extent = passes.indirect_estimate()->extent();
-  io::Image image(int(extent.width), int(extent.height), 4);
-  image.pixels = std::move(estimate);
-  io::write_image(file, image);
+  write_class_image(std::move(estimate), passes.indirect_estimate()->extent(), file);
 }
 
 }  // namespace
@@ -153,8 +157,27 @@ void FrameLoop::write_images(uint32_t f) {
   io::write_image(images_ / fmt::format("frame_{:04d}.exr", f), image);
   io::write_image(images_ / fmt::format("frame_{:04d}.png", f), io::display_encode(image));
   const gpu::ScenePasses& passes = renderer_.world.passes();
-  if (own_class_ && *own_class_ != trace::PathClass::direct && passes.indirect_estimate())
+  const auto& outputs = renderer_.ctx.class_outputs();
+  const bool own_output = std::any_of(outputs.begin(), outputs.end(), [&](const auto& output) {
+    return own_class_ && output.path_class == *own_class_;
+  });
+  if (own_class_ && *own_class_ != trace::PathClass::direct && passes.indirect_estimate() &&
+      !own_output)
     write_class_estimate(renderer_.device, passes, images_ / class_image_name(f, *own_class_));
+  // The classes handed back through ctx.class_output, each scored as it was written.
+  std::vector<float> rgba;
+  for (const FrameContext::ClassOutput& output : outputs) {
+    renderer_.device.read_image(*output.image, rgba);
+    write_class_image(rgba, output.image->extent(),
+                      images_ / class_image_name(f, output.path_class));
+  }
+}
+
+std::vector<trace::PathClass> FrameLoop::class_outputs() const {
+  std::vector<trace::PathClass> classes;
+  for (const FrameContext::ClassOutput& output : renderer_.ctx.class_outputs())
+    classes.push_back(output.path_class);
+  return classes;
 }
 
 }  // namespace pb::run

@@ -2,7 +2,8 @@
 // start - warmup .. start + count - 1). Each frame is one timed region
 // (scene-update, the technique's passes, submission and the fence); after it, outside the timing,
 // its rows are logged, its output is checked (validation errors, NaN or Inf) and, at metric frames,
-// read back and written as images for scoring.
+// read back and written as images for scoring, with the estimate of the technique's own class and
+// each class image it handed back (Context::class_output).
 #pragma once
 
 #include <cstdint>
@@ -48,6 +49,9 @@ class FrameLoop {
   // frames played, not frame numbers). Returns the
   // metric frames written (images/frame_NNNN.exr). Throws CellFailure naming the frame.
   std::vector<uint32_t> run(Technique& technique);
+  // The path classes the technique handed back images of (Context::class_output), each written
+  // beside every metric frame (class_image_name) and scored against its reference.
+  std::vector<trace::PathClass> class_outputs() const;
 
  private:
   FrameTiming render_timed(Technique& technique, uint32_t frame, bool warmup);

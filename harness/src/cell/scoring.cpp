@@ -183,8 +183,10 @@ json class_means(const std::vector<Row>& rows, const std::vector<std::string>& m
 // The classes a cell is scored in: the combined reference always, and the reference of the
 // technique's own class: by the output itself when that class is the whole of it (direct: emitted
 // plus direct light), else by the estimate it handed to shade(), which the cell runner wrote alone
-// (class_image_name) before the shared direct light was added to it.
+// (class_image_name) before the shared direct light was added to it; then each class the technique
+// handed back an image of (Context::class_output), by that image.
 std::vector<trace::PathClass> scored_classes(const std::string& path_class,
+                                             const std::vector<trace::PathClass>& class_outputs,
                                              std::vector<std::string>& warnings) {
   std::vector<trace::PathClass> classes = {trace::PathClass::combined};
   auto own = trace::reference_class_of(path_class);
@@ -193,6 +195,8 @@ std::vector<trace::PathClass> scored_classes(const std::string& path_class,
         fmt::format("path class '{}' has no reference image; scored as combined", path_class));
   else if (*own != trace::PathClass::combined)
     classes.push_back(*own);
+  for (trace::PathClass c : class_outputs)
+    if (std::find(classes.begin(), classes.end(), c) == classes.end()) classes.push_back(c);
   return classes;
 }
 
@@ -225,13 +229,15 @@ json reference_entry(uint32_t frame, const std::string& class_name,
 
 ScoreResult score_cell(const config::Config& config, const Cell& cell, const scene::Scene& scene,
                        const std::vector<uint32_t>& frames, const std::string& path_class,
-                       const std::filesystem::path& cell_dir) {
+                       const std::filesystem::path& cell_dir,
+                       const std::vector<trace::PathClass>& class_outputs) {
   ScoreResult result;
   std::vector<std::string> header = csv_header(config.metrics);
   io::CsvAppender metrics_csv(cell_dir / "metrics.csv", header);
   if (frames.empty()) return result;
 
-  const std::vector<trace::PathClass> classes = scored_classes(path_class, result.warnings);
+  const std::vector<trace::PathClass> classes =
+      scored_classes(path_class, class_outputs, result.warnings);
   trace::ReferenceCache cache(config.reference.cache_dir);
   const std::vector<ScoredReference> references = scored_references(config, cell.params);
   // reference name -> class -> rows
@@ -243,7 +249,10 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
     scene::FrameState state = scene.at(f);
     for (trace::PathClass c : classes) {
       std::string name(trace::path_class_name(c));
-      bool alone = c != trace::PathClass::combined && c != trace::PathClass::direct;
+      const bool handed_back =
+          std::find(class_outputs.begin(), class_outputs.end(), c) != class_outputs.end();
+      bool alone =
+          handed_back || (c != trace::PathClass::combined && c != trace::PathClass::direct);
       std::filesystem::path alone_file = cell_dir / "images" / class_image_name(f, c);
       if (alone && !std::filesystem::exists(alone_file)) {
         result.warnings.push_back(fmt::format(

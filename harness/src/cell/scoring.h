@@ -41,13 +41,17 @@ struct ScoredReference {
 };
 std::vector<ScoredReference> scored_references(
     const config::Config& config, const std::map<std::string, std::string>& cell_params);
-// The file (in a cell's images/) holding a technique's estimate of its own path class alone at
-// `frame`, when that class is not the whole output (an indirect class added to the shared direct
-// light).
+// The file (in a cell's images/) holding a technique's estimate of one path class alone at
+// `frame`: its own class, when that class is not the whole output (an indirect class added to the
+// shared direct light), or a class it handed back (Context::class_output).
 std::string class_image_name(uint32_t frame, trace::PathClass path_class);
 
+// Scores the combined output, the technique's own class (`path_class`) and each class of
+// `class_outputs` (the images it handed back, Context::class_output), each against its class's
+// reference.
 ScoreResult score_cell(const config::Config& config, const Cell& cell, const scene::Scene& scene,
                        const std::vector<uint32_t>& metric_frames, const std::string& path_class,
-                       const std::filesystem::path& cell_dir);
+                       const std::filesystem::path& cell_dir,
+                       const std::vector<trace::PathClass>& class_outputs = {});
 
 }  // namespace pb::run

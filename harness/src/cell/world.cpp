@@ -17,14 +17,19 @@ void World::advance_to(uint32_t frame) {
   if (embree_) embree_->update(state_);
 }
 
+const trace::EmbreeScene& World::embree_scene() {
+  if (!embree_) embree_ = std::make_unique<trace::EmbreeScene>(scene_, state_);
+  return *embree_;
+}
+
+std::optional<uint32_t> World::seed_scramble() const {
+  return seed_index_ > 0 ? std::optional(uint32_t(seed_ ^ (seed_ >> 32))) : std::nullopt;
+}
+
 trace::PhotonTracer& World::photon_tracer() {
-  if (!tracer_) {
-    embree_ = std::make_unique<trace::EmbreeScene>(scene_, state_);
-    // A seed axis' cell mixes its seed into every trace's (the re-validation of kept paths
-    // included, so a re-traced path continues the sequence it was first traced with).
-    tracer_ = trace::make_photon_tracer(
-        *embree_, seed_index_ > 0 ? std::optional(uint32_t(seed_ ^ (seed_ >> 32))) : std::nullopt);
-  }
+  // A seed axis' cell mixes its seed into every trace's (the re-validation of kept paths included,
+  // so a re-traced path continues the sequence it was first traced with).
+  if (!tracer_) tracer_ = trace::make_photon_tracer(embree_scene(), seed_scramble());
   return *tracer_;
 }
 

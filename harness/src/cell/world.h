@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 
 #include "gpu/shared_passes.h"
 #include "photonbench/context.h"
@@ -34,6 +35,9 @@ class World {
   // The Embree scene and its photon tracer are built on first use, at the current frame; techniques
   // that never trace photons pay nothing for them.
   trace::PhotonTracer& photon_tracer();
+  const trace::EmbreeScene& embree_scene();
+  // What a seed axis' cell hashes into every trace's seed (set_seed); none for index 0.
+  std::optional<uint32_t> seed_scramble() const;
   // A seed axis' cell (plan/plan.h, Cell::seed_index > 0): every trace the techniques ask for is
   // scrambled with `seed` besides their own seed, so each seed gives independent photons. Index 0
   // leaves the technique's sequence as it is (the cell a run without a seed axis makes).
