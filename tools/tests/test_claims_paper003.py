@@ -37,11 +37,13 @@ PD_RADII = {"radius_0p05_0p10": 100, "radius_0p10_0p15": 300, "radius_0p15_0p20"
 def pd(threshold, ms, caustics="false"):
     return ("photon-differentials",
             {"photons": 1000, "smoothing": 5, "r_max": 0.7, "leaf_threshold": threshold, "caustics": caustics},
-            ms, {"hits": 5000, "hits_per_query": 190, "t_auto": 40, **PD_RADII}, PD_METRICS)
+            ms, {"hits": 5000, "hits_per_query": 190, "t_auto": 40, "bytes_read_per_query": 90000, **PD_RADII},
+            PD_METRICS)
 
 
 def knn(mode, k, ms, caustics="false"):
-    counters = {"photons_stored": 5100, "mean_k": k - 0.5, "radius_bin_00": 50, "radius_bin_01": 150}
+    counters = {"photons_stored": 5100, "mean_k": k - 0.5, "radius_bin_00": 50, "radius_bin_01": 150,
+                "bytes_read_per_query": 40000}
     if mode == "static":
         counters.update({"setup_trace_ms": 400, "setup_build_ms": 90})
     return ("knn", {"photons": 1000, "k": k, "r_max": 0.7, "rebuild": mode, "radius_bin_width": 0.05,
@@ -166,24 +168,36 @@ class Paper003Test(Paper003Case):
         self.assertIn("Wall 70k: T_auto 42, best 16, 97.0%", self.row(self.text, "| paper (stand-in")[2])
 
     def test_speed_up_over_knn_is_per_round_with_both_modes(self):
-        row = self.row(self.text, "| ring | 10.00 |")
-        self.assertEqual(row[3], "10.00× [10.00–12.00]")  # static: 10, 10, 12 (pooled would be 12)
-        self.assertEqual(row[4], "8.33× [8.33–10.00]")  # the same by CPU time: x 0.5 / 0.6
-        self.assertEqual(row[6], "15.00× [13.00–15.00]")  # every_frame: 15, 13, 15
-        self.assertEqual(row[7], "12.50× [10.83–12.50]")
+        row = self.row(self.text, "| ring | grid, private heap (knn's default) | 10.00 |")
+        self.assertEqual(row[4], "10.00× [10.00–12.00]")  # static: 10, 10, 12 (pooled would be 12)
+        self.assertEqual(row[5], "8.33× [8.33–10.00]")  # the same by CPU time: x 0.5 / 0.6
+        self.assertEqual(row[7], "15.00× [13.00–15.00]")  # every_frame: 15, 13, 15
+        self.assertEqual(row[8], "12.50× [10.83–12.50]")
         # gather / query per round: (1000 - 6) / (100 - 26) = 13.43, 1994 / 174 = 11.46, 1194 / 74 = 16.14
-        self.assertEqual(row[8], "13.43× [11.46–16.14]")
-        self.assertIn("0.52, 12.0×", row[9])  # the paper's Ring: 6.22 / 0.52 fps
+        self.assertEqual(row[9], "13.43× [11.46–16.14]")
+        self.assertEqual(row[10], "40,000 / 90,000")  # bytes read per query, knn / photon differentials
+        self.assertIn("0.52, 12.0×", row[11])  # the paper's Ring: 6.22 / 0.52 fps
 
-    def test_table2_uses_the_grid_baseline_not_the_papers_kd_tree(self):
-        # A knn cell of seed 003's own baseline (kd-tree, heap in a buffer), 5x slower, beside the default
-        # grid: the ratios stay the grid's, and the text says which baseline they use.
+    def test_table2_gives_each_knn_baseline_its_own_row(self):
+        # Seed 003's own baseline (kd-tree, heap in a buffer), 5x slower and reading more per query, beside
+        # the default grid: each has its own row with its own ratios and bytes, named, the grid's first.
         technique, params, _, counters, metrics = knn("static", 200, [1000, 2000, 1200], "true")
-        kd = (technique, {**params, "search": "kdtree", "heap": "global"}, [5000, 10000, 6000], counters,
-              metrics)
-        text = self.claims(scenes={"ring": SCENES["ring"] + [kd], "wall": SCENES["wall"]})
-        self.assertEqual(self.row(text, "| ring | 10.00 |")[3], "10.00× [10.00–12.00]")
-        self.assertIn("a stronger baseline than the paper's kd-tree", text)
+        kd = (technique, {**params, "search": "kdtree", "heap": "global"}, [5000, 10000, 6000],
+              {**counters, "bytes_read_per_query": 120000}, metrics)
+        text = self.claims(scenes={"ring": [kd] + SCENES["ring"], "wall": SCENES["wall"]})
+        grid = self.row(text, "| ring | grid, private heap (knn's default) |")
+        self.assertEqual(grid[4], "10.00× [10.00–12.00]")
+        self.assertEqual(grid[10], "40,000 / 90,000")
+        paper = self.row(text, "| ring | kd-tree, global heap (the paper's §7) |")
+        self.assertEqual(paper[4], "50.00× [50.00–60.00]")  # 5000 / 100, 10000 / 200, 6000 / 100
+        self.assertEqual(paper[7], "–")  # no every_frame cell of that baseline
+        self.assertEqual(paper[10], "120,000 / 90,000")
+        lines = text.splitlines()
+        self.assertLess(lines.index(next(l for l in lines if "| ring | grid," in l)),
+                        lines.index(next(l for l in lines if "| ring | kd-tree," in l)))
+        self.assertIn("only the paper's row tests the paper's claim", text)
+        # The other tables keep the default baseline: the FLIP order is against the grid's cells.
+        self.assertIn("knn static (k 200)", self.row(text, "| ring | combined |")[2])
 
     def test_k_is_matched_to_the_measured_hits_per_query(self):
         ring = self.row(self.text, "| ring (Ring) |")
@@ -244,7 +258,7 @@ class Paper003RunShapesTest(Paper003Case):
         self.assertIn("**Warning: not alternating rounds** (the seeds ran grouped", grouped)
         one = self.claims(rounds=1, config="")
         self.assertIn("**Warning: not alternating rounds** (one round", one)
-        self.assertEqual(self.row(one, "| ring | 10.00 |")[3], "10.00×")  # one round: no range
+        self.assertEqual(self.row(one, "| ring | grid, private heap (knn's default) | 10.00 |")[4], "10.00×")  # one round: no range
 
     def test_a_round_missing_a_cell_is_left_out_of_the_ratios(self):
         # Ring's T = 16 cell of the second round (seed 2, 250 ms) missing: rounds 1 and 3 only for the
