@@ -80,6 +80,8 @@ struct FeedbackParams {
       0.5;  // w_i of each 4-neighbour's previous value, against 1 for the texel
   float density_min = 4;
   float density_max = 0;  // 0: none
+
+  constexpr bool operator==(const FeedbackParams&) const = default;
 };
 
 // §1.10 b-c: D' = D A / A_t + v g per texel, then D = w_t D' + (1 - w_t) (sum w_i D_i) / sum w_i

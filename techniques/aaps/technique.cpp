@@ -39,120 +39,144 @@ namespace {
 
 using pb::gpu::Binding;
 
-// clang-format off
-const pb_param_spec kParams[] = {
-    {"density_resolution", PB_PARAM_INT, 256, 2, 4096, nullptr, "texels",
-     "side of each light's ray-density texture, a power of two (seed 004 §3.2.2: 256)"},
-    {"density_min", PB_PARAM_FLOAT, 4, 1, 1e6, nullptr, "photons",
-     "density floor, so no texel stops being sampled (§3.2.2: 4)"},
-    {"density_max", PB_PARAM_FLOAT, 0, 0, 1e9, nullptr, "photons",
-     "density ceiling, 0 for none (§3.2.2: none for the thesis's data)"},
-    {"target_area", PB_PARAM_FLOAT, 19, 0.01, 1e6, nullptr, "px^2",
-     "target projected splat area A_t (§4.5.2: 19 gave Pool's best RMSE)"},
-    {"variance_gain", PB_PARAM_FLOAT, 2, 0, 1e6, nullptr, "photons",
-     "g of D' = D A / A_t + v g, v the energy-weighted relative temporal difference in [0, 1] "
-     "(unspecified; 2: half the density floor where a caustic flickers fully)"},
-    {"temporal_weight", PB_PARAM_FLOAT, 0.5, 0.01, 1, nullptr, "",
-     "w_t, the share of the new suggestion D' per frame (unspecified; 0.5)"},
-    {"neighbour_weight", PB_PARAM_FLOAT, 0.5, 0, 100, nullptr, "",
-     "weight of each 4-neighbour's previous density against 1 for the texel's own (unspecified)"},
-    {"footprint_scale", PB_PARAM_FLOAT, 0.71, 0.05, 10, nullptr, "spacings",
-     "ellipse semi-axes in photon spacings along the two differentials (unspecified; 0.71 ~ "
-     "1/sqrt 2: the ellipse through a spacing cell's corners, so neighbours leave no holes)"},
-    {"max_anisotropy", PB_PARAM_FLOAT, 16, 1, 1e6, nullptr, "",
-     "largest ratio of the ellipse's principal semi-axes; above it the minor axis grows "
-     "(§3.1.2; unspecified)"},
-    {"cull_solid_angle", PB_PARAM_FLOAT, 0, 0, 1e6, nullptr, "sr",
-     "cull splats whose ellipse, sized for the thesis's base sampling (1/512 of the emission "
-     "parameter), subtends more than this from the light (§3.3.5; 0: no culling, the thesis's "
-     "setting unless stated)"},
-    {"depth_margin", PB_PARAM_FLOAT, 0.01, 0, 1, nullptr, "",
-     "relative depth tolerance of a splat against the G-buffer (§3.3.4: 1%)"},
-    {"msaa", PB_PARAM_ENUM, 0, 0, 3, "none|all|all_per_sample|small_per_sample", "",
-     "splat anti-aliasing (§5.1): none; all splats multisampled, coverage only; all at sample "
-     "rate; only splats below msaa_threshold at sample rate"},
-    {"msaa_threshold", PB_PARAM_FLOAT, 2, 0, 1e6, nullptr, "px^2",
-     "small_per_sample: projected ellipse area below which a splat is drawn at sample rate "
-     "(§5.1.3; swept, unspecified)"},
-    {"msaa_samples", PB_PARAM_INT, 8, 2, 64, nullptr, "samples",
-     "samples per pixel of the multisampled buffer, lowered to the device's highest (§5.1: 8)"},
-    {"feedback_halves", PB_PARAM_ENUM, 0, 0, 1, "both|refracted", "",
-     "which halves of a split photon give its texel's projected area A (§1.10b): both, energy-"
-     "weighted (A = sum f_p a_p), or the refracted ones alone, so that the dim reflected halves' "
-     "large splats do not set the density of the focused refracted ones (issue 25)"},
-    {"emission_jitter", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
-     "each photon at a fixed pseudo-random point of its grid cell, not the centre (§1.4: the "
-     "thesis does not say; at cell centres the lattice of a focus's tiny splats aliases with "
-     "the pixel grid)"},
-    pb::toolkit::with_range(pb::toolkit::kMaxBouncesParam, 8, 1, 31,
-                            "recursion cap: surface interactions per photon (§1.5, Fig. 2; "
-                            "unspecified); photons are stored at the first diffuse hit"),
-    pb::toolkit::kShadowMapSizeParam,
+// The choices of the enumerated parameters, in their declared order.
+enum class Msaa : uint32_t { none, all, all_per_sample, small_per_sample };
+enum class FeedbackHalves : uint32_t { both, refracted };
+
+// Every parameter of a cell: the density feedback's (task_buffer.h, whose initialisers are the
+// thesis's values) and the technique's own.
+struct AapsParams : aaps::FeedbackParams {
+  uint32_t density_resolution;
+  float footprint_scale, max_anisotropy, cull_solid_angle, depth_margin;
+  Msaa msaa;
+  float msaa_threshold;
+  uint32_t msaa_samples;
+  FeedbackHalves feedback_halves;
+  bool emission_jitter;
+  uint32_t max_bounces;
+  uint32_t shadow_map_size;
 };
+
+// A feedback field as a field of AapsParams (a row binds the struct it reads into).
+template <class F>
+constexpr F AapsParams::*feedback(F aaps::FeedbackParams::*field) {
+  return field;
+}
+
+// clang-format off
+constexpr auto kParams = pb::params(
+    pb::param("density_resolution", &AapsParams::density_resolution, 256, {2, 4096}, "texels",
+              "side of each light's ray-density texture, a power of two (seed 004 §3.2.2: 256)"),
+    pb::param("density_min", feedback(&aaps::FeedbackParams::density_min), 4, {1, 1e6},
+              "photons", "density floor, so no texel stops being sampled (§3.2.2: 4)"),
+    pb::param("density_max", feedback(&aaps::FeedbackParams::density_max), 0, {0, 1e9},
+              "photons", "density ceiling, 0 for none (§3.2.2: none for the thesis's data)"),
+    pb::param("target_area", feedback(&aaps::FeedbackParams::target_area), 19, {0.01, 1e6},
+              "px^2", "target projected splat area A_t (§4.5.2: 19 gave Pool's best RMSE)"),
+    pb::param("variance_gain", feedback(&aaps::FeedbackParams::variance_gain), 2, {0, 1e6},
+              "photons",
+              "g of D' = D A / A_t + v g, v the energy-weighted relative temporal difference in "
+              "[0, 1] (unspecified; 2: half the density floor where a caustic flickers fully)"),
+    pb::param("temporal_weight", feedback(&aaps::FeedbackParams::temporal_weight), 0.5,
+              {0.01, 1}, "",
+              "w_t, the share of the new suggestion D' per frame (unspecified; 0.5)"),
+    pb::param("neighbour_weight", feedback(&aaps::FeedbackParams::neighbour_weight), 0.5,
+              {0, 100}, "",
+              "weight of each 4-neighbour's previous density against 1 for the texel's own "
+              "(unspecified)"),
+    pb::param("footprint_scale", &AapsParams::footprint_scale, 0.71, {0.05, 10}, "spacings",
+              "ellipse semi-axes in photon spacings along the two differentials (unspecified; "
+              "0.71 ~ 1/sqrt 2: the ellipse through a spacing cell's corners, so neighbours leave "
+              "no holes)"),
+    pb::param("max_anisotropy", &AapsParams::max_anisotropy, 16, {1, 1e6}, "",
+              "largest ratio of the ellipse's principal semi-axes; above it the minor axis grows "
+              "(§3.1.2; unspecified)"),
+    pb::param("cull_solid_angle", &AapsParams::cull_solid_angle, 0, {0, 1e6}, "sr",
+              "cull splats whose ellipse, sized for the thesis's base sampling (1/512 of the "
+              "emission parameter), subtends more than this from the light (§3.3.5; 0: no "
+              "culling, the thesis's setting unless stated)"),
+    pb::param("depth_margin", &AapsParams::depth_margin, 0.01, {0, 1}, "",
+              "relative depth tolerance of a splat against the G-buffer (§3.3.4: 1%)"),
+    pb::param("msaa", &AapsParams::msaa, Msaa::none, "none|all|all_per_sample|small_per_sample",
+              "splat anti-aliasing (§5.1): none; all splats multisampled, coverage only; all at "
+              "sample rate; only splats below msaa_threshold at sample rate"),
+    pb::param("msaa_threshold", &AapsParams::msaa_threshold, 2, {0, 1e6}, "px^2",
+              "small_per_sample: projected ellipse area below which a splat is drawn at sample "
+              "rate (§5.1.3; swept, unspecified)"),
+    pb::param("msaa_samples", &AapsParams::msaa_samples, 8, {2, 64}, "samples",
+              "samples per pixel of the multisampled buffer, lowered to the device's highest "
+              "(§5.1: 8)"),
+    pb::param("feedback_halves", &AapsParams::feedback_halves, FeedbackHalves::both,
+              "both|refracted",
+              "which halves of a split photon give its texel's projected area A (§1.10b): both, "
+              "energy-weighted (A = sum f_p a_p), or the refracted ones alone, so that the dim "
+              "reflected halves' large splats do not set the density of the focused refracted "
+              "ones"),
+    pb::param("emission_jitter", &AapsParams::emission_jitter, true,
+              "each photon at a fixed pseudo-random point of its grid cell, not the centre (§1.4: "
+              "the thesis does not say; at cell centres the lattice of a focus's tiny splats "
+              "aliases with the pixel grid)"),
+    pb::bind(pb::toolkit::with_range(pb::toolkit::kMaxBouncesParam, 8, 1, 31,
+                                     "recursion cap: surface interactions per photon (§1.5, Fig. "
+                                     "2; unspecified); photons are stored at the first diffuse "
+                                     "hit"),
+             &AapsParams::max_bounces),
+    pb::bind(pb::toolkit::kShadowMapSizeParam, &AapsParams::shadow_map_size));
+// clang-format on
+// The feedback struct keeps its initialisers (the unit tests build it whole): they must be the
+// declaration's defaults.
+static_assert(static_cast<const aaps::FeedbackParams&>(kParams.defaults()) ==
+              aaps::FeedbackParams{});
 
 // The budget knob (match: in a config): a smaller target splat area makes the density feedback emit
 // more photons (§4.5.2), so the cost falls and the error grows as the area grows.
 const pb_budget_knob kBudget[] = {{"target_area", PB_COST_FALLS, PB_ERROR_GROWS, PB_SCALE_LOG}};
-// clang-format on
 
 // clang-format off
-constexpr pb_counter_spec kEmitted{"photons_emitted", PB_COUNTER_WORK, "photons",
-                                   "photons emitted (the quadtree root)"};
-constexpr pb_counter_spec kRecorded{"photons_recorded", PB_COUNTER_WORK, "photons",
-                                    "photons stored at a diffuse hit"};
-constexpr pb_counter_spec kRecordedShare{"recorded_share", PB_COUNTER_RATIO, "photons",
-                                         "photons_recorded / photons_emitted"};
-constexpr pb_counter_spec kCulled{"photons_culled", PB_COUNTER_WORK, "photons",
-                                  "recorded but not splatted (culled or outside the frustum)"};
-constexpr pb_counter_spec kSplats{"splats_drawn", PB_COUNTER_WORK, "splats", "splats drawn"};
-constexpr pb_counter_spec kSplatsPerSample{"splats_per_sample", PB_COUNTER_WORK, "splats",
-                                           "splats in the multisampled list"};
-constexpr pb_counter_spec kNonContributing{"splats_noncontributing", PB_COUNTER_WORK, "splats",
-                                           "splats that reached no pixel centre or sample"};
-constexpr pb_counter_spec kNonContributingShare{"noncontributing_share", PB_COUNTER_RATIO,
-                                                "splats", "splats_noncontributing / splats_drawn"};
-// A counter named as a parameter is its resolved value (cell.json params_resolved): the samples
-// the device gave (1 without MSAA).
-constexpr pb_counter_spec kSamples{"msaa_samples", PB_COUNTER_SIZE, "samples",
-                                   "samples per pixel of the multisampled buffer (1: none)"};
+constexpr auto kCounters = pb::counters({
+    {"photons_emitted", PB_COUNTER_WORK, "photons", "photons emitted (the quadtree root)"},
+    {"photons_recorded", PB_COUNTER_WORK, "photons", "photons stored at a diffuse hit"},
+    {"recorded_share", PB_COUNTER_RATIO, "photons", "photons_recorded / photons_emitted"},
+    {"photons_culled", PB_COUNTER_WORK, "photons",
+     "recorded but not splatted (culled or outside the frustum)"},
+    {"splats_drawn", PB_COUNTER_WORK, "splats", "splats drawn"},
+    {"splats_per_sample", PB_COUNTER_WORK, "splats", "splats in the multisampled list"},
+    {"splats_noncontributing", PB_COUNTER_WORK, "splats",
+     "splats that reached no pixel centre or sample"},
+    {"noncontributing_share", PB_COUNTER_RATIO, "splats", "splats_noncontributing / splats_drawn"},
+    // A counter named as a parameter is its resolved value (cell.json params_resolved): the
+    // samples the device gave (1 without MSAA).
+    {"msaa_samples", PB_COUNTER_SIZE, "samples",
+     "samples per pixel of the multisampled buffer (1: none)"},
+    {"feedback_area_share_reflected", PB_COUNTER_RATIO, "px^2",
+     "the reflected halves' share of the projected area the density feedback sees"},
+    // Caustic irradiance luminance summed over the screen: the thesis's "total light" (§5.1.1).
+    {"caustic_energy", PB_COUNTER_SIZE, "W/m^2 px",
+     "caustic irradiance luminance summed over the screen"},
+});
 // clang-format on
-// Issue 25's splat-size question: accepted splats by projected ellipse area (px^2) per split half
-// (§3.3.1), and the reflected halves' share of the projected area the feedback sees
-// (A = sum f_p a_p over a texel's photons, §1.10b), over all texels.
+// The splat sizes of the split halves (§3.3.1): accepted splats by projected ellipse area (px^2)
+// per half, reflected then refracted, beside the reflected halves' share of the projected area the
+// feedback sees (A = sum f_p a_p over a texel's photons, §1.10b) above.
 constexpr double kAreaBins[] = {0.25, 1, 4, 16, 64};  // upper edges; the last bin is open
 constexpr size_t kAreaBinCount = std::size(kAreaBins) + 1;
 // clang-format off
-#define AAPS_AREA_BINS(half)                                                                   \
-  {{"splats_" half "_area_below_0p25", PB_COUNTER_WORK, "splats", "accepted " half " splats"}, \
-   {"splats_" half "_area_0p25_1", PB_COUNTER_WORK, "splats", "accepted " half " splats"},     \
-   {"splats_" half "_area_1_4", PB_COUNTER_WORK, "splats", "accepted " half " splats"},        \
-   {"splats_" half "_area_4_16", PB_COUNTER_WORK, "splats", "accepted " half " splats"},       \
-   {"splats_" half "_area_16_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"},      \
-   {"splats_" half "_area_above_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"}}
-constexpr pb_counter_spec kAreaHistogram[2][kAreaBinCount] = {AAPS_AREA_BINS("reflected"),
-                                                              AAPS_AREA_BINS("refracted")};
+#define AAPS_AREA_BINS(half)                                                                  \
+  {"splats_" half "_area_below_0p25", PB_COUNTER_WORK, "splats", "accepted " half " splats"}, \
+  {"splats_" half "_area_0p25_1", PB_COUNTER_WORK, "splats", "accepted " half " splats"},     \
+  {"splats_" half "_area_1_4", PB_COUNTER_WORK, "splats", "accepted " half " splats"},        \
+  {"splats_" half "_area_4_16", PB_COUNTER_WORK, "splats", "accepted " half " splats"},       \
+  {"splats_" half "_area_16_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"},      \
+  {"splats_" half "_area_above_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"}
+constexpr auto kAreaCounters =
+    pb::counters({AAPS_AREA_BINS("reflected"), AAPS_AREA_BINS("refracted")});
 #undef AAPS_AREA_BINS
-constexpr pb_counter_spec kReflectedAreaShare{
-    "feedback_area_share_reflected", PB_COUNTER_RATIO, "px^2",
-    "the reflected halves' share of the projected area the density feedback sees"};
-// Caustic irradiance luminance summed over the screen: the thesis's "total light" (§5.1.1).
-constexpr pb_counter_spec kEnergy{"caustic_energy", PB_COUNTER_SIZE, "W/m^2 px",
-                                  "caustic irradiance luminance summed over the screen"};
 // clang-format on
+static_assert(kAreaCounters.size() == 2 * kAreaBinCount);
 
 // Every counter above, for the descriptor.
-constexpr auto kCounters = [] {
-  std::array<pb_counter_spec, 11 + 2 * kAreaBinCount> all{
-      kEmitted, kRecorded,           kRecordedShare,   kCulled,
-      kSplats,  kSplatsPerSample,    kNonContributing, kNonContributingShare,
-      kSamples, kReflectedAreaShare, kEnergy};
-  for (size_t half = 0; half < 2; ++half)
-    for (size_t bin = 0; bin < kAreaBinCount; ++bin)
-      all[11 + half * kAreaBinCount + bin] = kAreaHistogram[half][bin];
-  return all;
-}();
-
-enum class Msaa { none, all, all_per_sample, small_per_sample };
+constexpr auto kAllCounters =
+    pb::toolkit::join_counters(std::to_array(kCounters.specs), std::to_array(kAreaCounters.specs));
 
 // The emission-parameter spacing the culling rule sizes every splat for (§3.3.5): the thesis's
 // base sampling, a 256 x 256 density texture at its floor of 4 photons a texel (2 x 2 each), so
@@ -182,49 +206,33 @@ class Aaps final : public pb::Technique {
   // What the parameters must be together (the descriptor's check: validate reports it before any
   // work); what the device must offer (msaa_samples) is setup's to refuse.
   static std::string check(const pb::Params& params) {
-    const int64_t side = params.integer("density_resolution");
-    if (side & (side - 1))
+    const AapsParams p = kParams.read(params);
+    if (p.density_resolution & (p.density_resolution - 1))
       return fmt::format(
-          "density_resolution: {} is not a power of two (the sum quadtree halves it)", side);
-    const double low = params.number("density_min"), high = params.number("density_max");
-    if (high > 0 && high < low)
-      return fmt::format("density_max: {} is below density_min = {} (0: no ceiling)", high, low);
+          "density_resolution: {} is not a power of two (the sum quadtree halves it)",
+          p.density_resolution);
+    if (p.density_max > 0 && p.density_max < p.density_min)
+      return fmt::format("density_max: {} is below density_min = {} (0: no ceiling)", p.density_max,
+                         p.density_min);
     return "";
   }
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    side_ = uint32_t(params.integer("density_resolution"));
-    feedback_.density_min = float(params.number("density_min"));
-    feedback_.density_max = float(params.number("density_max"));
-    feedback_.target_area = float(params.number("target_area"));
-    feedback_.variance_gain = float(params.number("variance_gain"));
-    feedback_.temporal_weight = float(params.number("temporal_weight"));
-    feedback_.neighbour_weight = float(params.number("neighbour_weight"));
-    footprint_scale_ = float(params.number("footprint_scale"));
-    max_anisotropy_ = float(params.number("max_anisotropy"));
-    cull_solid_angle_ = float(params.number("cull_solid_angle"));
-    depth_margin_ = float(params.number("depth_margin"));
-    msaa_threshold_ = float(params.number("msaa_threshold"));
-    const std::string& mode = params.choice("msaa");
-    msaa_ = mode == "all"                ? Msaa::all
-            : mode == "all_per_sample"   ? Msaa::all_per_sample
-            : mode == "small_per_sample" ? Msaa::small_per_sample
-                                         : Msaa::none;
-    pb::toolkit::configure_shadows(ctx, uint32_t(params.integer("shadow_map_size")));
+    p_ = kParams.read(params);
+    pb::toolkit::configure_shadows(ctx, p_.shadow_map_size);
 
     // The thesis's photons (photon_rules.h): the task buffer's emission and its caustic rule.
-    settings_.max_bounces = uint32_t(params.integer("max_bounces"));
+    settings_.max_bounces = p_.max_bounces;
     settings_.seed_per_frame = false;
     settings_.emission = &emission_;
     settings_.policy = &caustic_rule_;
-    emission_.set_jitter(params.flag("emission_jitter"));
-    refracted_area_only_ = params.choice("feedback_halves") == "refracted";
+    emission_.set_jitter(p_.emission_jitter);
 
     pb::gpu::Device& gpu = ctx.gpu();
     width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
     samples_ = 1;
-    if (msaa_ != Msaa::none) {
-      uint32_t wanted = uint32_t(params.integer("msaa_samples"));
+    if (p_.msaa != Msaa::none) {
+      const uint32_t wanted = p_.msaa_samples;
       // The device's highest count up to the one asked for. Below its highest a device need not
       // support every power of two; lavapipe offers 1 and 4 only.
       const uint32_t highest = gpu.limits().max_color_samples;
@@ -236,7 +244,7 @@ class Aaps final : public pb::Technique {
         throw pb::InputError(
             fmt::format("aaps: msaa {} needs a multisampled colour target; the "
                         "device offers 1 sample",
-                        mode));
+                        params.choice("msaa")));
     }
     constexpr vk::Format kFloat4 = vk::Format::eR32G32B32A32Sfloat;
     using Usage = vk::ImageUsageFlagBits;
@@ -244,7 +252,7 @@ class Aaps final : public pb::Technique {
     caustics_ = gpu.create_image("aaps.caustics", extent, kFloat4,
                                  Usage::eColorAttachment | Usage::eStorage);
     radiance_ = gpu.create_image("aaps.radiance", extent, kFloat4, Usage::eStorage);
-    if (msaa_ != Msaa::none) {
+    if (p_.msaa != Msaa::none) {
       caustics_msaa_ = gpu.create_image("aaps.caustics_msaa", extent, kFloat4,
                                         Usage::eColorAttachment | Usage::eSampled,
                                         vk::SampleCountFlagBits(samples_));
@@ -271,13 +279,13 @@ class Aaps final : public pb::Technique {
       return gpu.create_graphics_pipeline(desc);
     };
     splat_ = splat_pipeline("aaps.splat", kaaps_splat_frag_spv, vk::SampleCountFlagBits::e1, 0);
-    if (msaa_ == Msaa::all)
+    if (p_.msaa == Msaa::all)
       splat_msaa_ = splat_pipeline("aaps.splat_msaa", kaaps_splat_frag_spv,
                                    vk::SampleCountFlagBits(samples_), 0);
-    else if (msaa_ != Msaa::none)
+    else if (p_.msaa != Msaa::none)
       splat_msaa_ = splat_pipeline("aaps.splat_per_sample", kaaps_splat_sample_frag_spv,
                                    vk::SampleCountFlagBits(samples_), 1.f);
-    if (msaa_ == Msaa::none)
+    if (p_.msaa == Msaa::none)
       apply_ = gpu.create_compute_pipeline(
           "aaps.apply", kaaps_apply_comp_spv,
           {Binding::storage_image, Binding::storage_image, Binding::storage_image,
@@ -293,9 +301,10 @@ class Aaps final : public pb::Technique {
     pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
     lights_.resize(tracer.light_count());
     for (LightTasks& l : lights_) {
-      l.density.width = l.density.height = int(side_);
-      l.density.texels.assign(size_t(side_) * side_, feedback_.density_min);
-      l.quadtree.build(l.density.texels, side_);
+      l.density.width = l.density.height = int(p_.density_resolution);
+      l.density.texels.assign(size_t(p_.density_resolution) * p_.density_resolution,
+                              p_.density_min);
+      l.quadtree.build(l.density.texels, p_.density_resolution);
     }
   }
 
@@ -317,7 +326,7 @@ class Aaps final : public pb::Technique {
     {
       auto scope = ctx.pass("rasterize");
       draw(ctx, caustics_, splat_, vertices_, uint32_t(single_.size()), g);
-      if (msaa_ != Msaa::none)
+      if (p_.msaa != Msaa::none)
         draw(ctx, caustics_msaa_, splat_msaa_, vertices_msaa_, uint32_t(multi_.size()), g);
     }
     {
@@ -326,7 +335,7 @@ class Aaps final : public pb::Technique {
       auto scope = ctx.pass("apply");
       vk::CommandBuffer cmd = ctx.cmd();
       uint32_t push[3] = {width_, height_, samples_};
-      pb::gpu::Resource multi = msaa_ != Msaa::none
+      pb::gpu::Resource multi = p_.msaa != Msaa::none
                                     ? pb::gpu::Resource(pb::gpu::Sampled{&caustics_msaa_})
                                     : pb::gpu::Resource(&caustics_);
       apply_.bind(cmd, {&caustics_, multi, g.position, g.albedo, &radiance_, &luminance_}, push,
@@ -355,8 +364,8 @@ class Aaps final : public pb::Technique {
   void build_splats(pb::Context& ctx, const pb::FrameInfo& f) {
     single_.clear(), multi_.clear(), accepted_.clear();
     for (LightTasks& l : lights_) {
-      l.area.assign(size_t(side_) * side_, 0.f);
-      l.variance.assign(size_t(side_) * side_, 0.f);
+      l.area.assign(size_t(p_.density_resolution) * p_.density_resolution, 0.f);
+      l.variance.assign(size_t(p_.density_resolution) * p_.density_resolution, 0.f);
     }
     culled_ = 0;
     for (auto& h : area_histogram_) std::fill(std::begin(h), std::end(h), 0);
@@ -374,8 +383,8 @@ class Aaps final : public pb::Technique {
       LightTasks& light = lights_[p.light];
       aaps::SumQuadtree::Leaf leaf = light.quadtree.walk(p.path);
       glm::vec3 major, minor;
-      aaps::principal_axes(p.footprint_u * footprint_scale_, p.footprint_v * footprint_scale_,
-                           max_anisotropy_, major, minor);
+      aaps::principal_axes(p.footprint_u * p_.footprint_scale, p.footprint_v * p_.footprint_scale,
+                           p_.max_anisotropy, major, minor);
       float world_area = float(M_PI) * glm::length(major) * glm::length(minor);
       glm::vec2 c, s1, s2;
       bool visible = to_screen(p.position, c) && to_screen(p.position + major, s1) &&
@@ -387,11 +396,11 @@ class Aaps final : public pb::Technique {
       // photon's size based on the density texture resolution and sample count": sized for one
       // fixed spacing of the emission parameter, whatever this photon's texel holds.
       bool too_big = false;
-      if (cull_solid_angle_ > 0) {
-        float spacing = 1.f / (float(side_) * float(std::max(1u, leaf.m)));
+      if (p_.cull_solid_angle > 0) {
+        float spacing = 1.f / (float(p_.density_resolution) * float(std::max(1u, leaf.m)));
         float scale = kCullSpacing / spacing;
         float d2 = light_distance_squared(ctx, p);
-        too_big = world_area * scale * scale / std::max(d2, 1e-12f) > cull_solid_angle_;
+        too_big = world_area * scale * scale / std::max(d2, 1e-12f) > p_.cull_solid_angle;
       }
       if (!in_frustum || too_big || !(world_area > 0)) {
         ++culled_;
@@ -403,14 +412,15 @@ class Aaps final : public pb::Technique {
       // The texel's own emitted power (the tracer's): a spot light's texels differ by its falloff.
       float fraction = aaps::energy_fraction(p.power, texel_power_[p.light][leaf.texel]);
       const int half = (p.flags & aaps::kRefractedHalf) ? 1 : 0;
-      if (!refracted_area_only_ || half == 1) light.area[leaf.texel] += fraction * screen_area;
+      if (p_.feedback_halves == FeedbackHalves::both || half == 1)
+        light.area[leaf.texel] += fraction * screen_area;
       size_t bin = 0;
       while (bin < std::size(kAreaBins) && screen_area >= float(kAreaBins[bin])) ++bin;
       ++area_histogram_[half][bin];
       weighted_area_[half] += double(fraction) * screen_area;
       accepted_.push_back({p.position, p.light, leaf.texel, fraction});
-      bool per_sample = msaa_ == Msaa::all || msaa_ == Msaa::all_per_sample ||
-                        (msaa_ == Msaa::small_per_sample && screen_area < msaa_threshold_);
+      bool per_sample = p_.msaa == Msaa::all || p_.msaa == Msaa::all_per_sample ||
+                        (p_.msaa == Msaa::small_per_sample && screen_area < p_.msaa_threshold);
       std::vector<Vertex>& list = per_sample ? multi_ : single_;
       uint32_t splat = uint32_t(accepted_.size() - 1);
       const glm::vec2 corner[6] = {{-1, -1}, {1, -1}, {1, 1}, {-1, -1}, {1, 1}, {-1, 1}};
@@ -466,7 +476,7 @@ class Aaps final : public pb::Technique {
       cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
       cmd.setScissor(0, area);
       pipeline.bind(cmd, {&ctx.shared().frame_buffer(), g.position, g.normal, &contributed_},
-                    depth_margin_);
+                    p_.depth_margin);
       cmd.bindVertexBuffers(0, vertices.handle(), vk::DeviceSize(0));
       cmd.draw(vertex_count, 1, 0, 0);
     }
@@ -479,25 +489,28 @@ class Aaps final : public pb::Technique {
     const uint32_t* flags = static_cast<const uint32_t*>(contributed_.mapped());
     uint64_t silent = 0;
     for (size_t i = 0; i < accepted_.size(); ++i) silent += flags[i] == 0 ? 1 : 0;
-    pb::count(ctx, kEmitted, double(emitted));
-    pb::count(ctx, kRecorded, double(recorded));
-    pb::count(ctx, kRecordedShare, emitted > 0 ? double(recorded) / double(emitted) : 0.0);
-    pb::count(ctx, kCulled, double(culled_));
-    pb::count(ctx, kSplats, double(accepted_.size()));
-    pb::count(ctx, kSplatsPerSample, double(splats_per_sample_));
-    pb::count(ctx, kNonContributing, double(silent));
-    pb::count(ctx, kNonContributingShare,
+    pb::count(ctx, kCounters["photons_emitted"], double(emitted));
+    pb::count(ctx, kCounters["photons_recorded"], double(recorded));
+    pb::count(ctx, kCounters["recorded_share"],
+              emitted > 0 ? double(recorded) / double(emitted) : 0.0);
+    pb::count(ctx, kCounters["photons_culled"], double(culled_));
+    pb::count(ctx, kCounters["splats_drawn"], double(accepted_.size()));
+    pb::count(ctx, kCounters["splats_per_sample"], double(splats_per_sample_));
+    pb::count(ctx, kCounters["splats_noncontributing"], double(silent));
+    pb::count(ctx, kCounters["noncontributing_share"],
               accepted_.empty() ? 0.0 : double(silent) / double(accepted_.size()));
-    pb::count(ctx, kSamples, double(samples_));
+    pb::count(ctx, kCounters["msaa_samples"], double(samples_));
     for (int half = 0; half < 2; ++half)
       for (size_t bin = 0; bin < kAreaBinCount; ++bin)
-        pb::count(ctx, kAreaHistogram[half][bin], double(area_histogram_[half][bin]));
+        pb::count(ctx, kAreaCounters.specs[half * kAreaBinCount + bin],
+                  double(area_histogram_[half][bin]));
     const double weighted = weighted_area_[0] + weighted_area_[1];
-    pb::count(ctx, kReflectedAreaShare, weighted > 0 ? weighted_area_[0] / weighted : 0.0);
+    pb::count(ctx, kCounters["feedback_area_share_reflected"],
+              weighted > 0 ? weighted_area_[0] / weighted : 0.0);
     const float* luminance = static_cast<const float*>(luminance_.mapped());
     double energy = 0;
     for (size_t i = 0; i < size_t(width_) * height_; ++i) energy += luminance[i];
-    pb::count(ctx, kEnergy, energy);
+    pb::count(ctx, kCounters["caustic_energy"], energy);
   }
 
   // §1.10: variance by reprojection against the previous frame's caustics, the density update and
@@ -518,21 +531,16 @@ class Aaps final : public pb::Technique {
     {
       auto scope = ctx.pass("density");
       for (LightTasks& l : lights_)
-        aaps::update_density(l.density.texels, l.area, l.variance, side_, feedback_);
+        aaps::update_density(l.density.texels, l.area, l.variance, p_.density_resolution, p_);
     }
     {
       auto scope = ctx.pass("quadtree");
-      for (LightTasks& l : lights_) l.quadtree.build(l.density.texels, side_);
+      for (LightTasks& l : lights_) l.quadtree.build(l.density.texels, p_.density_resolution);
     }
   }
 
-  uint32_t side_ = 256, width_ = 0, height_ = 0, samples_ = 1;
-  aaps::FeedbackParams feedback_;
-  float footprint_scale_ = 0.71f, max_anisotropy_ = 16, cull_solid_angle_ = 0,
-        depth_margin_ = 0.01f;
-  float msaa_threshold_ = 2;
-  Msaa msaa_ = Msaa::none;
-  bool refracted_area_only_ = false;
+  AapsParams p_ = kParams.defaults();
+  uint32_t width_ = 0, height_ = 0, samples_ = 1;
   pb::trace::TraceSettings settings_;
   aaps::GridEmission emission_;
   aaps::CausticSplitRule caustic_rule_;
@@ -557,4 +565,5 @@ class Aaps final : public pb::Technique {
 PB_EXPORT_TECHNIQUE(Aaps, "aaps", "caustics",
                     "adaptive anisotropic photon scattering (seed 004): task-buffer emission, "
                     "elliptical splats rasterised with optional (per-sample) MSAA",
-                    kParams, .counters = kCounters, .check = &Aaps::check, .budget = kBudget)
+                    kParams.rows, .counters = kAllCounters, .check = &Aaps::check,
+                    .budget = kBudget)

@@ -196,6 +196,8 @@ struct KernelParams {
   float l_max = 1.f;  // Eq. 6.1's ray length of the widest kernel, m
   float s_n = 0.25f;  // compression along the normal
   float s_max = 5.f;  // Eq. 6.3's clamp of the stretch along the projected light direction
+
+  constexpr bool operator==(const KernelParams&) const = default;
 };
 
 // An ellipsoid kernel: axes u (the incident direction projected on the tangent plane), t and n
@@ -299,6 +301,8 @@ struct FilterParams {
   int iterations = 4;       // a-trous iterations (§7.3)
   bool detail_clip = true;  // §7.3.1
   float gamma = 0.05f;      // §7.3.1: the clip is gamma sigma
+
+  constexpr bool operator==(const FilterParams&) const = default;
 };
 
 // §7.1: w_n = max(0, n_p . n_q)^sigma_n; w_z = exp(-|z_p - z_q| / (sigma_z |grad z . (p - q)| +
@@ -455,6 +459,8 @@ struct ShadeParams {
   bool direction_term = false;  // §7.4, Eq. 7.10
   float sl_max = 4.f;           // Eq. 7.10's clamp of 1 / (w . n_geometric)
   float epsilon = 0.05f;        // Eq. 7.10's epsilon
+
+  constexpr bool operator==(const ShadeParams&) const = default;
 };
 
 // §7.4: L = E albedo / pi (Eq. 7.9), with the direction term (Eq. 7.10 as the prose reads it:

@@ -40,107 +40,150 @@ namespace {
 
 using pb::gpu::Binding;
 
-// clang-format off
-const pb_param_spec kParams[] = {
-    pb::toolkit::with_range(pb::toolkit::kPhotonsParam, 100000, 1, 5e7,
-                            "photons emitted per frame from the probability maps, shared among "
-                            "lights by power (the thesis: 1 M at 1080p; kept small for lavapipe)"),
-    pb::toolkit::with_range(pb::toolkit::kMaxBouncesParam, 2, 2, 16,
-                            "surface interactions per photon path; photons are stored at hits 2 "
-                            "to max_bounces (the thesis's one bounce, §8: max_bounces 2)"),
-    {"rsm_resolution", PB_PARAM_INT, 64, 2, 1024, nullptr, "texels",
-     "side of each light's RSM and probability map over its emission domain, a power of two (the "
-     "Haar transform halves it; unspecified in the thesis)"},
-    {"photon_near", PB_PARAM_FLOAT, 0, 0, 1e6, nullptr, "m",
-     "photon near plane: probability 0 for RSM texels closer to the light (§5.2, Fig. 5.3)"},
-    {"photon_far", PB_PARAM_FLOAT, 1000, 0, 1e6, nullptr, "m",
-     "photon far plane: probability 0 for RSM texels farther from the light (§5.2)"},
-    {"sampler", PB_PARAM_ENUM, 0, 0, 1, "wavelet|tracer", "",
-     "wavelet: photons start at Hammersley points warped through the map's Haar pyramid (§5.3); "
-     "tracer: the tracer's own sampling of the same map (CDF inversion of Sobol points)"},
-    {"first_hit_roulette", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
-     "sampler tracer: Russian roulette (Eq. 4.9) at the first hit too, as the thesis runs it on "
-     "its sampling points (§5.3.3, p applied twice); false: the map's survival factor alone"},
-    {"tile_size", PB_PARAM_INT, 16, 1, 512, nullptr, "px",
-     "side of the screen tiles whose photon counts size the kernels (§6.1.1; unspecified)"},
-    {"n_tile", PB_PARAM_FLOAT, 3.2, 0.01, 100, nullptr, "",
-     "n_tile of Eq. 6.2, the kernel radius multiplier (§8: 1.25 Sponza, 1.7 Conference room; "
-     "3.2: kernels cover each point about n_tile^2 s_l^2 / 4 times, README)"},
-    {"kernel_min_radius", PB_PARAM_FLOAT, 0.005, 0, 100, nullptr, "m",
-     "r_min of Eq. 6.2, the density radius's lower clamp (unspecified)"},
-    {"kernel_max_radius", PB_PARAM_FLOAT, 0.25, 1e-4, 100, nullptr, "m",
-     "r_max of Eq. 6.2, its upper clamp (unspecified)"},
-    {"ray_length_max", PB_PARAM_FLOAT, 1, 1e-3, 1e4, nullptr, "m",
-     "l_max of Eq. 6.1: a ray this long gets the full kernel, shorter ones down to 0.1 of it "
-     "(unspecified; about the scene's size)"},
-    {"kernel_compress", PB_PARAM_FLOAT, 0.25, 1e-3, 1, nullptr, "",
-     "s_n: the kernel's half-length along the normal over its tangent radius (unspecified)"},
-    {"kernel_max_stretch", PB_PARAM_FLOAT, 5, 1, 100, nullptr, "",
-     "s_max of Eq. 6.3: the largest stretch along the projected light direction (unspecified)"},
-    {"splat_scale", PB_PARAM_ENUM, 1, 0, 2, "full|half|quarter", "",
-     "resolution of the splat targets (§6.2.1: half; quarter had precision issues)"},
-    {"estimate", PB_PARAM_ENUM, 0, 0, 1, "splat|gather", "",
-     "the screen-space irradiance estimate: splat (instanced kernels, additive blending, §6.2) or "
-     "gather (five compute passes: tile lists of kernels, then per pixel a loop over its tile's, "
-     "§6.3; the thesis found it slower, Table 6.1); the same kernels, targets and ellipsoid test"},
-    {"gather_tile", PB_PARAM_INT, 8, 1, 64, nullptr, "px",
-     "estimate gather: side of the gathering tiles at the splat resolution (unspecified; 8: one "
-     "8x8 workgroup a tile)"},
-    {"gather_capacity", PB_PARAM_FLOAT, 16, 0.01, 4096, nullptr, "entries/kernel",
-     "estimate gather: the index buffer's size, in entries per kernel drawn (§6.3: it must be "
-     "estimated; entries past it are dropped and counted, the thesis's corruption)"},
-    {"temporal", PB_PARAM_BOOL, 1, 0, 1, nullptr, "", "the temporal filter (§7.2)"},
-    {"temporal_alpha", PB_PARAM_FLOAT, 0.95, 0, 1, nullptr, "",
-     "alpha_max of Eq. 7.4 (the thesis's value)"},
-    {"spatial", PB_PARAM_BOOL, 1, 0, 1, nullptr, "", "the a-trous spatial filter (§7.3)"},
-    {"spatial_iterations", PB_PARAM_INT, 4, 1, 8, nullptr, "iterations",
-     "a-trous iterations, taps 2^i apart (the thesis's F-iter: 4)"},
-    {"detail_clip", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
-     "keep each iteration's detail clipped to +-gamma sigma (§7.3.1); false: S_N alone"},
-    {"detail_gamma", PB_PARAM_FLOAT, 0.05, 0, 100, nullptr, "",
-     "gamma of the detail clip (§8: 0.05 Conference room, 0.04 Sponza)"},
-    {"sigma_z", PB_PARAM_FLOAT, 1, 0, 1000, nullptr, "", "sigma_z of w_z (§7.1: 1)"},
-    {"sigma_n", PB_PARAM_FLOAT, 32, 0, 1000, nullptr, "", "sigma_n of w_n (§7.1: 32)"},
-    {"depth_epsilon", PB_PARAM_FLOAT, 0.01, 1e-6, 1, nullptr, "fraction",
-     "epsilon of w_z as a fraction of the pixel's depth (unspecified; the temporal tolerance)"},
-    {"direction_term", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
-     "shade with the filtered mean light direction (Eq. 7.10: its cosine with the shading normal "
-     "over that with the geometric one); off: Eq. 7.9"},
-    {"direction_max_scale", PB_PARAM_FLOAT, 4, 1, 1000, nullptr, "",
-     "sl_max of Eq. 7.10 (unspecified)"},
-    pb::toolkit::kShadowMapSizeParam,
+// The choices of the enumerated parameters, in their declared order.
+enum class Sampler : uint32_t { wavelet, tracer };
+enum class SplatScale : uint32_t { full, half, quarter };  // 1, 1/2 and 1/4 of each side
+enum class Estimate : uint32_t { splat, gather };
+
+// Every parameter of a cell: the core's kernel, filter and shading parameters (rsm_core.h, whose
+// initialisers are the thesis's values) and the technique's own.
+struct RsmParams : rsm::KernelParams, rsm::FilterParams, rsm::ShadeParams {
+  uint32_t photons;
+  uint32_t max_bounces;
+  uint32_t rsm_resolution;
+  float photon_near, photon_far;
+  Sampler sampler;
+  bool first_hit_roulette;
+  uint32_t tile_size;
+  SplatScale splat_scale;
+  Estimate estimate;
+  uint32_t gather_tile;
+  double gather_capacity;
+  bool temporal, spatial;
+  uint32_t shadow_map_size;
 };
 
-constexpr pb_counter_spec kSamplingPoints{"sampling_points", PB_COUNTER_WORK, "paths",
-                                          "photon paths started from the probability maps"};
-constexpr pb_counter_spec kSurvivors{"sampling_points_survived", PB_COUNTER_WORK, "paths",
-                                     "paths that left their first hit (roulette, Fig. 5.1)"};
-constexpr pb_counter_spec kRsmTexels{"rsm_texels_active", PB_COUNTER_SIZE, "texels",
-                                     "RSM texels of non-zero probability, all lights"};
-constexpr pb_counter_spec kCulled{"photons_culled", PB_COUNTER_WORK, "photons",
-                                  "stored photons outside the camera frustum or facing away"};
-constexpr pb_counter_spec kSplats{"splats", PB_COUNTER_WORK, "splats", "kernels drawn"};
-constexpr pb_counter_spec kTileMax{"tile_photons_max", PB_COUNTER_SIZE, "photons",
-                                   "photons of the fullest screen tile (n_p of Eq. 6.2)"};
-constexpr pb_counter_spec kTileMean{"tile_photons_mean", PB_COUNTER_SIZE, "photons",
-                                    "photons per screen tile that holds any"};
-constexpr pb_counter_spec kTilesEmpty{"tiles_empty", PB_COUNTER_RATIO, "tiles",
-                                      "share of the screen tiles without a photon"};
-constexpr pb_counter_spec kGatherEntries{"gather_entries", PB_COUNTER_SIZE, "entries",
-                                         "estimate gather: tile-list entries the kernels need"};
-constexpr pb_counter_spec kGatherDropped{"gather_dropped", PB_COUNTER_WORK, "entries",
-                                         "estimate gather: entries past the index buffer, dropped"};
-constexpr pb_counter_spec kBytesGpu{"bytes_gpu", PB_COUNTER_SIZE, "bytes",
-                                    "the technique's GPU buffers and images"};
-constexpr pb_counter_spec kBytesHost{"bytes_host", PB_COUNTER_SIZE, "bytes",
-                                     "photons, kept paths, RSMs, maps, filter history (host)"};
+// A core struct's field as a field of RsmParams (a row binds the struct it reads into).
+template <class F, class Core>
+constexpr F RsmParams::*core(F Core::*field) {
+  return field;
+}
+
+// clang-format off
+constexpr auto kParams = pb::params(
+    pb::bind(pb::toolkit::with_range(pb::toolkit::kPhotonsParam, 100000, 1, 5e7,
+                                     "photons emitted per frame from the probability maps, shared "
+                                     "among lights by power (the thesis: 1 M at 1080p; kept small "
+                                     "for lavapipe)"),
+             &RsmParams::photons),
+    pb::bind(pb::toolkit::with_range(pb::toolkit::kMaxBouncesParam, 2, 2, 16,
+                                     "surface interactions per photon path; photons are stored at "
+                                     "hits 2 to max_bounces (the thesis's one bounce, §8: "
+                                     "max_bounces 2)"),
+             &RsmParams::max_bounces),
+    pb::param("rsm_resolution", &RsmParams::rsm_resolution, 64, {2, 1024}, "texels",
+              "side of each light's RSM and probability map over its emission domain, a power of "
+              "two (the Haar transform halves it; unspecified in the thesis)"),
+    pb::param("photon_near", &RsmParams::photon_near, 0, {0, 1e6}, "m",
+              "photon near plane: probability 0 for RSM texels closer to the light (§5.2, Fig. "
+              "5.3)"),
+    pb::param("photon_far", &RsmParams::photon_far, 1000, {0, 1e6}, "m",
+              "photon far plane: probability 0 for RSM texels farther from the light (§5.2)"),
+    pb::param("sampler", &RsmParams::sampler, Sampler::wavelet, "wavelet|tracer",
+              "wavelet: photons start at Hammersley points warped through the map's Haar pyramid "
+              "(§5.3); tracer: the tracer's own sampling of the same map (CDF inversion of Sobol "
+              "points)"),
+    pb::param("first_hit_roulette", &RsmParams::first_hit_roulette, false,
+              "sampler tracer: Russian roulette (Eq. 4.9) at the first hit too, as the thesis runs "
+              "it on its sampling points (§5.3.3, p applied twice); false: the map's survival "
+              "factor alone"),
+    pb::param("tile_size", &RsmParams::tile_size, 16, {1, 512}, "px",
+              "side of the screen tiles whose photon counts size the kernels (§6.1.1; "
+              "unspecified)"),
+    pb::param("n_tile", core(&rsm::KernelParams::n_tile), 3.2, {0.01, 100}, "",
+              "n_tile of Eq. 6.2, the kernel radius multiplier (§8: 1.25 Sponza, 1.7 Conference "
+              "room; 3.2: kernels cover each point about n_tile^2 s_l^2 / 4 times, README)"),
+    pb::param("kernel_min_radius", core(&rsm::KernelParams::r_min), 0.005, {0, 100}, "m",
+              "r_min of Eq. 6.2, the density radius's lower clamp (unspecified)"),
+    pb::param("kernel_max_radius", core(&rsm::KernelParams::r_max), 0.25, {1e-4, 100}, "m",
+              "r_max of Eq. 6.2, its upper clamp (unspecified)"),
+    pb::param("ray_length_max", core(&rsm::KernelParams::l_max), 1, {1e-3, 1e4}, "m",
+              "l_max of Eq. 6.1: a ray this long gets the full kernel, shorter ones down to 0.1 of "
+              "it (unspecified; about the scene's size)"),
+    pb::param("kernel_compress", core(&rsm::KernelParams::s_n), 0.25, {1e-3, 1}, "",
+              "s_n: the kernel's half-length along the normal over its tangent radius "
+              "(unspecified)"),
+    pb::param("kernel_max_stretch", core(&rsm::KernelParams::s_max), 5, {1, 100}, "",
+              "s_max of Eq. 6.3: the largest stretch along the projected light direction "
+              "(unspecified)"),
+    pb::param("splat_scale", &RsmParams::splat_scale, SplatScale::half, "full|half|quarter",
+              "resolution of the splat targets (§6.2.1: half; quarter had precision issues)"),
+    pb::param("estimate", &RsmParams::estimate, Estimate::splat, "splat|gather",
+              "the screen-space irradiance estimate: splat (instanced kernels, additive blending, "
+              "§6.2) or gather (five compute passes: tile lists of kernels, then per pixel a loop "
+              "over its tile's, §6.3; the thesis found it slower, Table 6.1); the same kernels, "
+              "targets and ellipsoid test"),
+    pb::param("gather_tile", &RsmParams::gather_tile, 8, {1, 64}, "px",
+              "estimate gather: side of the gathering tiles at the splat resolution (unspecified; "
+              "8: one 8x8 workgroup a tile)"),
+    pb::param("gather_capacity", &RsmParams::gather_capacity, 16, {0.01, 4096}, "entries/kernel",
+              "estimate gather: the index buffer's size, in entries per kernel drawn (§6.3: it "
+              "must be estimated; entries past it are dropped and counted, the thesis's "
+              "corruption)"),
+    pb::param("temporal", &RsmParams::temporal, true, "the temporal filter (§7.2)"),
+    pb::param("temporal_alpha", core(&rsm::FilterParams::alpha_max), 0.95, {0, 1}, "",
+              "alpha_max of Eq. 7.4 (the thesis's value)"),
+    pb::param("spatial", &RsmParams::spatial, true, "the a-trous spatial filter (§7.3)"),
+    pb::param("spatial_iterations", core(&rsm::FilterParams::iterations), 4, {1, 8}, "iterations",
+              "a-trous iterations, taps 2^i apart (the thesis's F-iter: 4)"),
+    pb::param("detail_clip", core(&rsm::FilterParams::detail_clip), true,
+              "keep each iteration's detail clipped to +-gamma sigma (§7.3.1); false: S_N alone"),
+    pb::param("detail_gamma", core(&rsm::FilterParams::gamma), 0.05, {0, 100}, "",
+              "gamma of the detail clip (§8: 0.05 Conference room, 0.04 Sponza)"),
+    pb::param("sigma_z", core(&rsm::FilterParams::sigma_z), 1, {0, 1000}, "",
+              "sigma_z of w_z (§7.1: 1)"),
+    pb::param("sigma_n", core(&rsm::FilterParams::sigma_n), 32, {0, 1000}, "",
+              "sigma_n of w_n (§7.1: 32)"),
+    pb::param("depth_epsilon", core(&rsm::FilterParams::epsilon), 0.01, {1e-6, 1}, "fraction",
+              "epsilon of w_z as a fraction of the pixel's depth (unspecified; the temporal "
+              "tolerance)"),
+    pb::param("direction_term", core(&rsm::ShadeParams::direction_term), false,
+              "shade with the filtered mean light direction (Eq. 7.10: its cosine with the "
+              "shading normal over that with the geometric one); off: Eq. 7.9"),
+    pb::param("direction_max_scale", core(&rsm::ShadeParams::sl_max), 4, {1, 1000}, "",
+              "sl_max of Eq. 7.10 (unspecified)"),
+    pb::bind(pb::toolkit::kShadowMapSizeParam, &RsmParams::shadow_map_size));
 // clang-format on
-constexpr pb_counter_spec kCounters[] = {
-    kSamplingPoints, kSurvivors,     pb::toolkit::kPhotonsStoredCounter,
-    kRsmTexels,      kCulled,        kSplats,
-    kTileMax,        kTileMean,      kTilesEmpty,
-    kGatherEntries,  kGatherDropped, kBytesGpu,
-    kBytesHost};
+// The core structs keep their initialisers (the unit tests build them whole): they must be the
+// declaration's defaults.
+static_assert(static_cast<const rsm::KernelParams&>(kParams.defaults()) == rsm::KernelParams{} &&
+              static_cast<const rsm::FilterParams&>(kParams.defaults()) == rsm::FilterParams{} &&
+              static_cast<const rsm::ShadeParams&>(kParams.defaults()) == rsm::ShadeParams{});
+
+// clang-format off
+constexpr auto kCounters = pb::counters({
+    {"sampling_points", PB_COUNTER_WORK, "paths", "photon paths started from the probability maps"},
+    {"sampling_points_survived", PB_COUNTER_WORK, "paths",
+     "paths that left their first hit (roulette, Fig. 5.1)"},
+    pb::toolkit::kPhotonsStoredCounter,
+    {"rsm_texels_active", PB_COUNTER_SIZE, "texels",
+     "RSM texels of non-zero probability, all lights"},
+    {"photons_culled", PB_COUNTER_WORK, "photons",
+     "stored photons outside the camera frustum or facing away"},
+    {"splats", PB_COUNTER_WORK, "splats", "kernels drawn"},
+    {"tile_photons_max", PB_COUNTER_SIZE, "photons",
+     "photons of the fullest screen tile (n_p of Eq. 6.2)"},
+    {"tile_photons_mean", PB_COUNTER_SIZE, "photons", "photons per screen tile that holds any"},
+    {"tiles_empty", PB_COUNTER_RATIO, "tiles", "share of the screen tiles without a photon"},
+    {"gather_entries", PB_COUNTER_SIZE, "entries",
+     "estimate gather: tile-list entries the kernels need"},
+    {"gather_dropped", PB_COUNTER_WORK, "entries",
+     "estimate gather: entries past the index buffer, dropped"},
+    {"bytes_gpu", PB_COUNTER_SIZE, "bytes", "the technique's GPU buffers and images"},
+    {"bytes_host", PB_COUNTER_SIZE, "bytes",
+     "photons, kept paths, RSMs, maps, filter history (host)"},
+});
+// clang-format on
 
 // The splat proxy: an octahedron circumscribing the unit sphere (vertices at +-sqrt(3) on the
 // axes: its faces are 1 from the centre), 8 faces of 3 vertices, each with its face's outward
@@ -183,51 +226,26 @@ static_assert(sizeof(GatherState) == 32, "rsm_gather.glsl's State block");
 class RsmPhotons final : public pb::Technique {
  public:
   static std::string check(const pb::Params& params) {
-    const int64_t side = params.integer("rsm_resolution");
-    if (side & (side - 1))
+    const RsmParams p = kParams.read(params);
+    if (p.rsm_resolution & (p.rsm_resolution - 1))
       return fmt::format("rsm_resolution: {} is not a power of two (the Haar transform halves it)",
-                         side);
-    const double near_m = params.number("photon_near"), far_m = params.number("photon_far");
-    if (far_m <= near_m)
-      return fmt::format("photon_far: {} is not beyond photon_near = {}", far_m, near_m);
-    if (params.flag("first_hit_roulette") && params.choice("sampler") == "wavelet")
+                         p.rsm_resolution);
+    if (p.photon_far <= p.photon_near)
+      return fmt::format("photon_far: {} is not beyond photon_near = {}", p.photon_far,
+                         p.photon_near);
+    if (p.first_hit_roulette && p.sampler == Sampler::wavelet)
       return "first_hit_roulette: true needs sampler: tracer (the warped points are re-emitted "
              "from the RSM pass's paths, which play no roulette at their first hit)";
-    const double low = params.number("kernel_min_radius"),
-                 high = params.number("kernel_max_radius");
-    if (high < low)
-      return fmt::format("kernel_max_radius: {} is below kernel_min_radius = {}", high, low);
+    if (p.r_max < p.r_min)
+      return fmt::format("kernel_max_radius: {} is below kernel_min_radius = {}", p.r_max, p.r_min);
     return "";
   }
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    side_ = uint32_t(params.integer("rsm_resolution"));
-    photon_near_ = float(params.number("photon_near"));
-    photon_far_ = float(params.number("photon_far"));
-    tile_ = uint32_t(params.integer("tile_size"));
-    kernel_.n_tile = float(params.number("n_tile"));
-    kernel_.r_min = float(params.number("kernel_min_radius"));
-    kernel_.r_max = float(params.number("kernel_max_radius"));
-    kernel_.l_max = float(params.number("ray_length_max"));
-    kernel_.s_n = float(params.number("kernel_compress"));
-    kernel_.s_max = float(params.number("kernel_max_stretch"));
-    const std::string& scale = params.choice("splat_scale");
-    scale_ = scale == "full" ? 1 : scale == "half" ? 2 : 4;
-    gather_ = params.choice("estimate") == "gather";
-    gather_tile_ = uint32_t(params.integer("gather_tile"));
-    gather_capacity_ = params.number("gather_capacity");
-    temporal_ = params.flag("temporal");
-    spatial_ = params.flag("spatial");
-    filter_.alpha_max = float(params.number("temporal_alpha"));
-    filter_.iterations = int(params.integer("spatial_iterations"));
-    filter_.detail_clip = params.flag("detail_clip");
-    filter_.gamma = float(params.number("detail_gamma"));
-    filter_.sigma_z = float(params.number("sigma_z"));
-    filter_.sigma_n = float(params.number("sigma_n"));
-    filter_.epsilon = float(params.number("depth_epsilon"));
-    shade_.direction_term = params.flag("direction_term");
-    shade_.sl_max = float(params.number("direction_max_scale"));
-    pb::toolkit::configure_shadows(ctx, uint32_t(params.integer("shadow_map_size")));
+    p_ = kParams.read(params);
+    scale_ = 1u << uint32_t(p_.splat_scale);  // full, half, quarter: 1, 2, 4
+    gather_ = p_.estimate == Estimate::gather;
+    pb::toolkit::configure_shadows(ctx, p_.shadow_map_size);
 
     // The RSM pass: one ray per texel of each light's emission domain (an Owen-scrambled Sobol net
     // of side^2 points has one point in each texel), kept whole so that its first hit can be read
@@ -235,8 +253,7 @@ class RsmPhotons final : public pb::Technique {
     // reflectance); no roulette at the first hit, so every texel's reflectance is seen. With the
     // wavelet sampler its paths are then re-emitted from the warped points (photon-trace), so it
     // traces with the photons' settings.
-    wavelet_ = params.choice("sampler") == "wavelet";
-    rsm_settings_.max_bounces = uint32_t(params.integer("max_bounces"));
+    rsm_settings_.max_bounces = p_.max_bounces;
     rsm_settings_.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
     rsm_settings_.rr_start = 1;
     rsm_settings_.keep_light_paths = true;
@@ -244,10 +261,10 @@ class RsmPhotons final : public pb::Technique {
     rsm_settings_.seed_per_frame = true;
     // The photons: the first hit not stored (the photon map holds indirect bounces only, Fig. 4.1),
     // kept whole for each photon's ray length (Eq. 6.1).
-    trace_.paths = uint32_t(params.integer("photons"));
-    trace_.max_bounces = uint32_t(params.integer("max_bounces"));
+    trace_.paths = p_.photons;
+    trace_.max_bounces = p_.max_bounces;
     trace_.store = pb::trace::kIndirectPhotons | pb::trace::kCausticIndirectPhotons;
-    trace_.rr_start = params.flag("first_hit_roulette") ? 0 : 1;
+    trace_.rr_start = p_.first_hit_roulette ? 0 : 1;
     trace_.keep_light_paths = true;
     trace_.seed = 1;
     trace_.seed_per_frame = true;
@@ -359,15 +376,17 @@ class RsmPhotons final : public pb::Technique {
     {
       auto scope = ctx.pass("cast");
       for (uint32_t l = 0; l < n_lights; ++l) tracer.set_emission_density(l, nullptr);
-      rsm_settings_.paths = side_ * side_ * std::max(1u, n_lights);
+      rsm_settings_.paths = p_.rsm_resolution * p_.rsm_resolution * std::max(1u, n_lights);
       tracer.trace(rsm_settings_, rsm_batch_);
-      for (LightMap& m : lights_) m.texels.assign(size_t(side_) * side_, rsm::RsmTexel{});
+      for (LightMap& m : lights_)
+        m.texels.assign(size_t(p_.rsm_resolution) * p_.rsm_resolution, rsm::RsmTexel{});
       const auto& paths = rsm_batch_.paths;
       for (const pb::trace::LightPath& path : paths.paths) {
         if (path.light >= n_lights || path.vertex_count == 0) continue;
         const glm::vec2 uv = glm::clamp(path.emission_uv, glm::vec2(0.f), glm::vec2(0.99999f));
-        const uint32_t x = uint32_t(uv.x * float(side_)), y = uint32_t(uv.y * float(side_));
-        rsm::RsmTexel& t = lights_[path.light].texels[size_t(y) * side_ + x];
+        const uint32_t x = uint32_t(uv.x * float(p_.rsm_resolution)),
+                       y = uint32_t(uv.y * float(p_.rsm_resolution));
+        rsm::RsmTexel& t = lights_[path.light].texels[size_t(y) * p_.rsm_resolution + x];
         if (t.sampled) continue;  // one ray per texel (a second one where lights share the net)
         t.sampled = true;
         const pb::trace::PathVertex& v0 = paths.vertices[path.first_vertex];
@@ -389,11 +408,11 @@ class RsmPhotons final : public pb::Technique {
       active_texels_ = 0;
       for (uint32_t l = 0; l < n_lights; ++l) {
         LightMap& m = lights_[l];
-        m.probability = rsm::probability_map(m.texels, photon_near_, photon_far_);
-        m.pyramid.build(m.probability, side_);
+        m.probability = rsm::probability_map(m.texels, p_.photon_near, p_.photon_far);
+        m.pyramid.build(m.probability, p_.rsm_resolution);
         m.active = m.pyramid.mean() > 0;
         for (float p : m.probability) active_texels_ += p > 0 ? 1 : 0;
-        m.density.width = m.density.height = int(side_);
+        m.density.width = m.density.height = int(p_.rsm_resolution);
         m.density.texels = m.probability;
         // A light whose map is zero everywhere (it sees nothing within the near/far range) emits
         // uniformly: a density must not be all zero.
@@ -414,7 +433,7 @@ class RsmPhotons final : public pb::Technique {
     ray_lengths_.clear();
     survivors_ = 0;
     emitted_ = 0;
-    if (!wavelet_) {
+    if (p_.sampler != Sampler::wavelet) {
       tracer.trace(trace_, batch_);
       collect(batch_, 1.f);
       emitted_ = batch_.stats.paths;
@@ -466,7 +485,7 @@ class RsmPhotons final : public pb::Technique {
     const auto& paths = batch.paths;
     for (const pb::trace::LightPath& path : paths.paths) survivors_ += path.vertex_count > 2;
     for (pb::trace::PhotonRecord p : batch.photons) {
-      float length = kernel_.l_max;
+      float length = p_.l_max;
       if (p.path < paths.paths.size()) {
         const pb::trace::LightPath& path = paths.paths[p.path];
         if (p.bounce < path.vertex_count)
@@ -482,7 +501,8 @@ class RsmPhotons final : public pb::Technique {
   void build_kernels(pb::Context& ctx, const pb::FrameInfo& f) {
     auto scope = ctx.pass("kernels");
     const glm::mat4& vp = f.camera.view_projection;
-    const uint32_t tiles_x = (width_ + tile_ - 1) / tile_, tiles_y = (height_ + tile_ - 1) / tile_;
+    const uint32_t tiles_x = (width_ + p_.tile_size - 1) / p_.tile_size,
+                   tiles_y = (height_ + p_.tile_size - 1) / p_.tile_size;
     tile_counts_.assign(size_t(tiles_x) * tiles_y, 0);
     photon_tile_.assign(photons_.size(), ~0u);
     culled_ = 0;
@@ -497,12 +517,12 @@ class RsmPhotons final : public pb::Technique {
       }
       const float sx = (c.x / c.w * 0.5f + 0.5f) * float(width_);
       const float sy = (c.y / c.w * 0.5f + 0.5f) * float(height_);
-      const uint32_t tx = std::min(uint32_t(sx) / tile_, tiles_x - 1);
-      const uint32_t ty = std::min(uint32_t(sy) / tile_, tiles_y - 1);
+      const uint32_t tx = std::min(uint32_t(sx) / p_.tile_size, tiles_x - 1);
+      const uint32_t ty = std::min(uint32_t(sy) / p_.tile_size, tiles_y - 1);
       photon_tile_[i] = ty * tiles_x + tx;
       ++tile_counts_[photon_tile_[i]];
     }
-    const float c_tile = rsm::tile_constant(f.camera.fov_y, width_, height_, tile_);
+    const float c_tile = rsm::tile_constant(f.camera.fov_y, width_, height_, p_.tile_size);
     kernels_.clear();
     for (size_t i = 0; i < photons_.size(); ++i) {
       if (photon_tile_[i] == ~0u) continue;
@@ -510,7 +530,7 @@ class RsmPhotons final : public pb::Technique {
       const float ray_length = ray_lengths_[i];
       const float z_view = -(f.camera.view * glm::vec4(p.position, 1.f)).z;
       kernels_.push_back(rsm::make_kernel(p.position, p.normal, p.direction, p.power, ray_length,
-                                          z_view, tile_counts_[photon_tile_[i]], c_tile, kernel_));
+                                          z_view, tile_counts_[photon_tile_[i]], c_tile, p_));
     }
     const uint64_t bytes = std::max<uint64_t>(1, kernels_.size()) * sizeof(rsm::Kernel);
     if (kernel_buffer_.size() < bytes)
@@ -558,8 +578,8 @@ class RsmPhotons final : public pb::Technique {
   // ---- estimate, gathering instead (§6.3): five compute passes over the same kernels
   // into the same targets, read back
   void setup_gather(pb::gpu::Device& gpu) {
-    gather_grid_ = {(small_width_ + gather_tile_ - 1) / gather_tile_,
-                    (small_height_ + gather_tile_ - 1) / gather_tile_};
+    gather_grid_ = {(small_width_ + p_.gather_tile - 1) / p_.gather_tile,
+                    (small_height_ + p_.gather_tile - 1) / p_.gather_tile};
     using U = vk::BufferUsageFlagBits;
     gather_state_ =
         gpu.create_buffer("rsm-photons.gather_state", sizeof(GatherState),
@@ -589,14 +609,14 @@ class RsmPhotons final : public pb::Technique {
     const uint32_t n = uint32_t(kernels_.size());
     // The index buffer's size is an estimate made before the lists are known (§6.3).
     const uint32_t capacity =
-        uint32_t(std::clamp(std::ceil(gather_capacity_ * double(n)), 1.0, 4294967295.0 / 4));
+        uint32_t(std::clamp(std::ceil(p_.gather_capacity * double(n)), 1.0, 4294967295.0 / 4));
     if (gather_indices_.size() < uint64_t(capacity) * 4)
       gather_indices_ = ctx.gpu().create_buffer(
           "rsm-photons.gather_indices", uint64_t(capacity) * 4,
           vk::BufferUsageFlagBits::eStorageBuffer, pb::gpu::Memory::host_visible);
     GatherView view{f.camera.view_projection, f.camera.inverse_view_projection,
                     glm::vec4(f.camera.position, 1.f),
-                    glm::uvec4(width_, height_, scale_, gather_tile_),
+                    glm::uvec4(width_, height_, scale_, p_.gather_tile),
                     glm::uvec4(gather_grid_, small_width_, small_height_)};
     std::memcpy(gather_view_.mapped(), &view, sizeof(view));
     GatherState state{};
@@ -669,9 +689,9 @@ class RsmPhotons final : public pb::Technique {
       light_dir_ = rsm::upsample(d, int(small_width_), int(small_height_), int(width_),
                                  int(height_), int(scale_));
     }
-    if (temporal_) {
+    if (p_.temporal) {
       auto scope = ctx.pass("temporal");
-      rsm::temporal(geometry_, history_, filter_, irradiance_, light_dir_);
+      rsm::temporal(geometry_, history_, p_, irradiance_, light_dir_);
       history_.valid = true;
       history_.geometry = geometry_;
       history_.view_projection = f.camera.view_projection;
@@ -679,9 +699,9 @@ class RsmPhotons final : public pb::Technique {
       history_.irradiance = irradiance_;
       history_.direction = light_dir_;
     }
-    if (spatial_) {
+    if (p_.spatial) {
       auto scope = ctx.pass("spatial");
-      rsm::atrous(geometry_, filter_, irradiance_, light_dir_);
+      rsm::atrous(geometry_, p_, irradiance_, light_dir_);
     }
   }
 
@@ -698,8 +718,8 @@ class RsmPhotons final : public pb::Technique {
         glm::vec3 l(0.f);
         if (lit) {
           const glm::vec3 ns = geometry_.normal_at(x, y);
-          const glm::vec3 ng = shade_.direction_term ? rsm::geometric_normal(geometry_, x, y) : ns;
-          l = rsm::shade(irradiance_[i], glm::vec3(albedo[i]), light_dir_[i], ns, ng, shade_);
+          const glm::vec3 ng = p_.direction_term ? rsm::geometric_normal(geometry_, x, y) : ns;
+          l = rsm::shade(irradiance_[i], glm::vec3(albedo[i]), light_dir_[i], ns, ng, p_);
         }
         out[i] = glm::vec4(l, 1.f);
       }
@@ -711,12 +731,12 @@ class RsmPhotons final : public pb::Technique {
   }
 
   void count(pb::Context& ctx) {
-    pb::count(ctx, kSamplingPoints, double(emitted_));
-    pb::count(ctx, kSurvivors, double(survivors_));
+    pb::count(ctx, kCounters["sampling_points"], double(emitted_));
+    pb::count(ctx, kCounters["sampling_points_survived"], double(survivors_));
     pb::count(ctx, pb::toolkit::kPhotonsStoredCounter, double(photons_.size()));
-    pb::count(ctx, kRsmTexels, double(active_texels_));
-    pb::count(ctx, kCulled, double(culled_));
-    pb::count(ctx, kSplats, double(kernels_.size()));
+    pb::count(ctx, kCounters["rsm_texels_active"], double(active_texels_));
+    pb::count(ctx, kCounters["photons_culled"], double(culled_));
+    pb::count(ctx, kCounters["splats"], double(kernels_.size()));
     uint32_t most = 0;
     uint64_t total = 0, filled = 0;
     for (uint32_t c : tile_counts_) {
@@ -724,24 +744,25 @@ class RsmPhotons final : public pb::Technique {
       total += c;
       filled += c > 0;
     }
-    pb::count(ctx, kTileMax, double(most));
-    pb::count(ctx, kTileMean, filled > 0 ? double(total) / double(filled) : 0.0);
-    pb::count(ctx, kTilesEmpty,
+    pb::count(ctx, kCounters["tile_photons_max"], double(most));
+    pb::count(ctx, kCounters["tile_photons_mean"],
+              filled > 0 ? double(total) / double(filled) : 0.0);
+    pb::count(ctx, kCounters["tiles_empty"],
               tile_counts_.empty() ? 0.0 : 1.0 - double(filled) / double(tile_counts_.size()));
-    pb::count(ctx, kGatherEntries, double(gather_entries_));  // 0 with the splat
-    pb::count(ctx, kGatherDropped, double(gather_dropped_));
+    pb::count(ctx, kCounters["gather_entries"], double(gather_entries_));  // 0 with the splat
+    pb::count(ctx, kCounters["gather_dropped"], double(gather_dropped_));
     if (gather_ && gather_dropped_ > 0) {
       ctx.warn(
           fmt::format("rsm-photons: the gathering index buffer ({} entries a kernel) was "
                       "{} entries short; raise gather_capacity",
-                      gather_capacity_, gather_dropped_));
+                      p_.gather_capacity, gather_dropped_));
     }
     const uint64_t gpu =
         accumulation_.bytes() + direction_.bytes() + radiance_.bytes() + read_position_.size() +
         read_normal_.size() + read_albedo_.size() + read_accumulation_.size() +
         read_direction_.size() + write_radiance_.size() + proxy_.size() + kernel_buffer_.size() +
         gather_state_.size() + gather_tiles_.size() + gather_view_.size() + gather_indices_.size();
-    pb::count(ctx, kBytesGpu, double(gpu));
+    pb::count(ctx, kCounters["bytes_gpu"], double(gpu));
     auto vec_bytes = [](const auto& v) { return uint64_t(v.capacity() * sizeof(v[0])); };
     uint64_t host = vec_bytes(photons_) + vec_bytes(ray_lengths_) + vec_bytes(batch_.photons) +
                     vec_bytes(batch_.paths.paths) + vec_bytes(batch_.paths.vertices) +
@@ -752,19 +773,13 @@ class RsmPhotons final : public pb::Technique {
                     vec_bytes(history_.geometry.position) + vec_bytes(history_.geometry.normal) +
                     vec_bytes(history_.irradiance) + vec_bytes(history_.direction);
     for (const LightMap& m : lights_) host += vec_bytes(m.texels) + 2 * vec_bytes(m.probability);
-    pb::count(ctx, kBytesHost, double(host));
+    pb::count(ctx, kCounters["bytes_host"], double(host));
   }
 
-  uint32_t side_ = 64, tile_ = 16, scale_ = 2;
+  RsmParams p_ = kParams.defaults();
+  uint32_t scale_ = 2;  // the splat targets' pixels per side of one of theirs
   uint32_t width_ = 0, height_ = 0, small_width_ = 0, small_height_ = 0;
-  float photon_near_ = 0, photon_far_ = 1000;
-  rsm::KernelParams kernel_;
-  rsm::FilterParams filter_;
-  rsm::ShadeParams shade_;
-  bool temporal_ = true, spatial_ = true;
   bool gather_ = false;
-  uint32_t gather_tile_ = 8;
-  double gather_capacity_ = 16;
   glm::uvec2 gather_grid_{0, 0};
   uint64_t gather_entries_ = 0, gather_dropped_ = 0;
   pb::gpu::Buffer gather_state_, gather_tiles_, gather_view_, gather_indices_;
@@ -777,7 +792,6 @@ class RsmPhotons final : public pb::Technique {
   std::vector<pb::trace::PhotonRecord> photons_;
   std::vector<float> ray_lengths_;
   uint64_t culled_ = 0, survivors_ = 0, active_texels_ = 0, emitted_ = 0;
-  bool wavelet_ = true;
   rsm::Geometry geometry_;
   rsm::History history_;
   std::vector<glm::vec3> irradiance_, light_dir_;
@@ -800,4 +814,5 @@ PB_EXPORT_TECHNIQUE(RsmPhotons, "rsm-photons", "indirect",
                     "reflective-shadow-map photons (seed 000): RSM probability maps, one bounce "
                     "traced, ellipsoid kernels splatted at half resolution, temporal and a-trous "
                     "filters",
-                    kParams, .counters = kCounters, .check = &RsmPhotons::check, .budget = kBudget)
+                    kParams.rows, .counters = kCounters.specs, .check = &RsmPhotons::check,
+                    .budget = kBudget)

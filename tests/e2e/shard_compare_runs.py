@@ -15,7 +15,7 @@ import os
 import subprocess
 import sys
 
-TIMING_COLUMNS = ("frame_ms_median", "frame_ms_p5", "frame_ms_p95", "harness_overhead_pct")
+TIMING_COLUMNS = ("wall_ms_median", "wall_ms_p5", "wall_ms_p95", "harness_overhead_pct")
 
 
 def cell_record(path):

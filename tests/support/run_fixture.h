@@ -18,6 +18,8 @@
 #include <vector>
 
 #include "io/image.h"
+#include "photonbench/error.h"
+#include "plan/plan.h"
 
 namespace pb::testing {
 
@@ -30,6 +32,19 @@ inline fs::path work_dir(const std::string& suite, const std::string& name) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
+}
+
+// Writes `yaml` to DIR/config.yaml and plans it in-process as `photonbench validate` does, with
+// the build's plugins: the bad-input error it is refused with (file:line:col: key: why), or "" when
+// it is valid.
+inline std::string plan_error(const fs::path& dir, const std::string& yaml) {
+  std::ofstream(dir / "config.yaml") << yaml;
+  try {
+    run::plan_run(dir / "config.yaml", {"plugin_dirs+=" PB_BINARY_DIR "/plugins"});
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 // Writes `yaml` to DIR/config.yaml and runs it into DIR/run with validation; the console output

@@ -49,10 +49,10 @@ def entries(run: Run, clock: str = "auto") -> Tuple[List[dict], List[dict], List
             prefix = f"{c.scene}/{c.id}"
         extra = (f"cell {c.id}; frames {c.text('frames')}; commit {run.commit[:12]}; "
                  f"device {run.device}")
-        v = c.value("frame_ms_median")  # times: lower is better
+        v = c.value("wall_ms_median")  # times: lower is better
         if math.isfinite(v):
             smaller.append({"name": f"{prefix}/frame", "unit": "ms", "value": v,
-                            "range": _range(c.value("frame_ms_p5"), c.value("frame_ms_p95")), "extra": extra})
+                            "range": _range(c.value("wall_ms_p5"), c.value("wall_ms_p95")), "extra": extra})
         for p, ms in c.pass_medians().items():
             _, samples = c.pass_samples(p, clock)
             smaller.append({"name": f"{prefix}/pass {p}", "unit": "ms", "value": ms,

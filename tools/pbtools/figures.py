@@ -79,15 +79,15 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
         return None
     n = len(metrics)
     fig, axes = style.new_figure(min(style.TEXT_WIDTH_IN, 2.35 * n), 2.1, 1, n)
-    header = ["cell", "technique", "label", "status", "frame_ms_median", "frame_ms_p5", "frame_ms_p95"]
+    header = ["cell", "technique", "label", "status", "wall_ms_median", "wall_ms_p5", "wall_ms_p95"]
     header += [f"{m}_mean" for m in metrics] + [f"pareto_{m}" for m in metrics]
     header += [f"{m}_floor" for m in metrics] + [f"resolved_{m}" for m in metrics]
-    ok = [c for c in cells if c.ok and math.isfinite(c.value("frame_ms_median"))]
+    ok = [c for c in cells if c.ok and math.isfinite(c.value("wall_ms_median"))]
     on_front: Dict[str, set] = {}
     any_floor = False
     for k, m in enumerate(metrics):
         ax = axes[0][k]
-        xs = [c.value("frame_ms_median") for c in ok]
+        xs = [c.value("wall_ms_median") for c in ok]
         ys = [c.value(f"{m}_mean") for c in ok]
         any_floor |= _draw_floor(ax, m, [c.value(f"{m}_floor") for c in ok], label=k == 0)
         front = pareto_front(xs, ys, measures.lower_is_better(m))
@@ -104,10 +104,10 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
             if not tc:
                 continue
             color, marker = styles.color(tech), styles.marker(tech)
-            tx = np.array([c.value("frame_ms_median") for c in tc])
+            tx = np.array([c.value("wall_ms_median") for c in tc])
             ty = np.array([c.value(f"{m}_mean") for c in tc])
-            lo = tx - np.array([c.value("frame_ms_p5") for c in tc])
-            hi = np.array([c.value("frame_ms_p95") for c in tc]) - tx
+            lo = tx - np.array([c.value("wall_ms_p5") for c in tc])
+            hi = np.array([c.value("wall_ms_p95") for c in tc]) - tx
             err = np.nan_to_num(np.vstack([lo, hi]), nan=0.0).clip(min=0)
             ax.errorbar(tx, ty, xerr=err, fmt="none", ecolor=color, elinewidth=0.5, alpha=0.6, zorder=2)
             if len(tc) > 1:  # a sweep: connect its settings in time order to show the trade-off path
@@ -148,8 +148,8 @@ def quality_vs_time(run: Run, scene: str, styles: style.TechniqueStyle,
         place_point_labels(fig, ax)
     rows = []
     for c in cells:
-        rows.append([c.id, c.technique, run.label(c), c.status, c.value("frame_ms_median"),
-                     c.value("frame_ms_p5"), c.value("frame_ms_p95")]
+        rows.append([c.id, c.technique, run.label(c), c.status, c.value("wall_ms_median"),
+                     c.value("wall_ms_p5"), c.value("wall_ms_p95")]
                     + [c.value(f"{m}_mean") for m in metrics]
                     + [int(c.id in on_front[m]) for m in metrics]
                     + [c.value(f"{m}_floor") for m in metrics]
@@ -328,7 +328,7 @@ def pass_breakdown(run: Run, scene: str, styles: style.TechniqueStyle) -> Option
     height = 0.7 + 0.22 * len(cells)
     fig, axes = style.new_figure(style.COLUMN_WIDTH_IN * 1.5, height)
     ax = axes[0][0]
-    header = ["cell", "technique", "label", "status"] + used + ["other", "frame_ms_median"]
+    header = ["cell", "technique", "label", "status"] + used + ["other", "wall_ms_median"]
     rows = []
     labels = []
     xmax = 0.0
@@ -344,7 +344,7 @@ def pass_breakdown(run: Run, scene: str, styles: style.TechniqueStyle) -> Option
                     hatch=style.HATCHES[i % len(style.HATCHES)] if failed else None,
                     alpha=0.45 if failed else 1.0, gid=f"bar:{c.id}:{p}")
             left += v
-        frame = c.value("frame_ms_median")
+        frame = c.value("wall_ms_median")
         other = frame - left if math.isfinite(frame) else math.nan
         # Time the frame spends outside named passes (submission, fences, waits). Negative only when
         # pass medians do not add up to the frame median (medians are not additive): then nothing.
@@ -475,8 +475,8 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
         def xpos(v):
             return float(v) if numeric else float(categories.index(format_param(v)))
 
-        header = ["cell", "technique", "label", "status", p, "frame_ms_median", "frame_ms_p5",
-                  "frame_ms_p95"] + [f"{m}_mean" for m in metrics]
+        header = ["cell", "technique", "label", "status", p, "wall_ms_median", "wall_ms_p5",
+                  "wall_ms_p95"] + [f"{m}_mean" for m in metrics]
         rows = []
         for tech, tcells in by_tech.items():
             if p not in swept_by_tech[tech]:
@@ -496,9 +496,9 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
                 for k, panel in enumerate(panels):
                     ax = axes[0][k]
                     if panel == "time":
-                        y = np.array([c.value("frame_ms_median") for c in ok])
-                        lo = np.array([c.value("frame_ms_p5") for c in ok])
-                        hi = np.array([c.value("frame_ms_p95") for c in ok])
+                        y = np.array([c.value("wall_ms_median") for c in ok])
+                        lo = np.array([c.value("wall_ms_p5") for c in ok])
+                        hi = np.array([c.value("wall_ms_p95") for c in ok])
                         if len(ok) > 1:
                             ax.fill_between(x, lo, hi, color=color, alpha=0.15, lw=0)
                     else:
@@ -512,7 +512,7 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
                                     gid=f"failed:{c.id}", label="failed" if k == 0 else None)
                 for c in gcells:
                     rows.append([c.id, tech, run.label(c), c.status, format_param(c.params[p]),
-                                 c.value("frame_ms_median"), c.value("frame_ms_p5"), c.value("frame_ms_p95")]
+                                 c.value("wall_ms_median"), c.value("wall_ms_p5"), c.value("wall_ms_p95")]
                                 + [c.value(f"{m}_mean") for m in metrics])
         for k, panel in enumerate(panels):
             ax = axes[0][k]
@@ -520,7 +520,7 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
             ax.set_ylabel("median frame time [ms]" if panel == "time"
                           else measures.metric(panel).label)
             if panel == "time":  # techniques an order of magnitude apart: log time, or the fast ones vanish
-                times = [c.value("frame_ms_median") for c in cells if c.ok and p in c.params]
+                times = [c.value("wall_ms_median") for c in cells if c.ok and p in c.params]
                 times = [t for t in times if math.isfinite(t) and t > 0]
                 if times and max(times) / min(times) >= 10:
                     ax.set_yscale("log")

@@ -41,7 +41,7 @@ import pandas as pd
 
 from . import measures, pages, style, tables
 from .figures import slug
-from .rundata import Run, RunError
+from .rundata import Run, RunError, current_name
 
 DEFAULT_FILE = os.path.join("results", "history.jsonl")
 MIN_SIZE = 2
@@ -75,8 +75,8 @@ def entry_of(run: Run, label: Optional[str] = None) -> dict:
             return x if math.isfinite(x) else None
         cells[c.id] = {
             "scene": c.scene, "technique": c.technique, "label": run.label(c), "status": c.status,
-            "frames": v("frames"), "frame_ms_median": v("frame_ms_median"), "frame_ms_p5": v("frame_ms_p5"),
-            "frame_ms_p95": v("frame_ms_p95"), "flip_mean": v("flip_mean"), "ssim_mean": v("ssim_mean"),
+            "frames": v("frames"), "wall_ms_median": v("wall_ms_median"), "wall_ms_p5": v("wall_ms_p5"),
+            "wall_ms_p95": v("wall_ms_p95"), "flip_mean": v("flip_mean"), "ssim_mean": v("ssim_mean"),
             "psnr_mean": v("psnr_mean"), "passes": c.pass_medians(),
             "plugin": plugins.get(c.technique),
         }
@@ -98,9 +98,15 @@ def load(path: str) -> List[dict]:
             if not line:
                 continue
             try:
-                out.append(json.loads(line))
+                entry = json.loads(line)
             except json.JSONDecodeError as e:
                 raise RunError(f"{path}:{n}:{e.colno}: {e.msg}") from e
+            # An entry appended before the frame time's keys named their clock (frame_ms_median)
+            # reads under the current names.
+            for cell in entry.get("cells", {}).values():
+                for old in [k for k in cell if current_name(k) != k and current_name(k) not in cell]:
+                    cell[current_name(old)] = cell.pop(old)
+            out.append(entry)
     return out
 
 
@@ -188,7 +194,7 @@ def series_of(entries: List[dict], cell: str) -> Dict[str, List[Optional[float]]
             if not ok:
                 out[n].append(None)
             elif n == "frame":
-                out[n].append(c.get("frame_ms_median"))
+                out[n].append(c.get("wall_ms_median"))
             else:
                 out[n].append(c.get("passes", {}).get(n))
     return out

@@ -25,6 +25,7 @@ from typing import Dict, List, Optional
 
 from . import floors, measures, style
 from .figures import Figure, pareto_front, slug
+from .rundata import current_name
 
 
 def _float(text: str) -> float:
@@ -38,7 +39,8 @@ def _rows(path: str) -> List[Dict[str, str]]:
     if not os.path.exists(path):
         return []
     with open(path, newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f))
+        # An older run's columns under their current names (its frame_ms_median is wall_ms_median).
+        return [{current_name(k): v for k, v in row.items()} for row in csv.DictReader(f)]
 
 
 def read_matches(run_dir: str) -> List[Dict[str, str]]:
@@ -94,12 +96,12 @@ def order_verdict(a: Dict[str, str], b: Dict[str, str], metric: str, mode: str) 
     if mode == "time":
         parts = [_floor_resolved(metric, a, b), _seed_resolved(a, b, metric)]
     else:
-        parts = [_float(a["frame_ms_p95"]) < _float(b["frame_ms_p5"])]
+        parts = [_float(a["wall_ms_p95"]) < _float(b["wall_ms_p5"])]
     return _verdict(parts)
 
 
 def time_text(r: Dict[str, str]) -> str:
-    m, lo, hi = (_float(r[k]) for k in ("frame_ms_median", "frame_ms_p5", "frame_ms_p95"))
+    m, lo, hi = (_float(r[k]) for k in ("wall_ms_median", "wall_ms_p5", "wall_ms_p95"))
     if math.isnan(m):
         return ""
     return f"{m:.4g} [{lo:.4g}, {hi:.4g}]"
@@ -120,7 +122,7 @@ def scene_table(rows: List[Dict[str, str]], metric: str) -> dict:
     then the rows that did not match and the baselines."""
     mode = _mode(rows) or "time"
     matched = [r for r in rows if r["status"] == "matched"]
-    key = (lambda r: _float(r[metric])) if mode == "time" else (lambda r: _float(r["frame_ms_median"]))
+    key = (lambda r: _float(r[metric])) if mode == "time" else (lambda r: _float(r["wall_ms_median"]))
     if mode == "time" and metric and not _lower(metric):
         matched.sort(key=lambda r: -key(r))
     else:
@@ -149,13 +151,13 @@ def probes_figure(run_dir: str, scene: str, metric: str, styles: style.Technique
     joined in knob order, the kept one ringed, the target drawn, and the Pareto front through all."""
     probes = [p for p in read_probes(run_dir) if p["scene"] == scene and p["role"] in ("probe", "baseline")
               and p["status"] == "ok" and not math.isnan(_float(p.get(metric, "")))
-              and not math.isnan(_float(p["frame_ms_median"]))]
+              and not math.isnan(_float(p["wall_ms_median"]))]
     if not probes:
         return None
     found = {r["cell"] for r in read_matches(run_dir) if r["scene"] == scene}
     fig, axes = style.new_figure(3.4, 2.4)
     ax = axes[0][0]
-    xs = [_float(p["frame_ms_median"]) for p in probes]
+    xs = [_float(p["wall_ms_median"]) for p in probes]
     ys = [_float(p[metric]) for p in probes]
     front = pareto_front(xs, ys, _lower(metric))
     if front:
@@ -166,7 +168,7 @@ def probes_figure(run_dir: str, scene: str, metric: str, styles: style.Technique
         tp = [p for p in probes if p["technique"] == tech]
         tp.sort(key=lambda p: _float(p["knob_value"]) if p["knob_value"] else 0.0)
         color, marker = styles.color(tech), styles.marker(tech)
-        tx = [_float(p["frame_ms_median"]) for p in tp]
+        tx = [_float(p["wall_ms_median"]) for p in tp]
         ty = [_float(p[metric]) for p in tp]
         ax.plot(tx, ty, color=color, lw=0.6, alpha=0.6, zorder=2)
         ax.plot(tx, ty, ls="none", marker=marker, color=color, markeredgecolor="white",
@@ -184,7 +186,7 @@ def probes_figure(run_dir: str, scene: str, metric: str, styles: style.Technique
     ax.set_ylabel(measures.metric(metric).label if metric in measures.METRICS else metric)
     ax.legend(fontsize=5, loc="best")
     fig.tight_layout()
-    header = ["technique", "role", "knob", "knob_value", "cell", "frame_ms_median", metric, "kept",
+    header = ["technique", "role", "knob", "knob_value", "cell", "wall_ms_median", metric, "kept",
               "pareto"]
     rows = [[p["technique"], p["role"], p["knob"], p["knob_value"], p["cell"], xs[i], ys[i],
              int(p["cell"] in found), int(i in front)] for i, p in enumerate(probes)]

@@ -1,7 +1,7 @@
 """Reading one run directory, exactly as docs/architecture.md "Results" lays it out.
 
     RUN/run.json                     tool version, git_commit, resolved config, device, driver, CPU, OS, start/end
-    RUN/summary.csv                  one row per cell (cell, scene, technique, status, frames, frame_ms_*,
+    RUN/summary.csv                  one row per cell (cell, scene, technique, status, frames, wall_ms_*,
                                      *_mean, param.<name>..., pass.<name>.ms_median...)
     RUN/cells/<cell>/cell.json       status ok|failed, reason, failed_frame, warnings, params, memory
     RUN/cells/<cell>/frames.csv      frame, pass, gpu_ms, cpu_ms  (pass "frame" is the whole frame)
@@ -35,10 +35,17 @@ from pandas.api.types import is_bool_dtype, is_numeric_dtype
 
 # The summary's fixed leading columns (docs/architecture.md); anything else is param.* or pass.*.ms_median.
 SUMMARY_FIXED = [
-    "cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
-    "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor",
+    "cell", "scene", "technique", "status", "frames", "wall_ms_median", "wall_ms_p5",
+    "wall_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor",
 ]
 SUMMARY_REQUIRED = ("cell", "scene", "technique", "status")
+# Columns of summary.csv, match.csv and match_probes.csv that runs written before the frame time's
+# columns named their clock and statistic still carry: each old name reads as the new one, so that
+# compare, history and report still read an older run.
+RENAMED_COLUMNS = {
+    "frame_ms_median": "wall_ms_median", "frame_ms_p5": "wall_ms_p5", "frame_ms_p95": "wall_ms_p95",
+    "frame_ms_n": "wall_ms_n", "probe_frame_ms": "probe_wall_ms_median",
+}
 PASS_PREFIX = "pass."
 PASS_SUFFIX = ".ms_median"
 PARAM_PREFIX = "param."
@@ -110,9 +117,17 @@ def _read_csv(path: str, **options) -> pd.DataFrame:
         raise RunError(f"{path}: {e}".strip()) from e
 
 
+def current_name(column: str) -> str:
+    """A run CSV's column under its current name (RENAMED_COLUMNS: an older run's name mapped)."""
+    return RENAMED_COLUMNS.get(column, column)
+
+
 def read_text_table(path: str) -> pd.DataFrame:
-    """A CSV file as a table of text fields ("" where empty)."""
-    return _read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
+    """A CSV file as a table of text fields ("" where empty), its columns under their current
+    names (an older run's frame_ms_median is wall_ms_median)."""
+    table = _read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
+    return table.rename(columns={c: current_name(c) for c in table.columns
+                                 if current_name(c) not in table.columns})
 
 
 def _numeric(column: pd.Series) -> pd.Series:

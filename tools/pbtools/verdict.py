@@ -5,7 +5,7 @@ Per scene, one entry per setting (a seed group: `--seeds K` makes K cells of one
 run's re-measurement round is never one, rundata.Cell.match_round): its FLIP on the composed image
 (`combined`, the mean of its seeds' means) with the reference's noise floor, its own path class's
 FLIP and floor beside it (a caustics technique is judged on its caustics too), and its frame time
-(the wall-clock median of its measured frames, summary.csv's frame_ms_median; the mean over seeds).
+(the wall-clock median of its measured frames, summary.csv's wall_ms_median; the mean over seeds).
 The entries are ordered by combined FLIP, lower first, and each neighbouring pair is marked:
 
     a < b   resolved: the gap is larger than the two floors together (floors.order_holds_in_worst_case:
@@ -100,7 +100,7 @@ def entries(run: Run, scene: str) -> List[Entry]:
         floor_values = [v for v in floor_values if math.isfinite(v)]
         if not per_seed:
             continue
-        times = [c.value("frame_ms_median") for c in ok]
+        times = [c.value("wall_ms_median") for c in ok]
         times = [t for t in times if math.isfinite(t)]
         entry = Entry(run.label(first, with_seed=False), first.technique,
                       sum(per_seed) / len(per_seed),

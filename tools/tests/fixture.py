@@ -386,9 +386,9 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 row = {
                     "cell": cid, "scene": scene, "technique": tech["technique"], "status": status,
                     "frames": n_frames,
-                    "frame_ms_median": float(np.median(ft)) if len(ft) else math.nan,
-                    "frame_ms_p5": float(np.percentile(ft, 5)) if len(ft) else math.nan,
-                    "frame_ms_p95": float(np.percentile(ft, 95)) if len(ft) else math.nan,
+                    "wall_ms_median": float(np.median(ft)) if len(ft) else math.nan,
+                    "wall_ms_p5": float(np.percentile(ft, 5)) if len(ft) else math.nan,
+                    "wall_ms_p95": float(np.percentile(ft, 95)) if len(ft) else math.nan,
                     "flip_mean": mean_of(3), "ssim_mean": mean_of(4), "psnr_mean": mean_of(5),
                     "flip_floor": mean_of(8), "ssim_floor": mean_of(9), "psnr_floor": mean_of(10),
                     "params": params,
@@ -396,8 +396,8 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 }
                 summary_rows.append(row)
 
-    fixed = ["cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
-             "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
+    fixed = ["cell", "scene", "technique", "status", "frames", "wall_ms_median", "wall_ms_p5",
+             "wall_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
     header = fixed + [f"param.{p}" for p in param_names] + [f"pass.{p}.ms_median" for p in pass_columns]
     rows = []
     for r in summary_rows:

@@ -242,10 +242,10 @@ class ClaimsAapsTest(ClaimsCase):
         self.assertNotIn("quality vs target area", self.text)
 
 MATCH_HEADER = ["scene", "technique", "at", "target", "tolerance", "knob", "knob_value", "status", "probes",
-                "cell", "frame_ms_median", "frame_ms_p5", "frame_ms_p95", "frame_ms_n", "rounds",
-                "probe_frame_ms", "flip", "flip_floor", "seeds", "flip_seed_sd", "reason"]
+                "cell", "wall_ms_median", "wall_ms_p5", "wall_ms_p95", "wall_ms_n", "rounds",
+                "probe_wall_ms_median", "flip", "flip_floor", "seeds", "flip_seed_sd", "reason"]
 PROBE_HEADER = ["scene", "technique", "knob", "role", "index", "knob_value", "cell", "status",
-                "frame_ms_median", "frame_ms_p5", "frame_ms_p95", "flip", "flip_floor"]
+                "wall_ms_median", "wall_ms_p5", "wall_ms_p95", "flip", "flip_floor"]
 
 
 def make_match_run(root, scene, default_technique, knob, target, matches, at="time"):
@@ -279,14 +279,14 @@ def make_match_run(root, scene, default_technique, knob, target, matches, at="ti
                 json.dump({"status": "ok", "seed_group": group if m.get("seeds") else cid}, f)
             probes.append({"scene": scene, "technique": technique, "knob": knob, "role": role, "index": "0",
                            "knob_value": m["knob_value"], "cell": cid, "status": "ok",
-                           "frame_ms_median": m["ms"][0], "frame_ms_p5": "", "frame_ms_p95": "",
+                           "wall_ms_median": m["ms"][0], "wall_ms_p5": "", "wall_ms_p95": "",
                            "flip": m["flip"], "flip_floor": m["floor"]})
         ms, p5, p95 = m["ms"]
         match_rows.append({"scene": scene, "technique": technique, "at": at, "target": str(target),
                            "tolerance": "0.1", "knob": knob, "knob_value": m["knob_value"],
-                           "status": m["status"], "probes": "4", "cell": found, "frame_ms_median": ms,
-                           "frame_ms_p5": p5, "frame_ms_p95": p95, "frame_ms_n": "10", "rounds": "2",
-                           "probe_frame_ms": ms, "flip": m["flip"], "flip_floor": m["floor"], "seeds": "1",
+                           "status": m["status"], "probes": "4", "cell": found, "wall_ms_median": ms,
+                           "wall_ms_p5": p5, "wall_ms_p95": p95, "wall_ms_n": "10", "rounds": "2",
+                           "probe_wall_ms_median": ms, "flip": m["flip"], "flip_floor": m["floor"], "seeds": "1",
                            "flip_seed_sd": "", "reason": m.get("reason", "")})
     write_csv(os.path.join(root, "summary.csv"), header, summary)
     for name, fields, rows in (("match.csv", MATCH_HEADER, match_rows),
@@ -367,8 +367,8 @@ class ClaimsPaper2EqualTimeTest(ClaimsCase):
                       self.row("* villa, naive against the baseline: no comparison"))
 
     def test_scores_within_the_floors_leave_the_order_unresolved_and_apart_times_are_not_equal_time(self):
-        rewrite_match(self.dir, {0: {"flip": "0.205", "flip_floor": "0.06", "frame_ms_p5": "320",
-                                     "frame_ms_p95": "330", "frame_ms_median": "325"},
+        rewrite_match(self.dir, {0: {"flip": "0.205", "flip_floor": "0.06", "wall_ms_p5": "320",
+                                     "wall_ms_p95": "330", "wall_ms_median": "325"},
                                  1: {"flip": "0.20", "flip_floor": "0.06"}})
         line = [l for l in paper2.claims(Run(self.dir)).splitlines()
                 if l.startswith("* villa, error_based")][0]

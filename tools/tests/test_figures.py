@@ -55,7 +55,7 @@ class FigureDataTest(unittest.TestCase):
             fig = F.quality_vs_time(self.rd, scene, self.styles)
             for metric in ("flip", "ssim", "psnr"):
                 for tech in ("direct", "tiled", "cluster"):
-                    expected = sorted((float(r["frame_ms_median"]), float(r[f"{metric}_mean"]))
+                    expected = sorted((float(r["wall_ms_median"]), float(r[f"{metric}_mean"]))
                                       for r in self.summary
                                       if r["scene"] == scene and r["technique"] == tech and r["status"] == "ok")
                     line = by_gid(fig.fig, f"points:{tech}:{metric}")
@@ -75,7 +75,7 @@ class FigureDataTest(unittest.TestCase):
     def test_pareto_front_drawn_is_the_non_dominated_set(self):
         fig = F.quality_vs_time(self.rd, "cornell-box", self.styles)
         ok = [r for r in self.summary if r["scene"] == "cornell-box" and r["status"] == "ok"]
-        pts = [(float(r["frame_ms_median"]), float(r["flip_mean"])) for r in ok]
+        pts = [(float(r["wall_ms_median"]), float(r["flip_mean"])) for r in ok]
         # Brute force: a point is on the front if no other point is at least as fast and as accurate
         # and strictly better in one.
         front = sorted(p for p in pts if not any(
@@ -114,7 +114,7 @@ class FigureDataTest(unittest.TestCase):
                 n_checked += 1
             # The rest of the median frame ("other") completes the bar whenever passes leave a rest.
             other = by_gid(fig.fig, f"bar:{r['cell']}:other")
-            frame = float(r["frame_ms_median"] or "nan")
+            frame = float(r["wall_ms_median"] or "nan")
             if frame - left > 1e-9:
                 self.assertIsNotNone(other, r["cell"])
                 self.assertAlmostEqual(left + other.get_width(), frame, places=9)
@@ -161,7 +161,7 @@ class FigureDataTest(unittest.TestCase):
         figs = {f.stem: f for f in F.sweep_curves(self.rd, "cornell-box", self.styles)}
         self.assertEqual(sorted(figs), ["sweep_cornell-box_photons", "sweep_cornell-box_variant"])
         fig = figs["sweep_cornell-box_photons"]
-        rows = sorted((int(r["param.photons"]), float(r["frame_ms_median"]), float(r["flip_mean"]))
+        rows = sorted((int(r["param.photons"]), float(r["wall_ms_median"]), float(r["flip_mean"]))
                       for r in self.summary if r["scene"] == "cornell-box" and r["technique"] == "tiled")
         time = by_gid(fig.fig, "sweep:photons:time:tiled").get_xydata()
         flip = by_gid(fig.fig, "sweep:photons:flip:tiled").get_xydata()

@@ -144,7 +144,7 @@ class FixtureFloorsTest(unittest.TestCase):
             self.assertIn(f"unresolved-band:{m}", artists)
             hollow = artists[f"unresolved:tiled:{m}"]
             self.assertEqual([tuple(p) for p in hollow.get_xydata()],
-                             [(self.loose.value("frame_ms_median"), self.loose.value(f"{m}_mean"))])
+                             [(self.loose.value("wall_ms_median"), self.loose.value(f"{m}_mean"))])
         self.assertNotIn("unresolved:cluster:flip", artists)
         col = fig.header.index("resolved_flip")
         flags = {r[0]: r[col] for r in fig.rows}

@@ -22,7 +22,7 @@ def write_run(path, cells):
     os.makedirs(os.path.join(path, "cells"))
     with open(os.path.join(path, "summary.csv"), "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
-        w.writerow(["cell", "scene", "technique", "status", "frame_ms_median", "flip_mean", "seed",
+        w.writerow(["cell", "scene", "technique", "status", "wall_ms_median", "flip_mean", "seed",
                     "param.photons"])
         for i, (cell, group) in enumerate(cells):
             w.writerow([cell, "box", "tiled", "ok", 250 + i, 0.2 + 0.001 * i, 1, 20000])

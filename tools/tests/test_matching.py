@@ -13,17 +13,17 @@ import common  # noqa: F401  (puts tools/ on the import path)
 from pbtools import matching, style
 
 MATCH_HEADER = ["scene", "technique", "at", "target", "tolerance", "knob", "knob_value", "status",
-                "probes", "cell", "frame_ms_median", "frame_ms_p5", "frame_ms_p95", "frame_ms_n",
-                "rounds", "probe_frame_ms", "flip", "flip_floor", "seeds", "flip_seed_sd", "reason"]
+                "probes", "cell", "wall_ms_median", "wall_ms_p5", "wall_ms_p95", "wall_ms_n",
+                "rounds", "probe_wall_ms_median", "flip", "flip_floor", "seeds", "flip_seed_sd", "reason"]
 PROBE_HEADER = ["scene", "technique", "knob", "role", "index", "knob_value", "cell", "status",
-                "frame_ms_median", "frame_ms_p5", "frame_ms_p95", "flip", "flip_floor"]
+                "wall_ms_median", "wall_ms_p5", "wall_ms_p95", "flip", "flip_floor"]
 
 
 def row(technique, status, flip, floor, ms, p5, p95, sd="", at="time", reason=""):
     return {"scene": "box", "technique": technique, "at": at, "target": "250", "tolerance": "0.05",
             "knob": "photons", "knob_value": "1000", "status": status, "probes": "4",
-            "cell": f"box__{technique}__0", "frame_ms_median": ms, "frame_ms_p5": p5,
-            "frame_ms_p95": p95, "frame_ms_n": "15", "rounds": "3", "probe_frame_ms": ms,
+            "cell": f"box__{technique}__0", "wall_ms_median": ms, "wall_ms_p5": p5,
+            "wall_ms_p95": p95, "wall_ms_n": "15", "rounds": "3", "probe_wall_ms_median": ms,
             "flip": flip, "flip_floor": floor, "seeds": "1", "flip_seed_sd": sd, "reason": reason}
 
 
@@ -78,7 +78,7 @@ class FigureTest(unittest.TestCase):
                   [row("a", "matched", "0.1", "0.01", "250", "240", "260")])
             probes = [{"scene": "box", "technique": "a", "knob": "photons", "role": "probe", "index": str(i),
                        "knob_value": str(k), "cell": "box__a__0" if k == 1000 else f"box__a__{k}",
-                       "status": "ok", "frame_ms_median": str(ms), "frame_ms_p5": "", "frame_ms_p95": "",
+                       "status": "ok", "wall_ms_median": str(ms), "wall_ms_p5": "", "wall_ms_p95": "",
                        "flip": str(f), "flip_floor": "0.01"}
                       for i, (k, ms, f) in enumerate([(100, 60, 0.3), (400, 150, 0.17), (1000, 250, 0.1)])]
             write(os.path.join(d, "match_probes.csv"), PROBE_HEADER, probes)

@@ -16,8 +16,8 @@ from common import TempRuns
 
 from pbtools.rundata import Run, RunError
 
-SUMMARY_FIXED = ["cell", "scene", "technique", "status", "frames", "frame_ms_median", "frame_ms_p5",
-                 "frame_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
+SUMMARY_FIXED = ["cell", "scene", "technique", "status", "frames", "wall_ms_median", "wall_ms_p5",
+                 "wall_ms_p95", "flip_mean", "ssim_mean", "psnr_mean", "flip_floor", "ssim_floor", "psnr_floor"]
 
 
 def header(path):
@@ -123,7 +123,7 @@ class ReaderTest(unittest.TestCase):
         self.assertFalse(broken.ok)
         self.assertIsNone(broken.failed_frame)
         self.assertEqual(broken.pass_names(), [])
-        self.assertTrue(math.isnan(broken.value("frame_ms_median")))
+        self.assertTrue(math.isnan(broken.value("wall_ms_median")))
         trivial = self.rd.cell("014-pillars-cluster-variant=trivial")
         self.assertEqual(trivial.failed_frame, 13)
         self.assertEqual(len(trivial.pass_samples("frame")[0]), 13)
@@ -160,7 +160,7 @@ class HandMadeRunTest(unittest.TestCase):
         cls.run_dir = root = cls.tmp.path("hand")
         write(os.path.join(root, "run.json"), '{"git_commit": "abc", "device": "test"}')
         write(os.path.join(root, "summary.csv"),
-              "cell,scene,technique,status,frames,frame_ms_median,flip_mean,param.photons,"
+              "cell,scene,technique,status,frames,wall_ms_median,flip_mean,param.photons,"
               "param.variant,pass.splat.ms_median\n"
               "c-ok,nan,NA,ok,3,2.5,,100000,,1.25\n"
               "c-failed,nan,null,failed,0,,n/a,1e5,plain,\n"

@@ -26,7 +26,7 @@ def write_run(path, cells, rel_error=0.1):
     os.makedirs(os.path.join(path, "cells"))
     with open(os.path.join(path, "summary.csv"), "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
-        w.writerow(["cell", "scene", "technique", "status", "frame_ms_median", "flip_mean",
+        w.writerow(["cell", "scene", "technique", "status", "wall_ms_median", "flip_mean",
                     "flip_floor", "seed"])
         for cell, technique, scores, ms, seed in cells:
             w.writerow([cell, "box", technique, "ok", ms, scores[0][1], scores[0][2], seed])

@@ -195,10 +195,22 @@ json achieved_time(const std::filesystem::path& run_dir, const MatchRecord& m) {
 }
 
 std::vector<std::string> match_header(const config::Config& config) {
-  std::vector<std::string> h = {
-      "scene",        "technique",  "at",     "target",        "tolerance",       "knob",
-      "knob_value",   "status",     "probes", "cell",          "frame_ms_median", "frame_ms_p5",
-      "frame_ms_p95", "frame_ms_n", "rounds", "probe_frame_ms"};
+  std::vector<std::string> h = {"scene",
+                                "technique",
+                                "at",
+                                "target",
+                                "tolerance",
+                                "knob",
+                                "knob_value",
+                                "status",
+                                "probes",
+                                "cell",
+                                "wall_ms_median",
+                                "wall_ms_p5",
+                                "wall_ms_p95",
+                                "wall_ms_n",
+                                "rounds",
+                                "probe_wall_ms_median"};
   for (const std::string& metric : config.metrics) {
     h.push_back(metric);
     h.push_back(metric + "_floor");
@@ -267,9 +279,9 @@ void write_match_csv(const config::Config& config, const std::filesystem::path& 
 // One row per cell the matches ran: the probes in order, then seeds and rounds.
 void write_probes_csv(const config::Config& config, const std::filesystem::path& run_dir,
                       const std::vector<MatchRecord>& records) {
-  std::vector<std::string> header = {"scene",           "technique",   "knob",        "role",
-                                     "index",           "knob_value",  "cell",        "status",
-                                     "frame_ms_median", "frame_ms_p5", "frame_ms_p95"};
+  std::vector<std::string> header = {"scene",          "technique",  "knob",       "role",
+                                     "index",          "knob_value", "cell",       "status",
+                                     "wall_ms_median", "wall_ms_p5", "wall_ms_p95"};
   for (const std::string& metric : config.metrics) {
     header.push_back(metric);
     header.push_back(metric + "_floor");

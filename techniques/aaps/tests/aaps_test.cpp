@@ -349,6 +349,34 @@ TEST(AapsTrace, RefusesKeptPathsAndMissingDensities) {
 
 fs::path work_dir(const std::string& name) { return pb::testing::work_dir("aaps_test", name); }
 
+// The descriptor's check and the schema's choices, through the plan `photonbench validate` makes:
+// each bad parameter is bad input reported at the config's file, line and column with the key at
+// fault.
+TEST(Aaps, RefusesBadParametersAtTheirKey) {
+  fs::path dir = work_dir("check");
+  const std::pair<const char*, const char*> cases[] = {
+      {"density_resolution: 100", "density_resolution: 100 is not a power of two"},
+      {"density_min: 8, density_max: 6", "density_max: 6 is below density_min = 8"},
+      // An enumeration's unknown name, with the closest of its choices.
+      {"msaa: smal_per_sample",
+       "params.msaa: 'smal_per_sample' is not one of: none, all, all_per_sample, "
+       "small_per_sample; did you mean 'small_per_sample'?"},
+      {"feedback_halves: refraction",
+       "params.feedback_halves: 'refraction' is not one of: both, refracted; did you mean "
+       "'refracted'?"}};
+  for (const auto& [params, message] : cases) {
+    const std::string error = plan_error(dir, std::string("name: check\n"
+                                                          "resolution: [64, 36]\n"
+                                                          "scenes: [cornell-glass]\n"
+                                                          "techniques:\n"
+                                                          "  - technique: aaps\n"
+                                                          "    params: {") +
+                                                  params + "}\n");
+    EXPECT_NE(error.find("config.yaml:6:"), std::string::npos) << params << ": " << error;
+    EXPECT_NE(error.find(message), std::string::npos) << error;
+  }
+}
+
 constexpr uint32_t kReferenceSamples = 64;
 // AAPS's rules on cornell-glass (one convex dielectric): a photon that hits the sphere is reflected
 // once (L S D) or refracted in and out (L S S D); the chained paths (an internal reflection, about

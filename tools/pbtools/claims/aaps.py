@@ -100,7 +100,7 @@ def equal_time(run: Run) -> List[str]:
                        f"{equal_time_held(r, none)}): {score_order(r, none, metric, m, 'none')} "
                        f"({thesis}).")
         else:
-            fast, slow = sorted((r, none), key=lambda x: float(x["frame_ms_median"] or "nan"))
+            fast, slow = sorted((r, none), key=lambda x: float(x["wall_ms_median"] or "nan"))
             names = {id(r): m, id(none): "none"}
             out.append(f"* {scene}, {m} against none at {metric} {float(r['target']):g}: "
                        f"{names[id(fast)]} {matching.time_text(fast)} ms is faster than "

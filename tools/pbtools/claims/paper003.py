@@ -106,7 +106,7 @@ def frame_median(cell: Cell, clock: str = WALL) -> float:
     t = frame_times(cell, clock)
     if len(t):
         return float(np.median(t))
-    return cell.value("frame_ms_median") if clock == WALL else math.nan
+    return cell.value("wall_ms_median") if clock == WALL else math.nan
 
 
 def frame_cpu_median(cell: Cell) -> float:

@@ -191,7 +191,7 @@ def knob_value(row: Dict[str, str]) -> str:
 def equal_time_held(a: Dict[str, str], b: Dict[str, str]) -> str:
     """Whether two rows' achieved times are one time as far as their spread tells: their p5-p95 ranges
     overlap (matching.order_verdict at equal quality leaves the faster's lead unresolved)."""
-    fast, slow = sorted((a, b), key=lambda r: float(r["frame_ms_median"] or "nan"))
+    fast, slow = sorted((a, b), key=lambda r: float(r["wall_ms_median"] or "nan"))
     if matching.order_verdict(fast, slow, "", "quality") == "resolved":
         return (f"not held: the re-measured times are apart ({matching.time_text(fast)} against "
                 f"{matching.time_text(slow)} ms, p5-p95 not overlapping)")
