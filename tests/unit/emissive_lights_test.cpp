@@ -47,7 +47,9 @@ TEST(EmissiveTriangles, CarryPiAreaRadianceAndCullZeroFlux) {
   uint32_t dark = t.material(scene::MaterialType::emissive, glm::vec3(0.5f), glm::vec3(0.f));
   uint32_t white = t.material(scene::MaterialType::diffuse);
   scene::Mesh quad = quad_mesh({0, 1, 0}, {0.5f, 0, 0}, {0, 0, 2});  // 1 m^2, faces -y
-  quad.positions.push_back({5, 5, 5});                               // a degenerate triangle
+  // Wound against its vertex normals: the normals decide the emitting side.
+  for (glm::uvec3& t : quad.triangles) std::swap(t.y, t.z);
+  quad.positions.push_back({5, 5, 5});  // a degenerate triangle
   quad.normals.push_back({0, -1, 0});
   quad.triangles.push_back({4, 4, 4});
   t.object(quad, bright, glm::translate(glm::mat4(1.f), glm::vec3(0, 2, 0)));
