@@ -269,20 +269,8 @@ Estimate estimate_irradiance(const LightSampler& sampler,
   std::uniform_real_distribution<float> u(0.f, 1.f);
   double sum = 0, sum2 = 0;
   for (int k = 0; k < samples; ++k) {
-    double value = 0;
-    LightPick pick;
     float u0 = u(rng), u1 = u(rng), u2 = u(rng);
-    if (sampler.sample(p, n, u0, pick)) {
-      const auto& t = triangles[pick.light];
-      float s = std::sqrt(u1);
-      glm::vec3 y = t.p[0] + s * (1 - u2) * (t.p[1] - t.p[0]) + s * u2 * (t.p[2] - t.p[0]);
-      glm::vec3 d = y - p;
-      float r2 = glm::dot(d, d);
-      glm::vec3 w = d / std::sqrt(r2);
-      float cos_r = glm::dot(n, w), cos_l = -glm::dot(t.normal, w);
-      if (cos_r > 0 && cos_l > 0)
-        value = double(t.radiance.y) * cos_r * cos_l * t.area / r2 / pick.pdf;
-    }
+    double value = irradiance_sample(sampler, triangles, p, n, u0, {u1, u2}).y;
     sum += value, sum2 += value * value;
   }
   Estimate e;

@@ -453,6 +453,25 @@ float LightBvh::pdf(const glm::vec3& p, const glm::vec3& n, uint32_t i) const {
   return float(pdf);
 }
 
+glm::vec3 irradiance_sample(const LightSampler& sampler,
+                            const std::vector<scene::EmissiveTriangle>& triangles,
+                            const glm::vec3& p, const glm::vec3& n, float u_select, glm::vec2 u,
+                            LightPick* pick) {
+  LightPick chosen;
+  if (!sampler.sample(p, n, u_select, chosen)) return glm::vec3(0.f);
+  if (pick) *pick = chosen;
+  const scene::EmissiveTriangle& t = triangles[chosen.light];
+  float s = std::sqrt(u.x);  // uniform on the triangle (Shirley's square-root mapping)
+  glm::vec3 y = t.p[0] + s * (1 - u.y) * (t.p[1] - t.p[0]) + s * u.y * (t.p[2] - t.p[0]);
+  glm::vec3 d = y - p;
+  float r2 = glm::dot(d, d);
+  if (!(r2 > 0)) return glm::vec3(0.f);
+  glm::vec3 w = d / std::sqrt(r2);
+  float cos_p = glm::dot(n, w), cos_y = -glm::dot(t.normal, w);
+  if (cos_p <= 0 || cos_y <= 0) return glm::vec3(0.f);
+  return t.radiance * (cos_p * cos_y * t.area / (r2 * chosen.pdf));
+}
+
 size_t LightBvh::bytes() const {
   return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t) +
          leaf_of_.size() * sizeof(uint32_t) + lights_.size() * sizeof(LightPrimitive);

@@ -135,4 +135,14 @@ class LightBvh final : public LightSampler {
   std::vector<Node> nodes_;
 };
 
+// One next-event estimate of the irradiance at p (normal n) from emissive triangles, unoccluded:
+// a light chosen by `sampler` with u_select, a uniform point on it with u (Paper III: p = 1/A),
+// and L cos(theta_p) cos(theta_y) A / (r^2 pdf). Zero when no light is chosen or the point faces
+// away; `pick` (if given) receives the choice. The shadow ray between p and the point is the
+// caller's.
+glm::vec3 irradiance_sample(const LightSampler& sampler,
+                            const std::vector<scene::EmissiveTriangle>& triangles,
+                            const glm::vec3& p, const glm::vec3& n, float u_select, glm::vec2 u,
+                            LightPick* pick = nullptr);
+
 }  // namespace pb::trace
