@@ -2,9 +2,11 @@
 // Direct lighting (path class C D L) at each G-buffer sample, with shadow-map visibility. Point,
 // spot, quad and disc lights use a 6-face cube of atlas tiles around the light (an area light's
 // from its centre, so its shadows are hard: a documented approximation); directional lights one
-// orthographic tile. Diffuse and emissive surfaces are Lambertian; rough conductors use GGX (Walter
-// et al. 2007) with Schlick's Fresnel; smooth specular surfaces receive no direct light from delta
-// or small lights here.
+// orthographic tile. Emissive triangles (the scene's emissive surfaces, Phi = pi A L each) are
+// polygon lights like the quads, shadowed from their object's own cube (at its area-weighted
+// centroid; the emitter is not drawn into it). Diffuse and emissive surfaces are Lambertian; rough
+// conductors use GGX (Walter et al. 2007) with Schlick's Fresnel; smooth specular surfaces receive
+// no direct light from delta or small lights here.
 #include "photonbench/scene_layout.h"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer FrameBlock { GpuFrame frame; };
@@ -15,6 +17,14 @@ layout(binding = 4, rgba32f) readonly uniform image2D gbuffer_position;
 layout(binding = 5, rgba32f) readonly uniform image2D gbuffer_normal;
 layout(binding = 6) uniform sampler2D shadow_atlas;
 layout(binding = 7, rgba32f) writeonly uniform image2D direct_out;
+struct EmissiveTriangle {
+  vec4 a_first_tile;   // xyz: vertex 0; w: the first of its object's 6 shadow tiles
+  vec4 b;              // vertex 1 (the three wound to face the emitting side)
+  vec4 c;              // vertex 2
+  vec4 radiance;       // rgb: W/(m^2 sr)
+  vec4 shadow_origin;  // xyz: the centre of its object's shadow cube
+};
+layout(std430, binding = 8) readonly buffer EmissiveBlock { EmissiveTriangle emissive[]; };
 // relative_bias: a receiver is lit when its light-space depth * (1 - relative_bias) <= the stored
 // depth. Cube tiles are perspective (near/far given), directional tiles orthographic (depth already
 // linear).
@@ -23,6 +33,7 @@ layout(push_constant) uniform Push {
   float normal_offset;
   float near;
   float far;
+  uint emissive_count;
 }
 push;
 
@@ -103,6 +114,13 @@ float disc_form_factor(vec3 p, vec3 n, vec3 centre, vec3 eu, vec3 ev) {
   return max(0.5 * abs(sum), 0.0);
 }
 
+// The same for a Lambertian triangle a, b, c (facing cross(b - a, c - a)).
+float triangle_form_factor(vec3 p, vec3 n, vec3 a, vec3 b, vec3 c) {
+  if (dot(p - a, cross(b - a, c - a)) <= 0.0) return 0.0;
+  float sum = edge_term(p, n, a, b) + edge_term(p, n, b, c) + edge_term(p, n, c, a);
+  return max(0.5 * abs(sum), 0.0);
+}
+
 vec3 brdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
   int type = int(m.albedo_type.w);
   if (type == PB_MATERIAL_DIFFUSE || type == PB_MATERIAL_EMISSIVE) return m.albedo_type.rgb / PI;
@@ -173,6 +191,15 @@ void main() {
     }
     if (all(equal(irradiance_rgb, vec3(0.0)))) continue;
     result += brdf(m, n, wo, wi) * irradiance_rgb * visibility(tile, shadow_p);
+  }
+  for (uint i = 0; i < push.emissive_count; ++i) {
+    EmissiveTriangle e = emissive[i];
+    vec3 a = e.a_first_tile.xyz, b = e.b.xyz, c = e.c.xyz;
+    float form_factor = triangle_form_factor(p, n, a, b, c);
+    if (form_factor <= 0.0) continue;
+    vec3 wi = normalize((a + b + c) / 3.0 - p);
+    uint tile = uint(e.a_first_tile.w) + cube_face(shadow_p - e.shadow_origin.xyz);
+    result += brdf(m, n, wo, wi) * e.radiance.rgb * form_factor * visibility(tile, shadow_p);
   }
   imageStore(direct_out, pixel, vec4(result, 1.0));
 }

@@ -12,6 +12,7 @@
 #include <random>
 
 #include "photonbench/photons.h"
+#include "scene/emissive_triangles.h"
 #include "test_scenes.h"
 #include "trace/bsdf.h"
 #include "trace/embree_scene.h"
@@ -233,6 +234,31 @@ TEST(PhotonTracer, EveryLightTypeDeliversItsPowerToAnEnclosure) {
         t.object(quad_mesh({-0.25f, 0, -0.25f}, {0.5f, 0, 0}, {0, 0, 0.5f}), m);  // faces -y
       },
       M_PI * 4.0 * 0.25);
+}
+
+// Emitters of several radiances and areas (a mesh of many triangles among them) and a point light
+// inside a closed box: the tracer's lights carry pi A L per emissive object and 4 pi I, and the
+// first hits on the walls receive all of it.
+TEST(PhotonTracer, EmissiveTrianglesEmitTheirTotalPower) {
+  TestScene t;
+  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true), t.material(scene::MaterialType::diffuse));
+  t.object(quad_mesh({-0.2f, 0.9f, -0.1f}, {0, 0, 0.3f}, {0.4f, 0, 0}),
+           t.material(scene::MaterialType::emissive, glm::vec3(0.f), glm::vec3(5.f)));
+  t.object(sphere_mesh({0.3f, -0.4f, 0.2f}, 0.15f, 12),
+           t.material(scene::MaterialType::emissive, glm::vec3(0.f), glm::vec3(2.f)));
+  t.point_light({0, 0, -0.5f}, 0.3f);
+  double expected = 4 * M_PI * 0.3;
+  for (const auto& e : scene::emissive_triangles(t.scene, t.state)) expected += e.flux.y;
+  EXPECT_GT(scene::emissive_triangles(t.scene, t.state).size(), 100u);
+  EmbreeScene world(t.scene, t.state);
+  EmbreePhotonTracer tracer(world);
+  ASSERT_EQ(tracer.light_count(), 3u);
+  double lights = 0;
+  for (uint32_t l = 0; l < 3; ++l) lights += tracer.light_power(l).y;
+  EXPECT_NEAR(lights / expected, 1.0, 1e-5);
+  PhotonBatch batch;
+  tracer.trace(direct_only(200000), batch);
+  EXPECT_NEAR(total_power(batch.photons).y / expected, 1.0, 0.005);
 }
 
 TEST(PhotonTracer, DirectionalLightCoversTheSceneAndDeliversIrradianceTimesArea) {

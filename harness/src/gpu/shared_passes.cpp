@@ -6,6 +6,7 @@
 
 #include "photonbench/error.h"
 #include "photonbench/scene_layout.h"
+#include "scene/emissive_triangles.h"
 #include "shared_shaders.h"
 
 namespace pb::gpu {
@@ -28,6 +29,21 @@ struct DrawPush {
   glm::mat4 model;
   uint32_t index;  // material (G-buffer) or tile (shadow)
 };
+
+// direct.comp's push constants.
+struct DirectPush {
+  float relative_bias, normal_offset, near_plane, far_plane;
+  uint32_t emissive_count;
+};
+
+// One emissive triangle as direct.comp reads it (its EmissiveTriangle block, std430).
+struct GpuEmissiveTriangle {
+  glm::vec4 a_first_tile;   // xyz: vertex 0; w: the first of its object's 6 shadow tiles
+  glm::vec4 b, c;           // vertices 1 and 2, wound to face the emitting side
+  glm::vec4 radiance;       // rgb: W/(m^2 sr)
+  glm::vec4 shadow_origin;  // xyz: where its object's shadow cube sits
+};
+static_assert(sizeof(GpuEmissiveTriangle) == 80);
 
 layout::GpuMaterial to_gpu(const scene::Material& m) {
   return {glm::vec4(m.albedo, float(int(m.type))), glm::vec4(m.emission, m.roughness),
@@ -73,11 +89,22 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
 
   for (const auto& track : scene.lights)
     tile_count_ += track.light.type == scene::LightType::directional ? 1 : 6;
+  tile_object_.assign(tile_count_, -1);
+  // Each emissive object gets a shadow cube of its own, after the lights' tiles; the object itself
+  // is left out of its own cube (it would hide everything from a cube inside a closed emitter).
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (scene::is_emissive(scene, i)) {
+      emissive_objects_.push_back(uint32_t(i));
+      tile_object_.insert(tile_object_.end(), 6, int(i));
+      tile_count_ += 6;
+    }
   size_t light_count = std::max<size_t>(scene.lights.size(), 1);
   frame_ = device.create_buffer("world/frame", sizeof(layout::GpuFrame), U::eStorageBuffer,
                                 Memory::host_visible);
   lights_ = device.create_buffer("world/lights", light_count * sizeof(layout::GpuLight),
                                  U::eStorageBuffer, Memory::host_visible);
+  emissive_ = device.create_buffer("world/emissive-triangles", sizeof(GpuEmissiveTriangle),
+                                   U::eStorageBuffer, Memory::host_visible);
   tiles_ = device.create_buffer("world/shadow-views",
                                 std::max<uint32_t>(tile_count_, 1) * sizeof(glm::mat4),
                                 U::eStorageBuffer, Memory::host_visible);
@@ -117,8 +144,8 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
   direct_pipeline_ = device.create_compute_pipeline(
       "direct-light", kdirect_comp_spv,
       {B::storage_buffer, B::storage_buffer, B::storage_buffer, B::storage_buffer, B::storage_image,
-       B::storage_image, B::sampled_image, B::storage_image},
-      4 * sizeof(float));
+       B::storage_image, B::sampled_image, B::storage_image, B::storage_buffer},
+      sizeof(DirectPush));
   shade_pipeline_ = device.create_compute_pipeline(
       "shade", kshade_comp_spv,
       {B::storage_buffer, B::storage_buffer, B::storage_image, B::storage_image, B::storage_image,
@@ -212,6 +239,7 @@ void ScenePasses::update(const scene::FrameState& state) {
       cube_views(origin, shadow_far, tiles);
     }
   }
+  upload_emissive_triangles(state, shadow_far, tiles);
   if (!tiles.empty()) std::memcpy(tiles_.mapped(), tiles.data(), tiles.size() * sizeof(glm::mat4));
 
   layout::GpuFrame frame{};
@@ -223,6 +251,41 @@ void ScenePasses::update(const scene::FrameState& state) {
   vk::Extent2D atlas = shadow_atlas_.extent();
   frame.shadow_atlas = glm::uvec4(atlas.width, atlas.height, tiles_per_row_, tile_count_);
   std::memcpy(frame_.mapped(), &frame, sizeof(frame));
+}
+
+void ScenePasses::upload_emissive_triangles(const scene::FrameState& state, float shadow_far,
+                                            std::vector<glm::mat4>& tiles) {
+  std::vector<scene::EmissiveTriangle> triangles;
+  if (!emissive_objects_.empty()) triangles = scene::emissive_triangles(scene_, state);
+  std::vector<GpuEmissiveTriangle> gpu;
+  gpu.reserve(triangles.size());
+  size_t next = 0;
+  for (uint32_t object : emissive_objects_) {
+    // The shadow cube sits at the object's area-weighted centroid (an area light's shadows are
+    // those of its centre, as for quad and disc lights: hard, a documented approximation).
+    size_t first = next;
+    glm::vec3 weighted{0.0f};
+    float area = 0;
+    for (; next < triangles.size() && triangles[next].object == object; ++next) {
+      weighted += triangles[next].area * triangles[next].centroid();
+      area += triangles[next].area;
+    }
+    glm::vec3 origin = area > 0 ? weighted / area : glm::vec3(state.object_to_world[object][3]);
+    float first_tile = float(tiles.size());
+    cube_views(origin, shadow_far, tiles);
+    for (size_t t = first; t < next; ++t) {
+      const scene::EmissiveTriangle& e = triangles[t];
+      gpu.push_back({glm::vec4(e.p[0], first_tile), glm::vec4(e.p[1], 0.f), glm::vec4(e.p[2], 0.f),
+                     glm::vec4(e.radiance, 0.f), glm::vec4(origin, 0.f)});
+    }
+  }
+  emissive_count_ = uint32_t(gpu.size());
+  size_t bytes = gpu.size() * sizeof(GpuEmissiveTriangle);
+  if (bytes > emissive_.size())
+    emissive_ =
+        device_.create_buffer("world/emissive-triangles", bytes,
+                              vk::BufferUsageFlagBits::eStorageBuffer, Memory::host_visible);
+  if (bytes) std::memcpy(emissive_.mapped(), gpu.data(), bytes);
 }
 
 // One object's draw: `bind` binds the pass's pipeline with the push constants (object-to-world
@@ -298,8 +361,10 @@ void ScenePasses::shadow_maps() {
     cmd.setViewport(0, vk::Viewport{float(x), float(y), float(size), float(size), 0, 1});
     cmd.setScissor(0, vk::Rect2D{{x, y}, {size, size}});
     for (size_t i = 0; i < meshes_.size(); ++i)
-      draw_object(
-          cmd, i, [&](const DrawPush& push) { shadow_pipeline_.bind(cmd, {&tiles_}, push); }, tile);
+      if (tile_object_[tile] != int(i))
+        draw_object(
+            cmd, i, [&](const DrawPush& push) { shadow_pipeline_.bind(cmd, {&tiles_}, push); },
+            tile);
   }
   device_.end_rendering(cmd);
 }
@@ -311,12 +376,11 @@ void ScenePasses::direct_light() {
   vk::CommandBuffer cmd = cmd_();
   auto [lo, hi] = scene_.bounds();
   float far_plane = 4.f * std::max(0.5f * glm::length(hi - lo), 1e-3f) + 1.f;
-  struct {
-    float relative_bias, normal_offset, near_plane, far_plane;
-  } push{options_.shadow_relative_bias, options_.shadow_normal_offset, kShadowNear, far_plane};
+  DirectPush push{options_.shadow_relative_bias, options_.shadow_normal_offset, kShadowNear,
+                  far_plane, emissive_count_};
   direct_pipeline_.bind(cmd,
                         {&frame_, &materials_, &lights_, &tiles_, &position_, &normal_,
-                         Sampled{&shadow_atlas_}, &direct_},
+                         Sampled{&shadow_atlas_}, &direct_, &emissive_},
                         push);
   cmd.dispatch(groups_for(width_, kGroup), groups_for(height_, kGroup), 1);
 }

@@ -52,6 +52,9 @@ class ScenePasses : public SharedPasses {
   };
   void upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name);
   void shadow_maps();
+  // This frame's emissive triangles into emissive_; their objects' shadow cubes go onto `tiles`.
+  void upload_emissive_triangles(const scene::FrameState& state, float shadow_far,
+                                 std::vector<glm::mat4>& tiles);
   template <class Bind>
   void draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind, uint32_t index);
   void create_shadow_atlas();
@@ -66,7 +69,10 @@ class ScenePasses : public SharedPasses {
   std::vector<glm::mat4> object_to_world_;
   CameraView camera_{};
   uint32_t tiles_per_row_ = 6, tile_count_ = 0;
-  Buffer frame_, materials_, lights_, tiles_;
+  std::vector<int> tile_object_;  // per shadow tile: the emissive object it belongs to, or -1
+  std::vector<uint32_t> emissive_objects_;  // objects with an emissive material, in scene order
+  uint32_t emissive_count_ = 0;             // emissive triangles this frame
+  Buffer frame_, materials_, lights_, tiles_, emissive_;
   Image position_, normal_, albedo_, depth_, shadow_atlas_, direct_, final_;
   const Image* indirect_estimate_ = nullptr;
   Pipeline gbuffer_pipeline_, shadow_pipeline_, direct_pipeline_, shade_pipeline_;
