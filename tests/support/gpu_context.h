@@ -50,6 +50,10 @@ class TestGBuffer final : public SharedPasses {
   const gpu::Buffer& frame_buffer() const override { throw std::logic_error("no frame buffer"); }
   const gpu::Buffer& material_buffer() const override { throw std::logic_error("no materials"); }
   const gpu::Buffer& light_buffer() const override { throw std::logic_error("no lights"); }
+  SceneTriangles scene_triangles() override { throw std::logic_error("test context: no scene"); }
+  void draw_scene(const SceneTarget&, std::optional<glm::mat4>) override {
+    throw std::logic_error("test context: no scene");
+  }
 
   gpu::Image position, normal, albedo, depth;
 };

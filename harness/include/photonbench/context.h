@@ -1,16 +1,19 @@
 // What a technique sees of the harness: the GPU, the frame being rendered, named pass scopes,
-// counters, warnings, the shared passes (G-buffer, shadow-mapped direct light, final shading), the
-// photon and camera-path tracers, and the images it hands back to be scored.
+// counters, warnings, the shared passes (G-buffer, shadow-mapped direct light, final shading, the
+// scene's triangles and a raster pass that draws them into the technique's own targets), the photon
+// and camera-path tracers, and the images it hands back to be scored.
 // It never reaches into the harness's internals; everything it needs is here.
 #pragma once
 
 #include <glm/glm.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 
 #include "photonbench/camera_paths.h"
 #include "photonbench/gpu.h"
 #include "photonbench/photons.h"
+#include "photonbench/scene_triangles.h"
 
 namespace pb {
 
@@ -109,6 +112,12 @@ class SharedPasses {
   virtual const gpu::Buffer& frame_buffer() const = 0;     // GpuFrame
   virtual const gpu::Buffer& material_buffer() const = 0;  // GpuMaterial[]
   virtual const gpu::Buffer& light_buffer() const = 0;     // GpuLight[]
+  // The scene's triangles in world space (photonbench/scene_triangles.h); built on first call.
+  virtual SceneTriangles scene_triangles() = 0;
+  // Pass "draw-scene": rasterises the scene's triangles into the technique's `target`, seen with
+  // `view_projection` (a light's, an unwrap's; Vulkan clip space, y down) or the frame's camera.
+  virtual void draw_scene(const SceneTarget& target,
+                          std::optional<glm::mat4> view_projection = std::nullopt) = 0;
 };
 
 class Context {

@@ -21,7 +21,8 @@
 // it. 96 bytes.
 struct PhotonRecord {
   PB_VEC3 position;       // world position of the hit, metres
-  PB_UINT object;         // index into Scene::objects of the surface hit
+  PB_UINT triangle;       // scene-wide index of the triangle hit (photonbench/scene_layout.h's
+                          // numbering; its object: pb::SceneTriangles::object(triangle))
   PB_VEC3 power;          // flux carried, W (RGB); summed over the photons of one trace it
                           // estimates the power arriving at the stored surfaces
   PB_UINT path;           // index of the light path this photon belongs to (its sample index)

@@ -24,7 +24,7 @@ namespace pb::trace {
 #include "photonbench/photon_layout.h"
 
 static_assert(sizeof(PhotonRecord) == 96, "std430 size of PhotonRecord");
-static_assert(offsetof(PhotonRecord, position) == 0 && offsetof(PhotonRecord, object) == 12);
+static_assert(offsetof(PhotonRecord, position) == 0 && offsetof(PhotonRecord, triangle) == 12);
 static_assert(offsetof(PhotonRecord, power) == 16 && offsetof(PhotonRecord, path) == 28);
 static_assert(offsetof(PhotonRecord, direction) == 32 && offsetof(PhotonRecord, bounce) == 44);
 static_assert(offsetof(PhotonRecord, normal) == 48 && offsetof(PhotonRecord, specular_mask) == 60);

@@ -263,6 +263,8 @@ const char* check_entry(const pb_param_value* values, uint32_t count) {
       {"pb::Context", sizeof(Context)},
       {"pb::FrameInfo", sizeof(FrameInfo)},
       {"pb::GBuffer", sizeof(GBuffer)},
+      {"pb::SceneTriangles", sizeof(SceneTriangles)},
+      {"pb::SceneTarget", sizeof(SceneTarget)},
       {"pb::Counter", sizeof(Counter)},
       {"pb::PassScope", sizeof(PassScope)},
       {"pb::gpu::Device", sizeof(gpu::Device)},

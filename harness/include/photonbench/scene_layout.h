@@ -52,6 +52,22 @@ struct GpuFrame {
   uvec4 shadow_atlas;    // x atlas width, y atlas height, z tiles per row, w total tiles
 };
 
+// The scene's triangles in world space, in one scene-wide numbering: object o's mesh triangle t is
+// triangle first_triangle(o) + t, objects in scene order (pb::SceneTriangles). The photon records'
+// `triangle` and draw_scene's triangle target use the same numbering.
+#define PB_NO_TRIANGLE 0xffffffffu  // a triangle target's texel where nothing was drawn
+
+struct GpuSceneVertex {
+  vec4 position;  // world xyz, w = 1
+  vec4 normal;    // world unit shading normal xyz, w = 1; (0, 0, 0, 0) where the mesh has none
+};
+
+struct GpuSceneTriangle {
+  uvec4 vertices_object;  // xyz: indices into GpuSceneVertex[] (scene-wide), w = object index
+  vec4 normal_area;       // xyz: unit geometric normal (p1 - p0) x (p2 - p0), w = area (m^2)
+  uvec4 material_local;   // x: material index, y: the triangle's index in its object's mesh, zw 0
+};
+
 #ifdef __cplusplus
 }  // namespace pb::layout
 #endif

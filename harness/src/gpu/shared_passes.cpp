@@ -17,6 +17,7 @@ static_assert(sizeof(layout::GpuLight) == 80);
 static_assert(PB_LIGHT_QUAD == int(scene::LightType::quad) &&
               PB_LIGHT_DISC == int(scene::LightType::disc));
 static_assert(sizeof(layout::GpuFrame) == 176);
+static_assert(sizeof(layout::GpuSceneVertex) == 32 && sizeof(layout::GpuSceneTriangle) == 48);
 
 namespace {
 
@@ -50,6 +51,51 @@ layout::GpuMaterial to_gpu(const scene::Material& m) {
           glm::vec4(m.specular, m.ior)};
 }
 
+struct DrawScenePush {
+  glm::mat4 view_projection;
+  glm::vec4 eye;  // w = 1: a position; w = 0: the direction towards an eye at infinity
+};
+
+// Where the viewer of `view_projection` is: the point that projects to clip (0, 0, z, 0), found as
+// inverse(view_projection) (0, 0, 1, 0); with w = 0 (an orthographic view) that is the direction
+// of increasing depth, and the viewer lies the other way.
+glm::vec4 eye_of(const glm::mat4& view_projection) {
+  glm::vec4 h = glm::inverse(view_projection) * glm::vec4(0, 0, 1, 0);
+  if (std::abs(h.w) > 1e-6f * glm::length(glm::vec3(h))) return glm::vec4(glm::vec3(h) / h.w, 1.f);
+  return glm::vec4(-glm::normalize(glm::vec3(h)), 0.f);
+}
+
+// Begins dynamic rendering into `colors` (cleared to `clears`) and `depth` (cleared to 1) within
+// `area`, with the viewport and scissor on `area`: the raster passes' common start.
+void begin_raster(const Device& device, vk::CommandBuffer cmd, std::span<const Image* const> colors,
+                  std::span<const vk::ClearColorValue> clears, const Image& depth,
+                  vk::Rect2D area) {
+  std::vector<vk::RenderingAttachmentInfo> attachments;
+  for (size_t i = 0; i < colors.size(); ++i)
+    attachments.push_back(vk::RenderingAttachmentInfo{colors[i]->view(),
+                                                      vk::ImageLayout::eGeneral,
+                                                      {},
+                                                      {},
+                                                      {},
+                                                      vk::AttachmentLoadOp::eClear,
+                                                      vk::AttachmentStoreOp::eStore,
+                                                      clears[i]});
+  vk::RenderingAttachmentInfo depth_attachment{depth.view(),
+                                               vk::ImageLayout::eGeneral,
+                                               {},
+                                               {},
+                                               {},
+                                               vk::AttachmentLoadOp::eClear,
+                                               vk::AttachmentStoreOp::eStore,
+                                               vk::ClearDepthStencilValue(1.f, 0)};
+  device.begin_rendering(cmd, vk::RenderingInfo{{}, area, 1, 0, attachments, &depth_attachment});
+  // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is
+  // plain.
+  cmd.setViewport(0, vk::Viewport{float(area.offset.x), float(area.offset.y),
+                                  float(area.extent.width), float(area.extent.height), 0, 1});
+  cmd.setScissor(0, area);
+}
+
 // The 6 cube-face views around `p`, in the order the direct-light shader picks them (+x -x +y -y +z
 // -z).
 void cube_views(glm::vec3 p, float far_plane, std::vector<glm::mat4>& out) {
@@ -72,7 +118,8 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
       height_(height),
       options_(options),
       recorder_(recorder),
-      cmd_(std::move(cmd)) {
+      cmd_(std::move(cmd)),
+      state_(scene.at(0)) {
   using U = vk::BufferUsageFlagBits;
   using I = vk::ImageUsageFlagBits;
   meshes_.resize(scene.objects.size());
@@ -198,10 +245,15 @@ void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const 
 void ScenePasses::update(const scene::FrameState& state) {
   indirect_estimate_ = nullptr;  // a new frame: shade() has not run yet
   object_to_world_ = state.object_to_world;
+  state_ = state;
   // Deformed meshes (the pool's water) are re-tessellated and re-uploaded; rigid motion is a
   // matrix.
-  for (uint32_t i : state.deformed_objects)
-    upload_mesh(meshes_[i], scene_.mesh_at(i, state.time), "world/" + scene_.objects[i].name);
+  std::vector<scene::Mesh> deformed;
+  for (uint32_t i : state.deformed_objects) {
+    deformed.push_back(scene_.mesh_at(i, state.time));
+    upload_mesh(meshes_[i], deformed.back(), "world/" + scene_.objects[i].name);
+  }
+  if (world_triangles_) refresh_triangles(state, deformed);
 
   float aspect = float(width_) / float(height_);
   camera_.view = state.camera.view();
@@ -302,31 +354,10 @@ void ScenePasses::draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind,
 void ScenePasses::gbuffer() {
   auto scope = PassScope(&recorder_, recorder_.begin_pass("gbuffer"));
   vk::CommandBuffer cmd = cmd_();
-  std::array<vk::RenderingAttachmentInfo, 3> colors;
   const Image* targets[3] = {&position_, &normal_, &albedo_};
-  for (int i = 0; i < 3; ++i)
-    colors[i] = vk::RenderingAttachmentInfo{targets[i]->view(),
-                                            vk::ImageLayout::eGeneral,
-                                            {},
-                                            {},
-                                            {},
-                                            vk::AttachmentLoadOp::eClear,
-                                            vk::AttachmentStoreOp::eStore,
-                                            vk::ClearColorValue(std::array<float, 4>{0, 0, 0, 0})};
-  vk::RenderingAttachmentInfo depth{depth_.view(),
-                                    vk::ImageLayout::eGeneral,
-                                    {},
-                                    {},
-                                    {},
-                                    vk::AttachmentLoadOp::eClear,
-                                    vk::AttachmentStoreOp::eStore,
-                                    vk::ClearDepthStencilValue(1.f, 0)};
-  vk::Rect2D area{{0, 0}, {width_, height_}};
-  device_.begin_rendering(cmd, vk::RenderingInfo{{}, area, 1, 0, colors, &depth});
-  // Vulkan's y points down in clip space; Camera::projection already flips, so the viewport is
-  // plain.
-  cmd.setViewport(0, vk::Viewport{0, 0, float(width_), float(height_), 0, 1});
-  cmd.setScissor(0, area);
+  const vk::ClearColorValue clear(std::array<float, 4>{0, 0, 0, 0});
+  const vk::ClearColorValue clears[3] = {clear, clear, clear};
+  begin_raster(device_, cmd, targets, clears, depth_, vk::Rect2D{{0, 0}, {width_, height_}});
   for (size_t i = 0; i < meshes_.size(); ++i)
     draw_object(
         cmd, i,
@@ -395,6 +426,91 @@ void ScenePasses::shade(const Image* indirect_radiance) {
                         indirect_radiance ? indirect_radiance : &direct_, &final_},
                        has_indirect);
   cmd.dispatch(groups_for(width_, kGroup), groups_for(height_, kGroup), 1);
+}
+
+SceneTriangles ScenePasses::scene_triangles() {
+  if (!world_triangles_) {
+    using U = vk::BufferUsageFlagBits;
+    world_triangles_ = std::make_unique<scene::WorldTriangles>(scene_);
+    auto bytes = [](auto records) { return std::max<size_t>(records.size_bytes(), 16); };
+    scene_vertices_ =
+        device_.create_buffer("world/scene-vertices", bytes(world_triangles_->vertices()),
+                              U::eStorageBuffer, Memory::host_visible);
+    scene_triangles_ =
+        device_.create_buffer("world/scene-triangles", bytes(world_triangles_->triangles()),
+                              U::eStorageBuffer, Memory::host_visible);
+    std::vector<scene::Mesh> deformed;
+    for (uint32_t i : state_.deformed_objects) deformed.push_back(scene_.mesh_at(i, state_.time));
+    refresh_triangles(state_, deformed);
+  }
+  const scene::WorldTriangles& w = *world_triangles_;
+  return SceneTriangles{&scene_vertices_,        &scene_triangles_,  w.vertices(),
+                        w.triangles(),           w.first_triangle(), w.total_area(),
+                        triangles_changed_frame_};
+}
+
+void ScenePasses::refresh_triangles(const scene::FrameState& state,
+                                    std::span<const scene::Mesh> deformed) {
+  const std::vector<uint32_t>& changed = world_triangles_->update(state, deformed);
+  if (changed.empty()) return;
+  triangles_changed_frame_ = state.frame;
+  // Host-visible and written in place: the previous frame's commands have completed by the
+  // scene-update pass. Only the objects that changed are copied.
+  auto copy = [](const Buffer& buffer, auto records, uint32_t first, uint32_t end) {
+    std::memcpy(static_cast<char*>(buffer.mapped()) + size_t(first) * sizeof(records[0]),
+                records.data() + first, size_t(end - first) * sizeof(records[0]));
+  };
+  const scene::WorldTriangles& w = *world_triangles_;
+  for (uint32_t o : changed) {
+    copy(scene_vertices_, w.vertices(), w.first_vertex()[o], w.first_vertex()[o + 1]);
+    copy(scene_triangles_, w.triangles(), w.first_triangle()[o], w.first_triangle()[o + 1]);
+  }
+}
+
+void ScenePasses::draw_scene(const SceneTarget& target, std::optional<glm::mat4> view_projection) {
+  const Image* colors[3] = {target.position, target.normal, target.triangle};
+  const vk::Format formats[3] = {kColor, kColor, vk::Format::eR32Uint};
+  const char* names[3] = {"position", "normal", "triangle"};
+  if (!target.depth || target.depth->format() != kDepth)
+    throw Error("draw_scene: the target's depth image must be D32_SFLOAT");
+  const vk::Extent2D extent = target.depth->extent();
+  for (int i = 0; i < 3; ++i) {
+    if (!colors[i] || colors[i]->format() != formats[i] || colors[i]->extent() != extent)
+      throw Error(fmt::format("draw_scene: the target's {} image must be {}, {}x{} as its depth",
+                              names[i], vk::to_string(formats[i]), extent.width, extent.height));
+  }
+  vk::Rect2D area = target.area.extent.width == 0 ? vk::Rect2D{{0, 0}, extent} : target.area;
+  if (area.offset.x < 0 || area.offset.y < 0 ||
+      uint64_t(area.offset.x) + area.extent.width > extent.width ||
+      uint64_t(area.offset.y) + area.extent.height > extent.height)
+    throw Error(fmt::format("draw_scene: area ({}, {}) + {}x{} outside the {}x{} target",
+                            area.offset.x, area.offset.y, area.extent.width, area.extent.height,
+                            extent.width, extent.height));
+  SceneTriangles triangles = scene_triangles();
+  if (!draw_scene_pipeline_) {
+    GraphicsPipelineDesc desc{"draw-scene",
+                              kdraw_scene_vert_spv,
+                              kdraw_scene_frag_spv,
+                              {Binding::storage_buffer, Binding::storage_buffer},
+                              sizeof(DrawScenePush),
+                              0,  // no vertex input: the vertex shader pulls the triangle records
+                              {},
+                              {formats[0], formats[1], formats[2]},
+                              kDepth};
+    draw_scene_pipeline_ = device_.create_graphics_pipeline(desc);
+  }
+  auto scope = PassScope(&recorder_, recorder_.begin_pass("draw-scene"));
+  vk::CommandBuffer cmd = cmd_();
+  const vk::ClearColorValue clears[3] = {vk::ClearColorValue(std::array<float, 4>{0, 0, 0, 0}),
+                                         vk::ClearColorValue(std::array<float, 4>{0, 0, 0, 0}),
+                                         vk::ClearColorValue(std::array<uint32_t, 4>{
+                                             kNoTriangle, kNoTriangle, kNoTriangle, kNoTriangle})};
+  begin_raster(device_, cmd, colors, clears, *target.depth, area);
+  DrawScenePush push{view_projection.value_or(camera_.view_projection),
+                     view_projection ? eye_of(*view_projection) : glm::vec4(camera_.position, 1.f)};
+  draw_scene_pipeline_->bind(cmd, {triangles.vertices, triangles.triangles}, push);
+  if (triangles.triangle_count() > 0) cmd.draw(3 * triangles.triangle_count(), 1, 0, 0);
+  device_.end_rendering(cmd);
 }
 
 }  // namespace pb::gpu

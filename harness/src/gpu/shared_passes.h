@@ -4,10 +4,13 @@
 #pragma once
 
 #include <functional>
+#include <memory>
+#include <optional>
 #include <vector>
 
 #include "photonbench/context.h"
 #include "scene/scene.h"
+#include "scene/world_triangles.h"
 
 namespace pb::gpu {
 
@@ -24,7 +27,8 @@ class ScenePasses : public SharedPasses {
               const SharedPassOptions& options, PassRecorder& recorder,
               std::function<vk::CommandBuffer()> cmd);
 
-  // Uploads this frame's camera, lights, shadow views and moved or deformed geometry.
+  // Uploads this frame's camera, lights, shadow views and moved or deformed geometry (the scene's
+  // triangle records too, once a technique has asked for them).
   void update(const scene::FrameState& state);
   CameraView camera_view() const { return camera_; }
   const Image& output() const { return final_; }
@@ -41,6 +45,9 @@ class ScenePasses : public SharedPasses {
   const Buffer& frame_buffer() const override { return frame_; }
   const Buffer& material_buffer() const override { return materials_; }
   const Buffer& light_buffer() const override { return lights_; }
+  SceneTriangles scene_triangles() override;
+  void draw_scene(const SceneTarget& target,
+                  std::optional<glm::mat4> view_projection = std::nullopt) override;
   const Buffer& tile_buffer() const { return tiles_; }
   const Image& atlas() const { return shadow_atlas_; }
 
@@ -58,6 +65,9 @@ class ScenePasses : public SharedPasses {
   template <class Bind>
   void draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind, uint32_t index);
   void create_shadow_atlas();
+  // Rewrites the triangle records of what moved or deformed (`deformed`: as
+  // WorldTriangles::update).
+  void refresh_triangles(const scene::FrameState& state, std::span<const scene::Mesh> deformed);
 
   Device& device_;
   const scene::Scene& scene_;
@@ -76,6 +86,13 @@ class ScenePasses : public SharedPasses {
   Image position_, normal_, albedo_, depth_, shadow_atlas_, direct_, final_;
   const Image* indirect_estimate_ = nullptr;
   Pipeline gbuffer_pipeline_, shadow_pipeline_, direct_pipeline_, shade_pipeline_;
+  // The scene's triangles and draw_scene: made on first use, so a technique that never asks pays
+  // nothing for them.
+  scene::FrameState state_;
+  std::unique_ptr<scene::WorldTriangles> world_triangles_;
+  Buffer scene_vertices_, scene_triangles_;
+  uint32_t triangles_changed_frame_ = 0;
+  std::optional<Pipeline> draw_scene_pipeline_;
 };
 
 }  // namespace pb::gpu

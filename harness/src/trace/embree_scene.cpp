@@ -8,6 +8,7 @@
 #include <type_traits>
 
 #include "photonbench/error.h"
+#include "scene/world_triangles.h"
 
 namespace pb::trace {
 namespace {
@@ -67,7 +68,10 @@ RTCDevice EmbreeScene::device() {
 
 EmbreeScene::EmbreeScene(const scene::Scene& scene, const scene::FrameState& state,
                          EmbreeOptions options)
-    : scene_(scene), state_(state), options_(options) {
+    : scene_(scene),
+      state_(state),
+      options_(options),
+      first_triangle_(scene::first_triangles(scene)) {
   // Embree aborts the process on a ray it cannot trace (NaN or huge coordinates): a frame whose
   // camera or lights are degenerate is bad input, named where the scene file sets it.
   scene::check_frame_state(scene, state);

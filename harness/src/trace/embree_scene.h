@@ -115,6 +115,10 @@ class EmbreeScene {
   // The object's mesh at the current frame (object space; deformed meshes are the current shape).
   const scene::Mesh& mesh(uint32_t object) const { return *objects_[object].mesh; }
   Triangle triangle(uint32_t object, uint32_t primitive) const;
+  // The scene-wide index of an object's triangle (photonbench/scene_layout.h's numbering).
+  uint32_t scene_triangle(uint32_t object, uint32_t primitive) const {
+    return first_triangle_[object] + primitive;
+  }
   Aabb object_bounds(uint32_t object) const {
     return objects_[object].bounds;
   }                     // world, this frame
@@ -161,6 +165,7 @@ class EmbreeScene {
   RTCScene top_ = nullptr;
   std::vector<ObjectData> objects_;
   std::vector<RTCGeometry> light_geometry_;  // one per scene light (null unless quad or disc)
+  std::vector<uint32_t> first_triangle_;     // per object: scene::first_triangles
 };
 
 }  // namespace pb::trace

@@ -354,7 +354,7 @@ PathVerdict verify_path(const EmbreeScene& world, const LightSet& lights, const 
     if (d.flags & PathVertex::kStored) {
       PhotonRecord& ph = photons[photon_at_vertex(pv, s + 1)];
       ph.position = hit.position;
-      ph.object = hit.object;
+      ph.triangle = world.scene_triangle(hit.object, hit.primitive);
       ph.normal = ng;
     }
     if (!dest_last && (pv[s + 2].flags & PathVertex::kStored))

@@ -203,7 +203,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     if (decision.store) {
       PhotonRecord p{};
       p.position = hit.position;
-      p.object = hit.object;
+      p.triangle = world.scene_triangle(hit.object, hit.primitive);
       p.power = v.power;
       p.path = path_index;
       p.direction = dir;

@@ -220,10 +220,13 @@ TEST(AapsTrace, RulesAndEnergyOnCornellGlass) {
   uint32_t sphere = ~0u;
   for (uint32_t o = 0; o < c.scene.objects.size(); ++o)
     if (c.scene.objects[o].name == "sphere") sphere = o;
+  const uint32_t sphere_first = c.world.scene_triangle(sphere, 0);
+  const uint32_t sphere_end =
+      sphere_first + uint32_t(c.scene.objects[sphere].mesh.triangles.size());
   double stored = 0;
   for (const auto& p : batch.photons) {
     ASSERT_EQ(pb::trace::photon_kind(p), pb::trace::kCausticPhotons);
-    ASSERT_NE(p.object, sphere);
+    ASSERT_FALSE(p.triangle >= sphere_first && p.triangle < sphere_end);  // not on the sphere
     ASSERT_LT(p.bounce, s.max_bounces);
     ASSERT_LT(p.path, stats.paths);
     stored += (p.power.x + p.power.y + p.power.z) / 3.0;
