@@ -40,11 +40,11 @@ inline void principal_axes(const glm::vec3& a, const glm::vec3& b, float max_ani
 
 // A photon's share of its texel's energy (§3.1.5: "within one density texel, the fractions sum to
 // one"): its power over the power the texel's photons left the light with. The texel's power is
-// the tracer's (GridEmission::texel_power), not the light's power / texels: a spot light's texels
-// do not carry equal power (its falloff), and a photon carries the uniform cone's power times the
-// falloff in its direction.
-inline float energy_fraction(const glm::vec3& power, float texel_power) {
-  return texel_power > 0 ? (power.x + power.y + power.z) / 3.f / texel_power : 0.f;
+// the tracer's (GridEmission::power_per_texel), not the light's power / texels: a spot light's
+// texels do not carry equal power (its falloff), and a photon carries the uniform cone's power
+// times the falloff in its direction.
+inline float energy_fraction(const glm::vec3& power, float power_per_texel) {
+  return power_per_texel > 0 ? (power.x + power.y + power.z) / 3.f / power_per_texel : 0.f;
 }
 
 // What the variance pass needs of an accepted photon.

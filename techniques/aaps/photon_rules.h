@@ -168,7 +168,7 @@ class GridEmission final : public pb::trace::EmissionSampler {
   // W), summed from a trace's PhotonBatch::emitted_power in task order (a texel's tasks are
   // consecutive, so the sums do not depend on the thread count): the denominator of a photon's
   // energy fraction in its texel (§3.1.5).
-  std::vector<std::vector<float>> texel_power(const std::vector<float>& emitted_power) const {
+  std::vector<std::vector<float>> power_per_texel(const std::vector<float>& emitted_power) const {
     std::vector<std::vector<float>> power(grids_.size());
     for (uint32_t e = 0; e < grids_.size(); ++e) {
       power[e].assign(size_t(grids_[e].side()) * grids_[e].side(), 0.f);

@@ -318,7 +318,7 @@ class Aaps final : public pb::Technique {
       for (const LightTasks& l : lights_) counts.push_back(&l.density);
       emission_.set_counts(std::move(counts));
       ctx.photon_tracer().trace(settings_, batch_);
-      texel_power_ = emission_.texel_power(batch_.emitted_power);
+      power_per_texel_ = emission_.power_per_texel(batch_.emitted_power);
       build_splats(ctx, f);
     }
     // ctx.cmd() is asked for in each pass: a pass scope may submit and start a fresh buffer.
@@ -410,7 +410,7 @@ class Aaps final : public pb::Technique {
       float screen_area = float(M_PI) * std::abs(d1.x * d2.y - d1.y * d2.x);
       glm::vec3 brightness = p.power / world_area;  // §3.2.1: energy / splat area
       // The texel's own emitted power (the tracer's): a spot light's texels differ by its falloff.
-      float fraction = aaps::energy_fraction(p.power, texel_power_[p.light][leaf.texel]);
+      float fraction = aaps::energy_fraction(p.power, power_per_texel_[p.light][leaf.texel]);
       const int half = (p.flags & aaps::kRefractedHalf) ? 1 : 0;
       if (p_.feedback_halves == FeedbackHalves::both || half == 1)
         light.area[leaf.texel] += fraction * screen_area;
@@ -545,7 +545,7 @@ class Aaps final : public pb::Technique {
   aaps::GridEmission emission_;
   aaps::CausticSplitRule caustic_rule_;
   pb::trace::PhotonBatch batch_;
-  std::vector<std::vector<float>> texel_power_;  // per light and texel: its photons' power
+  std::vector<std::vector<float>> power_per_texel_;  // per light and texel: its photons' power
   std::vector<LightTasks> lights_;
   std::vector<Vertex> single_, multi_;
   std::vector<Accepted> accepted_;

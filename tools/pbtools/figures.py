@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
+from matplotlib import ticker
 
 from . import floors, measures, stats, style
 from .rundata import WHOLE_FRAME_PASS, Cell, Run, format_param
@@ -517,13 +518,18 @@ def sweep_curves(run: Run, scene: str, styles: style.TechniqueStyle) -> List[Fig
         for k, panel in enumerate(panels):
             ax = axes[0][k]
             ax.set_xlabel(p)
-            ax.set_ylabel("median frame time [ms]" if panel == "time"
+            ax.set_ylabel("wall median [ms]" if panel == "time"
                           else measures.metric(panel).label)
             if panel == "time":  # techniques an order of magnitude apart: log time, or the fast ones vanish
-                times = [c.value("wall_ms_median") for c in cells if c.ok and p in c.params]
+                # only the techniques that sweep p are drawn (every technique has, say, a
+                # shadow_map_size, but only those that sweep it have a line here)
+                times = [c.value("wall_ms_median") for c in cells
+                         if c.ok and p in swept_by_tech.get(c.technique, ())]
                 times = [t for t in times if math.isfinite(t) and t > 0]
                 if times and max(times) / min(times) >= 10:
                     ax.set_yscale("log")
+                    ax.yaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
+                    ax.yaxis.set_minor_formatter(ticker.NullFormatter())
             if numeric:
                 xs = [float(v) for v in values]
                 if min(xs) > 0 and max(xs) / min(xs) >= 10:

@@ -303,25 +303,25 @@ TEST(AapsTrace, SpotTexelEnergiesFollowTheFalloff) {
   AapsPhotons aaps_photons({&density});
   pb::trace::PhotonBatch batch;
   tracer.trace(aaps_photons.settings(), batch);
-  const std::vector<std::vector<float>> texel_power =
-      aaps_photons.emission.texel_power(batch.emitted_power);
-  ASSERT_EQ(texel_power.size(), 1u);
-  ASSERT_EQ(texel_power[0].size(), size_t(side) * side);
+  const std::vector<std::vector<float>> power_per_texel =
+      aaps_photons.emission.power_per_texel(batch.emitted_power);
+  ASSERT_EQ(power_per_texel.size(), 1u);
+  ASSERT_EQ(power_per_texel[0].size(), size_t(side) * side);
   const glm::vec3 power = tracer.light_power(0);
   const double light = (power.x + power.y + power.z) / 3.0;
-  const double sum = std::accumulate(texel_power[0].begin(), texel_power[0].end(), 0.0);
+  const double sum = std::accumulate(power_per_texel[0].begin(), power_per_texel[0].end(), 0.0);
   EXPECT_NEAR(sum / light, 1.0, 0.005);
   // The domain's u is 1 - cos(theta) over 1 - cos(outer): the inner cone is u < 0.362.
   const pb::scene::Light& spot = state.lights[0];
   const double co = std::cos(spot.spot_outer), ci = std::cos(spot.spot_inner);
   const double inner_share = (1 - co) / ((1 - ci) + 0.5 * (ci - co));
   for (uint32_t x = 0; x * (1 - co) < side * (1 - ci) - (1 - co); ++x)
-    EXPECT_NEAR(texel_power[0][x] / (light / (side * side)), inner_share, 1e-3) << x;
+    EXPECT_NEAR(power_per_texel[0][x] / (light / (side * side)), inner_share, 1e-3) << x;
   aaps::TaskGrid grid(density);
   std::vector<double> fractions(size_t(side) * side, 0.0);
   for (const pb::trace::PhotonRecord& p : batch.photons) {
     uint32_t texel = grid.locate(p.path).texel;
-    fractions[texel] += aaps::energy_fraction(p.power, texel_power[0][texel]);
+    fractions[texel] += aaps::energy_fraction(p.power, power_per_texel[0][texel]);
   }
   const double most = *std::max_element(fractions.begin(), fractions.end());
   std::printf(
