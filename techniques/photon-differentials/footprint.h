@@ -34,6 +34,8 @@ struct PostProcess {
   bool compress_semiaxis = false;  // factor |Delta dp|^e (the semi-axis) instead of |dp|^e
   float r_max = 0.7f;              // §7's clamp, per semi-axis, m
   float normal_extent = 1;         // h = normal_extent sqrt(|a1| |a2|)
+
+  bool operator==(const PostProcess&) const = default;
 };
 
 // The photon has had only specular interactions before its hit (L S* D: caustic or direct).
