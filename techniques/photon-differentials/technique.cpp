@@ -61,6 +61,7 @@ struct PdParams : tk::PhotonParams, pd::PostProcess {
   double t_auto_constant;  // compared with its default in check(), as given
   float surface_area;
   bool caustics;
+  bool first_hit_roulette;
   bool verify;
 };
 
@@ -88,10 +89,11 @@ constexpr auto kParams = pb::params(
               "semi-axis Delta dp"),
     pb::param("r_max", pb::base_field<PdParams>(&pd::PostProcess::r_max), 0.7, {1e-4, 100}, "m",
               "each semi-axis clamped to this length (§7: 0.7 in every scene)"),
-    pb::param("normal_extent", pb::base_field<PdParams>(&pd::PostProcess::normal_extent), 1,
-              {0.01, 10}, "",
-              "the ellipsoid's semi-axis along the hit's normal, times sqrt(|a1| |a2|) "
-              "(unspecified in §4)"),
+    pb::param(
+        "normal_extent", pb::base_field<PdParams>(&pd::PostProcess::normal_extent), 0.5, {0.01, 10},
+        "",
+        "the ellipsoid's semi-axis along the hit's normal, times sqrt(|a1| |a2|) "
+        "(unspecified in §4; 0.5: README's sweep, a quarter of 1's excess at concave corners)"),
     pb::param("kernel", &PdParams::kernel, Kernel::uniform, "uniform|epanechnikov",
               "K of Eq. 1, normalised by the footprint's area pi |a1 x a2| (Fig. 4: both)"),
     pb::param("normal_gate", &PdParams::normal_gate, true,
@@ -107,6 +109,10 @@ constexpr auto kParams = pb::params(
     pb::param("caustics", &PdParams::caustics, false,
               "also store L S+ D photons (the paper's one map; the technique's class is then more "
               "than `indirect`, so only the combined score is fair)"),
+    pb::param("first_hit_roulette", &PdParams::first_hit_roulette, false,
+              "Russian roulette at the first hit too, as §4.2 plays it (whenever a photon meets a "
+              "surface); false: from the second hit on, the first scaling the flux by the albedo "
+              "(README: why false)"),
     pb::bind(tk::kStoreFirstHitParam, pb::base_field<PdParams>(&tk::PhotonParams::store_first_hit)),
     pb::param("verify", &PdParams::verify, false,
               "test hook: read the BVH back and check it, and check sampled queries against a "
@@ -201,11 +207,10 @@ class PhotonDifferentials final : public pb::Technique {
     surface_area_param_ = p.surface_area;
     verify_ = p.verify;
 
-    settings_ = photon_.trace_settings();
-    settings_.policy = &differential_rules_;
     // First hits give the lit surface area (T_auto) and are dropped before the upload, unless the
     // test hook keeps them in the map.
-    settings_.store |= pb::trace::kDirectPhotons;
+    settings_ = pd::differential_trace_settings(photon_.trace_settings(), differential_rules_,
+                                                p.first_hit_roulette);
     if (p.caustics) settings_.store |= pb::trace::kCausticPhotons;
 
     pb::gpu::Device& gpu = ctx.gpu();
