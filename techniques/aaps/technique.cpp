@@ -60,7 +60,7 @@ struct AapsParams : aaps::FeedbackParams {
 // A feedback field as a field of AapsParams (a row binds the struct it reads into).
 template <class F>
 constexpr F AapsParams::*feedback(F aaps::FeedbackParams::*field) {
-  return field;
+  return pb::base_field<AapsParams>(field);
 }
 
 // clang-format off

@@ -33,115 +33,129 @@ namespace {
 
 using namespace pb::toolkit;
 
-// clang-format off
-constexpr pb_param_spec kKParam = {
-    "k", PB_PARAM_INT, 100, 1, KNN_MAX_K, nullptr, "photons",
-    "photons per density estimate (seed 003 Table 2: k_PM 151 to 511); at most the compiled cap, "
-    "512"};
-constexpr pb_param_spec kRMaxParam = {
-    "r_max", PB_PARAM_FLOAT, 0.25, 1e-4, 1e4, nullptr, "m",
-    "the search radius bound: photons farther away are never gathered (seed 003: 0.7 in its "
-    "scenes' units)"};
-constexpr pb_param_spec kRebuildParam = {
-    "rebuild", PB_PARAM_ENUM, 0, 0, 0, "every_frame|static", "",
-    "every_frame: trace and build each frame; static: traced and built once in setup (seed 003's "
-    "baseline: static light), each frame only gathers"};
-constexpr pb_param_spec kSearchParam = {
-    "search", PB_PARAM_ENUM, 0, 0, 0, "grid|kdtree", "",
-    "grid: the uniform grid searched in shells near to far (the stronger baseline); kdtree: seed "
-    "003's, a balanced kd-tree built on the CPU and searched from r_max (Jensen 1996)"};
-constexpr pb_param_spec kHeapParam = {
-    "heap", PB_PARAM_ENUM, 0, 0, 0, "private|global", "",
-    "where a query's k candidates live: private (the invocation's own array) or global (a "
-    "storage buffer, seed 003 §7's \"slow global memory\")"};
-constexpr pb_param_spec kCellSizeParam = {
-    "cell_size", PB_PARAM_FLOAT, 0, 0, 1e4, nullptr, "m",
-    "grid cell side; 0: automatic, the k-th-neighbour distance of photons spread evenly over "
-    "their bounding box's faces (at most r_max)"};
-constexpr pb_param_spec kKernelParam = {
-    "kernel", PB_PARAM_ENUM, 0, 0, 0, "uniform|epanechnikov", "",
-    "density kernel over the k found: uniform 1/(pi r^2) (Jensen's estimate) or Epanechnikov"};
-constexpr pb_param_spec kSparseRadiusParam = {
-    "sparse_radius", PB_PARAM_ENUM, 0, 0, 0, "r_max|farthest", "",
-    "bandwidth when fewer than k photons lie within r_max: r_max (the disc searched) or the "
-    "farthest photon found"};
-constexpr pb_param_spec kFreshPhotonsParam = {
-    "fresh_photons", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
-    "every_frame: new photons each frame (the tracer's per-frame scramble); false: the same "
-    "photons every frame"};
-constexpr pb_param_spec kRadiusBinWidthParam = {
-    "radius_bin_width", PB_PARAM_FLOAT, 0.05, 1e-4, 1e4, nullptr, "m",
-    "width of the radius histogram's 20 bins (seed 003 Table 3: 0.05), the 21st holds the rest"};
-constexpr pb_param_spec kCausticsParam = {
-    "caustics", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
-    "also store pure caustic photons (L S+ D) in the map, as seed 003's one map does; the image is "
-    "then more than the indirect class, and only the combined score is fair"};
-constexpr pb_param_spec kQueryBudgetParam = with_range(
-    kLoopBudgetParam, PB_LOOP_BUDGET, 1, PB_LOOP_BUDGET,
-    "test hook: loop steps one query may take (llvmpipe's limit is 65535); queries that run out "
-    "are counted (truncated_queries) and warned about");
-// clang-format on
+// The choices of the enumerated parameters, in their declared order; those the query reads have
+// the values of knn_layout.h's words.
+enum class Rebuild : uint32_t { every_frame, static_light };
+enum class Search : uint32_t { grid = KNN_SEARCH_GRID, kdtree = KNN_SEARCH_KDTREE };
+enum class Heap : uint32_t { private_array = KNN_HEAP_PRIVATE, global_buffer = KNN_HEAP_GLOBAL };
+enum class Kernel : uint32_t {
+  uniform = KNN_KERNEL_UNIFORM,
+  epanechnikov = KNN_KERNEL_EPANECHNIKOV
+};
+enum class SparseRadius : uint32_t { r_max = KNN_SPARSE_RMAX, farthest = KNN_SPARSE_FARTHEST };
+static_assert(uint32_t(Search::kdtree) == 1 && uint32_t(Heap::global_buffer) == 1 &&
+                  uint32_t(Kernel::epanechnikov) == 1 && uint32_t(SparseRadius::farthest) == 1,
+              "enumerator i is the i-th choice");
 
-const pb_param_spec kParams[] = {
-    kPhotonsParam,        kKParam,
-    kRMaxParam,           kRebuildParam,
-    kSearchParam,         kHeapParam,
-    kCellSizeParam,       kKernelParam,
-    kSparseRadiusParam,   kFreshPhotonsParam,
-    kRadiusBinWidthParam, kMaxBouncesParam,
-    kShadowMapSizeParam,  kCausticsParam,
-    kStoreFirstHitParam,  kQueryBudgetParam,
+// Every parameter of a cell: the toolkit's shared rows (all but `radius`: the bandwidth here is
+// k's) and the technique's own.
+struct KnnParams : PhotonParams {
+  uint32_t k;
+  float r_max;
+  Rebuild rebuild;
+  Search search;
+  Heap heap;
+  float cell_size;
+  Kernel kernel;
+  SparseRadius sparse_radius;
+  bool fresh_photons;
+  float radius_bin_width;
+  bool caustics;
+  uint32_t query_budget;
+
+  // The grid's and the query's settings (knn_grid.h).
+  knn::Settings grid_settings() const {
+    knn::Settings out;
+    out.k = k;
+    out.r_max = r_max;
+    out.cell_size = cell_size;
+    out.kernel = uint32_t(kernel);
+    out.sparse = uint32_t(sparse_radius);
+    out.bin_width = radius_bin_width;
+    out.budget = query_budget;
+    out.search = uint32_t(search);
+    out.heap = uint32_t(heap);
+    return out;
+  }
 };
 
-// ---- Counters (README.md, "Counters").
-// clang-format off
-constexpr pb_counter_spec kGridCells = {
-    "grid_cells", PB_COUNTER_SIZE, "cells", "cells of the uniform grid"};
-constexpr pb_counter_spec kGridCellsOccupied = {
-    "grid_cells_occupied", PB_COUNTER_SIZE, "cells", "grid cells holding at least one photon"};
-constexpr pb_counter_spec kCellSize = {
-    "cell_size", PB_COUNTER_SIZE, "m",
-    "the grid's cell side as resolved (cell_size: 0 is automatic)"};
-constexpr pb_counter_spec kGridBuilds = {
-    "grid_builds", PB_COUNTER_WORK, "builds", "grids built in this frame (rebuild: static: 0)"};
-constexpr pb_counter_spec kSetupBuilds = {
-    "setup_builds", PB_COUNTER_SIZE, "builds",
-    "grids built in setup, outside the frames (static: 1)"};
-constexpr pb_counter_spec kSetupTraceMs = {
-    "setup_trace_ms", PB_COUNTER_SIZE, "ms",
-    "static: wall time of setup's photon trace and upload (outside the frames; 0 otherwise)"};
-constexpr pb_counter_spec kSetupBuildMs = {
-    "setup_build_ms", PB_COUNTER_SIZE, "ms",
-    "static: wall time of setup's grid build, submitted and waited for (outside the frames)"};
-constexpr pb_counter_spec kQueries = {
-    "queries", PB_COUNTER_WORK, "queries", "lit view samples queried"};
-constexpr pb_counter_spec kPhotonsVisited = {
-    "photons_visited", PB_COUNTER_WORK, "photons", "photons whose distance a query computed"};
-constexpr pb_counter_spec kCellsVisited = {
-    "cells_visited", PB_COUNTER_WORK, "cells", "grid cells a query opened"};
-constexpr pb_counter_spec kVisitedPerQuery = {
-    "photons_visited_per_query", PB_COUNTER_RATIO, "photons", "photons_visited / queries"};
-constexpr pb_counter_spec kHeapEntries = {
-    "heap_entries", PB_COUNTER_WORK, "entries",
-    "heap entries the queries read or wrote (8 bytes each; buffer traffic with heap: global)"};
-constexpr pb_counter_spec kBytesPerQuery = {
-    "bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
-    "memory a query reads or writes: (cells_visited 8 + (photons_visited + found) 48, plus "
-    "heap_entries 8 with heap: global) / queries"};
-constexpr pb_counter_spec kMeanK = {
-    "mean_k", PB_COUNTER_RATIO, "photons", "photons found per query (k where k lie within r_max)"};
-constexpr pb_counter_spec kShortQueries = {
-    "short_queries", PB_COUNTER_WORK, "queries", "queries that found fewer than k within r_max"};
-constexpr pb_counter_spec kTruncatedQueries = {
-    "truncated_queries", PB_COUNTER_WORK, "queries",
-    "queries cut short by the loop budget (a warning when non-zero)"};
-constexpr pb_counter_spec kBytesGrid = {
-    "bytes_grid", PB_COUNTER_SIZE, "bytes",
-    "the photon map: cell ranges, sort items and counters, scan scratch, photons in cell order"};
+constexpr auto kParams = pb::params(
+    pb::bind(kPhotonsParam, pb::base_field<KnnParams>(&PhotonParams::paths)),
+    pb::param("k", &KnnParams::k, 100, {1, KNN_MAX_K}, "photons",
+              "photons per density estimate (seed 003 Table 2: k_PM 151 to 511); at most the "
+              "compiled cap, 512"),
+    pb::param("r_max", &KnnParams::r_max, 0.25, {1e-4, 1e4}, "m",
+              "the search radius bound: photons farther away are never gathered (seed 003: 0.7 in "
+              "its scenes' units)"),
+    pb::param("rebuild", &KnnParams::rebuild, Rebuild::every_frame, "every_frame|static",
+              "every_frame: trace and build each frame; static: traced and built once in setup "
+              "(seed 003's baseline: static light), each frame only gathers"),
+    pb::param("search", &KnnParams::search, Search::grid, "grid|kdtree",
+              "grid: the uniform grid searched in shells near to far (the stronger baseline); "
+              "kdtree: seed 003's, a balanced kd-tree built on the CPU and searched from r_max "
+              "(Jensen 1996)"),
+    pb::param("heap", &KnnParams::heap, Heap::private_array, "private|global",
+              "where a query's k candidates live: private (the invocation's own array) or global "
+              "(a storage buffer, seed 003 §7's \"slow global memory\")"),
+    pb::param("cell_size", &KnnParams::cell_size, 0, {0, 1e4}, "m",
+              "grid cell side; 0: automatic, the k-th-neighbour distance of photons spread evenly "
+              "over their bounding box's faces (at most r_max)"),
+    pb::param("kernel", &KnnParams::kernel, Kernel::uniform, "uniform|epanechnikov",
+              "density kernel over the k found: uniform 1/(pi r^2) (Jensen's estimate) or "
+              "Epanechnikov"),
+    pb::param("sparse_radius", &KnnParams::sparse_radius, SparseRadius::r_max, "r_max|farthest",
+              "bandwidth when fewer than k photons lie within r_max: r_max (the disc searched) or "
+              "the farthest photon found"),
+    pb::param("fresh_photons", &KnnParams::fresh_photons, true,
+              "every_frame: new photons each frame (the tracer's per-frame scramble); false: the "
+              "same photons every frame"),
+    pb::param("radius_bin_width", &KnnParams::radius_bin_width, 0.05, {1e-4, 1e4}, "m",
+              "width of the radius histogram's 20 bins (seed 003 Table 3: 0.05), the 21st holds "
+              "the rest"),
+    pb::bind(kMaxBouncesParam, pb::base_field<KnnParams>(&PhotonParams::max_bounces)),
+    pb::bind(kShadowMapSizeParam, pb::base_field<KnnParams>(&PhotonParams::shadow_map_size)),
+    pb::param(
+        "caustics", &KnnParams::caustics, false,
+        "also store pure caustic photons (L S+ D) in the map, as seed 003's one map does; the "
+        "image is then more than the indirect class, and only the combined score is fair"),
+    pb::bind(kStoreFirstHitParam, pb::base_field<KnnParams>(&PhotonParams::store_first_hit)),
+    pb::bind(with_range(kLoopBudgetParam, PB_LOOP_BUDGET, 1, PB_LOOP_BUDGET,
+                        "test hook: loop steps one query may take (llvmpipe's limit is 65535); "
+                        "queries that run out are counted (truncated_queries) and warned about"),
+             &KnnParams::query_budget));
+
+// ---- Counters (README.md, "Counters"). The radius histogram's 21 bins are the last.
 #define KNN_BIN(nn, what) \
-  pb_counter_spec { "radius_bin_" #nn, PB_COUNTER_WORK, "queries", what }
-// clang-format on
-constexpr std::array<pb_counter_spec, KNN_RADIUS_BINS> kRadiusBins = {
+  { "radius_bin_" #nn, PB_COUNTER_WORK, "queries", what }
+constexpr auto kCounters = pb::counters({
+    kPhotonsStoredCounter,
+    kBytesPhotonsCounter,
+    {"grid_cells", PB_COUNTER_SIZE, "cells", "cells of the uniform grid"},
+    {"grid_cells_occupied", PB_COUNTER_SIZE, "cells", "grid cells holding at least one photon"},
+    {"cell_size", PB_COUNTER_SIZE, "m",
+     "the grid's cell side as resolved (cell_size: 0 is automatic)"},
+    {"grid_builds", PB_COUNTER_WORK, "builds", "grids built in this frame (rebuild: static: 0)"},
+    {"setup_builds", PB_COUNTER_SIZE, "builds",
+     "grids built in setup, outside the frames (static: 1)"},
+    {"setup_trace_ms", PB_COUNTER_SIZE, "ms",
+     "static: wall time of setup's photon trace and upload (outside the frames; 0 otherwise)"},
+    {"setup_build_ms", PB_COUNTER_SIZE, "ms",
+     "static: wall time of setup's grid build, submitted and waited for (outside the frames)"},
+    {"queries", PB_COUNTER_WORK, "queries", "lit view samples queried"},
+    {"photons_visited", PB_COUNTER_WORK, "photons", "photons whose distance a query computed"},
+    {"cells_visited", PB_COUNTER_WORK, "cells", "grid cells a query opened"},
+    {"photons_visited_per_query", PB_COUNTER_RATIO, "photons", "photons_visited / queries"},
+    {"mean_k", PB_COUNTER_RATIO, "photons", "photons found per query (k where k lie within r_max)"},
+    {"heap_entries", PB_COUNTER_WORK, "entries",
+     "heap entries the queries read or wrote (8 bytes each; buffer traffic with heap: global)"},
+    {"bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
+     "memory a query reads or writes: (cells_visited 8 + (photons_visited + found) 48, plus "
+     "heap_entries 8 with heap: global) / queries"},
+    {"short_queries", PB_COUNTER_WORK, "queries", "queries that found fewer than k within r_max"},
+    {"truncated_queries", PB_COUNTER_WORK, "queries",
+     "queries cut short by the loop budget (a warning when non-zero)"},
+    {"bytes_grid", PB_COUNTER_SIZE, "bytes",
+     "the photon map: cell ranges, sort items and counters, scan scratch, photons in cell order"},
     KNN_BIN(00, "queries with radius in [0, 1) bin widths (seed 003 Table 3's bins)"),
     KNN_BIN(01, "radius in [1, 2) bin widths"),
     KNN_BIN(02, "radius in [2, 3) bin widths"),
@@ -163,15 +177,11 @@ constexpr std::array<pb_counter_spec, KNN_RADIUS_BINS> kRadiusBins = {
     KNN_BIN(18, "radius in [18, 19) bin widths"),
     KNN_BIN(19, "radius in [19, 20) bin widths"),
     KNN_BIN(20, "radius of 20 bin widths or more (Table 3's > 1.00)"),
-};
+});
 #undef KNN_BIN
-
-constexpr auto kCounters = join_counters(
-    kPhotonFrameCounters,
-    std::array{kGridCells, kGridCellsOccupied, kCellSize, kGridBuilds, kSetupBuilds, kSetupTraceMs,
-               kSetupBuildMs, kQueries, kPhotonsVisited, kCellsVisited, kVisitedPerQuery, kMeanK,
-               kHeapEntries, kBytesPerQuery, kShortQueries, kTruncatedQueries, kBytesGrid},
-    kRadiusBins);
+// The histogram's first bin, in the table's order.
+constexpr size_t kFirstRadiusBin = &kCounters["radius_bin_00"] - kCounters.specs;
+static_assert(kFirstRadiusBin + KNN_RADIUS_BINS == kCounters.size());
 
 double ms_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -182,41 +192,26 @@ class Knn final : public pb::Technique {
  public:
   // Cross-parameter errors (the schema checks each value's range, k's cap among them).
   static std::string check(const pb::Params& params) {
-    const int64_t k = params.integer(kKParam.name);
-    if (params.choice(kKernelParam.name) == "epanechnikov" && k < 2)
+    const KnnParams p = kParams.read(params);
+    if (p.kernel == Kernel::epanechnikov && p.k < 2)
       return fmt::format(
-          "{}: {} with kernel epanechnikov gives every photon found weight 0 (the k-th lies on "
+          "k: {} with kernel epanechnikov gives every photon found weight 0 (the k-th lies on "
           "the kernel's edge, where it is 0); use k >= 2 or kernel uniform",
-          kKParam.name, k);
+          p.k);
     return "";
   }
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    // The toolkit's rows but `radius` (PhotonParams::read reads it; the bandwidth here is k's).
-    photon_.paths = uint32_t(params.integer(kPhotonsParam.name));
-    photon_.max_bounces = uint32_t(params.integer(kMaxBouncesParam.name));
-    photon_.shadow_map_size = uint32_t(params.integer(kShadowMapSizeParam.name));
-    photon_.store_first_hit = params.flag(kStoreFirstHitParam.name);
+    const KnnParams p = kParams.read(params);
+    photon_ = p;
     configure_shadows(ctx, photon_.shadow_map_size);
-    settings_.k = uint32_t(params.integer(kKParam.name));
-    settings_.r_max = float(params.number(kRMaxParam.name));
-    settings_.cell_size = float(params.number(kCellSizeParam.name));
-    settings_.kernel = params.choice(kKernelParam.name) == "epanechnikov" ? KNN_KERNEL_EPANECHNIKOV
-                                                                          : KNN_KERNEL_UNIFORM;
-    settings_.sparse = params.choice(kSparseRadiusParam.name) == "farthest" ? KNN_SPARSE_FARTHEST
-                                                                            : KNN_SPARSE_RMAX;
-    settings_.bin_width = float(params.number(kRadiusBinWidthParam.name));
-    settings_.budget = uint32_t(params.integer(kQueryBudgetParam.name));
-    settings_.search =
-        params.choice(kSearchParam.name) == "kdtree" ? KNN_SEARCH_KDTREE : KNN_SEARCH_GRID;
-    settings_.heap =
-        params.choice(kHeapParam.name) == "global" ? KNN_HEAP_GLOBAL : KNN_HEAP_PRIVATE;
-    static_ = params.choice(kRebuildParam.name) == "static";
+    settings_ = p.grid_settings();
+    static_ = p.rebuild == Rebuild::static_light;
     trace_ = photon_.trace_settings();
-    trace_.seed_per_frame = params.flag(kFreshPhotonsParam.name);
+    trace_.seed_per_frame = p.fresh_photons;
     // Seed 003 keeps one map of every hit; the ring's cardioid (L S D) is in it. The harness scores
     // the indirect class without it (photonbench/photons.h), hence off by default.
-    if (params.flag(kCausticsParam.name)) trace_.store |= pb::trace::kCausticPhotons;
+    if (p.caustics) trace_.store |= pb::trace::kCausticPhotons;
     grid_.setup(ctx.gpu(), settings_);
     if (!static_) return;
 
@@ -272,31 +267,31 @@ class Knn final : public pb::Technique {
     const auto& layout = grid_.layout();
     pb::count(ctx, kBytesPhotonsCounter,
               double(uint64_t(grid_.photon_count()) * sizeof(pb::trace::PhotonRecord)));
-    pb::count(ctx, kGridCells, double(layout.cells()));
-    pb::count(ctx, kGridCellsOccupied, double(occupied_));
-    pb::count(ctx, kCellSize, double(layout.cell));
-    pb::count(ctx, kGridBuilds, static_ ? 0.0 : 1.0);
-    pb::count(ctx, kSetupBuilds, double(setup_builds_));
-    pb::count(ctx, kSetupTraceMs, setup_trace_ms_);
-    pb::count(ctx, kSetupBuildMs, setup_build_ms_);
-    pb::count(ctx, kQueries, double(s.queries));
-    pb::count(ctx, kPhotonsVisited, double(s.visited));
-    pb::count(ctx, kCellsVisited, double(s.cells_opened));
+    pb::count(ctx, kCounters["grid_cells"], double(layout.cells()));
+    pb::count(ctx, kCounters["grid_cells_occupied"], double(occupied_));
+    pb::count(ctx, kCounters["cell_size"], double(layout.cell));
+    pb::count(ctx, kCounters["grid_builds"], static_ ? 0.0 : 1.0);
+    pb::count(ctx, kCounters["setup_builds"], double(setup_builds_));
+    pb::count(ctx, kCounters["setup_trace_ms"], setup_trace_ms_);
+    pb::count(ctx, kCounters["setup_build_ms"], setup_build_ms_);
+    pb::count(ctx, kCounters["queries"], double(s.queries));
+    pb::count(ctx, kCounters["photons_visited"], double(s.visited));
+    pb::count(ctx, kCounters["cells_visited"], double(s.cells_opened));
     const double queries = std::max<double>(s.queries, 1);
-    pb::count(ctx, kVisitedPerQuery, double(s.visited) / queries);
-    pb::count(ctx, kMeanK, double(s.found) / queries);
-    pb::count(ctx, kHeapEntries, double(s.heap_entries));
+    pb::count(ctx, kCounters["photons_visited_per_query"], double(s.visited) / queries);
+    pb::count(ctx, kCounters["mean_k"], double(s.found) / queries);
+    pb::count(ctx, kCounters["heap_entries"], double(s.heap_entries));
     const double heap_bytes =
         settings_.heap == KNN_HEAP_GLOBAL ? double(s.heap_entries) * sizeof(glm::uvec2) : 0.0;
-    pb::count(ctx, kBytesPerQuery,
+    pb::count(ctx, kCounters["bytes_read_per_query"],
               (double(s.cells_opened) * sizeof(glm::uvec2) +
                double(s.visited + s.found) * sizeof(knn::KnnPhoton) + heap_bytes) /
                   queries);
-    pb::count(ctx, kShortQueries, double(s.short_queries));
-    pb::count(ctx, kTruncatedQueries, double(s.truncated));
-    pb::count(ctx, kBytesGrid, double(grid_.bytes()));
+    pb::count(ctx, kCounters["short_queries"], double(s.short_queries));
+    pb::count(ctx, kCounters["truncated_queries"], double(s.truncated));
+    pb::count(ctx, kCounters["bytes_grid"], double(grid_.bytes()));
     for (uint32_t b = 0; b < KNN_RADIUS_BINS; ++b)
-      pb::count(ctx, kRadiusBins[b], double(s.histogram[b]));
+      pb::count(ctx, kCounters.specs[kFirstRadiusBin + b], double(s.histogram[b]));
     if (s.truncated > 0)
       ctx.warn(fmt::format(
           "knn: {} queries ran out of their loop budget ({} steps per invocation, kept under "
@@ -329,4 +324,5 @@ PB_EXPORT_TECHNIQUE(Knn, "knn", "indirect",
                     "classic k-nearest-neighbour photon mapping (seed 003's baseline): k nearest "
                     "within r_max from a GPU uniform grid, radius from their bounding sphere; "
                     "rebuilt every frame or built once (static light)",
-                    kParams, .counters = kCounters, .check = &Knn::check, .budget = kBudget)
+                    kParams.rows, .counters = kCounters.specs, .check = &Knn::check,
+                    .budget = kBudget)

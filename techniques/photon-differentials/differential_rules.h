@@ -12,6 +12,7 @@
 #include <bit>
 #include <cmath>
 #include <glm/glm.hpp>
+#include <numbers>
 
 #include "photonbench/photons.h"
 #include "photonbench/trace_math.h"
@@ -41,10 +42,27 @@ class DifferentialRules final : public pb::trace::VertexPolicy {
 
   // §4.1: a point (or spot) light's photons share one spacing Delta, the square root of the solid
   // angle per photon (Eq. 9: 2 sqrt(pi / n) over the sphere), along Eq. 8's unit differentials;
-  // the footprint is unchanged in area, and round where the (u, v) one was not. Emitters whose
-  // origin moves with (u, v) (area and directional lights) keep their (u, v) differentials.
-  void emitted(pb::trace::EmitterKind, const glm::vec3& direction,
+  // the footprint is unchanged in area, and round where the (u, v) one was not. A surface emitter
+  // (quad, disc, emissive triangles), a case the paper leaves open (§8: "footprint calculation for
+  // area light sources"), emits from a point of its surface in a cosine-distributed direction:
+  // that is §4.3's diffuse re-emission at the light, with the footprint the light's area per
+  // photon and Delta = 2 sqrt(pi) times the (u, v) spacing (Eq. 9's 2 sqrt(pi / n) for n photons
+  // spread evenly over the light), so that its footprints grow with distance as a point light's.
+  // A directional light keeps its (u, v) differentials: its parallel beam does not spread.
+  void emitted(pb::trace::EmitterKind kind, const glm::vec3& direction,
                pb::trace::Footprint& f) const override {
+    if (kind == pb::trace::EmitterKind::quad || kind == pb::trace::EmitterKind::disc ||
+        kind == pb::trace::EmitterKind::mesh) {
+      glm::vec3 normal = glm::cross(f.dp_du, f.dp_dv);
+      if (!(glm::length(normal) > 0)) return;
+      normal = glm::normalize(glm::dot(normal, direction) < 0 ? -normal : normal);
+      // The same footprint (Delta dp) with the new Delta, then re-emitted about the light's normal.
+      const float delta = 2 * std::sqrt(std::numbers::pi_v<float>) * f.spacing;
+      f.dp_du *= f.spacing / delta, f.dp_dv *= f.spacing / delta;
+      f.spacing = delta;
+      scattered_diffusely(normal, direction, f);
+      return;
+    }
     if (f.dp_du != glm::vec3(0.f) || f.dp_dv != glm::vec3(0.f)) return;
     const float solid_angle = glm::length(glm::cross(f.dd_du, f.dd_dv)) * f.spacing * f.spacing;
     f.spacing = std::sqrt(solid_angle);
@@ -73,5 +91,21 @@ class DifferentialRules final : public pb::trace::VertexPolicy {
     f.dp_du *= grow, f.dp_dv *= grow, f.dd_du *= grow, f.dd_dv *= grow;
   }
 };
+
+// The tracer's settings for §4's photons, from the toolkit's (paths, bounces, the classes stored;
+// Russian roulette from the second hit, the first scaling the flux by the albedo): these rules as
+// the vertex policy, and the first hits stored too (the lit surface area T_auto divides by; the
+// technique drops them before the upload unless store_first_hit asks for them). With
+// `first_hit_roulette`, the roulette is played "whenever a photon encounters a surface" (§4.2), the
+// first hit included, so a photon leaving its first hit with probability p has its footprint
+// grown by 1 / p there too.
+inline pb::trace::TraceSettings differential_trace_settings(pb::trace::TraceSettings settings,
+                                                            const DifferentialRules& rules,
+                                                            bool first_hit_roulette) {
+  settings.policy = &rules;
+  settings.store |= pb::trace::kDirectPhotons;
+  if (first_hit_roulette) settings.rr_start = 0;
+  return settings;
+}
 
 }  // namespace pd

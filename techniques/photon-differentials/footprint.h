@@ -33,7 +33,9 @@ struct PostProcess {
   float exponent = -0.75f;         // §4.3's nonlinear compression
   bool compress_semiaxis = false;  // factor |Delta dp|^e (the semi-axis) instead of |dp|^e
   float r_max = 0.7f;              // §7's clamp, per semi-axis, m
-  float normal_extent = 1;         // h = normal_extent sqrt(|a1| |a2|)
+  float normal_extent = 0.5f;      // h = normal_extent sqrt(|a1| |a2|) (README: the sweep)
+
+  bool operator==(const PostProcess&) const = default;
 };
 
 // The photon has had only specular interactions before its hit (L S* D: caustic or direct).

@@ -46,151 +46,135 @@ namespace tk = pb::toolkit;
 // two rounds, where c = 1 gave T_auto = 303 and half their speed; 0.15 puts T_auto at about 45).
 constexpr double kTAutoConstant = 0.15;
 
-// clang-format off
-const pb_param_spec kParams[] = {
-    tk::kPhotonsParam,
-    tk::with_range(tk::kMaxBouncesParam, 3, 2, 31,
-                   "surface interactions per light path; photons are stored at hits 2 to "
-                   "max_bounces (seed 003 §7: two indirect bounces, so 3)"),
-    {"smoothing", PB_PARAM_FLOAT, 5, 0.01, 1000, nullptr, "",
-     "s: every semi-axis of a diffusely reflected photon's footprint times s (Table 2: 10 to 60 "
-     "per scene; 5 puts k_PD on cornell-box in Table 2's range)"},
-    {"smoothing_specular", PB_PARAM_FLOAT, 5, 0.01, 1000, nullptr, "",
-     "s for photons with only specular interactions before the hit (§7: 5, sharp caustics)"},
-    {"compression_exponent", PB_PARAM_FLOAT, -0.75, -2, 1, nullptr, "",
-     "e of the nonlinear compression: each semi-axis of a diffusely reflected photon times "
-     "|dp|^e (§4.3: -3/4; 0: none)"},
-    {"compression_base", PB_PARAM_ENUM, 0, 0, 1, "differential|semiaxis", "",
-     "what |.|^e is taken of: the positional differential dp (§4.3, literally) or the semi-axis "
-     "Delta dp"},
-    {"r_max", PB_PARAM_FLOAT, 0.7, 1e-4, 100, nullptr, "m",
-     "each semi-axis clamped to this length (§7: 0.7 in every scene)"},
-    {"normal_extent", PB_PARAM_FLOAT, 1, 0.01, 10, nullptr, "",
-     "the ellipsoid's semi-axis along the hit's normal, times sqrt(|a1| |a2|) (unspecified in §4)"},
-    {"kernel", PB_PARAM_ENUM, 0, 0, 1, "uniform|epanechnikov", "",
-     "K of Eq. 1, normalised by the footprint's area pi |a1 x a2| (Fig. 4: both)"},
-    {"normal_gate", PB_PARAM_BOOL, 1, 0, 1, nullptr, "",
-     "leave out photons arriving from behind the query's surface (unspecified)"},
-    {"leaf_threshold", PB_PARAM_INT, 0, 0, 65536, nullptr, "hits",
-     "T: nodes of at most T hits are leaves (Table 1 sweeps 1 to 512); 0: T_auto"},
-    {"t_auto_constant", PB_PARAM_FLOAT, kTAutoConstant, 1e-4, 1e4, nullptr, "",
-     "c of T_auto = c sum(footprint areas) / surface area (§5.3 gives none; README: the sweep)"},
-    {"surface_area", PB_PARAM_FLOAT, 0, 0, 1e9, nullptr, "m^2",
-     "the scene's surface area for T_auto; 0: the area the light's first hits cover, from their "
-     "differentials, each frame"},
-    {"caustics", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
-     "also store L S+ D photons (the paper's one map; the technique's class is then more than "
-     "`indirect`, so only the combined score is fair)"},
-    tk::kStoreFirstHitParam,
-    {"verify", PB_PARAM_BOOL, 0, 0, 1, nullptr, "",
-     "test hook: read the BVH back and check it, and check sampled queries against a brute-force "
-     "sum over every footprint (counters bvh_violations, query_mismatches)"},
-    tk::kShadowMapSizeParam,
+// The choices of the enumerated parameters, in their declared order.
+enum class CompressionBase : uint32_t { differential, semiaxis };
+enum class Kernel : uint32_t { uniform, epanechnikov };
+
+// Every parameter of a cell: the toolkit's shared rows (all but `radius`: every footprint has its
+// own), the footprint post-processing's (footprint.h, whose initialisers the unit tests use) and
+// the technique's own.
+struct PdParams : tk::PhotonParams, pd::PostProcess {
+  CompressionBase compression_base;
+  Kernel kernel;
+  bool normal_gate;
+  uint32_t leaf_threshold;
+  double t_auto_constant;  // compared with its default in check(), as given
+  float surface_area;
+  bool caustics;
+  bool first_hit_roulette;
+  bool verify;
 };
 
-constexpr pb_counter_spec kHits{"hits", PB_COUNTER_SIZE, "hits", "photon hits in the map"};
-constexpr pb_counter_spec kThreshold{"leaf_threshold", PB_COUNTER_SIZE, "hits",
-                                     "T used this frame (cell.json params_resolved)"};
-constexpr pb_counter_spec kTAuto{"t_auto", PB_COUNTER_SIZE, "hits", "T_auto of this frame"};
-constexpr pb_counter_spec kRuns{"morton_runs", PB_COUNTER_SIZE, "runs",
-                                "distinct Morton codes (the leaves before fusion)"};
-constexpr pb_counter_spec kNodes{"bvh_nodes", PB_COUNTER_SIZE, "nodes",
-                                 "inner nodes plus the leaves below them, after fusion"};
-constexpr pb_counter_spec kInner{"bvh_inner_nodes", PB_COUNTER_SIZE, "nodes",
-                                 "nodes of more than T hits"};
-constexpr pb_counter_spec kLeaves{"bvh_leaves", PB_COUNTER_SIZE, "nodes",
-                                  "leaves (runs and fused nodes)"};
-constexpr pb_counter_spec kQueries{"queries", PB_COUNTER_WORK, "samples",
-                                   "G-buffer samples on diffuse surfaces queried"};
-constexpr pb_counter_spec kTested{"hits_tested", PB_COUNTER_WORK, "hits",
-                                  "footprints tested in the leaves the queries reached"};
-constexpr pb_counter_spec kContributing{"hits_contributing", PB_COUNTER_WORK, "hits",
-                                        "footprints that contained their query point"};
-constexpr pb_counter_spec kVisited{"nodes_visited", PB_COUNTER_WORK, "nodes",
-                                   "nodes whose box contained the query point"};
-constexpr pb_counter_spec kPerQuery{"hits_per_query", PB_COUNTER_RATIO, "hits",
-                                    "hits_contributing / queries (Table 2's k_PD)"};
-constexpr pb_counter_spec kTestedPerQuery{"hits_tested_per_query", PB_COUNTER_RATIO, "hits",
-                                          "hits_tested / queries"};
-constexpr pb_counter_spec kTruncated{"truncated_queries", PB_COUNTER_WORK, "samples",
-                                     "queries cut short by the loop budget"};
-constexpr pb_counter_spec kDegenerate{"footprints_degenerate", PB_COUNTER_WORK, "hits",
-                                      "footprints dropped as singular"};
-constexpr pb_counter_spec kClamped{"semiaxes_clamped", PB_COUNTER_WORK, "semi-axes",
-                                   "semi-axes clamped to r_max"};
-constexpr pb_counter_spec kLongRuns{"long_runs", PB_COUNTER_WORK, "runs",
-                                    "runs longer than the loop budget"};
-constexpr pb_counter_spec kArea{"footprint_area", PB_COUNTER_SIZE, "m^2",
-                                "sum of the footprints' areas pi |a1 x a2|"};
-constexpr pb_counter_spec kSurface{"surface_area", PB_COUNTER_SIZE, "m^2",
-                                   "the surface area T_auto used (params_resolved)"};
-constexpr pb_counter_spec kBytes{"bytes_total", PB_COUNTER_SIZE, "bytes",
-                                 "GPU memory of the technique's buffers"};
-constexpr pb_counter_spec kBytesBvh{"bytes_bvh", PB_COUNTER_SIZE, "bytes",
-                                    "the BVH's nodes and sorted footprints"};
-constexpr pb_counter_spec kViolations{"bvh_violations", PB_COUNTER_WORK, "checks",
-                                      "verify: BVH invariants broken (footprint.h check_bvh)"};
-constexpr pb_counter_spec kMismatches{"query_mismatches", PB_COUNTER_WORK, "samples",
-                                      "verify: sampled queries off the brute-force sum"};
-constexpr pb_counter_spec kChecked{"query_checked", PB_COUNTER_WORK, "samples",
-                                   "verify: sampled queries compared"};
-constexpr pb_counter_spec kFetched{"nodes_fetched", PB_COUNTER_WORK, "nodes",
-                                   "nodes the queries read (popped), boxes tested or not"};
-constexpr pb_counter_spec kBytesPerQuery{
-    "bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
-    "node and footprint records a query reads: (nodes_fetched 48 + hits_tested 96) / queries"};
-constexpr pb_counter_spec kFootprintsOff{"footprints_off", PB_COUNTER_WORK, "footprints",
-                                        "verify: GPU footprints off footprint.h's make_footprint"};
-constexpr pb_counter_spec kTotalsOff{"totals_off", PB_COUNTER_WORK, "totals",
-                                     "verify: area sum, T_auto, histogram bins off the CPU's"};
+constexpr auto kParams = pb::params(
+    pb::bind(tk::kPhotonsParam, pb::base_field<PdParams>(&tk::PhotonParams::paths)),
+    pb::bind(tk::with_range(tk::kMaxBouncesParam, 3, 2, 31,
+                            "surface interactions per light path; photons are stored at hits 2 to "
+                            "max_bounces (seed 003 §7: two indirect bounces, so 3)"),
+             pb::base_field<PdParams>(&tk::PhotonParams::max_bounces)),
+    pb::param("smoothing", pb::base_field<PdParams>(&pd::PostProcess::smoothing), 5, {0.01, 1000},
+              "",
+              "s: every semi-axis of a diffusely reflected photon's footprint times s (Table 2: 10 "
+              "to 60 per scene; 5 puts k_PD on cornell-box in Table 2's range)"),
+    pb::param("smoothing_specular", pb::base_field<PdParams>(&pd::PostProcess::smoothing_specular),
+              5, {0.01, 1000}, "",
+              "s for photons with only specular interactions before the hit (§7: 5, sharp "
+              "caustics)"),
+    pb::param("compression_exponent", pb::base_field<PdParams>(&pd::PostProcess::exponent), -0.75,
+              {-2, 1}, "",
+              "e of the nonlinear compression: each semi-axis of a diffusely reflected photon "
+              "times |dp|^e (§4.3: -3/4; 0: none)"),
+    pb::param("compression_base", &PdParams::compression_base, CompressionBase::differential,
+              "differential|semiaxis",
+              "what |.|^e is taken of: the positional differential dp (§4.3, literally) or the "
+              "semi-axis Delta dp"),
+    pb::param("r_max", pb::base_field<PdParams>(&pd::PostProcess::r_max), 0.7, {1e-4, 100}, "m",
+              "each semi-axis clamped to this length (§7: 0.7 in every scene)"),
+    pb::param(
+        "normal_extent", pb::base_field<PdParams>(&pd::PostProcess::normal_extent), 0.5, {0.01, 10},
+        "",
+        "the ellipsoid's semi-axis along the hit's normal, times sqrt(|a1| |a2|) "
+        "(unspecified in §4; 0.5: README's sweep, a quarter of 1's excess at concave corners)"),
+    pb::param("kernel", &PdParams::kernel, Kernel::uniform, "uniform|epanechnikov",
+              "K of Eq. 1, normalised by the footprint's area pi |a1 x a2| (Fig. 4: both)"),
+    pb::param("normal_gate", &PdParams::normal_gate, true,
+              "leave out photons arriving from behind the query's surface (unspecified)"),
+    pb::param("leaf_threshold", &PdParams::leaf_threshold, 0, {0, 65536}, "hits",
+              "T: nodes of at most T hits are leaves (Table 1 sweeps 1 to 512); 0: T_auto"),
+    pb::param("t_auto_constant", &PdParams::t_auto_constant, kTAutoConstant, {1e-4, 1e4}, "",
+              "c of T_auto = c sum(footprint areas) / surface area (§5.3 gives none; README: the "
+              "sweep)"),
+    pb::param("surface_area", &PdParams::surface_area, 0, {0, 1e9}, "m^2",
+              "the scene's surface area for T_auto; 0: the area the light's first hits cover, from "
+              "their differentials, each frame"),
+    pb::param("caustics", &PdParams::caustics, false,
+              "also store L S+ D photons (the paper's one map; the technique's class is then more "
+              "than `indirect`, so only the combined score is fair)"),
+    pb::param("first_hit_roulette", &PdParams::first_hit_roulette, false,
+              "Russian roulette at the first hit too, as §4.2 plays it (whenever a photon meets a "
+              "surface); false: from the second hit on, the first scaling the flux by the albedo "
+              "(README: why false)"),
+    pb::bind(tk::kStoreFirstHitParam, pb::base_field<PdParams>(&tk::PhotonParams::store_first_hit)),
+    pb::param("verify", &PdParams::verify, false,
+              "test hook: read the BVH back and check it, and check sampled queries against a "
+              "brute-force sum over every footprint (counters bvh_violations, query_mismatches)"),
+    pb::bind(tk::kShadowMapSizeParam,
+             pb::base_field<PdParams>(&tk::PhotonParams::shadow_map_size)));
+// The post-processing keeps its initialisers (the unit tests build it whole): they must be the
+// declaration's defaults.
+static_assert(static_cast<const pd::PostProcess&>(kParams.defaults()) == pd::PostProcess{});
 
+// ---- Counters (README.md, "Counters"). Table 3's semi-axis histogram's bins are the last.
+// clang-format off
 #define PD_BIN(name) {"radius_" name, PB_COUNTER_WORK, "semi-axes", "Table 3's semi-axis bins"}
-constexpr pb_counter_spec kHistogram[PD_RADIUS_BINS] = {
+constexpr auto kCounters = pb::counters({
+    {"hits", PB_COUNTER_SIZE, "hits", "photon hits in the map"},
+    {"leaf_threshold", PB_COUNTER_SIZE, "hits", "T used this frame (cell.json params_resolved)"},
+    {"t_auto", PB_COUNTER_SIZE, "hits", "T_auto of this frame"},
+    {"morton_runs", PB_COUNTER_SIZE, "runs", "distinct Morton codes (the leaves before fusion)"},
+    {"bvh_nodes", PB_COUNTER_SIZE, "nodes", "inner nodes plus the leaves below them, after fusion"},
+    {"bvh_inner_nodes", PB_COUNTER_SIZE, "nodes", "nodes of more than T hits"},
+    {"bvh_leaves", PB_COUNTER_SIZE, "nodes", "leaves (runs and fused nodes)"},
+    {"queries", PB_COUNTER_WORK, "samples", "G-buffer samples on diffuse surfaces queried"},
+    {"hits_tested", PB_COUNTER_WORK, "hits", "footprints tested in the leaves the queries reached"},
+    {"hits_contributing", PB_COUNTER_WORK, "hits", "footprints that contained their query point"},
+    {"nodes_visited", PB_COUNTER_WORK, "nodes", "nodes whose box contained the query point"},
+    {"nodes_fetched", PB_COUNTER_WORK, "nodes",
+     "nodes the queries read (popped), boxes tested or not"},
+    {"bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
+     "node and footprint records a query reads: (nodes_fetched 48 + hits_tested 96) / queries"},
+    {"hits_per_query", PB_COUNTER_RATIO, "hits", "hits_contributing / queries (Table 2's k_PD)"},
+    {"hits_tested_per_query", PB_COUNTER_RATIO, "hits", "hits_tested / queries"},
+    {"truncated_queries", PB_COUNTER_WORK, "samples", "queries cut short by the loop budget"},
+    {"footprints_degenerate", PB_COUNTER_WORK, "hits", "footprints dropped as singular"},
+    {"semiaxes_clamped", PB_COUNTER_WORK, "semi-axes", "semi-axes clamped to r_max"},
+    {"long_runs", PB_COUNTER_WORK, "runs", "runs longer than the loop budget"},
+    {"footprint_area", PB_COUNTER_SIZE, "m^2", "sum of the footprints' areas pi |a1 x a2|"},
+    {"surface_area", PB_COUNTER_SIZE, "m^2", "the surface area T_auto used (params_resolved)"},
+    {"bytes_total", PB_COUNTER_SIZE, "bytes", "GPU memory of the technique's buffers"},
+    {"bytes_bvh", PB_COUNTER_SIZE, "bytes", "the BVH's nodes and sorted footprints"},
+    {"bvh_violations", PB_COUNTER_WORK, "checks",
+     "verify: BVH invariants broken (footprint.h check_bvh)"},
+    {"query_mismatches", PB_COUNTER_WORK, "samples",
+     "verify: sampled queries off the brute-force sum"},
+    {"query_checked", PB_COUNTER_WORK, "samples", "verify: sampled queries compared"},
+    {"footprints_off", PB_COUNTER_WORK, "footprints",
+     "verify: GPU footprints off footprint.h's make_footprint"},
+    {"totals_off", PB_COUNTER_WORK, "totals",
+     "verify: area sum, T_auto, histogram bins off the CPU's"},
+    tk::kPhotonsStoredCounter,
+    tk::kBytesPhotonsCounter,
     PD_BIN("0p00_0p05"), PD_BIN("0p05_0p10"), PD_BIN("0p10_0p15"), PD_BIN("0p15_0p20"),
     PD_BIN("0p20_0p25"), PD_BIN("0p25_0p30"), PD_BIN("0p30_0p35"), PD_BIN("0p35_0p40"),
     PD_BIN("0p40_0p45"), PD_BIN("0p45_0p50"), PD_BIN("0p50_0p55"), PD_BIN("0p55_0p60"),
     PD_BIN("0p60_0p65"), PD_BIN("0p65_0p70"), PD_BIN("0p70_0p75"), PD_BIN("0p75_0p80"),
     PD_BIN("0p80_0p85"), PD_BIN("0p85_0p90"), PD_BIN("0p90_0p95"), PD_BIN("0p95_1p00"),
-    PD_BIN("above_1p00")};
+    PD_BIN("above_1p00"),
+});
 #undef PD_BIN
 // clang-format on
-
-constexpr std::array<pb_counter_spec, 30> kMain = {kHits,
-                                                   kThreshold,
-                                                   kTAuto,
-                                                   kRuns,
-                                                   kNodes,
-                                                   kInner,
-                                                   kLeaves,
-                                                   kQueries,
-                                                   kTested,
-                                                   kContributing,
-                                                   kVisited,
-                                                   kFetched,
-                                                   kBytesPerQuery,
-                                                   kPerQuery,
-                                                   kTestedPerQuery,
-                                                   kTruncated,
-                                                   kDegenerate,
-                                                   kClamped,
-                                                   kLongRuns,
-                                                   kArea,
-                                                   kSurface,
-                                                   kBytes,
-                                                   kBytesBvh,
-                                                   kViolations,
-                                                   kMismatches,
-                                                   kChecked,
-                                                   kFootprintsOff,
-                                                   kTotalsOff,
-                                                   tk::kPhotonsStoredCounter,
-                                                   tk::kBytesPhotonsCounter};
-constexpr auto kCounters = [] {
-  std::array<pb_counter_spec, kMain.size() + PD_RADIUS_BINS> all{};
-  std::copy(kMain.begin(), kMain.end(), all.begin());
-  std::copy(std::begin(kHistogram), std::end(kHistogram), all.begin() + kMain.size());
-  return all;
-}();
+// The histogram's first bin, in the table's order.
+constexpr size_t kFirstRadiusBin = &kCounters["radius_0p00_0p05"] - kCounters.specs;
+static_assert(kFirstRadiusBin + PD_RADIUS_BINS == kCounters.size());
 
 constexpr uint32_t kGroup = 256;
 constexpr uint32_t kMortonBits = 30;      // §6.2
@@ -199,42 +183,35 @@ constexpr uint32_t kBottomUpPasses = 32;  // > the radix tree's depth over disti
 class PhotonDifferentials final : public pb::Technique {
  public:
   static std::string check(const pb::Params& params) {
-    if (params.integer("leaf_threshold") > 0 && params.number("t_auto_constant") != kTAutoConstant)
+    const PdParams p = kParams.read(params);
+    if (p.leaf_threshold > 0 && p.t_auto_constant != kTAutoConstant)
       return fmt::format(
           "t_auto_constant: {} has no effect with leaf_threshold = {} (a fixed T; 0 for T_auto)",
-          params.number("t_auto_constant"), params.integer("leaf_threshold"));
-    if (params.flag("caustics") && params.flag("store_first_hit"))
+          p.t_auto_constant, p.leaf_threshold);
+    if (p.caustics && p.store_first_hit)
       return "store_first_hit: goes with caustics = false only (the closed-form check of direct "
              "light)";
     return "";
   }
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
-    // The shared rows this schema lists (it has no `radius`: every footprint has its own).
-    photon_.paths = uint32_t(params.integer("photons"));
-    photon_.max_bounces = uint32_t(params.integer("max_bounces"));
-    photon_.shadow_map_size = uint32_t(params.integer("shadow_map_size"));
-    photon_.store_first_hit = params.flag("store_first_hit");
+    const PdParams p = kParams.read(params);
+    photon_ = p;
     tk::configure_shadows(ctx, photon_.shadow_map_size);
-    post_.smoothing = float(params.number("smoothing"));
-    post_.smoothing_specular = float(params.number("smoothing_specular"));
-    post_.exponent = float(params.number("compression_exponent"));
-    post_.compress_semiaxis = params.choice("compression_base") == "semiaxis";
-    post_.r_max = float(params.number("r_max"));
-    post_.normal_extent = float(params.number("normal_extent"));
-    epanechnikov_ = params.choice("kernel") == "epanechnikov";
-    normal_gate_ = params.flag("normal_gate");
-    fixed_threshold_ = uint32_t(params.integer("leaf_threshold"));
-    t_constant_ = float(params.number("t_auto_constant"));
-    surface_area_param_ = float(params.number("surface_area"));
-    verify_ = params.flag("verify");
+    post_ = p;
+    post_.compress_semiaxis = p.compression_base == CompressionBase::semiaxis;
+    epanechnikov_ = p.kernel == Kernel::epanechnikov;
+    normal_gate_ = p.normal_gate;
+    fixed_threshold_ = p.leaf_threshold;
+    t_constant_ = float(p.t_auto_constant);
+    surface_area_param_ = p.surface_area;
+    verify_ = p.verify;
 
-    settings_ = photon_.trace_settings();
-    settings_.policy = &differential_rules_;
     // First hits give the lit surface area (T_auto) and are dropped before the upload, unless the
     // test hook keeps them in the map.
-    settings_.store |= pb::trace::kDirectPhotons;
-    if (params.flag("caustics")) settings_.store |= pb::trace::kCausticPhotons;
+    settings_ = pd::differential_trace_settings(photon_.trace_settings(), differential_rules_,
+                                                p.first_hit_roulette);
+    if (p.caustics) settings_.store |= pb::trace::kCausticPhotons;
 
     pb::gpu::Device& gpu = ctx.gpu();
     width_ = ctx.output().extent().width, height_ = ctx.output().extent().height;
@@ -420,37 +397,40 @@ class PhotonDifferentials final : public pb::Technique {
     uint32_t inner = c[PD_CTL_INNER], leaves = c[PD_CTL_LEAVES];
     if (inner == 0 && runs > 0) leaves = 1;  // the root alone, a leaf
     const double queries = c[PD_CTL_QUERIES];
-    pb::count(ctx, kHits, count);
+    pb::count(ctx, kCounters["hits"], count);
     pb::count(ctx, tk::kPhotonsStoredCounter, double(batch_.photons.size()));
     pb::count(ctx, tk::kBytesPhotonsCounter, double(count) * sizeof(pb::trace::PhotonRecord));
-    pb::count(ctx, kThreshold, c[PD_CTL_THRESHOLD]);
-    pb::count(ctx, kTAuto, c[PD_CTL_T_AUTO]);
-    pb::count(ctx, kRuns, runs);
-    pb::count(ctx, kNodes, double(inner) + leaves);
-    pb::count(ctx, kInner, inner);
-    pb::count(ctx, kLeaves, leaves);
-    pb::count(ctx, kQueries, queries);
-    pb::count(ctx, kTested, wide(PD_CTL_TESTED));
-    pb::count(ctx, kContributing, wide(PD_CTL_CONTRIBUTING));
-    pb::count(ctx, kVisited, wide(PD_CTL_NODES_VISITED));
-    pb::count(ctx, kFetched, wide(PD_CTL_NODES_FETCHED));
-    pb::count(ctx, kBytesPerQuery,
+    pb::count(ctx, kCounters["leaf_threshold"], c[PD_CTL_THRESHOLD]);
+    pb::count(ctx, kCounters["t_auto"], c[PD_CTL_T_AUTO]);
+    pb::count(ctx, kCounters["morton_runs"], runs);
+    pb::count(ctx, kCounters["bvh_nodes"], double(inner) + leaves);
+    pb::count(ctx, kCounters["bvh_inner_nodes"], inner);
+    pb::count(ctx, kCounters["bvh_leaves"], leaves);
+    pb::count(ctx, kCounters["queries"], queries);
+    pb::count(ctx, kCounters["hits_tested"], wide(PD_CTL_TESTED));
+    pb::count(ctx, kCounters["hits_contributing"], wide(PD_CTL_CONTRIBUTING));
+    pb::count(ctx, kCounters["nodes_visited"], wide(PD_CTL_NODES_VISITED));
+    pb::count(ctx, kCounters["nodes_fetched"], wide(PD_CTL_NODES_FETCHED));
+    pb::count(ctx, kCounters["bytes_read_per_query"],
               queries > 0 ? (wide(PD_CTL_NODES_FETCHED) * sizeof(pd::PdNode) +
                              wide(PD_CTL_TESTED) * sizeof(pd::PdFootprint)) /
                                 queries
                           : 0.0);
-    pb::count(ctx, kPerQuery, queries > 0 ? wide(PD_CTL_CONTRIBUTING) / queries : 0.0);
-    pb::count(ctx, kTestedPerQuery, queries > 0 ? wide(PD_CTL_TESTED) / queries : 0.0);
-    pb::count(ctx, kTruncated, c[PD_CTL_TRUNCATED]);
-    pb::count(ctx, kDegenerate, c[PD_CTL_DEGENERATE]);
-    pb::count(ctx, kClamped, c[PD_CTL_CLAMPED]);
-    pb::count(ctx, kLongRuns, c[PD_CTL_LONG_RUNS]);
-    pb::count(ctx, kArea, count > 0 ? std::bit_cast<float>(c[PD_CTL_AREA]) : 0.0);
-    pb::count(ctx, kSurface, surface);
-    pb::count(ctx, kBytes, double(bytes_total()));
-    pb::count(ctx, kBytesBvh, double(nodes_.size() + sorted_.size()));
+    pb::count(ctx, kCounters["hits_per_query"],
+              queries > 0 ? wide(PD_CTL_CONTRIBUTING) / queries : 0.0);
+    pb::count(ctx, kCounters["hits_tested_per_query"],
+              queries > 0 ? wide(PD_CTL_TESTED) / queries : 0.0);
+    pb::count(ctx, kCounters["truncated_queries"], c[PD_CTL_TRUNCATED]);
+    pb::count(ctx, kCounters["footprints_degenerate"], c[PD_CTL_DEGENERATE]);
+    pb::count(ctx, kCounters["semiaxes_clamped"], c[PD_CTL_CLAMPED]);
+    pb::count(ctx, kCounters["long_runs"], c[PD_CTL_LONG_RUNS]);
+    pb::count(ctx, kCounters["footprint_area"],
+              count > 0 ? std::bit_cast<float>(c[PD_CTL_AREA]) : 0.0);
+    pb::count(ctx, kCounters["surface_area"], surface);
+    pb::count(ctx, kCounters["bytes_total"], double(bytes_total()));
+    pb::count(ctx, kCounters["bytes_bvh"], double(nodes_.size() + sorted_.size()));
     for (uint32_t b = 0; b < PD_RADIUS_BINS; ++b)
-      pb::count(ctx, kHistogram[b], c[PD_CTL_HISTOGRAM + b]);
+      pb::count(ctx, kCounters.specs[kFirstRadiusBin + b], c[PD_CTL_HISTOGRAM + b]);
     if (c[PD_CTL_TRUNCATED] > 0)
       ctx.warn(fmt::format("photon-differentials: {} queries cut short by the loop budget",
                            c[PD_CTL_TRUNCATED]));
@@ -462,11 +442,11 @@ class PhotonDifferentials final : public pb::Technique {
       verify(ctx, count, runs, violations, mismatches, checked);
       verify_postprocess(ctx, count, surface, footprints_off, totals_off);
     }
-    pb::count(ctx, kViolations, double(violations));
-    pb::count(ctx, kMismatches, double(mismatches));
-    pb::count(ctx, kChecked, double(checked));
-    pb::count(ctx, kFootprintsOff, double(footprints_off));
-    pb::count(ctx, kTotalsOff, double(totals_off));
+    pb::count(ctx, kCounters["bvh_violations"], double(violations));
+    pb::count(ctx, kCounters["query_mismatches"], double(mismatches));
+    pb::count(ctx, kCounters["query_checked"], double(checked));
+    pb::count(ctx, kCounters["footprints_off"], double(footprints_off));
+    pb::count(ctx, kCounters["totals_off"], double(totals_off));
   }
 
   // The verify hook's second half: the GPU's post-processing (pd_postprocess.comp) against the
@@ -619,5 +599,5 @@ PB_EXPORT_TECHNIQUE(PhotonDifferentials, "photon-differentials", "indirect",
                     "photon differentials (seed 003): per-hit ellipsoidal footprints, a linear "
                     "BVH photon map built on the GPU each frame, a query summing every footprint "
                     "containing the point",
-                    kParams, .counters = kCounters, .check = &PhotonDifferentials::check,
+                    kParams.rows, .counters = kCounters.specs, .check = &PhotonDifferentials::check,
                     .budget = kBudget)

@@ -66,7 +66,7 @@ struct RsmParams : rsm::KernelParams, rsm::FilterParams, rsm::ShadeParams {
 // A core struct's field as a field of RsmParams (a row binds the struct it reads into).
 template <class F, class Core>
 constexpr F RsmParams::*core(F Core::*field) {
-  return field;
+  return pb::base_field<RsmParams>(field);
 }
 
 // clang-format off

@@ -200,6 +200,41 @@ TEST(ParamTable, ToolkitPhotonRowsKeepTheirSchema) {
   EXPECT_TRUE(read.store_first_hit);
 }
 
+// A params struct built from parts (a core struct, the toolkit's shared rows) binds the fields it
+// inherits through pb::base_field: read fills them in the struct's own parts, and each part's
+// initialisers stay checkable against the declaration.
+struct Core {
+  float scale = 0.5f;
+  uint32_t passes = 3;
+};
+struct Composed : Core, pb::toolkit::PhotonParams {
+  bool extra;
+};
+// clang-format off
+constexpr auto kComposedParams = pb::params(
+    pb::param("scale", pb::base_field<Composed>(&Core::scale), 0.5, {0, 1}, "", "scale"),
+    pb::bind(pb::toolkit::kMaxBouncesParam,
+             pb::base_field<Composed>(&pb::toolkit::PhotonParams::max_bounces)),
+    pb::param("passes", pb::base_field<Composed>(&Core::passes), 3, {1, 9}, "", "passes"),
+    pb::param("extra", &Composed::extra, true, "extra"));
+// clang-format on
+static_assert(static_cast<const Core&>(kComposedParams.defaults()).passes == Core{}.passes);
+
+TEST(ParamTable, BaseFieldFillsTheFieldOfAPart) {
+  const Composed read = kComposedParams.read(
+      values({{"scale", "0.25"}, {"max_bounces", "7"}, {"passes", "5"}, {"extra", "false"}}));
+  const Core& core = read;
+  const pb::toolkit::PhotonParams& photon = read;
+  EXPECT_EQ(core.scale, 0.25f);
+  EXPECT_EQ(core.passes, 5u);
+  EXPECT_EQ(photon.max_bounces, 7u);
+  EXPECT_EQ(photon.paths, pb::toolkit::PhotonParams{}.paths);  // no row: its initialiser
+  EXPECT_FALSE(read.extra);
+  EXPECT_STREQ(kComposedParams.rows[1].name, "max_bounces");
+  EXPECT_EQ(kComposedParams.rows[1].type, PB_PARAM_INT);
+  EXPECT_EQ(kComposedParams.defaults().max_bounces, 4u);
+}
+
 // A counter table is the descriptor's array and the counters' names, checked where they are used.
 constexpr auto kCounters = pb::counters({
     {"paths_kept", PB_COUNTER_WORK, "paths", "kept"},

@@ -20,7 +20,8 @@
 //   ... in setup: const FilterParams filter = kFilterParams.read(params);
 //
 // A row several structs share (the toolkit's `photons`) is declared once, bound to its owner's
-// field, and bound to another struct's field with pb::bind(row, &Other::field). Rows of several
+// field, and bound to another struct's field with pb::bind(row, &Other::field); a field the params
+// struct inherits is named pb::base_field<Params>(&Base::field). Rows of several
 // tables make one schema with pb::join_rows (or pb::merge_rows, where tables share a row).
 // Defaults live in the declaration: kTable.defaults() is the struct with every default, and a
 // struct that keeps member initialisers checks them with
@@ -189,6 +190,15 @@ constexpr Param<S, F> param(const char* name, F S::*field, std::type_identity_t<
                             const char* choices, const char* doc) {
   return {row<F>(name, default_value, choices, doc), field};
 }
+
+// A field of a base struct as a field of Derived, the struct a table reads into: a row of a
+// technique's params struct that fills a field its parts declare (a core struct the unit tests
+// build whole, the toolkit's PhotonParams), e.g.
+//   struct AapsParams : aaps::FeedbackParams { ... };
+//   pb::param("density_min", pb::base_field<AapsParams>(&aaps::FeedbackParams::density_min), ...)
+template <class Derived, class Base, class F>
+requires std::is_base_of_v<Base, Derived>
+constexpr F Derived::*base_field(F Base::*field) { return field; }
 
 // A schema's rows as one C array (`rows`), which PB_EXPORT_TECHNIQUE takes as its `params`.
 template <size_t N>

@@ -140,12 +140,61 @@ objects:
   }
 }
 
-// Eqs. 10-13 and §4.2: a diffuse bounce re-emits from a virtual origin v behind the hit such that
-// the footprint there keeps its area A, so at the next hit, t further, the footprint is
-// (sqrt(A) + Delta t)^2 / cos(theta) (Delta kept); with Russian roulette at the bounce (survival p
-// = the albedo 0.5 here), 1/p of that.
-TEST(PhotonDifferentials, DiffuseReemissionKeepsTheFootprintArea) {
-  TracedScene t("reemission", R"(purpose: photon differentials (photon_differentials_test.cpp)
+// Area lights (seed 003 defines footprints for point lights only and leaves area lights open, §8):
+// a quad light's photon leaves a point of its surface in a cosine-distributed direction, which is
+// §4.3's diffuse re-emission at the light. Its footprint starts with the light's area per photon
+// A / n and grows along the ray as a point light's does, with Delta = 2 sqrt(pi / n) (Eq. 9): on a
+// floor 1 m below, |a1 x a2| = (sqrt(A / n) + Delta t)^2 / cos(theta), t the distance from the
+// light (a 2 mm square: t is the distance from its centre to 0.2%), theta the angle at the floor.
+TEST(PhotonDifferentials, AreaLightFootprintsGrowWithDistance) {
+  struct AreaLight {
+    const char* name;
+    const char* yaml;
+    double area;
+  };
+  const AreaLight lights[] = {
+      {"quad",
+       "{name: panel, type: quad, position: [-0.001, 1, -0.001], edge_u: [0.002, 0, 0], "
+       "edge_v: [0, 0, 0.002], power: 1}",
+       0.002 * 0.002},
+      {"disc",
+       "{name: torch, type: disc, position: [0, 1, 0], normal: [0, -1, 0], radius: 0.001, "
+       "power: 1}",
+       kPi * 0.001 * 0.001}};
+  for (const AreaLight& light : lights) {
+    SCOPED_TRACE(light.name);
+    TracedScene t(std::string("area-light-") + light.name,
+                  std::string(R"(purpose: photon differentials (photon_differentials_test.cpp)
+camera: {position: [0, 3, 0], target: [0, 0, 0], up: [0, 0, -1], fov_deg: 60}
+lights:
+  - )") + light.yaml + R"(
+materials:
+  grey: {type: diffuse, albedo: [0.5, 0.5, 0.5]}
+objects:
+  - {name: floor, shape: {type: quad, size: [40, 40]}, material: grey}
+)");
+    pb::trace::TraceSettings s;
+    s.paths = 20000;
+    s.max_bounces = 1;
+    s.store = pb::trace::kDirectPhotons;
+    auto batch = t.trace(s);
+    ASSERT_GT(batch.photons.size(), 15000u);
+    const double delta = 2 * std::sqrt(kPi / s.paths);
+    size_t far = 0;
+    for (const auto& p : batch.photons) {
+      const glm::dvec3 to = glm::dvec3(p.position) - glm::dvec3(0, 1, 0);
+      const double t_len = glm::length(to), cos_b = std::abs(to.y) / t_len;
+      ASSERT_NEAR(delta_of(p) / delta, 1, 1e-5);
+      const double expected = std::pow(std::sqrt(light.area / s.paths) + delta * t_len, 2) / cos_b;
+      ASSERT_NEAR(area_of(p) / expected, 1, 1e-2) << "at " << p.position.x << ", " << p.position.z;
+      far += t_len > 2;
+    }
+    EXPECT_GT(far, 1000u);  // the growth is seen over a range of distances
+  }
+}
+
+// A point light between two grey planes 1 m apart (albedo 0.5).
+const char* kTwoPlanes = R"(purpose: photon differentials (photon_differentials_test.cpp)
 camera: {position: [0, 0.5, 3], target: [0, 0.5, 0], fov_deg: 60}
 lights:
   - {name: bulb, type: point, position: [0, 0.5, 0], intensity: 1.0}
@@ -155,7 +204,14 @@ objects:
   - {name: floor, shape: {type: quad, size: [40, 40]}, material: grey}
   - {name: ceiling, shape: {type: quad, size: [40, 40]}, material: grey,
      transform: {translate: [0, 1, 0], rotate_deg: [180, 0, 0]}}
-)");
+)";
+
+// Eqs. 10-13 and §4.2: a diffuse bounce re-emits from a virtual origin v behind the hit such that
+// the footprint there keeps its area A, so at the next hit, t further, the footprint is
+// (sqrt(A) + Delta t)^2 / cos(theta) (Delta kept); with Russian roulette at the bounce (survival p
+// = the albedo 0.5 here), 1/p of that.
+TEST(PhotonDifferentials, DiffuseReemissionKeepsTheFootprintArea) {
+  TracedScene t("reemission", kTwoPlanes);
   for (uint32_t rr_start : {31u, 0u}) {
     SCOPED_TRACE(rr_start);
     pb::trace::TraceSettings s;
@@ -177,6 +233,43 @@ objects:
       ++pairs;
     }
     EXPECT_GT(pairs, rr_start == 0 ? 1000u : 3000u);
+  }
+}
+
+// §4.2 with first_hit_roulette: the technique's trace settings (differential_trace_settings) play
+// Russian roulette "whenever a photon encounters a surface", the first hit included: between two
+// planes of albedo 0.5 half the paths leave their first hit, each with its footprint grown by
+// 1 / p = 2 there. Without it (the default) every path leaves its first hit, its footprint kept.
+TEST(PhotonDifferentials, FirstHitRouletteGrowsTheFootprintAtTheFirstHit) {
+  TracedScene t("first-hit-roulette", kTwoPlanes);
+  for (bool first_hit_roulette : {true, false}) {
+    SCOPED_TRACE(first_hit_roulette);
+    pb::trace::TraceSettings s;
+    s.paths = 4000;
+    s.max_bounces = 2;
+    s.store = pb::trace::kIndirectPhotons;
+    const pb::trace::TraceSettings settings =
+        pd::differential_trace_settings(s, t.rules, first_hit_roulette);
+    EXPECT_EQ(settings.policy, &t.rules);
+    EXPECT_TRUE(settings.store & pb::trace::kDirectPhotons);  // the lit area for T_auto
+    auto batch = t.trace(settings);
+    const double survival = first_hit_roulette ? 0.5 : 1.0;
+    size_t first = 0, second = 0, pairs = 0;
+    for (size_t i = 0; i < batch.photons.size(); ++i) {
+      const auto& a = batch.photons[i];
+      first += a.bounce == 0, second += a.bounce == 1;
+      if (i + 1 == batch.photons.size() || a.bounce != 0) continue;
+      const auto& b = batch.photons[i + 1];
+      if (b.path != a.path || b.bounce != 1) continue;
+      const double t_len = glm::length(b.position - a.position);
+      const double cos_b = std::abs(glm::dot(glm::normalize(b.position - a.position), b.normal));
+      const double expected = std::pow(std::sqrt(area_of(a)) + delta_of(a) * t_len, 2) / cos_b;
+      ASSERT_NEAR(area_of(b) / expected, 1 / survival, 6e-3) << "path " << a.path;
+      ++pairs;
+    }
+    ASSERT_GT(first, 3000u);
+    EXPECT_NEAR(double(second) / first, survival, 0.05);
+    EXPECT_GT(pairs, 1000u);
   }
 }
 
@@ -224,6 +317,25 @@ TEST(PhotonDifferentials, PostProcessingFollowsTheRules) {
   EXPECT_EQ(pd::radius_bin(3.f), 20u);
   EXPECT_EQ(pd::t_auto(10, 4, 2), 5u);
   EXPECT_EQ(pd::t_auto(0, 4, 2), 1u);
+}
+
+// The footprint's thickness along its surface's normal (README "Footprint thickness"): by default
+// h = 0.5 sqrt(|a1| |a2|), the sweep's choice, so that a round footprint on a floor reaches a wall
+// point beside it only within half its radius of the floor (a ball, normal_extent 1, counts its
+// flux density on the wall up to a full radius: +7.1% in cornell-box's corner band).
+TEST(PhotonDifferentials, DefaultFootprintIsHalfAsThickAsItIsWide) {
+  pd::PostProcess pp;
+  pp.smoothing = 1, pp.exponent = 0, pp.r_max = 10;
+  const float r = 0.1f;
+  auto p = photon({r, 0, 0}, {0, 0, r}, 1, 0u, 1.f);  // round, on the floor (normal +y)
+  pd::PdFootprint f;
+  pd::PdBox box;
+  ASSERT_TRUE(pd::make_footprint(p, 0, pp, f, box));
+  // A wall through the photon's position facing -x (the photon arrives from +x above it).
+  const glm::vec3 wall_normal(-1, 0, 0);
+  ASSERT_GT(pd::contribution(f, {0, 0.45f * r, 0}, wall_normal, false, true).x, 0);
+  EXPECT_EQ(pd::contribution(f, {0, 0.55f * r, 0}, wall_normal, false, true).x, 0);
+  EXPECT_NEAR(box.hi.y - p.position.y, 0.5f * r, 1e-6);
 }
 
 // Eq. 1's kernel normalised by pi |a1 x a2|: a skewed footprint (non-orthogonal semi-axes) in
