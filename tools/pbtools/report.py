@@ -1,10 +1,11 @@
 """photonbench report RUN_DIR: RUN_DIR/report/index.html plus every figure as SVG, PDF and PNG (and the
 numbers behind each figure as CSV), and the summary as CSV and LaTeX tables.
 
-The page is self-contained: inline CSS, no scripts, no external assets; every image is a relative file
-under report/ (so are the videos of a run with `video:`, video.py, encoded on its first report), so the
-folder opens offline, can be zipped as a CI artifact, or served as is. It is rendered from
-templates/report.html.j2 with autoescaping (pages.py); this module gathers its values.
+The page is self-contained: inline CSS and one inline script (the image viewer, viewer.py), no external
+assets; every image is a relative file under report/ (so are the videos of a run with `video:`,
+video.py, encoded on its first report), so the folder opens offline, can be zipped as a CI artifact, or
+served as is. It is rendered from templates/report.html.j2 with autoescaping (pages.py); this module
+gathers its values.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import pandas as pd
 
 from . import figures as F
 from . import images as I
-from . import floors, matching, pages, robustness, seeds, stats, style, tables, verdict, video
+from . import floors, matching, pages, robustness, seeds, stats, style, tables, verdict, video, viewer
 from .rundata import Run, RunError
 
 def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
@@ -251,6 +252,7 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
             s["figure"] = _saved(s["figure"], fig_dir) if s["figure"] else None
 
     videos = videos_view(run, tmp)
+    viewers = {v["slug"]: v for v in viewer.views(run, tmp)}
     page = pages.render(
         "report.html.j2", run_name=run.name,
         scenes=[{"name": s, "slug": F.slug(s)} for s in run.scenes()], run_info=run_info_view(run),
@@ -259,7 +261,7 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         clock=clock,
         stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k),
         robustness=robustness_section, matching=matched, verdicts=verdict.view(run),
-        verdict_alpha=stats.ALPHA, videos=videos)
+        verdict_alpha=stats.ALPHA, videos=videos, viewers=viewers)
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"
