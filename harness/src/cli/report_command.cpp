@@ -77,8 +77,9 @@ void add_compare(CLI::App& app, int&) {
 void add_history(CLI::App& app, int&) {
   add_tool(
       app, "history",
-      "append RUN_DIR [--file F] [--label L] | plot [--file F] [--out DIR]: performance history "
-      "by label (default: commit and plugin builds) and device, trend plots with change points");
+      "append RUN_DIR [RUN_DIR...] [--file F] [--label L] | plot [--file F] [--out DIR]: "
+      "performance history by label (default: commit and plugin builds) and device (several runs: "
+      "replicates, one entry), trend plots with noise bands and change points");
 }
 void add_export(CLI::App& app, int&) {
   add_tool(
