@@ -15,6 +15,7 @@ main_packages=(
   libyaml-cpp-dev libglm-dev libtbb-dev
   libcli11-dev libfmt-dev libtinyobjloader-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2  # the report
+  ffmpeg  # `video:` runs' videos (photonbench video; without it they are skipped, never failed)
 )
 test_packages=(
   libgtest-dev

@@ -45,7 +45,10 @@ probe = """<script>
                      .map(function (i) { return i.getAttribute('src'); });
     var pre = document.createElement('pre');
     pre.id = 'pb-check';
-    pre.textContent = JSON.stringify({images: imgs.length, broken: broken, errors: errors});
+    // The image viewer's panels are made by its script: the rest must be the page's own <img>s.
+    var own = imgs.filter(function (i) { return !i.closest('.viewer-stage'); }).length;
+    pre.textContent = JSON.stringify({images: own, viewer_images: imgs.length - own, broken: broken,
+                                      errors: errors});
     document.body.appendChild(pre);
   });
 })();
@@ -92,5 +95,8 @@ for line in log.splitlines():
 if problems:
     print("FAIL:\n  " + "\n  ".join(problems))
     sys.exit(1)
-print(f"ok: {result['images']} images loaded, no console errors")
+if result.get("viewer_images", 0) == 0 and 'class="viewer"' in page:
+    sys.exit("FAIL: the image viewer's script made no panels")
+print(f"ok: {result['images']} images and {result['viewer_images']} in the viewers loaded, "
+      "no console errors")
 PY

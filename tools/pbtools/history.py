@@ -9,8 +9,20 @@
                                            byte hash and API version), so a rebuilt plugin is a new
                                            entry; appending the same key again replaces that entry
                                            in place. Each cell's entry holds its plugin's record.
+  history append RUN_DIR RUN_DIR...         replicate runs of one build (interleaved with other work):
+                                           one entry, each median the median of the runs' medians
   history plot [--file F] [--out DIR]      one figure per device and cell: median frame time and each
-                                           pass's median over the history, change points marked
+                                           pass's median over the history, each with its noise band,
+                                           change points marked
+
+Noise bands: each entry records, per cell, the spread its medians sit in. With replicate runs it is the
+p5-p95 of the runs' medians (`band: runs`: the run-to-run noise, which on a shared machine is the larger
+one: tools/README.md); with one run, the p5-p95 of that run's measured frames (`band: frames`; entries
+appended before bands existed have it for the frame time only, from summary.csv's wall_ms_p5/p95). The
+plot shades each series' band and rings a point whose band does not overlap the previous entry's: a
+change larger than the noise both builds were measured in (bands.csv lists every band). A band of few
+replicates is narrow (p5-p95 of 3 values is nearly their range), so use 5 or more (tools/README.md:
+compare's replicate runs).
 
 Change points (binary segmentation, robust): on the log of a series (so shifts are relative),
   1. estimate the series' noise sigma from successive differences (1.4826 * MAD / sqrt 2), which a
@@ -66,23 +78,79 @@ def entry_key(entry: dict) -> str:
     return str(entry.get("label") or entry.get("commit"))
 
 
-def entry_of(run: Run, label: Optional[str] = None) -> dict:
+BAND_PERCENTILES = (5, 95)
+
+
+def _band(values) -> Optional[List[float]]:
+    v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    if len(v) < 2:
+        return None
+    return [float(np.percentile(v, BAND_PERCENTILES[0])), float(np.percentile(v, BAND_PERCENTILES[1]))]
+
+
+def _cell_entry(run: Run, c, plugins: dict) -> dict:
+    def v(col):
+        x = c.value(col)
+        return x if math.isfinite(x) else None
+    passes = c.pass_medians()
+    wall_band = [v("wall_ms_p5"), v("wall_ms_p95")]
+    return {
+        "scene": c.scene, "technique": c.technique, "label": run.label(c), "status": c.status,
+        "frames": v("frames"), "wall_ms_median": v("wall_ms_median"), "wall_ms_p5": v("wall_ms_p5"),
+        "wall_ms_p95": v("wall_ms_p95"), "flip_mean": v("flip_mean"), "ssim_mean": v("ssim_mean"),
+        "psnr_mean": v("psnr_mean"), "passes": passes,
+        "plugin": plugins.get(c.technique),
+        # The spread of one run: its measured frames (the per-frame samples of each pass).
+        "band": "frames", "replicates": 1,
+        "wall_ms_band": wall_band if None not in wall_band else None,
+        "passes_band": {name: b for name in passes
+                        for b in [_band(c.pass_samples(name)[1])] if b is not None},
+    }
+
+
+def _pooled(cells: List[dict]) -> dict:
+    """One cell's entry from replicate runs: medians of the runs' medians, bands the p5-p95 across
+    the runs (the run-to-run noise)."""
+    ok = [c for c in cells if c["status"] == "ok"]
+    if not ok:
+        return cells[0]
+    out = dict(ok[0])
+
+    def median(values):
+        v = [x for x in values if x is not None]
+        return float(np.median(v)) if v else None
+    for key in ("wall_ms_median", "flip_mean", "ssim_mean", "psnr_mean"):
+        out[key] = median([c.get(key) for c in ok])
+    names = list(dict.fromkeys(n for c in ok for n in c["passes"]))
+    out["passes"] = {n: median([c["passes"].get(n) for c in ok]) for n in names}
+    out["band"], out["replicates"] = "runs", len(ok)
+    out["wall_ms_runs"] = [c.get("wall_ms_median") for c in ok]
+    out["wall_ms_band"] = _band(out["wall_ms_runs"])
+    out["passes_band"] = {n: b for n in names for b in [_band([c["passes"].get(n) for c in ok])]
+                          if b is not None}
+    return out
+
+
+def entry_of(run: Run, label: Optional[str] = None, replicates: Optional[List[Run]] = None) -> dict:
+    """The history entry of `run`, or of `run` and its `replicates` (runs of the same build, config
+    and device) pooled."""
+    runs = [run] + list(replicates or [])
+    for other in runs[1:]:
+        for what, a, b in (("device", run.device, other.device), ("commit", run.commit, other.commit),
+                           ("config hash", run.info.get("config_hash"), other.info.get("config_hash"))):
+            if a != b:
+                raise RunError(f"{other.path}: its {what} {b} is not {run.path}'s {a}: replicates are "
+                               "runs of one build and config on one device")
     plugins = run.info.get("plugins") or {}
+    per_run = [{c.id: _cell_entry(r, c, plugins) for c in r.cells} for r in runs]
     cells = {}
-    for c in run.cells:
-        def v(col):
-            x = c.value(col)
-            return x if math.isfinite(x) else None
-        cells[c.id] = {
-            "scene": c.scene, "technique": c.technique, "label": run.label(c), "status": c.status,
-            "frames": v("frames"), "wall_ms_median": v("wall_ms_median"), "wall_ms_p5": v("wall_ms_p5"),
-            "wall_ms_p95": v("wall_ms_p95"), "flip_mean": v("flip_mean"), "ssim_mean": v("ssim_mean"),
-            "psnr_mean": v("psnr_mean"), "passes": c.pass_medians(),
-            "plugin": plugins.get(c.technique),
-        }
+    for cell_id in per_run[0]:
+        found = [p[cell_id] for p in per_run if cell_id in p]
+        cells[cell_id] = found[0] if len(runs) == 1 else _pooled(found)
     digest = plugins_digest(run)
     key = label or (f"{run.commit[:12]}+plugins:{digest}" if digest else run.commit)
     return {"label": key, "commit": run.commit, "device": run.device, "run": run.name,
+            "runs": [r.name for r in runs],
             "start": run.info.get("start"),
             "end": run.info.get("end"), "tool_version": run.info.get("tool_version"),
             "config_hash": run.info.get("config_hash"), "cells": cells}
@@ -110,11 +178,13 @@ def load(path: str) -> List[dict]:
     return out
 
 
-def append(run_dir: str, path: str, label: Optional[str] = None) -> Tuple[dict, bool]:
-    """Adds the run; returns (entry, replaced) where replaced says an entry with the same key
-    (entry_key) and device was overwritten in place."""
-    run = Run(run_dir)
-    entry = entry_of(run, label)
+def append(run_dir, path: str, label: Optional[str] = None) -> Tuple[dict, bool]:
+    """Adds the run (or the replicate runs, a list of folders, as one entry); returns (entry,
+    replaced) where replaced says an entry with the same key (entry_key) and device was overwritten
+    in place."""
+    dirs = [run_dir] if isinstance(run_dir, str) else list(run_dir)
+    runs = [Run(d) for d in dirs]
+    entry = entry_of(runs[0], label, runs[1:])
     entries = load(path)
     replaced = False
     for i, e in enumerate(entries):
@@ -200,13 +270,47 @@ def series_of(entries: List[dict], cell: str) -> Dict[str, List[Optional[float]]
     return out
 
 
+def bands_of(entries: List[dict], cell: str, names) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    """name -> (lo, hi) over entries: each entry's noise band of that series (NaN where it has none)."""
+    out = {}
+    for n in names:
+        lo, hi = [], []
+        for e in entries:
+            c = e["cells"].get(cell)
+            band = None
+            if c is not None and c.get("status") == "ok":
+                if n == "frame":
+                    band = c.get("wall_ms_band")
+                    if band is None and c.get("wall_ms_p5") is not None and c.get("wall_ms_p95") is not None:
+                        band = [c["wall_ms_p5"], c["wall_ms_p95"]]
+                else:
+                    band = (c.get("passes_band") or {}).get(n)
+            lo.append(np.nan if band is None else float(band[0]))
+            hi.append(np.nan if band is None else float(band[1]))
+        out[n] = (np.array(lo), np.array(hi))
+    return out
+
+
+def outside_previous_band(y: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> List[int]:
+    """Indices i whose band does not overlap entry i-1's (the two levels are apart by more than
+    either's noise); where entry i has no band of its own, whose median lies outside i-1's band."""
+    out = []
+    for i in range(1, len(y)):
+        if not (np.isfinite(y[i]) and np.isfinite(lo[i - 1]) and np.isfinite(hi[i - 1])):
+            continue
+        own_lo, own_hi = (lo[i], hi[i]) if np.isfinite(lo[i]) and np.isfinite(hi[i]) else (y[i], y[i])
+        if own_lo > hi[i - 1] or own_hi < lo[i - 1]:
+            out.append(i)
+    return out
+
+
 def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) -> List[str]:
     entries = load(path)
     if not entries:
         raise RunError(f"{path}: no history (run `photonbench history append RUN_DIR` first)")
     os.makedirs(out_dir, exist_ok=True)
     devices = list(dict.fromkeys(e["device"] for e in entries))
-    written, cp_rows = [], []
+    written, cp_rows, band_rows = [], [], []
     sections = []  # one per device, for templates/history.html.j2
     for device in devices:
         dev_entries = [e for e in entries if e["device"] == device]
@@ -222,11 +326,24 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
             fig, axes = style.new_figure(style.TEXT_WIDTH_IN * 0.75, 2.4)
             ax = axes[0][0]
             colors = style.pass_colors([n for n in series if n != "frame"])
+            bands = bands_of(dev_entries, cell, series)
             for name, vals in series.items():
                 y = np.array([np.nan if v is None else v for v in vals], dtype=float)
                 color = "#000000" if name == "frame" else colors[name]
                 lw = 1.4 if name == "frame" else 0.9
                 ax.plot(x, y, color=color, lw=lw, marker="o", markersize=2.5, label=name, gid=f"trend:{name}")
+                lo, hi = bands[name]
+                if np.isfinite(lo).any():
+                    ax.fill_between(x, lo, hi, color=color, alpha=0.15, lw=0, gid=f"band:{name}")
+                outside = outside_previous_band(y, lo, hi)
+                if outside:
+                    ax.plot(x[outside], y[outside], ls="none", marker="o", markersize=6, mfc="none",
+                            mec=color, mew=0.8, zorder=6, gid=f"outside:{name}")
+                for i, e in enumerate(dev_entries):
+                    c = e["cells"].get(cell) or {}
+                    band_rows.append([device, cell, name, i, e.get("label"), y[i], lo[i], hi[i],
+                                      c.get("band", "frames") if np.isfinite(lo[i]) else "",
+                                      c.get("replicates", 1), int(i in outside)])
                 for i in change_points(vals, min_shift=min_shift, k=k):
                     before = np.nanmedian(y[:i][np.isfinite(y[:i])][-MIN_SIZE * 2:]) if i > 0 else np.nan
                     after = np.nanmedian(y[i:][np.isfinite(y[i:])][:MIN_SIZE * 2])
@@ -242,6 +359,9 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
             ax.set_title(f"{info.get('scene', '')} / {info.get('label', cell)}", fontsize=7)
             ax.plot([], [], ls="none", marker="v", color="#777777", markeredgecolor="black",
                     markeredgewidth=0.4, label="change point")
+            ax.fill_between([], [], [], color="#777777", alpha=0.15, lw=0, label="noise band (p5-p95)")
+            ax.plot([], [], ls="none", marker="o", markersize=6, mfc="none", mec="#777777",
+                    label="band apart from the previous one")
             ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
             fig.tight_layout()
             stem = f"history_{slug(device)}_{slug(cell)}"
@@ -251,6 +371,9 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
             section["figures"].append({"cell": cell, **files})
     tables.write_csv(os.path.join(out_dir, "changepoints.csv"), pd.DataFrame(cp_rows, columns=[
         "device", "cell", "series", "index", "commit", "before_ms", "after_ms", "change_pct"]))
+    tables.write_csv(os.path.join(out_dir, "bands.csv"), pd.DataFrame(band_rows, columns=[
+        "device", "cell", "series", "index", "label", "median_ms", "band_lo_ms", "band_hi_ms", "band",
+        "replicates", "outside_previous"]))
     with open(os.path.join(out_dir, "index.html"), "w", encoding="utf-8") as f:
         f.write(pages.render("history.html.j2", source=os.path.abspath(path), devices=sections))
     return written
@@ -261,7 +384,8 @@ def main(argv=None) -> int:
                                  description="Keep a performance history across commits and plot its trends.")
     sub = ap.add_subparsers(dest="action", required=True)
     a_app = sub.add_parser("append", help="add a run's summary, keyed by --label (or commit and plugin builds) and device")
-    a_app.add_argument("run_dir", metavar="RUN_DIR")
+    a_app.add_argument("run_dir", metavar="RUN_DIR", nargs="+",
+                       help="a run, or replicate runs of one build pooled into one entry")
     a_app.add_argument("--file", default=DEFAULT_FILE, help="history file, JSON Lines (default %(default)s)")
     a_app.add_argument("--label", help="the entry's key: what you changed (default: photonbench's "
                        "commit and the plugin builds' digest)")

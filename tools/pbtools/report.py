@@ -1,9 +1,11 @@
 """photonbench report RUN_DIR: RUN_DIR/report/index.html plus every figure as SVG, PDF and PNG (and the
 numbers behind each figure as CSV), and the summary as CSV and LaTeX tables.
 
-The page is self-contained: inline CSS, no scripts, no external assets; every image is a relative file
-under report/, so the folder opens offline, can be zipped as a CI artifact, or served as is. It is
-rendered from templates/report.html.j2 with autoescaping (pages.py); this module gathers its values.
+The page is self-contained: inline CSS and one inline script (the image viewer, viewer.py), no external
+assets; every image is a relative file under report/ (so are the videos of a run with `video:`,
+video.py, encoded on its first report), so the folder opens offline, can be zipped as a CI artifact, or
+served as is. It is rendered from templates/report.html.j2 with autoescaping (pages.py); this module
+gathers its values.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import pandas as pd
 
 from . import figures as F
 from . import images as I
-from . import floors, matching, pages, robustness, seeds, stats, style, tables, verdict
+from . import floors, matching, pages, robustness, seeds, stats, style, tables, verdict, video, viewer
 from .rundata import Run, RunError
 
 def _display_width_px(svg_path: str, zoom: float = 1.4) -> Optional[int]:
@@ -151,6 +153,36 @@ def stability_view(run: Run, tab_dir: str, image_dir: str, k: float) -> dict:
             "z": z_view}
 
 
+def videos_view(run: Run, report_dir: str) -> dict:
+    """The run's videos (video.py), encoded first when the run captured frames and has none yet:
+    per scene slug, the files copied into report_dir/videos/ and named relative to it; `note` says why
+    there are none (no ffmpeg) where frames were captured."""
+    if not video.has_captures(run):
+        return {"scenes": {}, "note": None}
+    manifest = video.load_manifest(run.path)
+    if manifest is None:
+        try:
+            manifest = video.encode_run(run.path, log=lambda text: print(text, file=sys.stderr))
+        except video.NoFfmpeg:
+            print(f"report: {video.NO_FFMPEG}", file=sys.stderr)
+            return {"scenes": {}, "note": video.NO_FFMPEG}
+    scenes = {}
+    for s in manifest["scenes"]:
+        # Copied beside the page, so the report folder stays whole on its own (a CI artifact).
+        shutil.copytree(os.path.join(run.path, "videos", s["slug"]),
+                        os.path.join(report_dir, "videos", s["slug"]))
+        folder = f"videos/{s['slug']}"
+        scenes[s["slug"]] = {
+            "side_by_side": f"{folder}/{s['side_by_side']}", "frames": s.get("frames"),
+            "fps": f"{s.get('fps', 0):g}",
+            "cells": [{"label": c["label"], "video": f"{folder}/{c['video']}",
+                       "crop": f"{folder}/{c['crop']}", "crop_window": c["crop_window"],
+                       "crop_scale": c["crop_scale"],
+                       "metrics": f"{folder}/{c['metrics']}" if c.get("metrics") else None}
+                      for c in s["cells"]]}
+    return {"scenes": scenes, "note": None}
+
+
 def _saved(fig: F.Figure, fig_dir: str) -> dict:
     """Writes the figure (SVG, PDF, PNG) and its numbers (CSV); returns what the page shows of it."""
     files = style.save(fig.fig, fig_dir, fig.stem)
@@ -219,6 +251,8 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         for s in matched["scenes"]:
             s["figure"] = _saved(s["figure"], fig_dir) if s["figure"] else None
 
+    videos = videos_view(run, tmp)
+    viewers = {v["slug"]: v for v in viewer.views(run, tmp)}
     page = pages.render(
         "report.html.j2", run_name=run.name,
         scenes=[{"name": s, "slug": F.slug(s)} for s in run.scenes()], run_info=run_info_view(run),
@@ -227,7 +261,7 @@ def build(run_dir: str, out_dir: Optional[str] = None, crop: Optional[tuple] = N
         clock=clock,
         stability=stability_view(run, tab_dir, os.path.join(tmp, "seeds"), popping_k),
         robustness=robustness_section, matching=matched, verdicts=verdict.view(run),
-        verdict_alpha=stats.ALPHA)
+        verdict_alpha=stats.ALPHA, videos=videos, viewers=viewers)
     with open(os.path.join(tmp, "index.html"), "w", encoding="utf-8") as f:
         f.write(page)
     old = final + f".old-{os.getpid()}"

@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "cell/scoring.h"
+#include "cell/video_capture.h"
 #include "gpu/device_accounting.h"
 #include "io/image.h"
 
@@ -70,6 +71,7 @@ FrameLoop::FrameLoop(const config::Config& config, Renderer& renderer, FrameLog&
       log_(log),
       record_(record),
       images_(cell_dir / "images"),
+      video_(cell_dir / "video"),
       own_class_(own_class),
       technique_gpu_bytes_from_(technique_gpu_bytes_from) {}
 
@@ -77,7 +79,8 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
   const config::FrameSettings& frames = config_.frames;
   const uint32_t total = frames.warmup + frames.count;
   const std::vector<uint32_t> scored = metric_frames(config_);
-  std::vector<uint32_t> written;
+  std::vector<uint32_t> written, video_frames;
+  const bool video = captures_cell(config_.video, record_.cell.technique);
   for (uint32_t f = frames.first_frame(); f <= frames.last_frame(); ++f) {
     try {
       const bool warmup = !frames.measured(f);
@@ -100,6 +103,11 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
         if (record_.cell.params.count(name)) record_.resolved_params[name] = value;
       for (const std::string& warning : renderer_.ctx.warnings()) record_.warn(f, warning);
       check_output(f);
+      // A video frame is the output check_output has just read back, after the timed region.
+      if (video && captures_frame(config_.video, frames, f)) {
+        write_video_frame(video_, f, rgba_, config_.width, config_.height);
+        video_frames.push_back(f);
+      }
       if (std::find(scored.begin(), scored.end(), f) != scored.end()) {
         write_images(f);
         written.push_back(f);
@@ -112,6 +120,9 @@ std::vector<uint32_t> FrameLoop::run(Technique& technique) {
     std::printf("@frame %u %u\n", f - frames.first_frame() + 1, total);
     std::fflush(stdout);
   }
+  if (video)
+    write_video_index(video_, renderer_.world.scene().fps, config_.video, config_.width,
+                      config_.height, video_frames);
   return written;
 }
 

@@ -3,7 +3,8 @@
 // (scene-update, the technique's passes, submission and the fence); after it, outside the timing,
 // its rows are logged, its output is checked (validation errors, NaN or Inf) and, at metric frames,
 // read back and written as images for scoring, with the estimate of the technique's own class and
-// each class image it handed back (Context::class_output).
+// each class image it handed back (Context::class_output); with `video:` every chosen frame's
+// output is written too (cell/video_capture.h).
 #pragma once
 
 #include <cstdint>
@@ -63,6 +64,7 @@ class FrameLoop {
   FrameLog& log_;
   CellRecord& record_;
   std::filesystem::path images_;
+  std::filesystem::path video_;  // config `video:`: the captured frames (cell/video_capture.h)
   std::optional<trace::PathClass> own_class_;
   uint64_t technique_gpu_bytes_from_;
   std::vector<float> rgba_;  // the output read back after each frame

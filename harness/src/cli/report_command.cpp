@@ -1,8 +1,8 @@
-// `photonbench report | compare | history | export | claims`: the results tools. They are Python
-// (matplotlib is the field's plotting standard, and scipy has the statistics), so each sub-command
-// only replaces this process with `/usr/bin/python3 <tools>/pbtool.py <command> ARGS...`: Python
-// parses the arguments (including --help), and its exit status is photonbench's (0 ok, 1
-// regression/failed work, 2 bad input).
+// `photonbench report | compare | history | export | claims | video`: the results tools. They
+// are Python (matplotlib is the field's plotting standard, and scipy has the statistics), so each
+// sub-command only replaces this process with `/usr/bin/python3 <tools>/pbtool.py <command>
+// ARGS...`: Python parses the arguments (including --help), and its exit status is photonbench's
+// (0 ok, 1 regression/failed work, 2 bad input).
 //
 // Debian's interpreter is named explicitly, not the first python3 on PATH, because the tools need
 // Debian's python3-matplotlib/-numpy/-scipy (scripts/setup.sh), which another interpreter may lack.
@@ -77,13 +77,21 @@ void add_compare(CLI::App& app, int&) {
 void add_history(CLI::App& app, int&) {
   add_tool(
       app, "history",
-      "append RUN_DIR [--file F] [--label L] | plot [--file F] [--out DIR]: performance history "
-      "by label (default: commit and plugin builds) and device, trend plots with change points");
+      "append RUN_DIR [RUN_DIR...] [--file F] [--label L] | plot [--file F] [--out DIR]: "
+      "performance history by label (default: commit and plugin builds) and device (several runs: "
+      "replicates, one entry), trend plots with noise bands and change points");
 }
 void add_export(CLI::App& app, int&) {
   add_tool(
       app, "export",
       "RUN_DIR --format github-action-benchmark: medians and metric means as that tool's JSON");
+}
+
+void add_video(CLI::App& app, int&) {
+  add_tool(app, "video",
+           "RUN_DIR: encode the frames a run's `video:` block saved (ffmpeg): per scene a WebM per "
+           "cell, one side by side, the metric frames beside reference and FLIP map, an animated "
+           "PNG of the crop");
 }
 
 void add_claims(CLI::App& app, int&) {
@@ -98,5 +106,6 @@ pb::cli::CommandRegistration compare_registration{"compare", add_compare};
 pb::cli::CommandRegistration history_registration{"history", add_history};
 pb::cli::CommandRegistration export_registration{"export", add_export};
 pb::cli::CommandRegistration claims_registration{"claims", add_claims};
+pb::cli::CommandRegistration video_registration{"video", add_video};
 
 }  // namespace

@@ -225,6 +225,59 @@ const KeyTable kMatchTable{
       "re-measurements of each scene's found cells, in alternating order, for the achieved "
       "times"}}};
 
+const VideoSettings kVideoDefaults;
+
+const KeyTable kVideoTable{
+    "config.video",
+    "Videos of the run: every `every`-th measured frame of the chosen cells saved as an image "
+    "after the timed region (timings do not move); `photonbench video RUN_DIR` (or `report`) "
+    "encodes them with ffmpeg.",
+    {{"every", integer_type(1, kMaxMeasuredFrames), false, kVideoDefaults.every,
+      "save every Nth measured frame (1: all of them)"},
+     {"cells", any_of_type({choice_type({"all"}), list_type(string_type(), 1, false)}), false,
+      "all", "all, or a list of the config's technique names whose cells are captured"},
+     {"crop",
+      tuple_type({integer_type(0, 8191), integer_type(0, 8191), integer_type(1, 8192),
+                  integer_type(1, 8192)}),
+      false, nullptr,
+      "[x, y, w, h] in pixels: the window of the lossless animated PNG (default: the centre "
+      "half)"}}};
+
+// The video block: technique names the config lists, a crop inside the image.
+VideoSettings read_video(const YamlView& block, const Config& config) {
+  kVideoTable.allow(block);
+  VideoSettings video;
+  video.enabled = true;
+  video.every = uint32_t(kVideoTable.integer(block, "every"));
+  if (auto cells = block.get("cells")) {
+    if (cells->is_sequence()) {
+      for (const YamlView& name : cells->elements()) {
+        const std::string technique = name.as_string();
+        const bool listed =
+            std::any_of(config.techniques.begin(), config.techniques.end(),
+                        [&](const TechniqueEntry& t) { return t.technique == technique; });
+        if (!listed)
+          name.fail(
+              fmt::format("'{}' is not a technique of this config's `techniques`", technique));
+        video.techniques.push_back(technique);
+      }
+    } else if (cells->as_string() != "all") {
+      cells->fail("expected all, or a list of the config's technique names");
+    }
+  }
+  if (auto crop = block.get("crop")) {
+    const Key& key = kVideoTable.key("crop");
+    if (!crop->is_sequence() || crop->size() != 4) crop->fail("expected [x, y, w, h]");
+    for (size_t i = 0; i < 4; ++i) video.crop[i] = uint32_t(key.type.parts[i].integer((*crop)[i]));
+    if (video.crop[0] + video.crop[2] > config.width ||
+        video.crop[1] + video.crop[3] > config.height)
+      crop->fail(fmt::format("the window {}x{} at ({}, {}) is not inside the {}x{} image",
+                             video.crop[2], video.crop[3], video.crop[0], video.crop[1],
+                             config.width, config.height));
+  }
+  return video;
+}
+
 const KeyTable kSceneEntryTable{
     "config.scene",
     "A scene with parameters of its own.",
@@ -261,7 +314,8 @@ const KeyTable kConfigTable{
      {"plugin_dirs", list_type(string_type(), 0, true), false, nullptr,
       "more folders to load technique plugins from (relative to the config's folder)"},
      {"testing", table_type(kTestingTable), false, nullptr, ""},
-     {"match", table_type(kMatchTable), false, nullptr, ""}}};
+     {"match", table_type(kMatchTable), false, nullptr, ""},
+     {"video", table_type(kVideoTable), false, nullptr, ""}}};
 
 // The mapping at `key`, or an empty one when it is absent: its keys take the table's defaults
 // (and no error can arise in it, so it needs no position).
@@ -480,6 +534,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
   config.testing.slow_factor = kTestingTable.number(testing, "slow_factor");
 
   if (auto match = root.get("match")) config.match = read_match(*match, config);
+  if (auto video = root.get("video")) config.video = read_video(*video, config);
   for (const TechniqueEntry& t : config.techniques)
     if (!config.match)
       for (const char* key : {"match", "knob", "knob_range"})

@@ -89,6 +89,17 @@ struct MatchSettings {
   uint32_t rounds = 3;       // re-measurements of each scene's matched cells, alternating order
 };
 
+// `video:` (cell/video_capture.h): the output of every `every`-th measured frame of the chosen
+// cells saved as an image (cells/<cell>/video/), from the readback the NaN check already makes
+// after the timed region, for `photonbench video` to encode; off unless the config has the block.
+struct VideoSettings {
+  bool enabled = false;
+  uint32_t every = 1;
+  std::vector<std::string> techniques;  // the cells captured by technique; empty: every cell
+  // [x, y, w, h] in pixels: the window the lossless animated PNG shows; w == 0: the centre half.
+  uint32_t crop[4] = {0, 0, 0, 0};
+};
+
 struct SceneEntry {
   std::string scene;   // a name under the scene folders, or a path
   YamlView node;       // the entry itself: a name, or {scene, params}
@@ -127,6 +138,7 @@ struct Config {
   std::vector<std::filesystem::path> plugin_dirs;
   TestingHooks testing;
   std::optional<MatchSettings> match;
+  VideoSettings video;
   YAML::Node resolved;    // the whole config after --set overrides
   std::string canonical;  // `resolved` emitted as text: what the config hash is over
   std::string hash;       // 16 hex digits

@@ -1,0 +1,154 @@
+{% raw %}
+// The image viewer of the report (pbtools/viewer.py gathers its images). Per scene: a cell's output,
+// the reference and the cell's FLIP map in three panels under one zoom and pan, or one of them alone
+// in one large panel, so that switching flips between images at the same place.
+//   1-9: the cell    t / r / f: its image, the reference, its FLIP map alone    a: all three
+//   [ and ] (or left/right arrows): the previous / next metric frame
+//   wheel: zoom about the pointer (pixels magnified, never smoothed)    drag: pan    0 or double-click: reset
+// Keys go to the viewer under the pointer, or the one last clicked. The state is mirrored in the
+// viewer's data-* attributes (cell, frame, show, zoom, x, y), which a test reads back.
+(function () {
+  'use strict';
+  var PANELS = ['image', 'reference', 'flip'];
+  var TITLES = {image: 'output', reference: 'reference', flip: 'FLIP map'};
+  var ZOOM_STEP = 1.25, MAX_ZOOM = 64;
+  var active = null;
+
+  function Viewer(root) {
+    this.root = root;
+    this.data = JSON.parse(root.querySelector('.viewer-data').textContent);
+    this.state = {cell: 0, frame: this.data.frames.length - 1, show: 'all', zoom: 1, x: 0, y: 0};
+    this.stage = root.querySelector('.viewer-stage');
+    this.frameSelect = root.querySelector('.viewer-frame');
+    this.status = root.querySelector('.viewer-status');
+    this.panels = {};
+    var self = this;
+    PANELS.forEach(function (kind) {
+      var panel = document.createElement('div');
+      panel.className = 'viewer-panel';
+      var img = document.createElement('img');
+      img.alt = TITLES[kind];
+      img.draggable = false;
+      var caption = document.createElement('div');
+      caption.className = 'viewer-caption';
+      panel.appendChild(img);
+      panel.appendChild(caption);
+      self.stage.appendChild(panel);
+      self.panels[kind] = {panel: panel, img: img, caption: caption};
+      self.bindPointer(panel);
+    });
+    root.querySelectorAll('[data-cell]').forEach(function (button) {
+      button.addEventListener('click', function () { self.set({cell: +button.dataset.cell}); });
+    });
+    root.querySelectorAll('[data-show]').forEach(function (button) {
+      button.addEventListener('click', function () { self.set({show: button.dataset.show}); });
+    });
+    this.frameSelect.addEventListener('change', function () {
+      self.set({frame: +self.frameSelect.value});
+    });
+    root.addEventListener('mouseenter', function () { active = self; });
+    root.addEventListener('mousedown', function () { active = self; });
+    root.addEventListener('focus', function () { active = self; });
+    root.hidden = false;
+    this.render();
+  }
+
+  Viewer.prototype.set = function (change) {
+    for (var key in change) this.state[key] = change[key];
+    this.render();
+  };
+
+  // Zoom by `factor` keeping the point at (u, v) (fractions of a panel) where it is.
+  Viewer.prototype.zoomAt = function (factor, u, v) {
+    var s = this.state;
+    var zoom = Math.min(MAX_ZOOM, Math.max(1, s.zoom * factor));
+    var k = zoom / s.zoom;
+    this.set({zoom: zoom, x: u - (u - s.x) * k, y: v - (v - s.y) * k});
+  };
+
+  Viewer.prototype.bindPointer = function (panel) {
+    var self = this, drag = null;
+    panel.addEventListener('wheel', function (e) {
+      e.preventDefault();
+      var r = panel.getBoundingClientRect();
+      self.zoomAt(e.deltaY < 0 ? ZOOM_STEP : 1 / ZOOM_STEP, (e.clientX - r.left) / r.width,
+                  (e.clientY - r.top) / r.height);
+    }, {passive: false});
+    panel.addEventListener('pointerdown', function (e) {
+      var r = panel.getBoundingClientRect();
+      drag = {x: e.clientX, y: e.clientY, sx: self.state.x, sy: self.state.y, w: r.width, h: r.height};
+      if (panel.setPointerCapture) panel.setPointerCapture(e.pointerId);
+    });
+    panel.addEventListener('pointermove', function (e) {
+      if (!drag) return;
+      self.set({x: drag.sx + (e.clientX - drag.x) / drag.w, y: drag.sy + (e.clientY - drag.y) / drag.h});
+    });
+    panel.addEventListener('pointerup', function () { drag = null; });
+    panel.addEventListener('dblclick', function () { self.set({zoom: 1, x: 0, y: 0}); });
+  };
+
+  Viewer.prototype.key = function (e) {
+    var k = e.key, s = this.state, frames = this.data.frames.length;
+    if (k >= '1' && k <= '9') {
+      var cell = +k - 1;
+      if (cell < this.data.cells.length) this.set({cell: cell});
+    } else if (k === 't') this.set({show: 'image'});
+    else if (k === 'r') this.set({show: 'reference'});
+    else if (k === 'f') this.set({show: 'flip'});
+    else if (k === 'a') this.set({show: 'all'});
+    else if (k === '0') this.set({zoom: 1, x: 0, y: 0});
+    else if (k === ']' || k === 'ArrowRight') this.set({frame: Math.min(frames - 1, s.frame + 1)});
+    else if (k === '[' || k === 'ArrowLeft') this.set({frame: Math.max(0, s.frame - 1)});
+    else return false;
+    return true;
+  };
+
+  Viewer.prototype.render = function () {
+    var s = this.state, frame = this.data.frames[s.frame], cell = frame.cells[s.cell];
+    var label = this.data.cells[s.cell].label;
+    var sources = {image: cell.image, reference: frame.reference, flip: cell.flip};
+    var captions = {image: label, reference: 'reference',
+                    flip: 'FLIP map of ' + label + (cell.score ? ' (' + cell.score + ')' : '')};
+    var transform = 'translate(' + (s.x * 100) + '%, ' + (s.y * 100) + '%) scale(' + s.zoom + ')';
+    for (var i = 0; i < PANELS.length; i++) {
+      var kind = PANELS[i], p = this.panels[kind];
+      var shown = s.show === 'all' || s.show === kind;
+      p.panel.hidden = !shown;
+      p.panel.className = 'viewer-panel' + (s.show === 'all' ? '' : ' viewer-single');
+      if (!shown) continue;
+      if (sources[kind]) {
+        if (p.img.getAttribute('src') !== sources[kind]) p.img.setAttribute('src', sources[kind]);
+        p.img.hidden = false;
+      } else {
+        p.img.hidden = true;
+      }
+      p.img.style.transform = transform;
+      p.caption.textContent = sources[kind] ? captions[kind] : captions[kind] + ': no image';
+    }
+    this.frameSelect.value = String(s.frame);
+    this.root.querySelectorAll('[data-cell]').forEach(function (b) {
+      b.classList.toggle('on', +b.dataset.cell === s.cell);
+    });
+    this.root.querySelectorAll('[data-show]').forEach(function (b) {
+      b.classList.toggle('on', b.dataset.show === s.show);
+    });
+    this.status.textContent = 'frame ' + frame.frame + ', zoom ' + s.zoom.toFixed(2) + 'x';
+    var d = this.root.dataset;
+    d.cell = s.cell; d.frame = frame.frame; d.show = s.show;
+    d.zoom = s.zoom.toFixed(4); d.x = s.x.toFixed(4); d.y = s.y.toFixed(4);
+  };
+
+  var viewers = [];
+  document.querySelectorAll('.viewer[data-viewer]').forEach(function (root) {
+    viewers.push(new Viewer(root));
+  });
+  document.addEventListener('keydown', function (e) {
+    if (e.ctrlKey || e.metaKey || e.altKey) return;
+    var tag = e.target && e.target.tagName;
+    if (tag === 'INPUT' || tag === 'TEXTAREA' || tag === 'SELECT') return;
+    var viewer = active || (viewers.length === 1 ? viewers[0] : null);
+    if (viewer && viewer.key(e)) e.preventDefault();
+  });
+  window.pbViewers = viewers;
+})();
+{% endraw %}
