@@ -1,0 +1,375 @@
+// collection-points technique: the toolkit box BVH's point and segment walks against a brute-force
+// search on random boxes (driven on a device, as the plugin drives it), the reuse gates and weight
+// (cp_gather.h, the text the shaders run), a caustic seen in a mirror against its closed form with
+// both accumulators, fixed4_28's clamp at 15, temporal reuse keeping a static scene's mean, and
+// bad parameters refused with their key.
+#include "collection_points.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "gpu_context.h"
+#include "io/image.h"
+#include "photonbench/error.h"
+#include "photonbench/toolkit/box_bvh.h"
+#include "photonbench/toolkit/technique.h"
+#include "plan_scratch.h"
+#include "run_fixture.h"
+
+namespace fs = std::filesystem;
+
+namespace collection_points_test {
+
+using namespace pb::testing;
+using pb::toolkit::BvhBox;
+
+constexpr double kPi = 3.14159265358979;
+
+// ---- The toolkit BVH's walks against brute force ----
+
+struct ProbeQuery {
+  glm::vec4 origin, direction;
+};
+
+bool contains(const BvhBox& b, glm::vec3 x) {
+  return glm::all(glm::greaterThanEqual(x, b.lo)) && glm::all(glm::lessThanEqual(x, b.hi));
+}
+// The slab test as bvh_walk.glsl makes it: the margin leave - enter by which the segment
+// origin + t d, t in [0, t1], meets the box (negative: it misses; -inf: parallel and outside,
+// or the box is empty).
+float meets(const BvhBox& b, glm::vec3 o, glm::vec3 d, float t1) {
+  if (glm::any(glm::greaterThan(b.lo, b.hi))) return -INFINITY;  // empty
+  float enter = 0, leave = t1;
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] == 0) {
+      if (o[k] < b.lo[k] || o[k] > b.hi[k]) return -INFINITY;
+      continue;
+    }
+    const float a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
+    enter = std::max(enter, std::min(a, c));
+    leave = std::min(leave, std::max(a, c));
+  }
+  return leave - enter;
+}
+
+// 6,000 random boxes (sizes from 1e-3 to 0.2 of the unit cube, some duplicated centres so that runs
+// of equal Morton codes hold several, some empty), 2,000 point queries (half at box corners and
+// centres, where containment is decided by equality) and 2,000 segments: each walk must call its
+// hook for exactly the items brute force finds, each once.
+TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
+  constexpr uint32_t kBoxes = 6000, kQueries = 4000, kPerQuery = 512;
+  pb::gpu::Device gpu({});
+  TestGBuffer gbuffer(gpu, 8, 8);
+  TestContext ctx(gpu, gbuffer);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::vector<BvhBox> boxes(kBoxes);
+  for (uint32_t i = 0; i < kBoxes; ++i) {
+    glm::vec3 c = i % 7 == 3 ? 0.5f * (boxes[i - 1].lo + boxes[i - 1].hi)
+                             : glm::vec3(unit(rng), unit(rng), unit(rng));
+    const float size = std::pow(10.0f, -3.0f + 2.3f * unit(rng));
+    glm::vec3 half = size * glm::vec3(unit(rng), unit(rng), unit(rng));
+    boxes[i] = BvhBox{c - half, 0, c + half, 0};
+    if (i % 97 == 5) std::swap(boxes[i].lo, boxes[i].hi);  // empty
+  }
+  std::vector<ProbeQuery> queries(kQueries);
+  for (uint32_t q = 0; q < kQueries; ++q) {
+    const BvhBox& b = boxes[(q * 7919u) % kBoxes];
+    glm::vec3 x = q % 4 == 0   ? b.lo
+                  : q % 4 == 1 ? 0.5f * (b.lo + b.hi)
+                               : glm::vec3(unit(rng), unit(rng), unit(rng)) * 1.2f - 0.1f;
+    if (q < kQueries / 2) {
+      queries[q] = {glm::vec4(x, 0), glm::vec4(1, 0, 0, 0)};
+    } else {
+      glm::vec3 d = glm::vec3(unit(rng), unit(rng), unit(rng)) - 0.5f;
+      if (q % 5 == 0) d.y = 0;  // along an axis plane: the slab test's 0 * inf
+      queries[q] = {glm::vec4(x, 1), glm::vec4(glm::normalize(d), 0.05f + 0.3f * unit(rng))};
+    }
+  }
+  auto host = [&](const char* name, uint64_t bytes) {
+    return pb::toolkit::storage_buffer(gpu, name, bytes, pb::gpu::Memory::host_visible);
+  };
+  pb::gpu::Buffer box_buffer = host("test/boxes", kBoxes * sizeof(BvhBox));
+  std::memcpy(box_buffer.mapped(), boxes.data(), kBoxes * sizeof(BvhBox));
+  pb::gpu::Buffer query_buffer = host("test/queries", kQueries * sizeof(ProbeQuery));
+  std::memcpy(query_buffer.mapped(), queries.data(), kQueries * sizeof(ProbeQuery));
+  pb::gpu::Buffer found = host("test/found", uint64_t(kQueries) * kPerQuery * 4);
+  pb::gpu::Buffer counts = host("test/counts", kQueries * 16);
+  pb::toolkit::BoxBvh bvh;
+  bvh.setup(gpu, "test/bvh", /* host_readable */ true);
+  bvh.reserve(kBoxes);
+  bvh.record_build(ctx.cmd(), box_buffer, kBoxes);
+  bvh.record_probe(ctx.cmd(), box_buffer, query_buffer, kQueries, found, counts, kPerQuery,
+                   PB_LOOP_BUDGET);
+  ctx.submit();
+  const auto stats = bvh.read_stats();
+  EXPECT_EQ(stats.items, kBoxes);
+  EXPECT_GT(stats.leaves, kBoxes / 2);
+  EXPECT_EQ(stats.inner + 1, stats.leaves) << "a binary tree over the runs";
+  EXPECT_EQ(stats.long_runs, 0u);
+  {  // the tree: from the root every item is reached exactly once, each inside its node's box
+    const auto* nodes = static_cast<const pb::toolkit::BvhNode*>(bvh.nodes().mapped());
+    const auto* items = static_cast<const uint32_t*>(bvh.items().mapped());
+    std::vector<int> reached(kBoxes, 0);
+    std::vector<uint32_t> stack = {0};
+    size_t bad_boxes = 0, steps = 0;
+    while (!stack.empty() && ++steps < 10 * kBoxes) {
+      const pb::toolkit::BvhNode& node = nodes[stack.back()];
+      stack.pop_back();
+      if (node.left != PB_BVH_NONE) {
+        stack.push_back(node.left);
+        stack.push_back(node.right);
+        continue;
+      }
+      for (uint32_t j = node.first; j < node.first + node.count; ++j) {
+        ++reached[items[j]];
+        const BvhBox& b = boxes[items[j]];
+        if (b.lo.x <= b.hi.x && b.lo.y <= b.hi.y && b.lo.z <= b.hi.z &&
+            !(glm::all(glm::greaterThanEqual(b.lo, node.lo)) &&
+              glm::all(glm::lessThanEqual(b.hi, node.hi))))
+          ++bad_boxes;
+      }
+    }
+    EXPECT_EQ(std::count(reached.begin(), reached.end(), 1), kBoxes) << "items reached once";
+    EXPECT_EQ(bad_boxes, 0u) << "item boxes outside their leaf's box";
+  }
+  const auto* f = static_cast<const uint32_t*>(found.mapped());
+  const auto* n = static_cast<const uint32_t*>(counts.mapped());
+  size_t total = 0, wrong = 0;
+  // Points are compared exactly. A segment that grazes a box (|leave - enter| within 1e-5: the
+  // device's reciprocal may round otherwise than the CPU's division) may go either way.
+  size_t grazing = 0;
+  for (uint32_t q = 0; q < kQueries; ++q) {
+    std::multiset<uint32_t> got;
+    std::set<uint32_t> surely, maybe;
+    const glm::vec3 o(queries[q].origin);
+    for (uint32_t i = 0; i < kBoxes; ++i) {
+      if (queries[q].origin.w == 0) {
+        if (contains(boxes[i], o)) surely.insert(i);
+        continue;
+      }
+      const float margin =
+          meets(boxes[i], o, glm::vec3(queries[q].direction), queries[q].direction.w);
+      if (margin > 1e-5f)
+        surely.insert(i);
+      else if (margin >= -1e-5f)
+        maybe.insert(i), ++grazing;
+    }
+    ASSERT_EQ(n[4 * q + 1], 1u) << "query " << q << " ran out of its budget";
+    ASSERT_LE(n[4 * q], kPerQuery);
+    for (uint32_t k = 0; k < n[4 * q]; ++k) got.insert(f[q * kPerQuery + k]);
+    total += surely.size();
+    bool ok = got.size() == std::set<uint32_t>(got.begin(), got.end()).size();  // each once
+    for (uint32_t i : surely) ok = ok && got.count(i) == 1;
+    for (uint32_t i : got) ok = ok && (surely.count(i) == 1 || maybe.count(i) == 1);
+    if (!ok && wrong++ < 5)
+      ADD_FAILURE() << (q < kQueries / 2 ? "point" : "segment") << " query " << q << ": walk found "
+                    << got.size() << ", brute force " << surely.size() << " (+" << maybe.size()
+                    << " grazing; nodes " << n[4 * q + 2] << ", boxes " << n[4 * q + 3] << ")";
+  }
+  EXPECT_LT(grazing, size_t(kQueries / 4)) << "grazing pairs";
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GT(total, size_t(kQueries)) << "the queries must find something to compare";
+}
+
+// ---- The reuse gates (§3.1, Eqs. 3-4) ----
+
+TEST(CollectionPointsReuse, GatesRejectAFlippedNormalAnotherMaterialAndFarPoints) {
+  cp::CpPoint current{}, previous{};
+  current.position = glm::vec3(1, 2, 3);
+  current.normal = glm::vec3(0, 1, 0);
+  current.radius = 0.01f;
+  current.material = 4;
+  previous = current;
+  previous.position += glm::vec3(0.004f, 0, 0);
+  const float w = cp::cp_reuse_weight(previous, current, 0.75f, 0.9f);
+  const double sigma = 0.75 * 0.01;
+  EXPECT_NEAR(w, std::exp(-0.004 * 0.004 / (2 * sigma * sigma)), 1e-4);  // float positions
+  cp::CpPoint flipped = previous;
+  flipped.normal = -previous.normal;
+  EXPECT_EQ(cp::cp_reuse_weight(flipped, current, 0.75f, 0.9f), 0.0f);
+  cp::CpPoint tilted = previous;  // n . n' = cos 30 degrees < 0.9
+  tilted.normal = glm::vec3(0.5f, 0.8660254f, 0);
+  EXPECT_EQ(cp::cp_reuse_weight(tilted, current, 0.75f, 0.9f), 0.0f);
+  cp::CpPoint other = previous;
+  other.material = 5;
+  EXPECT_EQ(cp::cp_reuse_weight(other, current, 0.75f, 0.9f), 0.0f);
+  cp::CpPoint far = previous;  // inside previous's larger cylinder but beyond current.r
+  far.position = current.position + glm::vec3(0.012f, 0, 0);
+  far.radius = 0.02f;
+  EXPECT_EQ(cp::cp_reuse_weight(far, current, 0.75f, 0.9f), 0.0f);
+  cp::CpPoint above = previous;  // off previous's plane by more than half its height (r / 20)
+  above.position = current.position + glm::vec3(0, 0.0006f, 0);
+  EXPECT_EQ(cp::cp_reuse_weight(above, current, 0.75f, 0.9f), 0.0f);
+  above.position = current.position + glm::vec3(0, 0.0004f, 0);
+  EXPECT_GT(cp::cp_reuse_weight(above, current, 0.75f, 0.9f), 0.0f);
+}
+
+// ---- Runs through photonbench ----
+
+fs::path work_dir(const std::string& name) {
+  return pb::testing::work_dir("collection_points_test", name);
+}
+
+// A vertical mirror (specular 0.9) at x = 1 facing -x, a floor (albedo 0.5) in front of it, and a
+// directional light travelling (1, -1, 0) / sqrt 2 with E = 2 W/m^2 on a plane facing it. The beam
+// the mirror reflects, travelling (-1, -1, 0) / sqrt 2, lights the floor for x in [-3, 1] with the
+// caustic irradiance 0.9 E cos 45 (L S D). The camera at (0, 1, 0) looks at the mirror and sees
+// only the floor in it (C S D): every pixel's path is E S D S L, with throughput 0.9, so the
+// indirect_caustics estimate is 0.9 albedo / pi 0.9 E cos 45 everywhere.
+constexpr const char* kMirrorScene =
+    R"(purpose: a caustic seen in a mirror (techniques/collection-points/tests)
+camera: {position: [0, 1, 0], target: [1, 0.5, 0], fov_deg: 30}
+lights:
+  - {name: sun, type: directional, direction: [1, -1, 0], irradiance: 2}
+materials:
+  grey: {type: diffuse, albedo: [0.5, 0.5, 0.5]}
+  mirror: {type: mirror, specular: 0.9}
+objects:
+  - {name: floor, shape: {type: quad, size: [6, 6]}, material: grey,
+     transform: {translate: [-2, 0, 0]}}
+  - {name: mirror, shape: {type: quad, size: [4, 6]}, material: mirror,
+     transform: {translate: [1, 2, 0], rotate_deg: [0, 0, 90]}}
+)";
+constexpr double kMirrorExpected = 0.9 * 0.5 / kPi * 0.9 * 2.0 * 0.70710678;
+
+// `frames` measured frames (the first and the last scored) at 64x48 of the scene text,
+// collection-points with `params` (a YAML mapping; a list sweeps): photonbench's exit status.
+int run_scene(const fs::path& dir, const std::string& scene, const std::string& params,
+              int frames = 2) {
+  std::ofstream(dir / "scene.yaml") << scene;
+  return run_config(dir, "name: cp\nresolution: [64, 48]\nseed: 1\nscenes: [" +
+                             (dir / "scene.yaml").string() +
+                             "]\nframes: {warmup: 0, count: " + std::to_string(frames) +
+                             ", metrics_every: " + std::to_string(std::max(1, frames - 1)) +
+                             "}\nmetrics: [psnr]\nlimits: {cell_seconds: 300}\n"
+                             "reference: {samples: 2, cache_dir: " +
+                             (dir / "refs").string() +
+                             "}\ntechniques:\n  - {technique: "
+                             "collection-points, params: " +
+                             params + "}\n");
+}
+
+double mean_red(const pb::io::Image& image) {
+  double sum = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) sum += image.at(x, y, 0);
+  return sum / image.pixel_count();
+}
+
+// Both accumulators: the image's mean of the indirect_caustics estimate is the closed form within
+// 4 Poisson deviations of the photons gathered (contributions / CPs per CP, CPs overlapping, so
+// counted once per CP area: a loose bound) plus 2%.
+TEST(CollectionPointsRun, CausticSeenInAMirrorMatchesTheClosedForm) {
+  fs::path dir = work_dir("mirror");
+  // 300,000 paths at 64x48: light_paths is per 1920 x 1080 pixels.
+  ASSERT_EQ(
+      run_scene(dir, kMirrorScene,
+                "{light_paths: 202500000, max_bounces: 3, accumulator: [fixed64, fixed4_28]}"),
+      0)
+      << "see " << (dir / "log.txt");
+  for (const std::string accumulator : {"fixed64", "fixed4_28"}) {
+    fs::path cell = find_cell(dir, "collection-points", {{"accumulator", accumulator}});
+    ASSERT_FALSE(cell.empty()) << accumulator;
+    EXPECT_EQ(read_json(cell / "cell.json")["status"], "ok");
+    const CounterSums sums(cell);
+    EXPECT_EQ(sums["collection_points"], 2.0 * 64 * 48) << "every pixel sees the floor";
+    EXPECT_EQ(sums["collection_points_behind_specular"], 2.0 * 64 * 48);
+    EXPECT_EQ(sums["truncated_walks"], 0);
+    EXPECT_EQ(sums["saturated_sums"], 0);
+    const double per_cp = sums["contributions"] / sums["collection_points"];
+    const double mean = mean_red(frame_image(cell, 1, "indirect_caustics"));
+    const double tolerance = 4.0 / std::sqrt(per_cp * 64 * 48 / 16) + 0.02;
+    std::printf("%s: mean %.5f, closed form %.5f (%.1f photons per CP)\n", accumulator.c_str(),
+                mean, kMirrorExpected, per_cp);
+    EXPECT_NEAR(mean / kMirrorExpected, 1.0, tolerance) << accumulator;
+  }
+  fs::remove_all(dir);
+}
+
+// fixed4_28 reproduces the paper's clamp: with the light 250 times brighter (E = 500 W/m^2) and
+// 1,000 paths at 64x48, each photon carries about E A / 1000 x 0.9 > 15 W per channel (A, the
+// emission square over the scene, is above 40 m^2): every add is clamped and counted in every
+// channel (and sums past 16 wrap, counted too); fixed64 clamps nothing.
+TEST(CollectionPointsRun, Fixed4_28ClampsAt15AndCountsIt) {
+  fs::path dir = work_dir("clamp");
+  std::string bright = kMirrorScene;
+  bright.replace(bright.find("irradiance: 2"), 13, "irradiance: 500");
+  ASSERT_EQ(
+      run_scene(dir, bright,
+                "{light_paths: 675000, max_bounces: 3, accumulator: [fixed64, fixed4_28]}", 1),
+      0)
+      << "see " << (dir / "log.txt");
+  const CounterSums wide(find_cell(dir, "collection-points", {{"accumulator", "fixed64"}}));
+  const CounterSums paper(find_cell(dir, "collection-points", {{"accumulator", "fixed4_28"}}));
+  EXPECT_EQ(wide["saturated_sums"], 0);
+  ASSERT_GT(paper["contributions"], 0);
+  // Every channel of every add is clamped; sums that pass 16 also wrap the word, counted again.
+  EXPECT_GE(paper["saturated_sums"], 3 * paper["contributions"]);
+  fs::remove_all(dir);
+}
+
+// temporal: true on a static scene: the mean over the image stays the basic estimate's (the EMA of
+// unbiased estimates, the gather's weights normalised), and CPs do reuse (a static camera's paths
+// land on the same points up to the pixel's ray-cone radius).
+TEST(CollectionPointsRun, TemporalReuseKeepsAStaticScenesMean) {
+  fs::path dir = work_dir("temporal");
+  ASSERT_EQ(run_scene(dir, kMirrorScene,
+                      "{light_paths: 67500000, max_bounces: 3, temporal: [false, true]}", 6),
+            0)
+      << "see " << (dir / "log.txt");
+  fs::path basic = find_cell(dir, "collection-points", {{"temporal", "false"}});
+  fs::path reuse = find_cell(dir, "collection-points", {{"temporal", "true"}});
+  ASSERT_FALSE(basic.empty());
+  ASSERT_FALSE(reuse.empty());
+  EXPECT_EQ(CounterSums(basic)["reused_collection_points"], 0);
+  EXPECT_GT(CounterSums(reuse)["reused_collection_points"], 5.0 * 64 * 48 * 0.9)
+      << "frames 1 to 5 reuse nearly every CP";
+  const double m_basic = mean_red(frame_image(basic, 5, "indirect_caustics"));
+  const double m_reuse = mean_red(frame_image(reuse, 5, "indirect_caustics"));
+  std::printf("temporal: basic %.5f, reuse %.5f, closed form %.5f\n", m_basic, m_reuse,
+              kMirrorExpected);
+  EXPECT_NEAR(m_reuse / kMirrorExpected, 1.0, 0.06);
+  EXPECT_NEAR(m_basic / kMirrorExpected, 1.0, 0.06);
+  fs::remove_all(dir);
+}
+
+// Ranges, enumerations and the cross-parameter check: refused before any work at the config's
+// file, line and key.
+TEST(CollectionPoints, BadParametersAreRefusedWithTheirKey) {
+  PlanScratch scratch("collection_points_test_check");
+  auto error = [&](const std::string& params) -> std::string {
+    try {
+      scratch.plan(
+          "name: t\nscenes: [mirror-box]\ntechniques:\n  - technique: collection-points\n"
+          "    params: " +
+          params + "\n");
+    } catch (const pb::InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  std::string e = error("{radius_cap: 0}");
+  EXPECT_NE(e.find("config.yaml:5:"), std::string::npos) << e;
+  EXPECT_NE(e.find("techniques[0].params.radius_cap"), std::string::npos) << e;
+  e = error("{accumulator: fixed4_27}");
+  EXPECT_NE(e.find("techniques[0].params.accumulator"), std::string::npos) << e;
+  EXPECT_NE(e.find("fixed4_28"), std::string::npos) << e;
+  e = error("{temporal_alpha: 0.5}");
+  EXPECT_NE(e.find("techniques[0].params.temporal_alpha: 0.5 has no effect with temporal = false"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(error("{temporal: true, temporal_alpha: 0.5}"), "");
+  EXPECT_EQ(error("{camera_bounces: 0}").find("camera_bounces") != std::string::npos, true);
+}
+
+}  // namespace collection_points_test
