@@ -15,7 +15,10 @@
 
 namespace {
 
+using pb::toolkit::kDirectLightParams;
 using pb::toolkit::kShadowParams;
+
+constexpr auto kSchema = pb::join_rows(kShadowParams, kDirectLightParams);
 
 // Its parameters are the shared passes' shadow settings (the toolkit's rows; their defaults the
 // shared passes' own: photonbench/context.h).
@@ -24,6 +27,7 @@ class Direct final : public pb::Technique {
   void setup(pb::Context& ctx, const pb::Params& params) override {
     const pb::toolkit::ShadowParams shadow = kShadowParams.read(params);
     ctx.shared().configure_shadows(shadow.map_size, shadow.bias, shadow.normal_offset);
+    pb::toolkit::configure_direct_light(ctx, params);
   }
 
   void render(pb::Context& ctx) override {
@@ -35,5 +39,8 @@ class Direct final : public pb::Technique {
 
 }  // namespace
 
-PB_EXPORT_TECHNIQUE(Direct, "direct", "C L | C D L",
-                    "G-buffer + shadow-mapped direct light; no indirect light", kShadowParams.rows)
+PB_EXPORT_TECHNIQUE(
+    Direct, "direct", "C L | C D L",
+    "G-buffer + direct light (shadow-mapped, or the many-light estimator); no indirect "
+    "light",
+    kSchema.rows)

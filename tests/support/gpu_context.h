@@ -45,6 +45,7 @@ class TestGBuffer final : public SharedPasses {
   void direct_light() override { throw std::logic_error("test context: no direct light"); }
   void shade(const gpu::Image*) override { throw std::logic_error("test context: no shade"); }
   void configure_shadows(uint32_t, float, float) override {}
+  void configure_direct_light(const DirectLightSettings&) override {}
   GBuffer gbuffer_images() const override { return {&position, &normal, &albedo, &depth}; }
   const gpu::Image& direct_image() const override { throw std::logic_error("no direct image"); }
   const gpu::Buffer& frame_buffer() const override { throw std::logic_error("no frame buffer"); }

@@ -23,24 +23,6 @@ namespace emissive_lights_test {
 
 using namespace test_scenes;
 
-// Irradiance at p (normal n) from a Lambertian polygon of radiance L in front of p, by Lambert's
-// contour integral E = L/2 |sum_i theta_i (n . g_i)| (theta_i the angle p sees edge i under, g_i
-// the unit normal of the plane through p and the edge). Zero when p is behind the polygon.
-double polygon_irradiance(const std::vector<glm::dvec3>& poly, glm::dvec3 p, glm::dvec3 n,
-                          double radiance) {
-  glm::dvec3 facing = glm::cross(poly[1] - poly[0], poly[2] - poly[0]);
-  if (glm::dot(p - poly[0], facing) <= 0) return 0;
-  double sum = 0;
-  for (size_t i = 0; i < poly.size(); ++i) {
-    glm::dvec3 ra = glm::normalize(poly[i] - p),
-               rb = glm::normalize(poly[(i + 1) % poly.size()] - p);
-    glm::dvec3 g = glm::cross(ra, rb);
-    double len = glm::length(g);
-    if (len > 0) sum += std::acos(std::clamp(glm::dot(ra, rb), -1.0, 1.0)) * glm::dot(n, g / len);
-  }
-  return 0.5 * radiance * std::abs(sum);
-}
-
 TEST(EmissiveTriangles, CarryPiAreaRadianceAndCullZeroFlux) {
   TestScene t;
   uint32_t bright = t.material(scene::MaterialType::emissive, glm::vec3(0.f), glm::vec3(3, 2, 1));

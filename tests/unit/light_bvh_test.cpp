@@ -87,6 +87,47 @@ bool contains(const Aabb& outer, const Aabb& inner) {
          glm::all(glm::greaterThanEqual(outer.hi, inner.hi));
 }
 
+// Every node of `bvh` holds what is below it: the lights' boxes, their normals' cones and the sum
+// of their flux; leaves hold at most `leaf_size` lights and together all `total`.
+void expect_bounds(const LightBvh& bvh, uint32_t leaf_size, uint32_t total) {
+  const auto& nodes = bvh.nodes();
+  ASSERT_FALSE(nodes.empty());
+  EXPECT_EQ(nodes[0].count, total);
+  uint32_t leaf_lights = 0;
+  for (uint32_t k = 0; k < nodes.size(); ++k) {
+    const auto& node = nodes[k];
+    std::vector<uint32_t> below;  // every light under the node, through its leaves
+    std::vector<uint32_t> stack = {k};
+    while (!stack.empty()) {
+      const auto& m = nodes[stack.back()];
+      stack.pop_back();
+      if (m.leaf()) {
+        EXPECT_LE(m.leaf_lights, leaf_size);
+        for (uint32_t j = 0; j < m.leaf_lights; ++j) below.push_back(bvh.order()[m.first + j]);
+      } else {
+        EXPECT_EQ(nodes[m.left].parent, uint32_t(&m - nodes.data()));
+        stack.push_back(m.left), stack.push_back(m.right);
+      }
+    }
+    if (node.leaf()) leaf_lights += node.leaf_lights;
+    uint32_t count = 0;
+    double flux = 0;
+    for (uint32_t i : below) {
+      const LightPrimitive& l = bvh.lights()[i];
+      flux += l.flux;
+      count += l.count;
+      EXPECT_TRUE(contains(node.box, l.box)) << "node " << k << " light " << i;
+      glm::dvec3 a(node.cone.axis), b(l.cone.axis);
+      double angle = std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
+      EXPECT_LE(angle, node.cone.theta_o + l.cone.theta_o + 1e-5) << "node " << k << " light " << i;
+      EXPECT_GE(node.cone.theta_e, l.cone.theta_e);
+    }
+    ASSERT_EQ(count, node.count);
+    EXPECT_NEAR(node.flux / flux, 1.0, 1e-5) << "node " << k;
+  }
+  EXPECT_EQ(leaf_lights, uint32_t(bvh.lights().size()));
+}
+
 TEST(LightBvh, EveryNodeBoundsItsLightsBoxFluxAndCone) {
   for (SplitHeuristic split : kSplits)
     for (uint32_t leaf_size : {1u, 3u, 10u})
@@ -96,43 +137,67 @@ TEST(LightBvh, EveryNodeBoundsItsLightsBoxFluxAndCone) {
         o.leaf_size = leaf_size;
         o.all_axes = all_axes;
         LightBvh bvh(random_lights(300, 40, 7), o);
-        const auto& nodes = bvh.nodes();
-        ASSERT_FALSE(nodes.empty());
-        EXPECT_EQ(nodes[0].count, 340u);
-        uint32_t leaf_lights = 0;
-        for (uint32_t k = 0; k < nodes.size(); ++k) {
-          const auto& node = nodes[k];
-          std::vector<uint32_t> below;  // every light under the node, through its leaves
-          std::vector<uint32_t> stack = {k};
-          while (!stack.empty()) {
-            const auto& m = nodes[stack.back()];
-            stack.pop_back();
-            if (m.leaf()) {
-              EXPECT_LE(m.leaf_lights, leaf_size);
-              for (uint32_t j = 0; j < m.leaf_lights; ++j)
-                below.push_back(bvh.order()[m.first + j]);
-            } else {
-              EXPECT_EQ(nodes[m.left].parent, uint32_t(&m - nodes.data()));
-              stack.push_back(m.left), stack.push_back(m.right);
-            }
-          }
-          if (node.leaf()) leaf_lights += node.leaf_lights;
-          ASSERT_EQ(below.size(), node.count);
-          double flux = 0;
-          for (uint32_t i : below) {
-            const LightPrimitive& l = bvh.lights()[i];
-            flux += l.flux;
-            EXPECT_TRUE(contains(node.box, l.box)) << "node " << k << " light " << i;
-            glm::dvec3 a(node.cone.axis), b(l.cone.axis);
-            double angle = std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
-            EXPECT_LE(angle, node.cone.theta_o + l.cone.theta_o + 1e-5)
-                << "node " << k << " light " << i;
-            EXPECT_GE(node.cone.theta_e, l.cone.theta_e);
-          }
-          EXPECT_NEAR(node.flux / flux, 1.0, 1e-5) << "node " << k;
-        }
-        EXPECT_EQ(leaf_lights, 340u);
+        expect_bounds(bvh, leaf_size, 340);
       }
+}
+
+// The lights of `lights` moved, turned and dimmed or brightened at random (Paper IV's animated
+// lights): each box shifted and stretched, each cone turned, each flux scaled up to 10x either way.
+std::vector<LightPrimitive> moved(std::vector<LightPrimitive> lights, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (LightPrimitive& l : lights) {
+    glm::vec3 shift{3 * u(rng) - 1.5f, 3 * u(rng) - 1.5f, 3 * u(rng) - 1.5f};
+    l.box.lo += shift;
+    l.box.hi += shift + glm::vec3(0.2f * u(rng));
+    l.cone.axis = random_unit(rng);
+    l.flux *= std::pow(10.f, 2 * u(rng) - 1);
+  }
+  return lights;
+}
+
+// Paper IV: after a refit (one level), and after the two-level trees' build and refit (bottom trees
+// refit, top tree rebuilt), every node still bounds its children's lights.
+TEST(LightBvh, EveryNodeBoundsItsLightsAfterARefitAndOnTwoLevels) {
+  const std::vector<LightPrimitive> lights = random_lights(300, 40, 7);
+  // Groups of lights as emissive objects are: 12 of 25 triangles, then one per point light.
+  std::vector<uint32_t> group;
+  for (uint32_t i = 0; i < lights.size(); ++i) group.push_back(i < 300 ? i / 25 : 100 + i);
+  for (uint32_t leaf_size : {1u, 4u}) {
+    LightBvhOptions o;
+    o.leaf_size = leaf_size;
+    // Distance and flux: never zero, so every walk finds a light and the probabilities sum to 1
+    // (with the cones, a group may face p while each of its lights faces away).
+    o.importance = LightImportance::df;
+    LightBvh bvh(lights, o);
+    bvh.refit(moved(lights, 3));
+    SCOPED_TRACE("one level, refit");
+    expect_bounds(bvh, leaf_size, 340);
+    TwoLevelLightBvh two(lights, group, o);
+    EXPECT_EQ(two.bottoms().size(), 12u + 40u);
+    for (int round = 0; round < 2; ++round) {
+      SCOPED_TRACE(round ? "two levels, refit" : "two levels, built");
+      for (const auto& b : two.bottoms())
+        expect_bounds(*b, leaf_size, uint32_t(b->lights().size()));
+      expect_bounds(two.top(), leaf_size, 340);  // its leaves are the bottom trees' roots
+      // Each bottom tree's root is the top tree's light of that group.
+      for (size_t g = 0; g < two.bottoms().size(); ++g)
+        EXPECT_EQ(two.top().lights()[g].flux, two.bottoms()[g]->nodes()[0].flux);
+      // The walk over both levels: probabilities sum to 1 and sample() reports pdf().
+      for (const Shading& s : shading_points(20, 5)) {
+        double sum = 0;
+        for (uint32_t i = 0; i < lights.size(); ++i) sum += two.pdf(s.p, s.n, i);
+        if (sum > 0) EXPECT_NEAR(sum, 1.0, 1e-4);
+        LightPick pick;
+        if (two.sample(s.p, s.n, 0.37f, pick))
+          EXPECT_NEAR(pick.pdf / two.pdf(s.p, s.n, pick.light), 1.0, 1e-4);
+      }
+      two.refit(moved(lights, 11));
+    }
+  }
+  // A refit over another number of lights is refused.
+  LightBvh bvh(lights, {});
+  EXPECT_THROW(bvh.refit(random_lights(10, 0, 1)), Error);
 }
 
 // Enumerated over every light, the walk's probabilities sum to the probability that a walk finds a

@@ -15,6 +15,7 @@
 #include "cell/profiler.h"
 #include "command_stream.h"
 #include "gpu/shared_passes.h"
+#include "photonbench/error.h"
 #include "photonbench/photons.h"
 #include "photonbench/scene_layout.h"
 #include "scene/scene.h"

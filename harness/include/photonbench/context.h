@@ -95,6 +95,28 @@ inline constexpr uint32_t kDefaultShadowMapSize = 512;       // texels per tile 
 inline constexpr double kDefaultShadowRelativeBias = 0.01;   // fraction of the light-space depth
 inline constexpr double kDefaultShadowNormalOffsetM = 0.01;  // metres along the normal
 
+// How the shared direct-light pass lights each G-buffer sample (the toolkit's direct-light rows,
+// photonbench/toolkit/technique.h). shadow_maps: every light and emissive triangle, each shadowed
+// by its cube of shadow-map tiles (the GPU pass). nee: the many-light next-event estimator of
+// Papers III and IV of seed 002 (harness/src/trace/nee.h): per sample, one light chosen by
+// `sampler` (`importance` weighs the light BVH's walk), a shadow ray, and with `mis` one BSDF
+// sample weighed by the power heuristic; traced on the CPU (Embree stands in for DXR's ray
+// generation) and uploaded into the same direct image.
+enum class DirectLightMethod : uint32_t { shadow_maps, nee };
+enum class NeeSampler : uint32_t { uniform, power, bvh };
+enum class NeeImportance : uint32_t { d, df, dfb, dfbo };
+enum class NeeLevels : uint32_t { one, two };
+enum class NeeUpdate : uint32_t { rebuild, refit };
+struct DirectLightSettings {
+  DirectLightMethod method = DirectLightMethod::shadow_maps;
+  NeeSampler sampler = NeeSampler::bvh;
+  NeeImportance importance = NeeImportance::dfbo;
+  uint32_t light_samples = 1;  // light samples per G-buffer sample (and as many BSDF samples)
+  bool mis = true;
+  NeeLevels levels = NeeLevels::one;      // bvh: one tree, or a tree per emitter under a top tree
+  NeeUpdate update = NeeUpdate::rebuild;  // bvh: when lights move, rebuild or refit the trees
+};
+
 // Passes every technique reuses. Each records its own named pass scope.
 class SharedPasses {
  public:
@@ -118,6 +140,9 @@ class SharedPasses {
   // `view_projection` (a light's, an unwrap's; Vulkan clip space, y down) or the frame's camera.
   virtual void draw_scene(const SceneTarget& target,
                           std::optional<glm::mat4> view_projection = std::nullopt) = 0;
+  // How direct_light() lights (DirectLightSettings); call in setup. Declared last so that the
+  // slots of the calls above stay where modules built before it expect them.
+  virtual void configure_direct_light(const DirectLightSettings& settings) = 0;
 };
 
 class Context {

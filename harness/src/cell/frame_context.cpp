@@ -55,6 +55,9 @@ void FrameContext::declare_counters(std::span<const pb_counter_spec> counters) {
   declared_.clear();
   for (const pb_counter_spec& c : counters)
     declared_.try_emplace(c.name, CounterDeclaration{CounterKind(c.kind), c.unit ? c.unit : ""});
+  // The shared passes' own counters (the many-light direct light's), for every technique.
+  for (const pb_counter_spec& c : gpu::ScenePasses::kCounters)
+    declared_.try_emplace(c.name, CounterDeclaration{CounterKind(c.kind), c.unit ? c.unit : ""});
 }
 
 void FrameContext::count(const Counter& counter, double value) {

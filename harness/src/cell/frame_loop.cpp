@@ -54,6 +54,11 @@ Renderer::Renderer(const gpu::Device::Options& options, scene::Scene scene, uint
       world(device, std::move(scene), width, height, profiler,
             [this] { return commands.current(); }),
       ctx(device, commands, profiler, world) {
+  world.passes().attach_host(
+      {[this] { commands.flush(); },
+       [this]() -> const trace::EmbreeScene& { return world.embree_scene(); },
+       [this](const Counter& counter, double value) { ctx.count(counter, value); },
+       [this] { return uint64_t(world.seed_scramble().value_or(0)); }});
   if (device.raster_timestamps_unreliable()) {
     profiler.use_fenced_timing([this] {
       const auto start = std::chrono::steady_clock::now();

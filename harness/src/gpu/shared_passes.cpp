@@ -107,7 +107,37 @@ void cube_views(glm::vec3 p, float far_plane, std::vector<glm::mat4>& out) {
   }
 }
 
+// Whether the lights the estimator samples differ between two frames: a scene light moved, turned
+// or changed power, or an emissive object moved or deformed.
+bool lights_differ(const scene::Scene& scene, const scene::FrameState& a,
+                   const scene::FrameState& b) {
+  if (a.lights.size() != b.lights.size()) return true;
+  for (size_t i = 0; i < a.lights.size(); ++i) {
+    const scene::Light &x = a.lights[i], &y = b.lights[i];
+    if (x.position != y.position || x.radiant != y.radiant || x.direction != y.direction ||
+        x.edge_u != y.edge_u || x.edge_v != y.edge_v)
+      return true;
+  }
+  for (size_t i = 0; i < scene.objects.size() && i < a.object_to_world.size(); ++i)
+    if (scene::is_emissive(scene, i) && a.object_to_world[i] != b.object_to_world[i]) return true;
+  for (uint32_t i : b.deformed_objects)
+    if (scene::is_emissive(scene, i)) return true;
+  return false;
+}
+
 }  // namespace
+
+// clang-format off
+const std::array<pb_counter_spec, 7> ScenePasses::kCounters = {{
+    {"nee_lights", PB_COUNTER_SIZE, "lights", "lights the next-event estimator samples"},
+    {"nee_culled", PB_COUNTER_SIZE, "triangles", "emissive triangles of zero flux left out"},
+    {"light_bvh_nodes", PB_COUNTER_SIZE, "nodes", "nodes of the light BVH"},
+    {"light_bvh_bytes", PB_COUNTER_SIZE, "bytes", "the light BVH: nodes, order, lights"},
+    {"nee_nodes_per_sample", PB_COUNTER_RATIO, "nodes", "light-BVH nodes per light sample"},
+    {"nee_shadow_rays", PB_COUNTER_WORK, "rays", "shadow rays traced"},
+    {"nee_occluded_share", PB_COUNTER_RATIO, "fraction", "of the shadow rays, the blocked share"},
+}};
+// clang-format on
 
 ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t width, uint32_t height,
                          const SharedPassOptions& options, PassRecorder& recorder,
@@ -220,6 +250,14 @@ void ScenePasses::configure_shadows(uint32_t map_size, float relative_bias, floa
   }
 }
 
+void ScenePasses::configure_direct_light(const DirectLightSettings& settings) {
+  if (settings.light_samples < 1 || settings.light_samples > 64)
+    throw InputError(fmt::format("light_samples: {} outside [1, 64]", settings.light_samples));
+  direct_settings_ = settings;
+  nee_.reset();
+  nee_lights_changed_ = true;
+}
+
 void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name) {
   using U = vk::BufferUsageFlagBits;
   std::vector<float> interleaved;
@@ -244,6 +282,7 @@ void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const 
 
 void ScenePasses::update(const scene::FrameState& state) {
   indirect_estimate_ = nullptr;  // a new frame: shade() has not run yet
+  if (lights_differ(scene_, state_, state)) nee_lights_changed_ = true;
   object_to_world_ = state.object_to_world;
   state_ = state;
   // Deformed meshes (the pool's water) are re-tessellated and re-uploaded; rigid motion is a
@@ -402,6 +441,10 @@ void ScenePasses::shadow_maps() {
 
 void ScenePasses::direct_light() {
   auto scope = PassScope(&recorder_, recorder_.begin_pass("direct-light"));
+  if (direct_settings_.method == DirectLightMethod::nee) {
+    nee_direct_light();
+    return;
+  }
   shadow_maps();
   auto lighting = PassScope(&recorder_, recorder_.begin_pass("lighting"));
   vk::CommandBuffer cmd = cmd_();
@@ -414,6 +457,72 @@ void ScenePasses::direct_light() {
                          Sampled{&shadow_atlas_}, &direct_, &emissive_},
                         push);
   cmd.dispatch(groups_for(width_, kGroup), groups_for(height_, kGroup), 1);
+}
+
+void ScenePasses::nee_direct_light() {
+  if (!host_.flush || !host_.embree)
+    throw Error("direct_light: nee needs the cell's host services (ScenePasses::attach_host)");
+  if (!nee_) {
+    nee_ = std::make_unique<trace::NextEventEstimator>(direct_settings_, trace::LightBvhOptions{});
+    auto build = PassScope(&recorder_, recorder_.begin_pass("light-bvh/build"));
+    nee_->build(scene_, state_);
+    nee_lights_changed_ = false;
+  }
+  if (nee_lights_changed_) {
+    const bool refit = nee_->refit_possible();
+    auto pass =
+        PassScope(&recorder_, recorder_.begin_pass(refit ? "light-bvh/refit" : "light-bvh/build"));
+    nee_->update(scene_, state_);
+    nee_lights_changed_ = false;
+  }
+  // The G-buffer on the host: what is recorded so far runs now.
+  host_.flush();
+  device_.read_image(position_, gbuffer_position_);
+  device_.read_image(normal_, gbuffer_normal_);
+  const trace::EmbreeScene& world = host_.embree();
+  trace::GBufferSamples samples{&gbuffer_position_, &gbuffer_normal_, width_, height_,
+                                camera_.position};
+  // A stream per frame and cell seed (the seed axis scrambles it), per pixel.
+  uint64_t seed =
+      (uint64_t(state_.frame) << 32) ^ (host_.seed ? host_.seed() : 0) ^ 0x9e3779b97f4a7c15ull;
+  {
+    auto pass = PassScope(&recorder_, recorder_.begin_pass("nee/sample"));
+    nee_->sample(scene_, samples, seed);
+  }
+  {
+    auto pass = PassScope(&recorder_, recorder_.begin_pass("nee/trace"));
+    nee_->trace(world);
+  }
+  {
+    auto pass = PassScope(&recorder_, recorder_.begin_pass("nee/shade"));
+    nee_->shade(scene_, world, nee_radiance_);
+    size_t bytes = nee_radiance_.size() * sizeof(float);
+    if (!direct_upload_ || direct_upload_.size() < bytes)
+      direct_upload_ = device_.create_buffer(
+          "direct/nee-upload", bytes, vk::BufferUsageFlagBits::eTransferSrc, Memory::host_visible);
+    std::memcpy(direct_upload_.mapped(), nee_radiance_.data(), bytes);
+    vk::CommandBuffer cmd = cmd_();
+    full_barrier(cmd);
+    vk::BufferImageCopy region{
+        0, 0, 0, {vk::ImageAspectFlagBits::eColor, 0, 0, 1}, {0, 0, 0}, {width_, height_, 1}};
+    cmd.copyBufferToImage(direct_upload_.handle(), direct_.handle(), vk::ImageLayout::eGeneral,
+                          region);
+    full_barrier(cmd);
+  }
+  if (host_.count) {
+    const trace::NeeStats& stats = nee_->stats();
+    auto count = [&](size_t row, double value) {
+      const pb_counter_spec& c = kCounters[row];
+      host_.count(Counter{c.name, CounterKind(c.kind), c.unit}, value);
+    };
+    count(0, double(nee_->lights().lights.size()));
+    count(1, double(nee_->lights().culled));
+    count(2, double(nee_->tree_nodes()));
+    count(3, double(nee_->tree_bytes()));
+    count(4, stats.samples ? double(stats.nodes_visited) / double(stats.samples) : 0.0);
+    count(5, double(stats.shadow_rays));
+    count(6, stats.shadow_rays ? double(stats.occluded) / double(stats.shadow_rays) : 0.0);
+  }
 }
 
 void ScenePasses::shade(const Image* indirect_radiance) {

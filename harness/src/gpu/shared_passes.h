@@ -3,14 +3,18 @@
 // pb::SharedPasses through the context.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
 
 #include "photonbench/context.h"
+#include "photonbench/plugin.h"
 #include "scene/scene.h"
 #include "scene/world_triangles.h"
+#include "trace/embree_scene.h"
+#include "trace/nee.h"
 
 namespace pb::gpu {
 
@@ -20,8 +24,23 @@ struct SharedPassOptions {
   float shadow_normal_offset = float(kDefaultShadowNormalOffsetM);
 };
 
+// What the many-light direct light (`direct_light: nee`) needs of the cell around the passes: a
+// mid-frame flush (the G-buffer is read back before the CPU traces), the World's Embree scene (the
+// shadow rays' substrate, shared with the photon tracer), the frame's counters and the seed axis'
+// scramble.
+struct HostServices {
+  std::function<void()> flush;
+  std::function<const trace::EmbreeScene&()> embree;
+  std::function<void(const Counter&, double)> count;
+  std::function<uint64_t()> seed;
+};
+
 class ScenePasses : public SharedPasses {
  public:
+  // The counters direct_light() emits with `direct_light: nee`, declared by the harness for every
+  // technique.
+  static const std::array<pb_counter_spec, 7> kCounters;
+
   // `recorder` opens pass scopes; `cmd` returns the frame's current command buffer.
   ScenePasses(Device& device, const scene::Scene& scene, uint32_t width, uint32_t height,
               const SharedPassOptions& options, PassRecorder& recorder,
@@ -40,6 +59,8 @@ class ScenePasses : public SharedPasses {
   void direct_light() override;
   void shade(const Image* indirect_radiance) override;
   void configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) override;
+  void configure_direct_light(const DirectLightSettings& settings) override;
+  void attach_host(HostServices host) { host_ = std::move(host); }
   GBuffer gbuffer_images() const override { return {&position_, &normal_, &albedo_, &depth_}; }
   const Image& direct_image() const override { return direct_; }
   const Buffer& frame_buffer() const override { return frame_; }
@@ -59,6 +80,8 @@ class ScenePasses : public SharedPasses {
   };
   void upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name);
   void shadow_maps();
+  // direct_light() with `direct_light: nee`: read back the G-buffer, estimate on the CPU, upload.
+  void nee_direct_light();
   // This frame's emissive triangles into emissive_; their objects' shadow cubes go onto `tiles`.
   void upload_emissive_triangles(const scene::FrameState& state, float shadow_far,
                                  std::vector<glm::mat4>& tiles);
@@ -93,6 +116,13 @@ class ScenePasses : public SharedPasses {
   Buffer scene_vertices_, scene_triangles_;
   uint32_t triangles_changed_frame_ = 0;
   std::optional<Pipeline> draw_scene_pipeline_;
+  // The many-light direct light.
+  DirectLightSettings direct_settings_;
+  HostServices host_;
+  std::unique_ptr<trace::NextEventEstimator> nee_;
+  bool nee_lights_changed_ = true;  // the light set must be rebuilt before the next estimate
+  Buffer direct_upload_;
+  std::vector<float> gbuffer_position_, gbuffer_normal_, nee_radiance_;
 };
 
 }  // namespace pb::gpu

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <unordered_map>
 
 #include "photonbench/error.h"
 
@@ -46,7 +47,7 @@ struct Cluster {
   OrientationCone cone;
   float flux = 0;
   uint32_t count = 0;
-  void add(const LightPrimitive& l) { add(l.box, l.cone, l.flux, 1); }
+  void add(const LightPrimitive& l) { add(l.box, l.cone, l.flux, l.count); }
   void add(const Aabb& b, const OrientationCone& c, float f, uint32_t n) {
     if (n == 0) return;
     box = united(box, b);
@@ -370,18 +371,19 @@ float LightBvh::leaf_probability(const Node& leaf, uint32_t j, const glm::vec3& 
   float total = 0, mine = 0;
   for (uint32_t k = 0; k < leaf.leaf_lights; ++k) {
     const LightPrimitive& l = lights_[order_[leaf.first + k]];
-    float w = importance(p, n, l.box, l.cone, l.flux, 1);
+    float w = importance(p, n, l.box, l.cone, l.flux, l.count);
     total += w;
     if (k == j) mine = w;
   }
   return total > 0 ? mine / total : 0.f;
 }
 
-bool LightBvh::sample(const glm::vec3& p, const glm::vec3& n, float u, LightPick& out) const {
+bool LightBvh::walk(const glm::vec3& p, const glm::vec3& n, double u, LightPick& out,
+                    double* rest) const {
   if (nodes_.empty()) return false;
   // One number for the whole walk, rescaled into [0, 1) at each level (Paper III); in double, so
   // that twenty levels still leave it enough bits.
-  double xi = std::clamp(double(u), 0.0, std::nextafter(1.0, 0.0));
+  double xi = std::clamp(u, 0.0, std::nextafter(1.0, 0.0));
   double pdf = 1;
   uint32_t visited = 1, k = 0;
   while (!nodes_[k].leaf()) {
@@ -412,19 +414,24 @@ bool LightBvh::sample(const glm::vec3& p, const glm::vec3& n, float u, LightPick
     std::array<double, 10> w{};
     for (uint32_t m = 0; m < leaf.leaf_lights; ++m) {
       const LightPrimitive& l = lights_[order_[leaf.first + m]];
-      w[m] = importance(p, n, l.box, l.cone, l.flux, 1);
+      w[m] = importance(p, n, l.box, l.cone, l.flux, l.count);
       total += w[m];
     }
     if (!(total > 0)) return false;
     double acc = 0, target = xi * total;
     j = leaf.leaf_lights - 1;
     for (uint32_t m = 0; m < leaf.leaf_lights; ++m) {
-      acc += w[m];
-      if (target < acc && w[m] > 0) {
+      if (target < acc + w[m] && w[m] > 0) {
         j = m;
         break;
       }
+      acc += w[m];
     }
+    if (rest) *rest = std::clamp((target - acc) / w[j], 0.0, std::nextafter(1.0, 0.0));
+  }
+  if (rest && options_.leaf_choice == LeafChoice::uniform) {
+    double scaled = xi * leaf.leaf_lights - j;
+    *rest = std::clamp(scaled, 0.0, std::nextafter(1.0, 0.0));
   }
   out.light = order_[leaf.first + j];
   out.pdf = float(pdf * leaf_probability(leaf, j, p, n));
@@ -470,6 +477,107 @@ glm::vec3 irradiance_sample(const LightSampler& sampler,
   float cos_p = glm::dot(n, w), cos_y = -glm::dot(t.normal, w);
   if (cos_p <= 0 || cos_y <= 0) return glm::vec3(0.f);
   return t.radiance * (cos_p * cos_y * t.area / (r2 * chosen.pdf));
+}
+
+void LightBvh::refit(std::vector<LightPrimitive> lights) {
+  if (lights.size() != lights_.size())
+    throw Error(fmt::format("light BVH refit: {} lights for a tree over {}", lights.size(),
+                            lights_.size()));
+  lights_ = std::move(lights);
+  // build() numbers a node before its children, so the reverse order visits children first.
+  for (uint32_t k = uint32_t(nodes_.size()); k-- > 0;) {
+    Node& node = nodes_[k];
+    Cluster c;
+    if (node.leaf()) {
+      for (uint32_t j = 0; j < node.leaf_lights; ++j) c.add(lights_[order_[node.first + j]]);
+    } else {
+      for (uint32_t child : {node.left, node.right}) {
+        const Node& m = nodes_[child];
+        c.add(m.box, m.cone, m.flux, m.count);
+      }
+    }
+    node.box = c.box;
+    node.cone = c.cone;
+    node.flux = c.flux;
+  }
+}
+
+TwoLevelLightBvh::TwoLevelLightBvh(const std::vector<LightPrimitive>& lights,
+                                   const std::vector<uint32_t>& group,
+                                   const LightBvhOptions& options)
+    : options_(options) {
+  validate(options_, "light BVH");
+  if (group.size() != lights.size())
+    throw Error(
+        fmt::format("two-level light BVH: {} groups for {} lights", group.size(), lights.size()));
+  std::unordered_map<uint32_t, uint32_t> index;  // group id -> group, in first-seen order
+  light_group_.resize(lights.size());
+  light_local_.resize(lights.size());
+  for (uint32_t i = 0; i < lights.size(); ++i) {
+    auto [it, added] = index.try_emplace(group[i], uint32_t(members_.size()));
+    if (added) members_.emplace_back();
+    const uint32_t g = it->second;
+    light_group_[i] = g;
+    light_local_[i] = uint32_t(members_[g].size());
+    members_[g].push_back(i);
+  }
+  for (const auto& m : members_) {
+    std::vector<LightPrimitive> own;
+    for (uint32_t i : m) own.push_back(lights[i]);
+    bottoms_.push_back(std::make_unique<LightBvh>(std::move(own), options_));
+  }
+  build_top();
+}
+
+void TwoLevelLightBvh::build_top() {
+  std::vector<LightPrimitive> roots;
+  for (const auto& b : bottoms_) {
+    const LightBvh::Node& r = b->nodes()[0];
+    roots.push_back({r.box, r.cone, r.flux, r.count});
+  }
+  top_ = std::make_unique<LightBvh>(std::move(roots), options_);
+}
+
+void TwoLevelLightBvh::refit(const std::vector<LightPrimitive>& lights) {
+  if (lights.size() != light_group_.size())
+    throw Error(fmt::format("two-level light BVH refit: {} lights for trees over {}", lights.size(),
+                            light_group_.size()));
+  for (size_t g = 0; g < bottoms_.size(); ++g) {
+    std::vector<LightPrimitive> own;
+    for (uint32_t i : members_[g]) own.push_back(lights[i]);
+    bottoms_[g]->refit(std::move(own));
+  }
+  build_top();
+}
+
+bool TwoLevelLightBvh::sample(const glm::vec3& p, const glm::vec3& n, float u,
+                              LightPick& out) const {
+  LightPick group, light;
+  double rest = 0;
+  if (!top_->walk(p, n, u, group, &rest)) return false;
+  if (!bottoms_[group.light]->walk(p, n, rest, light, nullptr)) return false;
+  out.light = members_[group.light][light.light];
+  out.pdf = group.pdf * light.pdf;
+  out.nodes_visited = group.nodes_visited + light.nodes_visited;
+  return out.pdf > 0;
+}
+
+float TwoLevelLightBvh::pdf(const glm::vec3& p, const glm::vec3& n, uint32_t i) const {
+  if (i >= light_group_.size()) return 0;
+  uint32_t g = light_group_[i];
+  return top_->pdf(p, n, g) * bottoms_[g]->pdf(p, n, light_local_[i]);
+}
+
+size_t TwoLevelLightBvh::node_count() const {
+  size_t n = top_->nodes().size();
+  for (const auto& b : bottoms_) n += b->nodes().size();
+  return n;
+}
+
+size_t TwoLevelLightBvh::bytes() const {
+  size_t n = top_->bytes() + (light_group_.size() + light_local_.size()) * sizeof(uint32_t);
+  for (const auto& b : bottoms_) n += b->bytes();
+  return n;
 }
 
 size_t LightBvh::bytes() const {

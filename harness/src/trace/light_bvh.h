@@ -44,7 +44,8 @@ OrientationCone merge(const OrientationCone& a, const OrientationCone& b);
 struct LightPrimitive {
   Aabb box;
   OrientationCone cone;
-  float flux = 0;  // W, the mean of the RGB flux
+  float flux = 0;      // W, the mean of the RGB flux
+  uint32_t count = 1;  // lights it stands for (a bottom tree's root in a two-level tree: many)
 };
 LightPrimitive primitive(const scene::EmissiveTriangle& triangle);
 // A point light (intensity I, W/sr): flux 4 pi I, emitting every way. A spot: its axis, theta_e
@@ -109,7 +110,16 @@ class LightBvh final : public LightSampler {
 
   LightBvh(std::vector<LightPrimitive> lights, const LightBvhOptions& options);
 
-  bool sample(const glm::vec3& p, const glm::vec3& n, float u, LightPick& out) const override;
+  bool sample(const glm::vec3& p, const glm::vec3& n, float u, LightPick& out) const override {
+    return walk(p, n, u, out, nullptr);
+  }
+  // The walk with its one number in double precision; `rest` (if given) receives what is left of
+  // it after the last choice, uniform in [0, 1) again, for a walk that continues in a lower tree.
+  bool walk(const glm::vec3& p, const glm::vec3& n, double u, LightPick& out, double* rest) const;
+  // Paper IV's refit: the same tree over `lights` (as many as it was built over, in the same order:
+  // moved, turned or dimmed), every node's box, cone and flux recomputed bottom-up from its leaves
+  // (children before parents). Throws pb::Error on another light count.
+  void refit(std::vector<LightPrimitive> lights);
   float pdf(const glm::vec3& p, const glm::vec3& n, uint32_t i) const override;
 
   // Paper III's importance of a node (or of one light, seen as a node of its own) from (p, n).
@@ -133,6 +143,34 @@ class LightBvh final : public LightSampler {
   std::vector<uint32_t> order_;
   std::vector<uint32_t> leaf_of_;  // per light: its leaf node
   std::vector<Node> nodes_;
+};
+
+// Paper IV's two levels: a bottom-level tree over each group of lights (an emissive object's
+// triangles, one scene light) and a top-level tree over the bottom trees' roots. A walk goes down
+// the top tree to a group, then on down its bottom tree with the number left over; the probability
+// of a light is the product of the two walks'. On a refit the bottom trees are refit and the top
+// tree, small, is rebuilt (Paper IV §3).
+class TwoLevelLightBvh final : public LightSampler {
+ public:
+  // group[i]: the group of light i (any numbering; empty groups do not occur).
+  TwoLevelLightBvh(const std::vector<LightPrimitive>& lights, const std::vector<uint32_t>& group,
+                   const LightBvhOptions& options);
+  bool sample(const glm::vec3& p, const glm::vec3& n, float u, LightPick& out) const override;
+  float pdf(const glm::vec3& p, const glm::vec3& n, uint32_t i) const override;
+  // The same lights, in the same order and groups, moved: bottom trees refit, top tree rebuilt.
+  void refit(const std::vector<LightPrimitive>& lights);
+  const LightBvh& top() const { return *top_; }
+  const std::vector<std::unique_ptr<LightBvh>>& bottoms() const { return bottoms_; }
+  size_t node_count() const;
+  size_t bytes() const;
+
+ private:
+  void build_top();
+  LightBvhOptions options_;
+  std::vector<uint32_t> light_group_, light_local_;  // per light: its group and index there
+  std::vector<std::vector<uint32_t>> members_;       // per group: its lights
+  std::vector<std::unique_ptr<LightBvh>> bottoms_;
+  std::unique_ptr<LightBvh> top_;
 };
 
 // One next-event estimate of the irradiance at p (normal n) from emissive triangles, unoccluded:

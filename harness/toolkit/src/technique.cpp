@@ -20,6 +20,10 @@ trace::TraceSettings PhotonParams::trace_settings() const {
   return settings;
 }
 
+void configure_direct_light(Context& ctx, const Params& params) {
+  ctx.shared().configure_direct_light(kDirectLightParams.read(params));
+}
+
 void configure_shadows(Context& ctx, uint32_t map_size) {
   ctx.shared().configure_shadows(map_size, float(kDefaultShadowRelativeBias),
                                  float(kDefaultShadowNormalOffsetM));

@@ -49,6 +49,36 @@ inline constexpr auto kShadowParams = pb::params(
 // clang-format on
 static_assert(kShadowParams.member_defaults_match());
 
+// The shared direct-light pass's method and the many-light estimator's parameters
+// (photonbench/context.h, DirectLightSettings; Papers III and IV of seed 002). A technique lists
+// these rows and calls configure_direct_light(ctx, params) in setup.
+// clang-format off
+inline constexpr auto kDirectLightParams = pb::params(
+    pb::param("direct_light", &DirectLightSettings::method, DirectLightMethod::shadow_maps,
+              "shadow_maps|nee",
+              "direct light: shadow-mapped lights (GPU), or the many-light next-event estimator "
+              "(light BVH walk, shadow and BSDF rays through Embree)"),
+    pb::param("nee_sampler", &DirectLightSettings::sampler, NeeSampler::bvh, "uniform|power|bvh",
+              "nee: how a light is chosen (Paper III: uniform, by flux, by the light BVH's walk)"),
+    pb::param("nee_importance", &DirectLightSettings::importance, NeeImportance::dfbo,
+              "d|df|dfb|dfbo",
+              "nee, bvh: the walk's importance (distance, flux, the n.l bound, orientation cone)"),
+    pb::param("light_samples", &DirectLightSettings::light_samples, 1, {1, 64}, "samples",
+              "nee: light samples per G-buffer sample (each with one BSDF sample under mis)"),
+    pb::param("mis", &DirectLightSettings::mis, true,
+              "nee: one BSDF sample per light sample, power heuristic (Paper III)"),
+    pb::param("nee_levels", &DirectLightSettings::levels, NeeLevels::one, "one|two",
+              "nee, bvh: one tree over every light, or a tree per emissive object or scene light "
+              "under a top tree (Paper IV)"),
+    pb::param("nee_update", &DirectLightSettings::update, NeeUpdate::rebuild, "rebuild|refit",
+              "nee, bvh: when lights move, rebuild the trees or refit them bottom-up (Paper IV; "
+              "the top level is rebuilt)"));
+// clang-format on
+static_assert(kDirectLightParams.member_defaults_match());
+
+// The direct-light rows' values into the shared passes.
+void configure_direct_light(Context& ctx, const Params& params);
+
 // The shared rows' values of one cell (kPhotonParams below).
 struct PhotonParams {
   uint32_t paths = 100000;
@@ -190,13 +220,14 @@ class SplatTechnique final : public Technique {
  public:
   // The descriptor's counters and check: the shared frame's and the splatter's.
   // The descriptor's rows (the shared ones, then the splatter's), counters and check.
-  static constexpr auto kSchema = join_rows(kPhotonParams, S::kParams);
+  static constexpr auto kSchema = join_rows(kPhotonParams, kDirectLightParams, S::kParams);
   static constexpr auto kCounters = join_counters(kPhotonFrameCounters, S::kCounters);
   static std::string check(const Params& params) { return S::check(params); }
 
   void setup(Context& ctx, const Params& params) override {
     photon_ = kPhotonParams.read(params);
     configure_shadows(ctx, photon_.shadow_map_size);
+    configure_direct_light(ctx, params);
     splatter_.setup(ctx, params, photon_);
   }
   void render(Context& ctx) override {
