@@ -219,6 +219,7 @@ class Aaps final : public pb::Technique {
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
     p_ = kParams.read(params);
+    pb::toolkit::configure_direct_light(ctx, params);
     pb::toolkit::configure_shadows(ctx, p_.shadow_map_size);
 
     // The thesis's photons (photon_rules.h): the task buffer's emission and its caustic rule.
@@ -562,8 +563,12 @@ class Aaps final : public pb::Technique {
 
 }  // namespace
 
+// The shared direct light's rows (the toolkit's: shadow maps or many-light next-event estimation,
+// seed 002 Papers III and IV) after the technique's own.
+constexpr auto kSchema = pb::join_rows(kParams, pb::toolkit::kDirectLightParams);
+
 PB_EXPORT_TECHNIQUE(Aaps, "aaps", "caustics",
                     "adaptive anisotropic photon scattering (seed 004): task-buffer emission, "
                     "elliptical splats rasterised with optional (per-sample) MSAA",
-                    kParams.rows, .counters = kAllCounters, .check = &Aaps::check,
+                    kSchema.rows, .counters = kAllCounters, .check = &Aaps::check,
                     .budget = kBudget)

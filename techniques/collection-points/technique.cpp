@@ -119,6 +119,7 @@ class CollectionPoints final : public pb::Technique {
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
     p_ = kParams.read(params);
+    pb::toolkit::configure_direct_light(ctx, params);
     tk::configure_shadows(ctx, p_.shadow_map_size);
     pb::gpu::Device& gpu = ctx.gpu();
     width_ = ctx.output().extent().width;
@@ -349,9 +350,13 @@ const pb_budget_knob kBudget[] = {
 
 }  // namespace
 
+// The shared direct light's rows (the toolkit's: shadow maps or many-light next-event estimation,
+// seed 002 Papers III and IV) after the technique's own.
+constexpr auto kSchema = pb::join_rows(kParams, pb::toolkit::kDirectLightParams);
+
 PB_EXPORT_TECHNIQUE(CollectionPoints, "collection-points", "indirect_caustics",
                     "Paper V of seed 002: collection points at the camera paths' first diffuse "
                     "vertex, through mirrors and glass, in a GPU BVH rebuilt each frame; caustic "
                     "photons summed by point walks in fixed point",
-                    kParams.rows, .counters = kCounters.specs, .check = &CollectionPoints::check,
+                    kSchema.rows, .counters = kCounters.specs, .check = &CollectionPoints::check,
                     .budget = kBudget)

@@ -203,6 +203,7 @@ class Knn final : public pb::Technique {
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
     const KnnParams p = kParams.read(params);
+    pb::toolkit::configure_direct_light(ctx, params);
     photon_ = p;
     configure_shadows(ctx, photon_.shadow_map_size);
     settings_ = p.grid_settings();
@@ -320,9 +321,13 @@ const pb_budget_knob kBudget[] = {
 
 }  // namespace
 
+// The shared direct light's rows (the toolkit's: shadow maps or many-light next-event estimation,
+// seed 002 Papers III and IV) after the technique's own.
+constexpr auto kSchema = pb::join_rows(kParams, pb::toolkit::kDirectLightParams);
+
 PB_EXPORT_TECHNIQUE(Knn, "knn", "indirect",
                     "classic k-nearest-neighbour photon mapping (seed 003's baseline): k nearest "
                     "within r_max from a GPU uniform grid, radius from their bounding sphere; "
                     "rebuilt every frame or built once (static light)",
-                    kParams.rows, .counters = kCounters.specs, .check = &Knn::check,
+                    kSchema.rows, .counters = kCounters.specs, .check = &Knn::check,
                     .budget = kBudget)

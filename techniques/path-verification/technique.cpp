@@ -93,10 +93,11 @@ constexpr auto kPathPhotonParams = kPhotonParams.with_row(
 constexpr auto kClusterParams =
     ClusterSplat::kParams.with_row(TiledSplat::kParams.row("max_list_entries"));
 
-// The photon rows, its own, then the splatters' (each reads only its own; rows two splatters
-// share are listed once).
-constexpr auto kSchema = pb::merge_rows<kPathPhotonParams, kVerificationParams, TiledSplat::kParams,
-                                        kClusterParams, DirectionalSplat::kParams>();
+// The photon rows, its own, the splatters' (each reads only its own; rows two splatters share are
+// listed once), then the shared direct light's.
+constexpr auto kSchema =
+    pb::merge_rows<kPathPhotonParams, kVerificationParams, TiledSplat::kParams, kClusterParams,
+                   DirectionalSplat::kParams, pb::toolkit::kDirectLightParams>();
 
 // The counters of the reuse steps (Paper II Figs. 7 and 8) and of the data layout (Table 1).
 // clang-format off
@@ -176,6 +177,7 @@ class PathVerification final : public Technique {
   void setup(Context& ctx, const Params& params) override {
     photon_ = kPathPhotonParams.read(params);
     verification_ = kVerificationParams.read(params);
+    pb::toolkit::configure_direct_light(ctx, params);
     reuse_enabled_ = verification_.reuse != Reuse::kNone;
     reuse_.rule = verification_.reuse == Reuse::kNaive ? trace::ReuseRule::naive
                                                        : trace::ReuseRule::error_based;

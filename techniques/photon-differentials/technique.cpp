@@ -196,6 +196,7 @@ class PhotonDifferentials final : public pb::Technique {
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
     const PdParams p = kParams.read(params);
+    pb::toolkit::configure_direct_light(ctx, params);
     photon_ = p;
     tk::configure_shadows(ctx, photon_.shadow_map_size);
     post_ = p;
@@ -595,9 +596,13 @@ const pb_budget_knob kBudget[] = {
 
 }  // namespace
 
+// The shared direct light's rows (the toolkit's: shadow maps or many-light next-event estimation,
+// seed 002 Papers III and IV) after the technique's own.
+constexpr auto kSchema = pb::join_rows(kParams, pb::toolkit::kDirectLightParams);
+
 PB_EXPORT_TECHNIQUE(PhotonDifferentials, "photon-differentials", "indirect",
                     "photon differentials (seed 003): per-hit ellipsoidal footprints, a linear "
                     "BVH photon map built on the GPU each frame, a query summing every footprint "
                     "containing the point",
-                    kParams.rows, .counters = kCounters.specs, .check = &PhotonDifferentials::check,
+                    kSchema.rows, .counters = kCounters.specs, .check = &PhotonDifferentials::check,
                     .budget = kBudget)

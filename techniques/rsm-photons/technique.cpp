@@ -243,6 +243,7 @@ class RsmPhotons final : public pb::Technique {
 
   void setup(pb::Context& ctx, const pb::Params& params) override {
     p_ = kParams.read(params);
+    pb::toolkit::configure_direct_light(ctx, params);
     scale_ = 1u << uint32_t(p_.splat_scale);  // full, half, quarter: 1, 2, 4
     gather_ = p_.estimate == Estimate::gather;
     pb::toolkit::configure_shadows(ctx, p_.shadow_map_size);
@@ -810,9 +811,13 @@ const pb_budget_knob kBudget[] = {
 
 }  // namespace
 
+// The shared direct light's rows (the toolkit's: shadow maps or many-light next-event estimation,
+// seed 002 Papers III and IV) after the technique's own.
+constexpr auto kSchema = pb::join_rows(kParams, pb::toolkit::kDirectLightParams);
+
 PB_EXPORT_TECHNIQUE(RsmPhotons, "rsm-photons", "indirect",
                     "reflective-shadow-map photons (seed 000): RSM probability maps, one bounce "
                     "traced, ellipsoid kernels splatted at half resolution, temporal and a-trous "
                     "filters",
-                    kParams.rows, .counters = kCounters.specs, .check = &RsmPhotons::check,
+                    kSchema.rows, .counters = kCounters.specs, .check = &RsmPhotons::check,
                     .budget = kBudget)

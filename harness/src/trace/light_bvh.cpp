@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "photonbench/error.h"
+#include "trace/photon_paths.h"
 
 namespace pb::trace {
 namespace {
@@ -17,8 +18,6 @@ constexpr float kPiF = std::numbers::pi_v<float>;
 // Slack added to a merged cone's theta_o: the axis rotation below is exact only up to float
 // rounding, and a cone must bound its children's normals (CEK18's importance is a bound).
 constexpr float kConeSlack = 1e-5f;
-
-float rgb_mean(glm::vec3 v) { return (v.x + v.y + v.z) / 3.f; }
 
 float surface_area(const Aabb& b) {
   if (b.empty()) return 0;
@@ -106,7 +105,7 @@ LightPrimitive primitive(const scene::EmissiveTriangle& triangle) {
   LightPrimitive l;
   for (const auto& p : triangle.p) l.box.extend(p);
   l.cone = {triangle.normal, 0.f, 0.5f * kPiF};  // one-sided Lambertian: the hemisphere
-  l.flux = rgb_mean(triangle.flux);
+  l.flux = detail::mean3(triangle.flux);
   return l;
 }
 

@@ -8,12 +8,11 @@
 
 #include "scene/emissive_triangles.h"
 #include "trace/bsdf.h"
+#include "trace/photon_paths.h"
 #include "trace/sampling.h"
 
 namespace pb::trace {
 namespace {
-
-float rgb_mean(glm::vec3 v) { return (v.x + v.y + v.z) / 3.f; }
 
 uint64_t hit_key(uint32_t object, uint32_t triangle) { return (uint64_t(object) << 32) | triangle; }
 
@@ -108,7 +107,7 @@ NeeLightSet gather_nee_lights(const scene::Scene& scene, const scene::FrameState
       case scene::LightType::point:
         l.shape = NeeLight::Shape::point;
         l.origin = s.position;
-        prim = point_primitive(s.position, 4.f * kPi * rgb_mean(s.radiant));
+        prim = point_primitive(s.position, 4.f * kPi * detail::mean3(s.radiant));
         break;
       case scene::LightType::spot: {
         l.shape = NeeLight::Shape::spot;
@@ -117,7 +116,7 @@ NeeLightSet gather_nee_lights(const scene::Scene& scene, const scene::FrameState
         l.cos_outer = std::cos(s.spot_outer);
         l.cos_inner = std::cos(s.spot_inner);
         // The flux inside the outer cone, at full intensity (an upper bound for the smooth edge).
-        float flux = 2.f * kPi * (1.f - l.cos_outer) * rgb_mean(s.radiant);
+        float flux = 2.f * kPi * (1.f - l.cos_outer) * detail::mean3(s.radiant);
         prim = spot_primitive(s.position, l.normal, s.spot_outer, flux);
         break;
       }
@@ -138,7 +137,7 @@ NeeLightSet gather_nee_lights(const scene::Scene& scene, const scene::FrameState
             for (float b : {-1.f, 1.f}) prim.box.extend(s.position + a * s.edge_u + b * s.edge_v);
         }
         prim.cone = {l.normal, 0.f, 0.5f * kPi};
-        prim.flux = kPi * l.area * rgb_mean(s.radiant);
+        prim.flux = kPi * l.area * detail::mean3(s.radiant);
         set.by_hit[hit_key(objects + i, ~0u)] = uint32_t(set.lights.size());
         break;
       }
