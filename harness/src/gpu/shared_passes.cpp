@@ -307,6 +307,11 @@ void ScenePasses::update(const scene::FrameState& state) {
   float radius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
   float shadow_far = 4.f * radius + 1.f;
 
+  // The light and tile buffers were sized for the scene's light tracks (one light each, its tiles by
+  // its type): a frame state holding other lights would write past them.
+  if (state.lights.size() > std::max<size_t>(scene_.lights.size(), 1))
+    throw std::logic_error(fmt::format("frame state has {} lights, the scene's tracks {}",
+                                       state.lights.size(), scene_.lights.size()));
   std::vector<glm::mat4> tiles;
   auto lights = std::span(static_cast<layout::GpuLight*>(lights_.mapped()), state.lights.size());
   for (size_t i = 0; i < state.lights.size(); ++i) {
@@ -331,6 +336,9 @@ void ScenePasses::update(const scene::FrameState& state) {
     }
   }
   upload_emissive_triangles(state, shadow_far, tiles);
+  if (tiles.size() > tile_count_)
+    throw std::logic_error(
+        fmt::format("{} shadow tiles this frame, {} allocated", tiles.size(), tile_count_));
   if (!tiles.empty()) std::memcpy(tiles_.mapped(), tiles.data(), tiles.size() * sizeof(glm::mat4));
 
   layout::GpuFrame frame{};
