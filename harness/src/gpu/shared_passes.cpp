@@ -307,8 +307,8 @@ void ScenePasses::update(const scene::FrameState& state) {
   float radius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
   float shadow_far = 4.f * radius + 1.f;
 
-  // The light and tile buffers were sized for the scene's light tracks (one light each, its tiles by
-  // its type): a frame state holding other lights would write past them.
+  // The light and tile buffers were sized for the scene's light tracks (one light each, its tiles
+  // by its type): a frame state holding other lights would write past them.
   if (state.lights.size() > std::max<size_t>(scene_.lights.size(), 1))
     throw std::logic_error(fmt::format("frame state has {} lights, the scene's tracks {}",
                                        state.lights.size(), scene_.lights.size()));
