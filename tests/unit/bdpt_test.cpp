@@ -166,6 +166,31 @@ TEST(AutomaticEstimator, PicksPerSceneAndRendersAsThePickedOne) {
   }
 }
 
+// The pilot decides whatever the stop rule: a render asked for a fixed number of samples (no error
+// target) is piloted too, renders as the estimator it picked, and says why.
+TEST(AutomaticEstimator, PilotsARenderOfAFixedNumberOfSamples) {
+  scene::Scene scene =
+      scene::load_scene(std::filesystem::path(PB_SOURCE_DIR) / "scenes" / "cornell-box.yaml");
+  EmbreeScene world(scene, scene.at(4));
+  ReferenceOptions o;
+  o.rel_error = 0;
+  o.samples = 48;
+  uint32_t mask = class_bit(PathClass::combined);
+  ReferenceResult chosen = render_reference_classes(world, 240, 135, mask, o);
+  ASSERT_TRUE(chosen.pilot.ran);
+  EXPECT_GT(chosen.pilot.iterations, 0u);
+  EXPECT_FALSE(chosen.pilot.why.empty());
+  EXPECT_EQ(chosen.samples, 48u);
+  o.estimator = chosen.estimator;
+  ReferenceResult plain = render_reference_classes(world, 240, 135, mask, o);
+  EXPECT_FALSE(plain.pilot.ran);
+  EXPECT_EQ(plain.pilot.why, "asked for");
+  EXPECT_EQ(chosen.image(PathClass::combined).pixels, plain.image(PathClass::combined).pixels);
+  std::printf("cornell-box, 48 samples: %s (%s); pilot %u bidirectional iterations\n",
+              std::string(estimator_name(chosen.estimator)).c_str(), chosen.pilot.why.c_str(),
+              chosen.pilot.bdpt_iterations);
+}
+
 // The pilot's cost scales with the render: it spends nothing where bidirectional path tracing
 // cannot win whatever its variance. On ring at a loose target path tracing stops at its least
 // iterations, and bidirectional path tracing's least cost is above that.

@@ -94,15 +94,23 @@ std::optional<Estimator> EstimatorPilot::step(uint32_t done) {
   predict(done);
   uint32_t bdpt_done = pilot_.iterations(Pilot::bidirectional);
   if (bdpt_done < kPilotBdptIterations && bdpt_could_win(done)) {
-    if (bdpt_done > 0 && over_budget(bdpt_done)) return Estimator::pt;
+    if (bdpt_done > 0 && over_budget(bdpt_done)) {
+      report_.why = "path tracing: one more pilot iteration would pass its budget";
+      return Estimator::pt;
+    }
     run_bidirectional(bdpt_done);
     predict(done);
     ++bdpt_done;
   }
   if (bdpt_done >= kPilotMinIterations &&
-      report_.bdpt_cost * kPilotMargin < pt_left(done, report_.pt_cost))
+      report_.bdpt_cost * kPilotMargin < pt_left(done, report_.pt_cost)) {
+    report_.why = "bidirectional: predicted cheaper than what path tracing has left";
     return Estimator::bdpt;
-  if (done >= kPilotIterations) return Estimator::pt;
+  }
+  if (done >= kPilotIterations) {
+    report_.why = "path tracing: not beaten in the iterations the pilot watches";
+    return Estimator::pt;
+  }
   return std::nullopt;
 }
 

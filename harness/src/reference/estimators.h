@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "config/reference_rules.h"
@@ -85,6 +86,9 @@ struct PilotReport {
   double pilot_rays = 0;  // the pilot's own rays, bidirectional ones weighted by kBdptRayCost
   double budget = 0;  // kPilotBudget of path tracing's predicted render, rays (at the last check)
   uint32_t dropped_iterations = 0;  // path tracing's, when bidirectional path tracing restarted
+  // Why the render's estimator is the one it is, in words (the sidecar's `estimator_why`): the
+  // rule of EstimatorPilot::step that decided, or why no pilot ran.
+  std::string why;
   double pt_rays_per_iteration() const { return pt_rays + photon_rays; }
 };
 

@@ -81,7 +81,10 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     return rays;
   };
   // The automatic choice pilots (EstimatorPilot) on an image of at least 9 times the pilot's
-  // pixels and a render not limited to a few iterations; smaller renders are bidirectional.
+  // pixels, whatever the stop rule: a render of a fixed number of samples is piloted as one with an
+  // error target is, and the pilot's budget (kPilotBudget of the render) keeps it short where the
+  // render is. Smaller images are bidirectional: a grid of every pixel would cost a pilot a whole
+  // bidirectional iteration per step.
   Estimator estimator = options.estimator;
   std::unique_ptr<BdptPass> bdpt;
   if (estimator != Estimator::pt)
@@ -89,12 +92,15 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
   PilotReport report;
   std::unique_ptr<EstimatorPilot> pilot;
   if (estimator == Estimator::automatic) {
-    bool worth = (options.samples == 0 || options.samples >= 8 * kPilotIterations) &&
-                 pilot_stride(pixels) >= 3;
+    bool worth = pilot_stride(pixels) >= 3;
     if (worth)
       pilot =
           std::make_unique<EstimatorPilot>(rig, options, acc->classes(), *bdpt, *arena, ray_count);
+    else
+      report.why = "bidirectional: the image is too small for the pilot's grid (stride under 3)";
     estimator = worth ? Estimator::pt : Estimator::bdpt;
+  } else {
+    report.why = "asked for";
   }
 
   double rel_error = 0, radius_scale2 = 1;
@@ -151,7 +157,10 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     }
   }
 
-  if (pilot) report = pilot->report();  // the render ended while the pilot still ran
+  if (pilot) {  // the render ended while the pilot still ran
+    report = pilot->report();
+    report.why = "path tracing: the render ended before the pilot decided";
+  }
 
   // ---- resolve ----
   ReferenceResult result;

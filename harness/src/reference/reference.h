@@ -60,7 +60,8 @@ namespace pb::trace {
 // mapping as independent per-iteration estimates; max_bounces counts full-path scattering vertices.
 // 3: shadow rays aimed from their offset origin (area lights near surfaces were biased low).
 // 4: photon mapping's aimed emission and new default photon counts and radius.
-inline constexpr int kReferenceRendererVersion = 4;
+// 5: the automatic choice pilots renders of a fixed number of samples too (bidirectional before).
+inline constexpr int kReferenceRendererVersion = 5;
 
 // Which stop rule ended a render (the first one reached wins).
 enum class StopRule : uint8_t { rel_error, max_seconds, samples };

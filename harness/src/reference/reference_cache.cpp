@@ -294,6 +294,7 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
         {"target_samples", options.samples},
         {"max_bounces", options.max_bounces},
         {"estimator", std::string(estimator_name(img.estimator))},
+        {"estimator_why", r.pilot.why},
         {"photons_per_iteration", r.photon_paths > 0 ? options.photon_mapping.photons : 0u},
         {"rays", r.rays},
         {"images",
