@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Entry point of photonbench's Python tools: pbtool.py {report,compare,history,export,claims,video} ARGS...
+"""Entry point of photonbench's Python tools: pbtool.py {report,compare,history,export,claims,video,scaling} ARGS...
 
 The photonbench executable's sub-commands of the same names run this file with /usr/bin/python3
 (Debian's interpreter, which has python3-pandas, -scipy, -numpy, -matplotlib and -jinja2) and forward
@@ -19,6 +19,7 @@ COMMANDS = {
     "export": "pbtools.export",
     "claims": "pbtools.claims",
     "video": "pbtools.video",
+    "scaling": "pbtools.scaling",
 }
 
 

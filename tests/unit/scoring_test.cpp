@@ -258,6 +258,22 @@ TEST(Scoring, OnlyTheNamedMetricsAreWritten) {
   EXPECT_FALSE(mae_means.contains("flip"));
   EXPECT_FALSE(std::filesystem::exists(kTemp / "mae" / "images" / "flip_0000_combined.png"))
       << "no FLIP error map when FLIP is not scored";
+
+  // No metrics: nothing scored, and no reference rendered for it (a timing-only run).
+  const std::string unscored_cache = (kTemp / "unscored-cache").string();
+  std::filesystem::remove_all(unscored_cache);
+  const std::filesystem::path dir = kTemp / "none";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "images");
+  io::write_image(dir / "images" / "frame_0000.exr", output);
+  const ScoreResult none = score_cell(
+      load(fmt::format("metrics: []\nreference: {{samples: 8, cache_dir: {}}}\n", unscored_cache)),
+      Cell{}, scene, {0}, "combined", dir);
+  EXPECT_TRUE(none.references.empty());
+  EXPECT_EQ(io::read_csv(dir / "metrics.csv").size(), 1u) << "the header only";
+  EXPECT_FALSE(std::filesystem::exists(unscored_cache) &&
+               !std::filesystem::is_empty(unscored_cache))
+      << "a reference was rendered for a run that scores nothing";
 }
 
 }  // namespace scoring_test

@@ -51,6 +51,7 @@ json to_json(const CellRecord& r) {
   put("memory", r.memory);
   put("validation", r.validation);
   put("log_tail", r.log_tail);
+  if (!r.stages_ms.empty()) j["stages_ms"] = r.stages_ms;
   return j;
 }
 

@@ -53,6 +53,11 @@ struct CellRecord {
   std::optional<nlohmann::json> memory;    // peak_host_bytes, gpu_bytes_technique, gpu_bytes_total
   std::optional<bool> validation;          // Vulkan validation layers were on
   std::optional<std::string> log_tail;     // a child that ended without writing its record
+  // Wall-clock ms of each stage of the cell process, in order: plan (reading the invocation and
+  // planning the run again), startup (device, scene, world), setup (the technique's), frames (the
+  // frame loop: timed passes, the harness's work between them, read-backs), scoring, teardown
+  // (the technique's and the renderer's destruction). The harness's own cost beside the frames'.
+  nlohmann::json stages_ms = nlohmann::json::object();
 };
 
 nlohmann::json to_json(const CellRecord& record);

@@ -11,6 +11,7 @@
 #include "cell/invocation.h"
 #include "cell/scoring.h"
 #include "gpu/device_accounting.h"
+#include "io/clock.h"
 #include "plan/plan.h"
 
 namespace pb::run {
@@ -35,6 +36,20 @@ const Plugin& loaded_plugin(PluginRegistry& plugins, const std::string& techniqu
   return *plugin;
 }
 
+// Each stage's wall-clock time as it ends (CellRecord::stages_ms), from the cell process's start.
+class StageClock {
+ public:
+  void lap(const char* stage) {
+    times_[stage] = 1e3 * io::seconds_since(last_);
+    last_ = std::chrono::steady_clock::now();
+  }
+  const nlohmann::json& times() const { return times_; }
+
+ private:
+  nlohmann::json times_ = nlohmann::json::object();
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
 // Tells the parent which stage a crash from here on happened in (cell_process.h: "@stage NAME").
 void announce_stage(const char* stage) {
   std::printf("@stage %s\n", stage);
@@ -58,7 +73,8 @@ TechniqueInstance set_up_technique(const Plugin& plugin, const Cell& cell, Rende
 // The cell's stages after its folder is made: plugin, renderer, technique, frames, scoring. What
 // each stage learns goes into `record` as it is learnt, so a failure keeps everything before it.
 void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& options,
-                const std::filesystem::path& dir, CellRecord& record, FrameLog& log) {
+                const std::filesystem::path& dir, CellRecord& record, FrameLog& log,
+                StageClock& stages) {
   const config::Config& config = plan.config;
   const Plugin& plugin = loaded_plugin(*plan.plugins, cell.technique);
   const std::string path_class = plugin.descriptor->path_class;
@@ -80,10 +96,13 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
     r.commands.end_frame();
   }
   const uint64_t harness_gpu_bytes = gpu::DeviceAccounting::allocated_bytes(r.device);
+  stages.lap("startup");
   TechniqueInstance technique = set_up_technique(plugin, cell, r, record);
+  stages.lap("setup");
   FrameLoop frames(config, r, log, record, dir, trace::reference_class_of(path_class),
                    harness_gpu_bytes);
   const std::vector<uint32_t> written = frames.run(*technique);
+  stages.lap("frames");
 
   // Scoring against references: after the frames, never on the timed path.
   announce_stage("scoring");
@@ -94,6 +113,7 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
   if (!scores.bounce_matched_means.is_null())
     record.metrics_bounce_matched = scores.bounce_matched_means;
   record.references = scores.references;
+  stages.lap("scoring");
   // What follows is the locals' destruction: the technique's, then the renderer's.
   announce_stage("teardown");
 }
@@ -101,6 +121,7 @@ void run_stages(const RunPlan& plan, const Cell& cell, const CellRunOptions& opt
 }  // namespace
 
 int run_cell(const CellRunOptions& options) {
+  StageClock stages;
   const Invocation invocation = read_invocation(options.run_dir);
   const RunPlan plan = plan_run(invocation.config_file, invocation.overrides);
   // A match run's probe, seed or round cell is not in the plan: the run folder lists it.
@@ -114,10 +135,12 @@ int run_cell(const CellRunOptions& options) {
 
   CellRecord record(cell);
   record.validation = options.validation;
+  stages.lap("plan");
   {
     FrameLog log(dir);
     try {
-      run_stages(plan, cell, options, dir, record, log);
+      run_stages(plan, cell, options, dir, record, log, stages);
+      stages.lap("teardown");
     } catch (const CellFailure& failure) {
       record.fail(failure);
     } catch (const std::exception& e) {
@@ -125,6 +148,7 @@ int run_cell(const CellRunOptions& options) {
     }
     log.describe(record);
   }
+  record.stages_ms = stages.times();
   write_cell_record(dir, record);
 
   // Complete: the partial folder becomes the cell's folder in one rename.

@@ -234,7 +234,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
   ScoreResult result;
   std::vector<std::string> header = csv_header(config.metrics);
   io::CsvAppender metrics_csv(cell_dir / "metrics.csv", header);
-  if (frames.empty()) return result;
+  if (frames.empty() || config.metrics.empty()) return result;
 
   const std::vector<trace::PathClass> classes =
       scored_classes(path_class, class_outputs, result.warnings);

@@ -94,6 +94,13 @@ void add_video(CLI::App& app, int&) {
            "PNG of the crop");
 }
 
+void add_scaling(CLI::App& app, int&) {
+  add_tool(app, "scaling",
+           "RUN_DIR [RUN_DIR...] [--out DIR]: each pass's time against its work (a swept numeric "
+           "parameter, or the pixels of runs differing in resolution) on log-log axes, fitted "
+           "slopes with 95% intervals, and the harness's own share of each cell");
+}
+
 void add_claims(CLI::App& app, int&) {
   add_tool(
       app, "claims",
@@ -107,5 +114,6 @@ pb::cli::CommandRegistration history_registration{"history", add_history};
 pb::cli::CommandRegistration export_registration{"export", add_export};
 pb::cli::CommandRegistration claims_registration{"claims", add_claims};
 pb::cli::CommandRegistration video_registration{"video", add_video};
+pb::cli::CommandRegistration scaling_registration{"scaling", add_scaling};
 
 }  // namespace

@@ -308,7 +308,8 @@ const KeyTable kConfigTable{
      {"metrics", list_type(choice_type({"flip", "ssim", "psnr", "rmse", "mae", "relmse"}), 0, true),
       false, json::array({"flip", "ssim", "psnr", "rmse", "relmse"}),
       "the image metrics scored and written (metrics.csv, cell.json), each with its noise floor; "
-      "the others are left out"},
+      "the others are left out; [] scores nothing and renders no reference (the metric frames' "
+      "images are still written)"},
      {"reference", table_type(kReferenceTable), false, nullptr, ""},
      {"limits", table_type(kLimitsTable), false, nullptr, ""},
      {"plugin_dirs", list_type(string_type(), 0, true), false, nullptr,

@@ -79,6 +79,7 @@ json describe_run(const std::filesystem::path& config_file,
       {"overrides", overrides},
       {"config_hash", plan.config.hash},
       {"config", plan.config.canonical},
+      {"resolution", {plan.config.width, plan.config.height}},  // after any --set
       {"device", device_name},
       {"driver", driver},
       {"cpu", cpu_model()},

@@ -59,7 +59,7 @@ bool is_benchmark_config(const std::filesystem::path& file) {
 void render_needed_references(const config::Config& config, const std::vector<Cell>& cells,
                               PluginRegistry& plugins) {
   std::vector<uint32_t> frames = metric_frames(config);
-  if (frames.empty()) return;
+  if (frames.empty() || config.metrics.empty()) return;  // nothing to score against them
   // Classes per scene file and reference depth: the full reference and, when the config asks for
   // them, the bounce-matched ones of the cells' techniques (scored_references).
   std::map<std::pair<std::filesystem::path, uint32_t>, uint32_t> masks;
