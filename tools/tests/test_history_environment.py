@@ -101,8 +101,8 @@ class HistoryEnvironmentTest(unittest.TestCase):
         svg = [n for n in os.listdir(out_dir) if n.endswith(".svg")][0]
         with open(os.path.join(out_dir, svg), encoding="utf-8") as f:
             text = f.read()
-        self.assertIn('id="environment:2"', text)
-        self.assertIn('id="environment:4"', text)
+        self.assertTrue('id="environment:2"' in text, "no line at entry 2")
+        self.assertTrue('id="environment:4"' in text, "no line at entry 4")
         self.assertNotIn('id="environment:1"', text)
         self.assertNotIn('id="environment:3"', text)
 
