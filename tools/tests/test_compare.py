@@ -61,7 +61,7 @@ class CompareFixtureTest(unittest.TestCase):
         self.assertIn("### Inconclusive (one run a side)", text)
         self.assertIn("inconclusive cornell-box / tiled (photons=50000) pass splat:", text)
         self.assertIn("Test: per pass, a two-sided Mann-Whitney U rank test", text)
-        self.assertIn("the single-run limit 100% and 1 ms", text)
+        self.assertIn("a factor 2 (the single-run limit 100%) and 1 ms", text)
         self.assertIn("no regressions", text)
 
     def test_plain_text_list_for_a_ci_log(self):
