@@ -13,7 +13,18 @@
                                            one entry, each median the median of the runs' medians
   history plot [--file F] [--out DIR]      one figure per device and cell: median frame time and each
                                            pass's median over the history, each with its noise band,
-                                           change points marked
+                                           change points and environment changes marked
+  history list [--file F]                  one line per entry, per device; an entry whose machine,
+                                           driver or build type differs from the previous one's is
+                                           marked with what changed
+
+Environment changes: each entry records its run's machine (CPU model and count, llvmpipe's vector
+width), Vulkan driver (Mesa version) and build type (pbtools/environment.py; a field the run does not
+record is left out and never counts as a change). An entry whose environment differs from the previous
+entry's on the same device is marked: a dashed grey line before it in every plot with what changed
+(gid "environment:<index>"), a "!" line in `history list` and in `plot`'s output, and a row of
+environment.csv. A step there is the machine's, not the code's; change points are still searched across
+it (a change point at a marked entry says which of the two it most likely is).
 
 Noise bands: each entry records, per cell, the spread its medians sit in. With replicate runs it is the
 p5-p95 of the runs' medians (`band: runs`: the run-to-run noise, which on a shared machine is the larger
@@ -51,7 +62,7 @@ import numpy as np
 
 import pandas as pd
 
-from . import measures, pages, style, tables
+from . import environment, measures, pages, style, tables
 from .figures import slug
 from .rundata import Run, RunError, current_name
 
@@ -153,7 +164,8 @@ def entry_of(run: Run, label: Optional[str] = None, replicates: Optional[List[Ru
             "runs": [r.name for r in runs],
             "start": run.info.get("start"),
             "end": run.info.get("end"), "tool_version": run.info.get("tool_version"),
-            "config_hash": run.info.get("config_hash"), "cells": cells}
+            "config_hash": run.info.get("config_hash"), "environment": environment.of(run.info),
+            "cells": cells}
 
 
 def load(path: str) -> List[dict]:
@@ -246,6 +258,40 @@ def change_points(values, min_size: int = MIN_SIZE, min_shift: float = MIN_SHIFT
     return sorted(int(valid[i]) for i in found)
 
 
+# ---- environment changes ---------------------------------------------------------------------------
+def environment_changes(entries: List[dict]) -> Dict[int, List[Tuple[str, str, str]]]:
+    """index -> (field, previous value, value) for each entry whose recorded environment differs from
+    the previous entry's (entries of one device, in order)."""
+    out = {}
+    for i in range(1, len(entries)):
+        d = environment.differences(entries[i - 1].get("environment"), entries[i].get("environment"))
+        if d:
+            out[i] = d
+    return out
+
+
+def _entry_name(e: dict) -> str:
+    return e["label"] if e.get("label") and e["label"] != e.get("commit") else str(e.get("commit", ""))[:8]
+
+
+def listing(entries: List[dict]) -> List[str]:
+    """`history list`'s lines: per device, one line per entry, and a "!" line before an entry whose
+    environment changed."""
+    out = []
+    for device in dict.fromkeys(e["device"] for e in entries):
+        dev = [e for e in entries if e["device"] == device]
+        changes = environment_changes(dev)
+        out.append(f"{device}: {len(dev)} entries")
+        for i, e in enumerate(dev):
+            if i in changes:
+                out.append(f"  ! environment changed before entry {i}: {environment.describe(changes[i])}")
+            env = e.get("environment") or {}
+            recorded = ", ".join(f"{k} {env[k]}" for k in environment.FIELDS if env.get(k))
+            out.append(f"  {i:3d} {_entry_name(e)}  {e.get('start') or ''}  {len(e['cells'])} cells"
+                       + (f"  [{recorded}]" if recorded else ""))
+    return out
+
+
 # ---- plots -----------------------------------------------------------------------------------------
 def series_of(entries: List[dict], cell: str) -> Dict[str, List[Optional[float]]]:
     """name -> values over entries ("frame" then passes in first-seen order); None where absent/failed."""
@@ -310,12 +356,15 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
         raise RunError(f"{path}: no history (run `photonbench history append RUN_DIR` first)")
     os.makedirs(out_dir, exist_ok=True)
     devices = list(dict.fromkeys(e["device"] for e in entries))
-    written, cp_rows, band_rows = [], [], []
+    written, cp_rows, band_rows, env_rows = [], [], [], []
     sections = []  # one per device, for templates/history.html.j2
     for device in devices:
         dev_entries = [e for e in entries if e["device"] == device]
-        commits = [e["label"] if e.get("label") and e["label"] != e.get("commit") else e["commit"][:8]
-                   for e in dev_entries]
+        commits = [_entry_name(e) for e in dev_entries]
+        env_changes = environment_changes(dev_entries)
+        for i, diffs in env_changes.items():
+            for what, before, after in diffs:
+                env_rows.append([device, i, dev_entries[i].get("label"), what, before, after])
         cells = list(dict.fromkeys(c for e in dev_entries for c in e["cells"]))
         section = {"name": device, "runs": len(dev_entries), "figures": []}
         sections.append(section)
@@ -352,6 +401,11 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
                             markeredgecolor="black", markeredgewidth=0.4, zorder=5, gid=f"change:{name}:{i}")
                     cp_rows.append([device, cell, name, i, dev_entries[i]["commit"], before, after,
                                     (after / before - 1) * 100 if before else math.nan])
+            for i, diffs in env_changes.items():
+                ax.axvline(i - 0.5, color="#777777", lw=0.8, ls="--", zorder=1, gid=f"environment:{i}")
+                ax.annotate(" / ".join(what for what, _, _ in diffs), (i - 0.5, 1.0),
+                            xycoords=("data", "axes fraction"), rotation=90, ha="right", va="top",
+                            fontsize=5, color="#555555")
             ax.set_xticks(x)
             ax.set_xticklabels(commits, rotation=60, ha="right", fontsize=5)
             ax.set_xlabel("history entry: --label, or commit and plugin builds")
@@ -362,6 +416,8 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
             ax.fill_between([], [], [], color="#777777", alpha=0.15, lw=0, label="noise band (p5-p95)")
             ax.plot([], [], ls="none", marker="o", markersize=6, mfc="none", mec="#777777",
                     label="band apart from the previous one")
+            if env_changes:
+                ax.plot([], [], color="#777777", lw=0.8, ls="--", label="machine, driver or build changed")
             ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
             fig.tight_layout()
             stem = f"history_{slug(device)}_{slug(cell)}"
@@ -374,6 +430,8 @@ def plot(path: str, out_dir: str, min_shift: float = MIN_SHIFT, k: float = K) ->
     tables.write_csv(os.path.join(out_dir, "bands.csv"), pd.DataFrame(band_rows, columns=[
         "device", "cell", "series", "index", "label", "median_ms", "band_lo_ms", "band_hi_ms", "band",
         "replicates", "outside_previous"]))
+    tables.write_csv(os.path.join(out_dir, "environment.csv"), pd.DataFrame(env_rows, columns=[
+        "device", "index", "label", "changed", "before", "after"]))
     with open(os.path.join(out_dir, "index.html"), "w", encoding="utf-8") as f:
         f.write(pages.render("history.html.j2", source=os.path.abspath(path), devices=sections))
     return written
@@ -389,6 +447,8 @@ def main(argv=None) -> int:
     a_app.add_argument("--file", default=DEFAULT_FILE, help="history file, JSON Lines (default %(default)s)")
     a_app.add_argument("--label", help="the entry's key: what you changed (default: photonbench's "
                        "commit and the plugin builds' digest)")
+    a_list = sub.add_parser("list", help="one line per entry; environment changes marked")
+    a_list.add_argument("--file", default=DEFAULT_FILE, help="history file (default %(default)s)")
     a_plot = sub.add_parser("plot", help="plot the trend of each cell and pass, marking change points")
     a_plot.add_argument("--file", default=DEFAULT_FILE, help="history file (default %(default)s)")
     a_plot.add_argument("--out", metavar="DIR", help="output folder (default: history-plots beside the file)")
@@ -402,9 +462,22 @@ def main(argv=None) -> int:
             entry, replaced = append(a.run_dir, a.file, a.label)
             print(f"{'replaced' if replaced else 'appended'} {entry['label']} on {entry['device']} "
                   f"({len(entry['cells'])} cells) in {a.file}")
+            dev = [e for e in load(a.file) if e["device"] == entry["device"]]
+            at = next(i for i, e in enumerate(dev) if entry_key(e) == entry_key(entry))
+            if at in environment_changes(dev):
+                print(f"! environment changed since the previous entry: "
+                      f"{environment.describe(environment_changes(dev)[at])}")
+        elif a.action == "list":
+            entries = load(a.file)
+            if not entries:
+                raise RunError(f"{a.file}: no history (run `photonbench history append RUN_DIR` first)")
+            print("\n".join(listing(entries)))
         else:
             out = a.out or os.path.join(os.path.dirname(os.path.abspath(a.file)), "history-plots")
             files = plot(a.file, out, a.min_shift, a.k)
+            for line in listing(load(a.file)):
+                if line.lstrip().startswith("!"):
+                    print(line.strip())
             print(f"{len(files)} figures in {out}")
     except RunError as e:
         print(f"error: {e}", file=sys.stderr)

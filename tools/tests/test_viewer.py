@@ -1,6 +1,6 @@
-"""The report's image viewer (pbtools/viewer.py, templates/viewer.js): its images copied beside the page,
-hidden without scripts, and driven in headless Chromium (keys, wheel zoom, frame change) with its state
-read back from the page."""
+"""The report's image viewer (pbtools/viewer.py, templates/viewer.js): its images copied beside the page
+with their exposure stops, hidden without scripts, and driven in headless Chromium (keys, wheel zoom,
+frame change, exposure, swipe) with its state read back from the page."""
 
 import html
 import io
@@ -14,7 +14,10 @@ from contextlib import redirect_stderr, redirect_stdout
 
 from common import TempRuns
 
+import numpy as np
+
 from pbtools import report as R
+from pbtools import viewer as V
 
 BROWSER = shutil.which("chromium") or shutil.which("chromium-browser")
 
@@ -25,13 +28,19 @@ window.addEventListener('load', function () {
   var out = [], v = document.querySelector('.viewer[data-viewer]');
   function key(k) { document.dispatchEvent(new KeyboardEvent('keydown', {key: k, bubbles: true})); }
   function snap(step) {
-    var panels = [].slice.call(v.querySelectorAll('.viewer-panel')).map(function (p) {
+    var panels = [].slice.call(v.querySelectorAll('.viewer-panel:not(.viewer-swipe)')).map(function (p) {
       var img = p.querySelector('img');
       return {hidden: p.hidden, src: img.getAttribute('src'), transform: img.style.transform};
     });
+    var w = v.querySelector('.viewer-swipe'), imgs = w.querySelectorAll('img');
     out.push({step: step, hidden: v.hidden, cell: v.dataset.cell, frame: v.dataset.frame,
               show: v.dataset.show, zoom: +v.dataset.zoom, x: +v.dataset.x, y: +v.dataset.y,
-              panels: panels});
+              ev: +v.dataset.ev, split: +v.dataset.split, panels: panels,
+              swipe: {hidden: w.hidden, a: imgs[0].getAttribute('src'), b: imgs[1].getAttribute('src'),
+                      clip: w.querySelector('.viewer-swipe-b').style.clipPath,
+                      divider: w.querySelector('.viewer-divider').style.left,
+                      transform: imgs[1].style.transform,
+                      caption: w.querySelector('.viewer-caption').textContent}});
   }
   snap('start');
   v.dispatchEvent(new MouseEvent('mouseenter'));
@@ -46,6 +55,25 @@ window.addEventListener('load', function () {
   snap('wheel in');
   key('a'); snap('key a');
   key('0'); snap('key 0');
+  key('+'); snap('key +');
+  key('-'); key('-'); snap('key - -');
+  v.querySelector('[data-ev="-2"]').click(); snap('button -2');
+  key('-'); snap('key - at -2');
+  key('='); key('='); snap('key = =');
+  key('s'); snap('key s');
+  var sw = v.querySelector('.viewer-swipe'), box = sw.getBoundingClientRect();
+  sw.dispatchEvent(new PointerEvent('pointermove', {clientX: box.left + 0.3 * box.width,
+                                                    clientY: box.top + box.height / 2, bubbles: true}));
+  snap('swipe move');
+  var pick = v.querySelector('select[data-swipe="b"]');
+  pick.value = 'flip:1';
+  pick.dispatchEvent(new Event('change'));
+  snap('swipe b flip');
+  key('2'); snap('swipe key 2');
+  sw.dispatchEvent(new WheelEvent('wheel', {deltaY: -100, clientX: box.left + box.width / 2,
+                                            clientY: box.top + box.height / 2, bubbles: true,
+                                            cancelable: true}));
+  snap('swipe wheel');
   var pre = document.createElement('pre');
   pre.id = 'pb-viewer';
   pre.textContent = JSON.stringify(out);
@@ -83,6 +111,29 @@ class ViewerTest(unittest.TestCase):
             for p in paths:
                 self.assertTrue(os.path.isfile(os.path.join(self.report, p)), p)
             self.assertNotEqual(f["cells"][0]["image"], f["cells"][1]["image"])
+
+    def test_exposure_stops_written_beside_each_image(self):
+        self.assertEqual(self.data["stops"], [-2, -1, 0, 1, 2])
+        import matplotlib.image
+        for f in self.data["frames"]:
+            for stops, original in [(f["reference_stops"], f["reference"])] + [
+                    (c["image_stops"], c["image"]) for c in f["cells"]]:
+                self.assertEqual(sorted(stops, key=int), ["-2", "-1", "0", "1", "2"])
+                self.assertEqual(stops["0"], original)
+                pix = {ev: matplotlib.image.imread(os.path.join(self.report, p))[..., :3]
+                       for ev, p in stops.items()}
+                # Each stop up is brighter where the image is not black or already white ...
+                for lo, hi in (("-2", "-1"), ("-1", "0"), ("0", "1"), ("1", "2")):
+                    self.assertGreater(pix[hi].mean(), pix[lo].mean(), (lo, hi, original))
+                # ... by a factor 2 in linear light (checked on the mid-tones, away from clipping).
+                lin = {ev: V.srgb_to_linear(p.astype(float)) for ev, p in pix.items()}
+                mid = (lin["0"] > 0.05) & (lin["0"] < 0.4)
+                if mid.sum() > 50:
+                    ratio = float(np.median(lin["1"][mid] / lin["0"][mid]))
+                    self.assertAlmostEqual(ratio, 2.0, delta=0.1)
+        # A FLIP map is never re-exposed.
+        self.assertFalse([n for n in os.listdir(os.path.join(self.report, "viewer", "cornell-box"))
+                          if "flip" in n and "_ev" in n])
 
     def test_hidden_without_scripts(self):
         self.assertRegex(self.html, r'<section class="viewer"[^>]*\bhidden\b')
@@ -128,6 +179,39 @@ class ViewerTest(unittest.TestCase):
         self.assertEqual(len(transforms), 1)
         self.assertIn("scale(1.25)", transforms.pop())
         self.assertEqual((steps["key 0"]["zoom"], steps["key 0"]["x"]), (1, 0))
+
+        # Exposure: the outputs and the reference switch to the pre-rendered stop; FLIP maps stay.
+        cell1 = first["cells"][1]
+        plus = steps["key +"]
+        self.assertEqual(plus["ev"], 1)
+        self.assertEqual([p["src"] for p in plus["panels"]],
+                         [cell1["image_stops"]["1"], first["reference_stops"]["1"], cell1["flip"]])
+        self.assertEqual(steps["key - -"]["ev"], -1)
+        self.assertEqual(steps["key - -"]["panels"][1]["src"], first["reference_stops"]["-1"])
+        self.assertEqual(steps["button -2"]["ev"], -2)
+        self.assertEqual(steps["key - at -2"]["ev"], -2)  # the lowest stop holds
+        self.assertEqual(steps["key = ="]["ev"], 0)
+        self.assertEqual(steps["key = ="]["panels"][0]["src"], cell1["image"])
+
+        # Swipe: one panel, A the current cell's output, B the reference, divider at the pointer.
+        swipe = steps["key s"]
+        self.assertEqual(swipe["show"], "swipe")
+        self.assertEqual(shown("key s"), [])
+        self.assertFalse(swipe["swipe"]["hidden"])
+        self.assertTrue(steps["key = ="]["swipe"]["hidden"])
+        self.assertEqual((swipe["swipe"]["a"], swipe["swipe"]["b"]), (first["cells"][0]["image"],
+                                                                     first["reference"]))
+        moved = steps["swipe move"]
+        self.assertAlmostEqual(moved["split"], 0.3, places=2)
+        self.assertRegex(moved["swipe"]["clip"], r"^inset\(0(px)? 0(px)? 0(px)? 30(\.0+)?%\)$")
+        self.assertRegex(moved["swipe"]["divider"], r"^30(\.0+)?%$")
+        flip_b = steps["swipe b flip"]["swipe"]
+        self.assertEqual(flip_b["b"], first["cells"][1]["flip"])
+        self.assertEqual(flip_b["caption"], "A: direct | B: FLIP map of tiled")
+        self.assertEqual(steps["swipe key 2"]["swipe"]["a"], first["cells"][1]["image"])
+        wheel = steps["swipe wheel"]
+        self.assertAlmostEqual(wheel["zoom"], 1.25, places=3)
+        self.assertIn("scale(1.25)", wheel["swipe"]["transform"], json.dumps(wheel))
 
 
 if __name__ == "__main__":
