@@ -11,8 +11,9 @@ freedom; none for two points). The slopes of the lowest and the highest pair of 
 too: a curve that a fixed cost flattens has a low first slope and a steeper last one.
 
 The harness's own cost comes from each cell's `stages_ms` (cell.json: plan, startup, setup,
-frames, scoring, teardown) and its timed frames (wall median x frames played): everything but the
-timed frames is the harness's share of the cell process's time.
+frames, scoring, teardown): the share of the cell process outside its frame loop, and, inside the
+loop, the harness's work between the timed passes (summary.csv's harness_overhead_pct of the
+measured frames).
 
 Writes OUT/scaling.csv (one row per series and pass), OUT/harness.csv (one row per cell) and one
 log-log figure per series (OUT/scaling-<scene>-<technique>-<work>.png and .svg).
@@ -146,8 +147,8 @@ def scaling_table(runs: Sequence[Run]) -> pd.DataFrame:
 
 
 def harness_table(runs: Sequence[Run]) -> pd.DataFrame:
-    """Per cell: each stage's wall ms, the timed frames' ms (wall median x frames played) and the
-    harness's share of the cell process: 1 - timed frames / all stages."""
+    """Per cell: each stage's wall ms, the share of the cell process outside the frame loop
+    (1 - frames / all stages) and the harness's share inside it (harness_overhead_pct / 100)."""
     rows = []
     for run in runs:
         for cell in run.cells:
@@ -159,11 +160,10 @@ def harness_table(runs: Sequence[Run]) -> pd.DataFrame:
             for name in STAGES:
                 row[f"{name}_ms"] = float(stages.get(name, math.nan))
             total = sum(float(v) for v in stages.values())
-            played = float(len(cell.frames["frame"].unique())) if not cell.frames.empty else math.nan
-            wall = cell.value("wall_ms_median")
-            timed = wall * played if not math.isnan(wall) else math.nan
-            row.update(total_ms=total, timed_frames_ms=timed,
-                       harness_share=(1 - timed / total) if total > 0 else math.nan)
+            frames = float(stages.get("frames", math.nan))
+            row.update(total_ms=total,
+                       outside_frames_share=(1 - frames / total) if total > 0 else math.nan,
+                       in_frames_share=cell.value("harness_overhead_pct") / 100)
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -253,8 +253,9 @@ def main(argv=None) -> int:
                   f"{r['work_min']:g}..{r['work_max']:g}: frame slope {r['slope']:.2f}{interval} "
                   f"(first {r['slope_first']:.2f}, last {r['slope_last']:.2f})")
     if not harness.empty:
-        share = harness["harness_share"].median()
-        print(f"harness share of the cell processes: median {100 * share:.1f}% over "
-              f"{len(harness)} cells")
+        print(f"cell processes outside their frame loop: median "
+              f"{100 * harness['outside_frames_share'].median():.1f}% of their time; the harness "
+              f"between timed passes: median {100 * harness['in_frames_share'].median():.2f}% of "
+              f"the measured frames ({len(harness)} cells)")
     print(f"scaling: {len(table)} rows, {len(figures)} figures in {out}")
     return 0

@@ -78,6 +78,12 @@ json describe_run(const std::filesystem::path& config_file,
       {"config_file", std::filesystem::absolute(config_file).string()},
       {"overrides", overrides},
       {"config_hash", plan.config.hash},
+      // What else a time depends on besides the code (tools/pbtools/environment.py compares them).
+#ifdef NDEBUG
+      {"build", {{"type", PB_BUILD_TYPE}, {"ndebug", true}}},
+#else
+      {"build", {{"type", PB_BUILD_TYPE}, {"ndebug", false}}},
+#endif
       {"config", plan.config.canonical},
       {"resolution", {plan.config.width, plan.config.height}},  // after any --set
       {"device", device_name},
