@@ -65,6 +65,16 @@ def label(s: Setting) -> str:
     return ", ".join(parts)
 
 
+ORDER = {"nee_sampler": ("uniform", "power", "bvh"), "nee_importance": ("d", "df", "dfb", "dfbo"),
+         "nee_levels": ("one", "two"), "nee_update": ("rebuild", "refit")}
+
+
+def setting_order(s: Setting) -> Tuple[int, ...]:
+    """The papers' order: uniform, power, the BVH by importance, then levels and update."""
+    return tuple(ORDER[name].index(setting(s.first, name)) if setting(s.first, name) in ORDER[name]
+                 else len(ORDER[name]) for name in ORDER)
+
+
 def metric_class(cell: Cell) -> Optional[str]:
     classes = cell.metric_classes()
     return PATH_CLASS if PATH_CLASS in classes else cell.primary_class()
@@ -202,7 +212,7 @@ def claims(run: Run) -> str:
     for scene, settings in settings_of(run).items():
         nee = [s for s in settings if s.first.technique == TECHNIQUE and setting(s.first, "direct_light") == "nee"]
         if any(s.ok for s in nee):
-            by_scene[scene] = nee
+            by_scene[scene] = sorted(nee, key=setting_order)
     if not by_scene:
         raise MissingCells(f"no completed {TECHNIQUE} cell with direct_light: nee (run configs/manylights.yaml)")
     rounds = max(len(s.cells) for ss in by_scene.values() for s in ss)
