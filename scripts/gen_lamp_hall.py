@@ -140,8 +140,8 @@ def main() -> None:
                        "light (keyframed power) at its centre.\n")
         animation_note = (f"the lanterns orbit ({LANTERN_PERIOD:g} s a turn,\n# alternate rings opposite "
                           f"ways), pulse in scale (1.5 s) and flash ({FLASH_PERIOD:g} s, out of phase).")
-        moving_purpose = (f"\n  Plus {args.lanterns} orbiting, flashing lanterns (Paper IV): the light BVH rebuilt or refit "
-                          "every frame.")
+        moving_purpose = (f"\n  Plus {args.lanterns} orbiting, flashing lanterns (Paper IV): the light BVH "
+                          "rebuilt or refit every frame.")
         lantern_material = (f"  lantern: {{type: emissive, emission: [{LANTERN_RADIANCE}, "
                             f"{0.8 * LANTERN_RADIANCE:g}, {0.5 * LANTERN_RADIANCE:g}], albedo: 0.5}}\n")
     text = f"""# {args.name}: Paper III of seed 002 (Moreau & Clarberg, "Importance Sampling of Many Lights on the

@@ -225,7 +225,8 @@ def claims(run: Run) -> str:
         out += [f"**Warning: not alternating rounds** ({why}): the time ratios below compare cells measured "
                 "at different times. Run the config as written (`seeds: K`, `seed_order: rounds`).", ""]
     out += ["MSE: each scored frame's mse_unbiased (else rmse squared) against the `direct` reference, the "
-            "mean over the frames and the rounds. NEE ms: direct-light/nee/sample + trace + shade per frame (median); update ms: "
+            "mean over the frames and the rounds. NEE ms: direct-light/nee/sample + trace + shade per frame "
+            "(median); update ms: "
             "light-bvh/build + refit per frame (median). The papers ran on an RTX 2080 Ti with DXR; here the "
             "walk and the rays run on this machine's CPU (harness/src/trace/README.md).", ""]
     for scene, settings in by_scene.items():
