@@ -293,5 +293,60 @@ TEST(Nee, BadParametersAreRefusedByKey) {
   commands.submit();
 }
 
+// The shadow-mapped direct light's atlas holds six 512-texel tiles per point light, six to a row:
+// 256 lights need 3072 x 131072 texels, beyond lavapipe's 16384. Such a cell is refused in set-up
+// with the limit named; `direct_light: nee` makes no atlas and lights the scene.
+TEST(Nee, AShadowAtlasBeyondTheImageLimitIsRefusedAndNeeNeedsNone) {
+  TestScene t;
+  uint32_t floor = t.material(scene::MaterialType::diffuse, glm::vec3(0.5f));
+  t.object(quad_mesh({-2, 0, 2}, {4, 0, 0}, {0, 0, -4}), floor);
+  for (int i = 0; i < 256; ++i) {
+    scene::Light l;
+    l.type = scene::LightType::point;
+    l.position = {-1.5f + 0.2f * float(i % 16), 1.5f, -1.5f + 0.2f * float(i / 16)};
+    l.radiant = glm::vec3(0.05f);
+    add_light(t, l);
+  }
+  t.camera({0, 2.4f, 2.4f}, {0, 0, -0.3f}, {0, 1, 0}, 65.f);
+  {
+    gpu::Device device({"", false});
+    testing::CommandStream commands(device);
+    auto cmd = [&] { return commands.cmd(); };
+    run::Profiler profiler(device, cmd);
+    gpu::ScenePasses passes(device, t.scene, 8, 8, {}, profiler, cmd);
+    try {
+      passes.configure_direct_light(DirectLightSettings{});  // shadow_maps
+      ADD_FAILURE() << "an atlas of 1536 tiles accepted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("maxImageDimension2D"), std::string::npos) << what;
+      EXPECT_NE(what.find("1536 shadow tiles"), std::string::npos) << what;
+      EXPECT_NE(what.find("direct_light: nee"), std::string::npos) << what;
+    }
+    EXPECT_EQ(passes.atlas().bytes(), 0u);
+  }
+  {
+    // Two lights fit at 512 texels a tile; 4096-texel tiles (24576 texels a row) chosen after the
+    // direct light is configured are refused there.
+    TestScene two = t;
+    two.scene.lights.resize(2);
+    two.state.lights.resize(2);
+    gpu::Device device({"", false});
+    testing::CommandStream commands(device);
+    auto cmd = [&] { return commands.cmd(); };
+    run::Profiler profiler(device, cmd);
+    gpu::ScenePasses passes(device, two.scene, 8, 8, {}, profiler, cmd);
+    passes.configure_direct_light(DirectLightSettings{});
+    EXPECT_EQ(passes.atlas().extent().height, 1024u);
+    EXPECT_THROW(passes.configure_shadows(4096, 0.f, 0.f), InputError);
+  }
+  Estimate lit = render_nee(t, 16, 12, nee(NeeSampler::bvh), 1);
+  double floor_light = 0;
+  for (size_t i = 0; i < size_t(lit.width) * lit.height; ++i)
+    if (lit.position[i * 4 + 3] > 0) floor_light += lit.mean[i * 4 + 1];
+  EXPECT_GT(floor_light, 0.0);
+  EXPECT_GT(lit.shadow_rays, 0.0);
+}
+
 }  // namespace nee_test
 }  // namespace pb::trace

@@ -283,6 +283,13 @@ Buffer& Buffer::operator=(Buffer&& other) noexcept {
 
 Image Device::create_image(std::string name, vk::Extent2D extent, vk::Format format,
                            vk::ImageUsageFlags usage, vk::SampleCountFlagBits samples) {
+  // Beyond the limit vkCreateImage's behaviour is undefined (lavapipe: 16384): refuse by name.
+  const uint32_t max_side = physical_.getProperties().limits.maxImageDimension2D;
+  if (extent.width > max_side || extent.height > max_side)
+    throw Error(
+        fmt::format("image '{}' of {} x {} texels exceeds this device's largest 2D image "
+                    "side, {} texels (maxImageDimension2D)",
+                    name, extent.width, extent.height, max_side));
   Image image;
   image.name_ = std::move(name);
   image.format_ = format;

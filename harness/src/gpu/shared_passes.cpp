@@ -195,7 +195,6 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
                                I::eDepthStencilAttachment | I::eSampled);
   direct_ = device.create_image("direct/radiance", extent, kColor, I::eStorage);
   final_ = device.create_image("output/radiance", extent, kColor, I::eStorage);
-  create_shadow_atlas();
 
   GraphicsPipelineDesc gbuffer{"gbuffer",
                                kgbuffer_vert_spv,
@@ -230,13 +229,29 @@ ScenePasses::ScenePasses(Device& device, const scene::Scene& scene, uint32_t wid
       sizeof(uint32_t));
 }
 
-void ScenePasses::create_shadow_atlas() {
+vk::Extent2D ScenePasses::shadow_atlas_extent() const {
   uint32_t size = options_.shadow_map_size;
   uint32_t rows = std::max<uint32_t>((tile_count_ + tiles_per_row_ - 1) / tiles_per_row_, 1);
+  return {size * tiles_per_row_, size * rows};
+}
+
+void ScenePasses::ensure_shadow_atlas() {
+  const vk::Extent2D extent = shadow_atlas_extent();
+  if (shadow_atlas_.bytes() != 0 && shadow_atlas_.extent() == extent) return;
   shadow_atlas_ = Image();  // release the old atlas before making the new one
-  shadow_atlas_ = device_.create_image(
-      "shadow/atlas", {size * tiles_per_row_, size * rows}, kDepth,
-      vk::ImageUsageFlagBits::eDepthStencilAttachment | vk::ImageUsageFlagBits::eSampled);
+  try {
+    shadow_atlas_ = device_.create_image(
+        "shadow/atlas", extent, kDepth,
+        vk::ImageUsageFlagBits::eDepthStencilAttachment | vk::ImageUsageFlagBits::eSampled);
+  } catch (const Error& e) {
+    // A cell the shadow-mapped direct light cannot hold is refused, not degraded behind the
+    // user's back: the many-light direct light needs no atlas.
+    throw InputError(fmt::format(
+        "direct_light: shadow_maps: {} lights and {} emissive objects need {} shadow tiles of {} "
+        "texels, {} to a row: {}; use direct_light: nee (no shadow atlas) or smaller shadow maps",
+        scene_.lights.size(), emissive_objects_.size(), tile_count_, options_.shadow_map_size,
+        tiles_per_row_, e.what()));
+  }
 }
 
 void ScenePasses::configure_shadows(uint32_t map_size, float relative_bias, float normal_offset_m) {
@@ -244,10 +259,11 @@ void ScenePasses::configure_shadows(uint32_t map_size, float relative_bias, floa
     throw Error(fmt::format("shadow map size {} outside [16, 4096]", map_size));
   options_.shadow_relative_bias = relative_bias;
   options_.shadow_normal_offset = normal_offset_m;
-  if (map_size != options_.shadow_map_size) {
-    options_.shadow_map_size = map_size;
-    create_shadow_atlas();
-  }
+  options_.shadow_map_size = map_size;
+  // A technique that configured the shadow-mapped direct light first resizes its atlas here, in
+  // set-up; otherwise configure_direct_light makes it (or the first shadow_maps(), for a technique
+  // that calls neither).
+  if (shadow_atlas_.bytes() != 0) ensure_shadow_atlas();
 }
 
 void ScenePasses::configure_direct_light(const DirectLightSettings& settings) {
@@ -256,6 +272,11 @@ void ScenePasses::configure_direct_light(const DirectLightSettings& settings) {
   direct_settings_ = settings;
   nee_.reset();
   nee_lights_changed_ = true;
+  // The atlas exists only for the shadow-mapped direct light, made (or refused) here in set-up.
+  if (settings.method == DirectLightMethod::shadow_maps)
+    ensure_shadow_atlas();
+  else
+    shadow_atlas_ = Image();
 }
 
 void ScenePasses::upload_mesh(GpuMesh& gpu_mesh, const scene::Mesh& mesh, const std::string& name) {
@@ -347,7 +368,7 @@ void ScenePasses::update(const scene::FrameState& state) {
   frame.camera_position = glm::vec4(camera_.position, camera_.fov_y);
   frame.size_lights =
       glm::uvec4(width_, height_, uint32_t(state.lights.size()), options_.shadow_map_size);
-  vk::Extent2D atlas = shadow_atlas_.extent();
+  vk::Extent2D atlas = shadow_atlas_extent();
   frame.shadow_atlas = glm::uvec4(atlas.width, atlas.height, tiles_per_row_, tile_count_);
   std::memcpy(frame_.mapped(), &frame, sizeof(frame));
 }
@@ -416,6 +437,7 @@ void ScenePasses::gbuffer() {
 }
 
 void ScenePasses::shadow_maps() {
+  ensure_shadow_atlas();
   auto scope = PassScope(&recorder_, recorder_.begin_pass("shadow-maps"));
   vk::CommandBuffer cmd = cmd_();
   vk::Extent2D atlas = shadow_atlas_.extent();

@@ -70,6 +70,7 @@ class ScenePasses : public SharedPasses {
   void draw_scene(const SceneTarget& target,
                   std::optional<glm::mat4> view_projection = std::nullopt) override;
   const Buffer& tile_buffer() const { return tiles_; }
+  // Empty until the shadow-mapped direct light first needs it, and with `direct_light: nee`.
   const Image& atlas() const { return shadow_atlas_; }
 
  private:
@@ -87,7 +88,12 @@ class ScenePasses : public SharedPasses {
                                  std::vector<glm::mat4>& tiles);
   template <class Bind>
   void draw_object(vk::CommandBuffer cmd, size_t i, const Bind& bind, uint32_t index);
-  void create_shadow_atlas();
+  // The shadow-mapped direct light's atlas: six tiles per light and per emissive object
+  // (directional lights one), tiles_per_row_ to a row.
+  vk::Extent2D shadow_atlas_extent() const;
+  // Makes the atlas at shadow_atlas_extent() unless it is already that size; an atlas beyond the
+  // device's image limit throws InputError naming the limit.
+  void ensure_shadow_atlas();
   // Rewrites the triangle records of what moved or deformed (`deformed`: as
   // WorldTriangles::update).
   void refresh_triangles(const scene::FrameState& state, std::span<const scene::Mesh> deformed);
