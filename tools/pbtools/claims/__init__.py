@@ -18,7 +18,8 @@ PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Mor
           "aaps": "Extending AAPS for higher quality caustic rendering (van Casteren, MSc thesis 2023)",
           "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)",
           "rsm": "Real-time global illumination with photon mapping (seed 000, Ray Tracing Gems ch. 24)",
-          "paper003": "Interactive Global Photon Mapping (Fabianowski and Dingliana, EGSR 2009)"}
+          "paper003": "Interactive Global Photon Mapping (Fabianowski and Dingliana, EGSR 2009)",
+          "ivc": "Real-Time Rendering of Indirectly Visible Caustics (Paper V) against AAPS's splat BVH"}
 ALIASES = {"003": "paper003"}  # the seed's number, as the issues name it
 
 
