@@ -13,6 +13,10 @@
 //                 receivers, handed to shade();
 //   task-update   variance by reprojection, density D' = D A / A_t + v g with the spatio-temporal
 //                 blend, the sum quadtree of the next frame's emission.
+// With indirect: splat_bvh (§5.2), caustics seen through mirrors and glass: splats outside the
+// frustum are kept for it, the toolkit's box BVH is rebuilt over every splat's quad (splat-bvh),
+// and each pixel whose camera path passed S vertices walks its last segment against it, the
+// fragment shader's ellipse test as the any-hit (indirect, aaps_indirect.comp).
 // README.md gives the parameters, every constant the thesis leaves open and the deviations.
 #include "photonbench/toolkit/technique.h"
 
@@ -33,6 +37,8 @@
 #include "photonbench/error.h"
 #include "photonbench/plugin.h"
 #include "photonbench/scene_layout.h"
+#include "photonbench/toolkit/box_bvh.h"
+#include "splat_bvh.h"
 #include "task_buffer.h"
 
 namespace {
@@ -42,6 +48,7 @@ using pb::gpu::Binding;
 // The choices of the enumerated parameters, in their declared order.
 enum class Msaa : uint32_t { none, all, all_per_sample, small_per_sample };
 enum class FeedbackHalves : uint32_t { both, refracted };
+enum class Indirect : uint32_t { none, splat_bvh };
 
 // Every parameter of a cell: the density feedback's (task_buffer.h, whose initialisers are the
 // thesis's values) and the technique's own.
@@ -54,6 +61,8 @@ struct AapsParams : aaps::FeedbackParams {
   FeedbackHalves feedback_halves;
   bool emission_jitter;
   uint32_t max_bounces;
+  Indirect indirect;
+  uint32_t camera_bounces;
   uint32_t shadow_map_size;
 };
 
@@ -121,6 +130,14 @@ constexpr auto kParams = pb::params(
                                      "2; unspecified); photons are stored at the first diffuse "
                                      "hit"),
              &AapsParams::max_bounces),
+    pb::param("indirect", &AapsParams::indirect, Indirect::none, "none|splat_bvh",
+              "caustics seen through mirrors and glass (indirect_caustics, §5.2): none, the "
+              "thesis's AAPS; splat_bvh, every splat's quad (those outside the frustum kept) in a "
+              "box BVH rebuilt each frame, walked by each camera path's last segment behind S "
+              "vertices with the ellipse test as the any-hit"),
+    pb::param("camera_bounces", &AapsParams::camera_bounces, 6, {1, 255}, "hits",
+              "splat_bvh: surface hits a camera path may have, its diffuse end included "
+              "(unspecified in §5.2; 6, seed 002 Paper V's)"),
     pb::bind(pb::toolkit::kShadowMapSizeParam, &AapsParams::shadow_map_size));
 // clang-format on
 // The feedback struct keeps its initialisers (the unit tests build it whole): they must be the
@@ -168,6 +185,29 @@ constexpr size_t kAreaBinCount = std::size(kAreaBins) + 1;
   {"splats_" half "_area_4_16", PB_COUNTER_WORK, "splats", "accepted " half " splats"},       \
   {"splats_" half "_area_16_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"},      \
   {"splats_" half "_area_above_64", PB_COUNTER_WORK, "splats", "accepted " half " splats"}
+// indirect: splat_bvh's (§5.2), counted only with it.
+constexpr auto kIndirectCounters = pb::counters({
+    {"splats_outside_frustum", PB_COUNTER_WORK, "splats",
+     "splats kept for the BVH only: outside the frustum"},
+    {"splats_in_bvh", PB_COUNTER_SIZE, "splats", "splats the BVH is built over"},
+    {"indirect_walks", PB_COUNTER_WORK, "walks",
+     "pixels whose camera path passed S vertices to a diffuse vertex: segment walks"},
+    {"segment_box_hits", PB_COUNTER_WORK, "boxes",
+     "splat boxes the segments met (any-hit calls)"},
+    {"segment_hits", PB_COUNTER_WORK, "splats",
+     "splats whose ellipse holds the segment's crossing within the depth margin"},
+    {"ellipse_rejections", PB_COUNTER_WORK, "splats",
+     "crossings within the depth margin in the quad but outside its ellipse (the quad's other "
+     "1 - pi/4)"},
+    {"quad_misses", PB_COUNTER_WORK, "splats",
+     "crossings within the depth margin outside the quad (its box is larger)"},
+    {"bvh_nodes_visited", PB_COUNTER_WORK, "nodes", "BVH nodes the walks popped"},
+    {"truncated_walks", PB_COUNTER_WORK, "walks", "walks cut short by the loop budget"},
+    {"bvh_nodes", PB_COUNTER_SIZE, "nodes", "nodes of the splat BVH (leaves and inner nodes)"},
+    {"bytes_bvh", PB_COUNTER_SIZE, "bytes", "the BVH's buffers, sort and scan scratch"},
+    {"bytes_indirect", PB_COUNTER_SIZE, "bytes",
+     "splat records, boxes, camera paths and the BVH: GPU memory splat_bvh adds"},
+});
 constexpr auto kAreaCounters =
     pb::counters({AAPS_AREA_BINS("reflected"), AAPS_AREA_BINS("refracted")});
 #undef AAPS_AREA_BINS
@@ -176,7 +216,8 @@ static_assert(kAreaCounters.size() == 2 * kAreaBinCount);
 
 // Every counter above, for the descriptor.
 constexpr auto kAllCounters =
-    pb::toolkit::join_counters(std::to_array(kCounters.specs), std::to_array(kAreaCounters.specs));
+    pb::toolkit::join_counters(std::to_array(kCounters.specs), std::to_array(kAreaCounters.specs),
+                               std::to_array(kIndirectCounters.specs));
 
 // The emission-parameter spacing the culling rule sizes every splat for (§3.3.5): the thesis's
 // base sampling, a 256 x 256 density texture at its floor of 4 photons a texel (2 x 2 each), so
@@ -193,6 +234,10 @@ struct Vertex {
   uint32_t splat;
 };
 static_assert(sizeof(Vertex) == 36);
+static_assert(sizeof(aaps::SplatRecord) == 64 && offsetof(aaps::SplatRecord, major) == 16 &&
+              offsetof(aaps::SplatRecord, minor) == 32 &&
+              offsetof(aaps::SplatRecord, brightness) == 48);
+static_assert(sizeof(aaps::IndirectPush) == 16);
 
 // What the task-buffer update needs of an accepted photon.
 struct Accepted {
@@ -214,6 +259,8 @@ class Aaps final : public pb::Technique {
     if (p.density_max > 0 && p.density_max < p.density_min)
       return fmt::format("density_max: {} is below density_min = {} (0: no ceiling)", p.density_max,
                          p.density_min);
+    if (p.indirect == Indirect::none && p.camera_bounces != kParams.defaults().camera_bounces)
+      return fmt::format("camera_bounces: {} has no effect with indirect = none", p.camera_bounces);
     return "";
   }
 
@@ -299,6 +346,18 @@ class Aaps final : public pb::Technique {
            Binding::storage_image, Binding::storage_image, Binding::storage_buffer},
           3 * sizeof(uint32_t));
 
+    if (p_.indirect == Indirect::splat_bvh) {
+      camera_.max_bounces = p_.camera_bounces;
+      bvh_.setup(gpu, "aaps.splat_bvh");
+      std::vector<Binding> bindings(4, Binding::storage_buffer);
+      bindings.insert(bindings.end(), 3, Binding::storage_image);
+      bindings.insert(bindings.end(), 4, Binding::storage_buffer);
+      indirect_ = gpu.create_compute_pipeline("aaps.indirect", kaaps_indirect_comp_spv, bindings,
+                                              sizeof(aaps::IndirectPush));
+      indirect_stats_ = pb::toolkit::storage_buffer(gpu, "aaps.indirect_stats", AAPS_STAT_WORDS * 4,
+                                                    pb::gpu::Memory::host_visible);
+    }
+
     pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
     lights_.resize(tracer.light_count());
     for (LightTasks& l : lights_) {
@@ -344,9 +403,11 @@ class Aaps final : public pb::Technique {
       cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
       pb::gpu::full_barrier(cmd);
     }
+    if (p_.indirect == Indirect::splat_bvh) walk_splats(ctx);
     ctx.shared().shade(&radiance_);
     ctx.flush();
     count(ctx);
+    count_indirect(ctx);
     {
       auto scope = ctx.pass("task-update");
       update_tasks(ctx, f);
@@ -364,6 +425,9 @@ class Aaps final : public pb::Technique {
   // quads in the single-sample or the multisampled list.
   void build_splats(pb::Context& ctx, const pb::FrameInfo& f) {
     single_.clear(), multi_.clear(), accepted_.clear();
+    bvh_splats_.clear(), bvh_boxes_.clear();
+    outside_frustum_ = 0;
+    const bool keep_for_bvh = p_.indirect == Indirect::splat_bvh;
     for (LightTasks& l : lights_) {
       l.area.assign(size_t(p_.density_resolution) * p_.density_resolution, 0.f);
       l.variance.assign(size_t(p_.density_resolution) * p_.density_resolution, 0.f);
@@ -405,11 +469,18 @@ class Aaps final : public pb::Technique {
       }
       if (!in_frustum || too_big || !(world_area > 0)) {
         ++culled_;
+        // §5.2: a caustic seen in a mirror or through glass may lie outside the frustum; the
+        // BVH keeps it (the density feedback stays the raster's: it sees drawn splats only).
+        if (keep_for_bvh && !in_frustum && !too_big && world_area > 0) {
+          add_bvh_splat(p.position, major, minor, p.power / world_area);
+          ++outside_frustum_;
+        }
         continue;
       }
       glm::vec2 d1 = s1 - c, d2 = s2 - c;
       float screen_area = float(M_PI) * std::abs(d1.x * d2.y - d1.y * d2.x);
       glm::vec3 brightness = p.power / world_area;  // §3.2.1: energy / splat area
+      if (keep_for_bvh) add_bvh_splat(p.position, major, minor, brightness);
       // The texel's own emitted power (the tracer's): a spot light's texels differ by its falloff.
       float fraction = aaps::energy_fraction(p.power, power_per_texel_[p.light][leaf.texel]);
       const int half = (p.flags & aaps::kRefractedHalf) ? 1 : 0;
@@ -439,6 +510,100 @@ class Aaps final : public pb::Technique {
                                              vk::BufferUsageFlagBits::eStorageBuffer,
                                              pb::gpu::Memory::host_visible);
     std::memset(contributed_.mapped(), 0, flag_bytes);
+    if (keep_for_bvh) upload_bvh_splats(ctx);
+  }
+
+  // A splat for the BVH (indirect: splat_bvh): its record and the box around its quad.
+  void add_bvh_splat(const glm::vec3& centre, const glm::vec3& major, const glm::vec3& minor,
+                     const glm::vec3& brightness) {
+    aaps::SplatRecord r{};
+    r.centre = centre, r.major = major, r.minor = minor, r.brightness = brightness;
+    bvh_splats_.push_back(r);
+    const glm::vec3 half = glm::abs(major) + glm::abs(minor);
+    pb::toolkit::BvhBox box{};
+    box.lo = centre - half, box.hi = centre + half;
+    bvh_boxes_.push_back(box);
+  }
+
+  // The splat records and boxes into their buffers, grown (with the BVH's) before any of the
+  // frame's GPU work that uses them is recorded.
+  void upload_bvh_splats(pb::Context& ctx) {
+    const uint32_t n = uint32_t(bvh_splats_.size());
+    if (n > bvh_capacity_ || !splat_records_) {
+      bvh_capacity_ = std::max<uint32_t>(1024, n + n / 4);
+      pb::gpu::Device& gpu = ctx.gpu();
+      pb::toolkit::check_storage_range(gpu, uint64_t(bvh_capacity_) * sizeof(aaps::SplatRecord),
+                                       fmt::format("aaps: {} splats in the BVH", n));
+      splat_records_ = pb::toolkit::storage_buffer(
+          gpu, "aaps.splat_records", uint64_t(bvh_capacity_) * sizeof(aaps::SplatRecord),
+          pb::gpu::Memory::host_visible);
+      splat_boxes_ = pb::toolkit::storage_buffer(
+          gpu, "aaps.splat_boxes", uint64_t(bvh_capacity_) * sizeof(pb::toolkit::BvhBox),
+          pb::gpu::Memory::host_visible);
+      bvh_.reserve(bvh_capacity_);
+    }
+    std::memcpy(splat_records_.mapped(), bvh_splats_.data(), n * sizeof(aaps::SplatRecord));
+    std::memcpy(splat_boxes_.mapped(), bvh_boxes_.data(), n * sizeof(pb::toolkit::BvhBox));
+  }
+
+  // §5.2: camera paths, the BVH over the splats' quads rebuilt, and per pixel behind S vertices
+  // the segment walk (aaps_indirect.comp), after apply (it adds to the radiance apply wrote).
+  void walk_splats(pb::Context& ctx) {
+    pb::trace_and_upload_camera_paths(ctx, camera_, paths_, paths_buffer_, "aaps.camera_paths");
+    const pb::gpu::Image& indirect_image = ctx.class_output("indirect_caustics");
+    const pb::gpu::Image& caustics_image = ctx.class_output("caustics");
+    {
+      auto scope = ctx.pass("splat-bvh");
+      vk::CommandBuffer cmd = ctx.cmd();
+      cmd.fillBuffer(indirect_stats_.handle(), 0, VK_WHOLE_SIZE, 0u);
+      pb::gpu::full_barrier(cmd);
+      bvh_.record_build(cmd, splat_boxes_, uint32_t(bvh_splats_.size()));
+    }
+    {
+      auto scope = ctx.pass("indirect");
+      vk::CommandBuffer cmd = ctx.cmd();
+      const aaps::IndirectPush push{width_, height_, PB_LOOP_BUDGET, p_.depth_margin};
+      const auto walk = bvh_.walk_resources(splat_boxes_);
+      const pb::gpu::Resource resources[] = {
+          &paths_buffer_,   &splat_records_, &ctx.shared().material_buffer(),
+          &indirect_stats_, &radiance_,      &caustics_image,
+          &indirect_image,  walk[0],         walk[1],
+          walk[2],          walk[3]};
+      indirect_.bind(cmd, std::span<const pb::gpu::Resource>(resources), push);
+      cmd.dispatch(pb::gpu::groups_for(width_, 8), pb::gpu::groups_for(height_, 8), 1);
+      pb::gpu::full_barrier(cmd);
+    }
+  }
+
+  // Every frame, zeros too (indirect: none).
+  void count_indirect(pb::Context& ctx) {
+    if (p_.indirect == Indirect::none) {
+      for (const pb_counter_spec& c : kIndirectCounters.specs) pb::count(ctx, c, 0.0);
+      return;
+    }
+    const auto* s = static_cast<const uint32_t*>(indirect_stats_.mapped());
+    auto wide = [&](uint32_t at) { return double(s[at]) + double(s[at + 1]) * 4294967296.0; };
+    const pb::toolkit::BoxBvh::Stats bvh = bvh_.read_stats();
+    const double bytes = double(splat_records_.size() + splat_boxes_.size() + paths_buffer_.size() +
+                                indirect_stats_.size() + bvh_.bytes());
+    pb::count(ctx, kIndirectCounters["splats_outside_frustum"], double(outside_frustum_));
+    pb::count(ctx, kIndirectCounters["splats_in_bvh"], double(bvh_splats_.size()));
+    pb::count(ctx, kIndirectCounters["indirect_walks"], wide(AAPS_STAT_WALKS));
+    pb::count(ctx, kIndirectCounters["segment_box_hits"], wide(AAPS_STAT_BOX_HITS));
+    pb::count(ctx, kIndirectCounters["segment_hits"], wide(AAPS_STAT_SEGMENT_HITS));
+    pb::count(ctx, kIndirectCounters["ellipse_rejections"], wide(AAPS_STAT_ELLIPSE_REJECTED));
+    pb::count(ctx, kIndirectCounters["quad_misses"], wide(AAPS_STAT_QUAD_MISSES));
+    pb::count(ctx, kIndirectCounters["bvh_nodes_visited"], wide(AAPS_STAT_NODES));
+    pb::count(ctx, kIndirectCounters["truncated_walks"], s[AAPS_STAT_TRUNCATED]);
+    pb::count(ctx, kIndirectCounters["bvh_nodes"], bvh.nodes());
+    pb::count(ctx, kIndirectCounters["bytes_bvh"], double(bvh_.bytes()));
+    pb::count(ctx, kIndirectCounters["bytes_indirect"], bytes);
+    if (s[AAPS_STAT_TRUNCATED] > 0)
+      ctx.warn(fmt::format("aaps: {} splat BVH walks cut short by the loop budget",
+                           s[AAPS_STAT_TRUNCATED]));
+    if (bvh.long_runs > 0)
+      ctx.warn(
+          fmt::format("aaps: {} Morton runs of splats longer than the loop budget", bvh.long_runs));
   }
 
   // §3.3.5's distance: from the light's position (point and spot lights, the shared passes'
@@ -559,6 +724,16 @@ class Aaps final : public pb::Technique {
   pb::gpu::Image caustics_, caustics_msaa_, radiance_;
   pb::gpu::Buffer luminance_, vertices_, vertices_msaa_, contributed_;
   pb::gpu::Pipeline splat_, splat_msaa_, apply_;
+  // indirect: splat_bvh
+  std::vector<aaps::SplatRecord> bvh_splats_;
+  std::vector<pb::toolkit::BvhBox> bvh_boxes_;
+  uint64_t outside_frustum_ = 0;
+  uint32_t bvh_capacity_ = 0;
+  pb::toolkit::BoxBvh bvh_;
+  pb::trace::CameraPathSettings camera_;
+  pb::trace::CameraPathBatch paths_;
+  pb::gpu::Buffer splat_records_, splat_boxes_, paths_buffer_, indirect_stats_;
+  pb::gpu::Pipeline indirect_;
 };
 
 }  // namespace

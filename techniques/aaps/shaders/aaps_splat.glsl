@@ -1,6 +1,7 @@
 // AAPS splat, fragment stage (seed 004 §1.8, §3.3.3-3.3.4), shared by the pixel-rate and the
 // sample-rate variant (PB_PER_SAMPLE: the inputs are interpolated at each sample, so the ellipse
 // and the depth test run per sample, §5.1.2).
+#include "../splat_bvh.h"
 #include "photonbench/scene_layout.h"
 #ifdef PB_PER_SAMPLE
 #define PB_INTERPOLATION sample
@@ -36,7 +37,7 @@ float receiver_distance(vec3 camera, vec3 splat, ivec2 pixel) {
 
 void main() {
   // Outside the ellipse inscribed in the quad: sum of squared barycentrics above 1 (§3.3.3).
-  if (dot(bary, bary) > 1.0) discard;
+  if (!aaps_in_ellipse(bary)) discard;
   // Depth against the receiver's camera distance with a relative margin (§3.3.4).
   vec3 camera = frame.camera_position.xyz;
   float receiver = receiver_distance(camera, world_position, ivec2(gl_FragCoord.xy));

@@ -1,7 +1,8 @@
 // aaps: the task buffer's quadtree walk against the tracer's emission order, the density update,
 // the tracer's AAPS rules and energy on cornell-glass, and end to end through `photonbench run`
 // (with Vulkan validation) the screen-summed caustics against the caustics reference per msaa mode
-// and the adaptivity of the density texture.
+// and the adaptivity of the density texture; indirect: splat_bvh's ellipse test and a caustic seen
+// in a mirror against its closed form.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -18,6 +19,7 @@
 
 #include "../footprint.h"
 #include "../photon_rules.h"
+#include "../splat_bvh.h"
 #include "../task_buffer.h"
 #include "io/image.h"
 #include "photonbench/error.h"
@@ -366,7 +368,11 @@ TEST(Aaps, RefusesBadParametersAtTheirKey) {
        "small_per_sample; did you mean 'small_per_sample'?"},
       {"feedback_halves: refraction",
        "params.feedback_halves: 'refraction' is not one of: both, refracted; did you mean "
-       "'refracted'?"}};
+       "'refracted'?"},
+      {"indirect: splat", "params.indirect: 'splat' is not one of: none, splat_bvh"},
+      {"indirect: splat_bvh, camera_bounces: 0",
+       "params.camera_bounces: value 0 is out of range [1, 255]"},
+      {"camera_bounces: 3", "camera_bounces: 3 has no effect with indirect = none"}};
   for (const auto& [params, message] : cases) {
     const std::string error = plan_error(dir, std::string("name: check\n"
                                                           "resolution: [64, 36]\n"
@@ -653,6 +659,136 @@ TEST(Aaps, DensityConcentratesOnTheCaustic) {
   for (double s : share) std::printf("%.4f ", s);
   std::printf("\n");
   for (size_t f = 6; f < share.size(); ++f) EXPECT_GT(share[f], 3 * share[0]) << "frame " << f;
+}
+
+// ---- indirect: splat_bvh (§5.2) ----
+
+// The ellipse test the fragment shader and the walk's any-hit share (splat_bvh.h), on points
+// uniform in random splats' quads: it rejects the quad's corners, 1 - pi/4 of its area (§5.2:
+// "the ellipse covers pi/4 of the quad"), within 4 binomial deviations of the count. Each point
+// also comes back through aaps_plane_crossing from a segment that crosses the splat's plane.
+TEST(AapsSplatBvh, EllipseTestRejectsTheQuadsCornerShare) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(-1.f, 1.f);
+  constexpr int kSplats = 200, kPointsPerSplat = 1000;
+  uint64_t rejected = 0, total = 0;
+  for (int i = 0; i < kSplats; ++i) {
+    aaps::SplatRecord s{};
+    s.centre = glm::vec3(unit(rng), unit(rng), unit(rng)) * 3.f;
+    s.major = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng))) *
+              (0.01f + 0.2f * (1 + unit(rng)));
+    const glm::vec3 side =
+        glm::normalize(glm::cross(s.major, glm::vec3(unit(rng), unit(rng), unit(rng))));
+    s.minor = side * glm::length(s.major) * (0.1f + 0.45f * (1 + unit(rng)));
+    const glm::vec3 normal = glm::normalize(glm::cross(s.major, s.minor));
+    for (int k = 0; k < kPointsPerSplat; ++k) {
+      const float u = unit(rng), v = unit(rng);
+      const glm::vec3 x = s.centre + u * s.major + v * s.minor;
+      // A segment from 0.5 m off the plane, slanted, crossing it at x.
+      const glm::vec3 d = glm::normalize(-normal + 0.5f * glm::normalize(s.major));
+      const glm::vec3 origin = x - 0.5f * d;
+      const float t = aaps::aaps_plane_crossing(s, origin, d);
+      ASSERT_NEAR(t, 0.5f, 1e-4f);
+      const glm::vec2 bary = aaps::aaps_quad_bary(s, origin + t * d);
+      ASSERT_NEAR(bary.x, u, 1e-3f);
+      ASSERT_NEAR(bary.y, v, 1e-3f);
+      rejected += aaps::aaps_in_ellipse(bary) ? 0 : 1;
+      ++total;
+    }
+  }
+  const double p = 1.0 - M_PI / 4.0;
+  const double rate = double(rejected) / double(total);
+  const double sigma = std::sqrt(p * (1 - p) / double(total));
+  std::printf("rejected %.5f of %llu points, 1 - pi/4 = %.5f, sigma %.5f\n", rate,
+              static_cast<unsigned long long>(total), p, sigma);
+  EXPECT_NEAR(rate, p, 4 * sigma);
+}
+
+// collection-points' mirror scene (its test's), with the caustic made the way AAPS makes one: a
+// photon whose first hit is not a dielectric is dropped (§1.5), so the light, travelling straight
+// down with E = 2 W/m^2, crosses a horizontal glass slab (ior 1.5, y in [2, 2.2]) over the floor
+// (albedo 0.5) before landing. At normal incidence each interface passes 1 - F0 = 0.96 (the split's
+// refracted part, then the repeated refraction weighted by its Fresnel share), so the floor under
+// the slab receives the caustic irradiance E_c = 0.96^2 E (L S S D) and, seen directly, sends
+// 0.5 / pi E_c. The camera at (0, 1, 0), below the slab, sees only a vertical mirror (specular
+// 0.9) at x = 1 facing -x, and in it only that floor: every pixel's camera path is E S D with
+// throughput 0.9, so indirect_caustics is 0.9 (the mirror's tint) x the direct view's caustic
+// everywhere, and the directly seen caustics estimate is 0.
+constexpr const char* kMirrorScene =
+    R"(purpose: a glass slab's caustic seen in a mirror (techniques/aaps/tests)
+camera: {position: [0, 1, 0], target: [1, 0.5, 0], fov_deg: 30}
+lights:
+  - {name: sun, type: directional, direction: [0, -1, 0], irradiance: 2}
+materials:
+  grey: {type: diffuse, albedo: [0.5, 0.5, 0.5]}
+  mirror: {type: mirror, specular: 0.9}
+  glass: {type: dielectric, ior: 1.5}
+objects:
+  - {name: floor, shape: {type: quad, size: [6, 6]}, material: grey,
+     transform: {translate: [-2, 0, 0]}}
+  - {name: mirror, shape: {type: quad, size: [4, 6]}, material: mirror,
+     transform: {translate: [1, 2, 0], rotate_deg: [0, 0, 90]}}
+  - {name: slab, shape: {type: box, size: [5.99, 0.2, 6]}, material: glass,
+     transform: {translate: [-2.005, 2.1, 0]}}
+)";
+constexpr double kMirrorTint = 0.9;
+constexpr double kFresnelPass = 1.0 - 0.04;  // 1 - ((1.5 - 1) / (1.5 + 1))^2
+constexpr double kDirectViewCaustic = 0.5 / M_PI * kFresnelPass * kFresnelPass * 2.0;
+
+double mean_channel(const pb::io::Image& image, int channel) {
+  double sum = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) sum += image.at(x, y, channel);
+  return sum / image.pixel_count();
+}
+
+// Frames 0 and 2 scored (not consecutive: the flicker of the black caustics reference is refused).
+// Here a splat is far smaller than the floor a pixel sees in the mirror (1 cm against 2-5 cm),
+// so each pixel is an independent point sample of the covering splats, and the image mean's
+// relative deviation is at most Poisson's over the frame's covering splats (the jittered grid is
+// stratified, so less): the mean is the direct view's caustic times the mirror's tint within
+// 4 / sqrt(segment hits of a frame) + 1%. Every pixel walks, no walk is cut short, and the
+// crossings inside a quad fall outside its ellipse 1 - pi/4 of the time within 4 binomial
+// deviations of their count (the splats lie anywhere against the pixels' points).
+TEST(AapsRun, SplatBvhSeesTheMirrorsCausticTimesItsTint) {
+  fs::path dir = work_dir("mirror");
+  std::ofstream(dir / "scene.yaml") << kMirrorScene;
+  ASSERT_EQ(run_config(dir, fmt::format("name: aaps-mirror\nresolution: [64, 48]\nseed: 1\n"
+                                        "scenes: [{}]\nframes: {{warmup: 0, count: 3, "
+                                        "metrics_every: 2}}\nmetrics: [psnr]\n"
+                                        "limits: {{cell_seconds: 300}}\n"
+                                        "reference: {{samples: 2, cache_dir: {}}}\n"
+                                        "techniques:\n  - technique: aaps\n"
+                                        "    params: {{indirect: splat_bvh, max_bounces: 3}}\n",
+                                        (dir / "scene.yaml").string(), (dir / "refs").string())),
+            0)
+      << "see " << (dir / "log.txt");
+  fs::path cell = find_cell(dir, "aaps");
+  ASSERT_FALSE(cell.empty());
+  EXPECT_EQ(read_json(cell / "cell.json")["status"], "ok");
+  const CounterSums sums(cell);
+  EXPECT_EQ(sums["indirect_walks"], 3.0 * 64 * 48) << "every pixel sees the floor in the mirror";
+  EXPECT_EQ(sums["truncated_walks"], 0);
+  EXPECT_GT(sums["ellipse_rejections"], 0);
+  EXPECT_GT(sums["bvh_nodes"], 0);
+  const double in_quad = sums["segment_hits"] + sums["ellipse_rejections"];
+  const double p = 1 - M_PI / 4, share = sums["ellipse_rejections"] / in_quad;
+  std::printf("ellipse rejections %.0f of %.0f crossings in a quad: %.4f (1 - pi/4 = %.4f)\n",
+              sums["ellipse_rejections"], in_quad, share, p);
+  EXPECT_NEAR(share, p, 4 * std::sqrt(p * (1 - p) / in_quad));
+  const double hits_per_frame = sums["segment_hits"] / 3;
+  const double tolerance = 4.0 / std::sqrt(hits_per_frame) + 0.01;
+  for (int frame : {0, 2}) {
+    const double mean = mean_channel(frame_image(cell, frame, "indirect_caustics"), 0);
+    const double expected = kMirrorTint * kDirectViewCaustic;
+    std::printf(
+        "frame %d: mean %.5f, tint x direct view %.5f (%.0f hits a frame, tolerance %.3f)\n", frame,
+        mean, expected, hits_per_frame, tolerance);
+    EXPECT_NEAR(mean / expected, 1.0, tolerance) << "frame " << frame;
+    EXPECT_EQ(mean_channel(frame_image(cell, frame, "caustics"), 0), 0.0)
+        << "no caustic is seen directly";
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace aaps_test

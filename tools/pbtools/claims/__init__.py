@@ -19,7 +19,8 @@ PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Mor
           "paper2": "Path Verification for Dynamic Indirect Illumination (Moreau, Sintorn et al.)",
           "rsm": "Real-time global illumination with photon mapping (seed 000, Ray Tracing Gems ch. 24)",
           "paper003": "Interactive Global Photon Mapping (Fabianowski and Dingliana, EGSR 2009)",
-          "manylights": "Importance Sampling of Many Lights; Dynamic Many-Light Sampling (seed 002 III, IV)"}
+          "manylights": "Importance Sampling of Many Lights; Dynamic Many-Light Sampling (seed 002 III, IV)",
+          "ivc": "Real-Time Rendering of Indirectly Visible Caustics (Paper V) against AAPS's splat BVH"}
 ALIASES = {"003": "paper003"}  # the seed's number, as the issues name it
 
 
