@@ -78,7 +78,7 @@ json describe_run(const std::filesystem::path& config_file,
       {"config_file", std::filesystem::absolute(config_file).string()},
       {"overrides", overrides},
       {"config_hash", plan.config.hash},
-      // What else a time depends on besides the code (tools/pbtools/environment.py compares them).
+  // What else a time depends on besides the code (tools/pbtools/environment.py compares them).
 #ifdef NDEBUG
       {"build", {{"type", PB_BUILD_TYPE}, {"ndebug", true}}},
 #else
