@@ -20,8 +20,10 @@ log-log figure per series (OUT/scaling-<scene>-<technique>-<work>.png and .svg).
 """
 
 import argparse
+import hashlib
 import math
 import os
+import re
 import sys
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -32,7 +34,8 @@ from scipy import stats as sstats
 from .rundata import WHOLE_FRAME_PASS, Cell, Run, RunError
 
 PIXELS = "pixels"  # the work variable of a resolution series
-MIN_POINTS = 3  # a series needs this many distinct amounts of work to be fitted
+MIN_POINTS = 3  # a knob's series needs this many distinct amounts of work to be fitted
+MIN_RUNS = 2  # a pixel series this many resolutions (each a run: a slope without an interval)
 MIN_SPAN = 3.0  # ... spanning at least this factor
 STAGES = ("plan", "startup", "setup", "frames", "scoring", "teardown")
 
@@ -54,8 +57,11 @@ def fit_loglog(work: Sequence[float], ms: Sequence[float], level: float = 0.95) 
         return out
     slope, intercept = np.polyfit(x, y, 1)
     out.update(slope=float(slope), intercept=float(intercept))
-    out["slope_first"] = float((y[1] - y[0]) / (x[1] - x[0])) if x[1] > x[0] else math.nan
-    out["slope_last"] = float((y[-1] - y[-2]) / (x[-1] - x[-2])) if x[-1] > x[-2] else math.nan
+    ux = np.unique(x)  # repeated amounts (seeds, replicate runs) enter the pairs as their mean
+    uy = np.array([y[x == v].mean() for v in ux])
+    if len(ux) >= 2:
+        out["slope_first"] = float((uy[1] - uy[0]) / (ux[1] - ux[0]))
+        out["slope_last"] = float((uy[-1] - uy[-2]) / (ux[-1] - ux[-2]))
     if n > 2:
         residual = y - (slope * x + intercept)
         s2 = float(residual @ residual) / (n - 2)
@@ -66,10 +72,18 @@ def fit_loglog(work: Sequence[float], ms: Sequence[float], level: float = 0.95) 
 
 
 def _pixels(run: Run) -> Optional[float]:
+    """The run's pixel count: run.json's `resolution`, or (runs recorded before it was) the last
+    `--set resolution=[W,H]` override, else the config text's `resolution: [W, H]`."""
     resolution = run.info.get("resolution")
     if isinstance(resolution, list) and len(resolution) == 2:
         return float(resolution[0]) * float(resolution[1])
-    return None
+    pattern = r"resolution\s*[=:]\s*\[\s*(\d+)\s*,\s*(\d+)\s*\]"
+    for text in reversed([str(o) for o in run.info.get("overrides") or []]):
+        m = re.match(pattern, text.strip())
+        if m:
+            return float(m.group(1)) * float(m.group(2))
+    m = re.search(r"^" + pattern, str(run.info.get("config") or ""), re.MULTILINE)
+    return float(m.group(1)) * float(m.group(2)) if m else None
 
 
 def _numeric(v) -> Optional[float]:
@@ -91,14 +105,14 @@ def _pass_times(cell: Cell) -> Dict[str, float]:
 def series(runs: Sequence[Run]) -> List[dict]:
     """The series the runs hold: {scene, technique, work, fixed, points: [(amount, cell)]}, where
     `work` is a parameter's name or PIXELS and `fixed` the other parameters (text)."""
-    entries: List[Tuple[Cell, Optional[float]]] = []
+    entries: List[Tuple[Cell, Optional[float], str]] = []
     for run in runs:
         pixels = _pixels(run)
         for cell in run.cells:
             if cell.ok and cell.match_round is None:
-                entries.append((cell, pixels))
+                entries.append((cell, pixels, run.path))
     groups: Dict[tuple, List[Tuple[float, Cell]]] = {}
-    for cell, pixels in entries:
+    for cell, pixels, run_path in entries:
         params = {k: v for k, v in cell.params.items()}
         seed = cell.value("seed")
         for name, value in params.items():
@@ -106,18 +120,21 @@ def series(runs: Sequence[Run]) -> List[dict]:
             if amount is None or amount <= 0:
                 continue
             rest = tuple(sorted((k, repr(v)) for k, v in params.items() if k != name))
-            key = (cell.scene, cell.technique, name, rest, pixels, seed)
+            # Runs of one resolution pool; a run whose resolution is unknown stays on its own.
+            key = (cell.scene, cell.technique, name, rest, pixels or run_path, seed)
             groups.setdefault(key, []).append((amount, cell))
         if pixels:
             rest = tuple(sorted((k, repr(v)) for k, v in params.items()))
             key = (cell.scene, cell.technique, PIXELS, rest, None, seed)
             groups.setdefault(key, []).append((pixels, cell))
     out = []
-    for (scene, technique, work, rest, _, _), points in groups.items():
+    for (scene, technique, work, rest, pixels, _), points in groups.items():
         amounts = sorted({a for a, _ in points})
-        if len(amounts) < MIN_POINTS or amounts[-1] / amounts[0] < MIN_SPAN:
+        least = MIN_RUNS if work == PIXELS else MIN_POINTS
+        if len(amounts) < least or amounts[-1] / amounts[0] < MIN_SPAN:
             continue
         out.append({"scene": scene, "technique": technique, "work": work,
+                    "pixels": pixels if isinstance(pixels, float) else math.nan,
                     "fixed": ", ".join(f"{k}={v}" for k, v in rest),
                     "points": sorted(points, key=lambda p: p[0])})
     out.sort(key=lambda s: (s["scene"], s["technique"], s["work"], s["fixed"]))
@@ -136,12 +153,12 @@ def scaling_table(runs: Sequence[Run]) -> pd.DataFrame:
             if fit["n"] < 2:
                 continue
             rows.append({"scene": s["scene"], "technique": s["technique"], "work": s["work"],
-                         "fixed": s["fixed"], "pass": name, "n": fit["n"],
+                         "pixels": s["pixels"], "fixed": s["fixed"], "pass": name, "n": fit["n"],
                          "work_min": min(a for a, _ in pts), "work_max": max(a for a, _ in pts),
                          "ms_min": min(m for _, m in pts), "ms_max": max(m for _, m in pts),
                          "slope": fit["slope"], "slope_lo": fit["lo"], "slope_hi": fit["hi"],
                          "slope_first": fit["slope_first"], "slope_last": fit["slope_last"]})
-    return pd.DataFrame(rows, columns=["scene", "technique", "work", "fixed", "pass", "n",
+    return pd.DataFrame(rows, columns=["scene", "technique", "work", "pixels", "fixed", "pass", "n",
                                        "work_min", "work_max", "ms_min", "ms_max", "slope",
                                        "slope_lo", "slope_hi", "slope_first", "slope_last"])
 
@@ -206,14 +223,17 @@ def scaling_figures(runs: Sequence[Run], out_dir: str, max_passes: int = 8) -> L
         ax.set_yscale("log")
         ax.set_xlabel(f"{s['work']} (work)")
         ax.set_ylabel("wall median per frame [ms]")
-        ax.set_title(f"{s['scene']}: {s['technique']}" + (f"  ({s['fixed']})" if s["fixed"] else ""),
-                     fontsize=8)
+        at = "" if math.isnan(s["pixels"]) else f" at {s['pixels']:.0f} px"
+        fixed = f"  ({s['fixed']})" if s["fixed"] else ""
+        ax.set_title(f"{s['scene']}: {s['technique']}{at}{fixed}", fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="upper left")
         stem = os.path.join(out_dir, f"scaling-{_slug(s['scene'])}-{_slug(s['technique'])}-"
                                      f"{_slug(s['work'])}")
+        if not math.isnan(s["pixels"]):
+            stem += f"-{s['pixels']:.0f}px"
         if s["fixed"]:
-            stem += f"-{abs(hash(s['fixed'])) % 10**6:06d}"
+            stem += "-" + hashlib.sha1(s["fixed"].encode()).hexdigest()[:6]
         for ext in ("png", "svg"):
             fig.savefig(f"{stem}.{ext}", dpi=110)
         plt.close(fig)
@@ -249,8 +269,9 @@ def main(argv=None) -> int:
         for _, r in (whole if not whole.empty else table).iterrows():
             interval = ("" if math.isnan(r["slope_lo"])
                         else f" [{r['slope_lo']:.2f}, {r['slope_hi']:.2f}]")
+            at = "" if math.isnan(r["pixels"]) else f" at {r['pixels']:.0f} px"
             print(f"{r['scene']:16s} {r['technique']:22s} {r['work']:12s} "
-                  f"{r['work_min']:g}..{r['work_max']:g}: frame slope {r['slope']:.2f}{interval} "
+                  f"{r['work_min']:g}..{r['work_max']:g}{at}: frame slope {r['slope']:.2f}{interval} "
                   f"(first {r['slope_first']:.2f}, last {r['slope_last']:.2f})")
     if not harness.empty:
         print(f"cell processes outside their frame loop: median "

@@ -111,7 +111,16 @@ Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io:
   const metrics::NoiseFloor f = metrics::noise_floor(noisy);
   const metrics::UnbiasedErrors u = metrics::unbiased_errors(noisy, test);
   std::optional<metrics::Flicker> flicker;
-  if (previous)
+  // Flicker is relative to the references' level: where both are black (a class with no light in
+  // the view, such as a caustic class of a frame whose caustic is off screen) it has no value, and
+  // is left empty rather than failing the cell.
+  auto lit = [](const trace::ReferenceImage& r) {  // any colour channel above zero
+    const io::Image& m = r.mean;
+    for (size_t i = 0; i < m.pixels.size(); ++i)
+      if (i % size_t(m.channels) < 3 && m.pixels[i] > 0) return true;
+    return false;
+  };
+  if (previous && (lit(previous->reference) || lit(reference)))
     flicker = metrics::flicker(noisy_reference(previous->reference), noisy, previous->test, test);
   return {{"flip", s.flip.mean},
           {"ssim", s.ssim},
