@@ -7,8 +7,10 @@
 
 #include <cmath>
 #include <cstring>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <memory>
+#include <numeric>
 #include <random>
 
 #include "photonbench/photons.h"
@@ -275,6 +277,53 @@ TEST(PhotonTracer, DirectionalLightCoversTheSceneAndDeliversIrradianceTimesArea)
   tracer.trace(direct_only(100000), batch);
   double expected = 2.0 * 4.0 * std::abs(sun.direction.y);  // E A cos(theta)
   EXPECT_NEAR(total_power(batch.photons).x / expected, 1.0, 0.005);
+}
+
+// Photon emission needs no light BVH (Papers III-IV sample lights for shading points; a photon
+// cannot depend on one): the tracer shares its paths among the lights by power. Over 10^4 point
+// lights in four power classes spanning 100x (lamp-hall's), each light's emitted paths follow its
+// share (chi-square against N * Phi_i / sum Phi) and its direct photons carry exactly its power.
+TEST(PhotonTracer, PathsPerLightFollowPowerOverTenThousandLights) {
+  TestScene t;
+  t.object(box_mesh({-1, -1, -1}, {1, 1, 1}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
+  const float classes[] = {0.01f, 0.1f, 0.3f, 1.f};
+  std::vector<float> power;
+  uint32_t state = 12345u;
+  auto next = [&state] {  // a fixed LCG: the same lights on every platform
+    state = state * 1664525u + 1013904223u;
+    return state;
+  };
+  const size_t lights = 10000;
+  for (size_t i = 0; i < lights; ++i) {
+    glm::vec3 p;
+    for (int a = 0; a < 3; ++a) p[a] = -0.9f + 1.8f * float(next() >> 8) / float(1u << 24);
+    power.push_back(classes[(next() >> 16) % 4]);
+    t.light(point_light(p, power.back()));
+  }
+  EmbreeScene world(t.scene, t.state);
+  EmbreePhotonTracer tracer(world);
+  const uint32_t paths = 1000000;
+  TraceSettings s = direct_only(paths);
+  s.keep_light_paths = true;
+  PhotonBatch batch;
+  tracer.trace(s, batch);
+  const std::vector<uint32_t>& emitted = batch.paths.paths_per_light;
+  ASSERT_EQ(emitted.size(), lights);
+  const double total = std::accumulate(power.begin(), power.end(), 0.0);
+  double chi2 = 0;
+  for (size_t i = 0; i < lights; ++i) {
+    const double expected = paths * power[i] / total;
+    chi2 += (emitted[i] - expected) * (emitted[i] - expected) / expected;
+  }
+  // chi-square with lights - 1 degrees of freedom: mean 9999, sd 141; 4.75 sd is p ~ 1e-6.
+  const double dof = double(lights - 1);
+  EXPECT_LT(chi2, dof + 4.75 * std::sqrt(2 * dof)) << "paths per light do not follow power";
+  std::vector<double> carried(lights, 0.0);
+  for (const PhotonRecord& p : batch.photons) carried[p.light] += p.power.x;
+  for (size_t i = 0; i < lights; ++i)
+    ASSERT_NEAR(carried[i] / (4 * glm::pi<double>() * power[i]), 1.0, 1e-4) << "light " << i;
+  std::printf("10^4 lights, 10^6 paths: chi-square %.1f on %.0f degrees of freedom\n", chi2, dof);
 }
 
 TEST(PhotonTracer, PathsAreSplitByPowerAndPhotonTargetKeepsPowerUnbiased) {
