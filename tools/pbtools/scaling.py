@@ -224,8 +224,8 @@ def scaling_figures(runs: Sequence[Run], out_dir: str, max_passes: int = 8) -> L
         ax.set_xlabel(f"{s['work']} (work)")
         ax.set_ylabel("wall median per frame [ms]")
         at = "" if math.isnan(s["pixels"]) else f" at {s['pixels']:.0f} px"
-        fixed = f"  ({s['fixed']})" if s["fixed"] else ""
-        ax.set_title(f"{s['scene']}: {s['technique']}{at}{fixed}", fontsize=8)
+        # The other parameters are in scaling.csv's `fixed` (a technique's whole list does not fit).
+        ax.set_title(f"{s['scene']}: {s['technique']}{at}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="upper left")
         stem = os.path.join(out_dir, f"scaling-{_slug(s['scene'])}-{_slug(s['technique'])}-"
