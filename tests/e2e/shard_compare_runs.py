@@ -4,7 +4,7 @@ fields: what `merge` of a sharded run must give against the same config run in o
 
     shard_compare_runs.py RUN_A RUN_B     exit 0 when equal; else each difference on stdout, exit 1
 
-Compared: the set of cells; each cell.json without its timings (summary, memory, the references'
+Compared: the set of cells; each cell.json without its timings (summary, memory, stages_ms, the references'
 render seconds) and host (device); metrics.csv and counters.csv exactly; frames.csv's (frame, pass)
 rows without their times; the same image files, EXRs pixel for pixel (idiff: their headers hold
 the time they were written), PNGs byte for byte; summary.csv's rows without the timing columns.
@@ -21,7 +21,7 @@ TIMING_COLUMNS = ("wall_ms_median", "wall_ms_p5", "wall_ms_p95", "harness_overhe
 def cell_record(path):
     with open(path, encoding="utf-8") as f:
         record = json.load(f)
-    for key in ("summary", "memory", "device", "log_tail"):
+    for key in ("summary", "memory", "stages_ms", "device", "log_tail"):
         record.pop(key, None)
     for ref in record.get("references", []):
         ref.pop("seconds", None)

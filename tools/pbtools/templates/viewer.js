@@ -200,13 +200,15 @@
     }
     var w = this.swipe, swiping = s.show === 'swipe';
     w.panel.hidden = !swiping;
+    // The swipe images get their sources while hidden too: an image element without one reads as
+    // broken.
+    var a = this.source(s.swipeA), b = this.source(s.swipeB);
+    [[w.a, a], [w.b, b]].forEach(function (pair) {
+      if (pair[1].src && pair[0].getAttribute('src') !== pair[1].src) pair[0].setAttribute('src', pair[1].src);
+      pair[0].hidden = !pair[1].src;
+    });
     if (swiping) {
-      var a = this.source(s.swipeA), b = this.source(s.swipeB);
-      [[w.a, a], [w.b, b]].forEach(function (pair) {
-        if (pair[1].src && pair[0].getAttribute('src') !== pair[1].src) pair[0].setAttribute('src', pair[1].src);
-        pair[0].hidden = !pair[1].src;
-        pair[0].style.transform = transform;
-      });
+      [w.a, w.b].forEach(function (img) { img.style.transform = transform; });
       var at = (s.split * 100).toFixed(2) + '%';
       w.cover.style.clipPath = 'inset(0 0 0 ' + at + ')';
       w.divider.style.left = at;
