@@ -640,7 +640,11 @@ void warn_once(const fs::path& file, const GltfModel& model) {
 // `material_index` already holds (the scene file's own) stay the scene file's.
 void add_gltf(Scene& scene, GltfModel&& model, std::map<std::string, uint32_t>& material_index) {
   std::vector<uint32_t> material_of;
+  std::set<std::string> from_gltf;  // two glTF materials of one name stay two
   for (auto& m : model.materials) {
+    const std::string name = m.name;
+    for (int k = 2; from_gltf.count(m.name); ++k) m.name = fmt::format("{}#{}", name, k);
+    from_gltf.insert(m.name);
     auto [it, added] = material_index.try_emplace(m.name, uint32_t(scene.materials.size()));
     if (added) scene.materials.push_back(m);
     material_of.push_back(it->second);
