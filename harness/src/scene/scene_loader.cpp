@@ -591,6 +591,18 @@ Mesh smooth_normals(const Mesh& mesh) {
     out.triangles.push_back(w);
   }
   for (auto& n : out.normals) n = glm::length(n) > 0 ? glm::normalize(n) : glm::vec3(0, 1, 0);
+  // At a fold sharper than a right angle the mean can face away from a face meeting there: that
+  // corner keeps the face's own normal, so no shading normal points below its triangle.
+  for (auto& t : out.triangles) {
+    const glm::vec3 face = glm::normalize(glm::cross(out.positions[t.y] - out.positions[t.x],
+                                                     out.positions[t.z] - out.positions[t.x]));
+    for (int k = 0; k < 3; ++k)
+      if (!(glm::dot(face, out.normals[t[k]]) > 0)) {
+        out.positions.push_back(out.positions[t[k]]);
+        out.normals.push_back(face);
+        t[k] = uint32_t(out.positions.size() - 1);
+      }
+  }
   return out;
 }
 
