@@ -27,6 +27,8 @@ constexpr double kLumensPerWatt = 683.0;
 // Above this, a node chain is an error rather than a scene (each node has one parent, no cycles).
 constexpr size_t kMaxNodes = 1 << 20;
 constexpr size_t kMaxSamplesPerTrack = 20000;
+// All tracks together: many moving nodes over a long animation would otherwise take minutes.
+constexpr size_t kMaxSamplesInAll = size_t(1) << 22;
 const std::set<std::string> kHandledExtensions = {"KHR_lights_punctual",
                                                   "KHR_materials_transmission", "KHR_materials_ior",
                                                   "KHR_materials_emissive_strength"};
@@ -139,6 +141,7 @@ class Importer {
   std::vector<std::array<std::optional<Channel>, 3>> channels_;  // per node: T, R, S
   std::vector<bool> moves_;
   size_t triangles_ = 0;
+  mutable size_t samples_ = 0;
   std::set<std::string> noted_;
   std::set<std::string> object_names_;
 
@@ -596,6 +599,12 @@ class Importer {
       if (out.empty() || t > out.back() + 1e-5f) out.push_back(t);
     if (out.size() > 2 * kMaxSamplesPerTrack + 1)  // keys alone can be many
       out.resize(2 * kMaxSamplesPerTrack + 1);
+    samples_ += out.size();
+    if (samples_ > kMaxSamplesInAll)
+      fail(
+          fmt::format("animations: {} node(s) moving over {} s need more than {} sampled keys in "
+                      "all",
+                      std::count(moves_.begin(), moves_.end(), true), end, kMaxSamplesInAll));
     return out;
   }
 
