@@ -815,7 +815,7 @@ class Importer {
       mesh.positions.reserve(vertices);
       for (uint32_t v = 0; v < vertices; ++v) {
         mesh.positions.push_back(position(v));
-        glm::vec3 n(float(normals[3 * v]), float(normals[3 * v + 1]), float(normals[3 * v + 2]));
+        glm::vec3 n{float(normals[3 * v]), float(normals[3 * v + 1]), float(normals[3 * v + 2])};
         if (!(glm::length(n) > 1e-12f)) n = face_sum[v];
         mesh.normals.push_back(glm::length(n) > 0 ? glm::normalize(n) : glm::vec3(0, 1, 0));
       }
