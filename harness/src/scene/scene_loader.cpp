@@ -765,7 +765,9 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
       triangles += scene.objects[i].mesh.triangle_count();
     }
     if (auto transforms = gltf->get("transforms")) {
-      for (const auto& [name, spec] : transforms->entries()) {
+      for (const auto& entry : transforms->entries()) {
+        const std::string& name = entry.first;
+        const YamlView& spec = entry.second;
         auto it = std::find_if(scene.objects.begin() + long(first_object), scene.objects.end(),
                                [&](const Object& o) { return o.name == name; });
         if (it == scene.objects.end()) {
