@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz/: config, set, scene, obj) into build-fuzz/ with Debian's
-# clang-14 (AddressSanitizer and UndefinedBehaviorSanitizer on) and runs each from its seed corpus
-# tests/fuzz/corpus/<target>/, growing a working corpus in build-fuzz/corpus/<target>/.
+# Builds the libFuzzer targets (tests/fuzz/: config, set, scene, obj, gltf) into build-fuzz/ with
+# Debian's clang-14 (AddressSanitizer and UndefinedBehaviorSanitizer on) and runs each from its seed
+# corpus tests/fuzz/corpus/<target>/, growing a working corpus in build-fuzz/corpus/<target>/.
 #
-#   scripts/fuzz.sh [--seconds N] [--runs N] [TARGET...]   (default: --seconds 30, all four)
+#   scripts/fuzz.sh [--seconds N] [--runs N] [TARGET...]   (default: --seconds 30, all five)
 #
 # With both limits a target stops at whichever comes first.
 # .ci/run runs each target for a bounded time. A finding (a crash, a sanitizer report, an exception
@@ -24,7 +24,7 @@ while (($#)); do
   esac
 done
 ((${#limit[@]})) || limit=(-max_total_time=30)
-((${#targets[@]})) || targets=(config set scene obj)
+((${#targets[@]})) || targets=(config set scene obj gltf)
 
 cmake -S tests/fuzz -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++-14 > build-fuzz.log 2>&1 ||
   { cat build-fuzz.log; exit 1; }

@@ -14,6 +14,8 @@ main_packages=(
   openimageio-tools  # its CMake package names these tools (iconvert...): find_package fails without
   libyaml-cpp-dev libglm-dev libtbb-dev
   libcli11-dev libfmt-dev libtinyobjloader-dev nlohmann-json3-dev
+  libtinygltf-dev  # glTF 2.0 scenes (harness/src/scene/gltf_import.cpp)
+  glmark2-data  # the Stanford bunny of scenes/bunny-glass.yaml (/usr/share/glmark2/models/bunny.obj)
   python3 python3-matplotlib python3-numpy python3-scipy python3-pandas python3-jinja2  # the report
   ffmpeg  # `video:` runs' videos (photonbench video; without it they are skipped, never failed)
 )
@@ -24,6 +26,7 @@ test_packages=(
   python3-skimage  # bench/bench_metrics: the SSIM and PSNR anchor
   python3-jsonschema  # tests/e2e/schema.sh checks configs and scenes against `photonbench schema`
   clang-format     # scripts/check_format.sh
+  assimp-testmodels  # tests/unit/gltf_import_test.cpp loads its glTF 2.0 fixtures
   clang-14 libfuzzer-14-dev  # scripts/fuzz.sh: libFuzzer targets with ASan/UBSan (tests/fuzz/)
   chromium  # tests/e2e/report_html.sh opens the HTML report headless
   slurm-wlm munge  # tests/e2e/slurm_sweep.sh starts a one-node Slurm (slurmctld, slurmd, sbatch)

@@ -8,12 +8,15 @@
 #include <cmath>
 #include <glm/gtc/constants.hpp>
 #include <map>
+#include <mutex>
 #include <set>
+#include <tuple>
 
 #include "config/config.h"
 #include "config/key_table.h"
 #include "config/yaml_view.h"
 #include "photonbench/error.h"
+#include "scene/gltf_import.h"
 #include "scene/obj_import.h"
 #include "scene/scene.h"
 #include "scene/shapes.h"
@@ -195,7 +198,10 @@ const std::vector<KeyTable> kShapeTables = {
                    {"waves", config::list_type(config::table_type(kWaveTable), 0, false), false,
                     nullptr, ""}}),
     variant_table("shape", "obj", "A Wavefront OBJ file (its MTL materials come with it).",
-                  {{"file", config::string_type(), true, nullptr, "relative to the scene"}})};
+                  {{"file", config::string_type(), true, nullptr, "relative to the scene"},
+                   {"smooth_normals", config::boolean_type(), false, false,
+                    "replace its normals by area-weighted averages over the faces meeting at "
+                    "each position (for a file without vn)"}})};
 
 std::vector<const KeyTable*> pointers(const std::vector<KeyTable>& tables) {
   std::vector<const KeyTable*> out;
@@ -225,6 +231,16 @@ const KeyTable kObjectTable{
       "a name under materials; required unless the shape is an obj with its own"},
      {"transform", config::table_type(kTransformTable), false}}};
 
+const KeyTable kGltfTable{
+    "scene.gltf",
+    "A glTF 2.0 file whose meshes, materials, lights, camera and animations the scene takes.",
+    {{"file", config::string_type(), true, nullptr, "a .gltf or .glb file, relative to the scene"},
+     {"camera", config::integer_type(0, 1 << 20), false, 0,
+      "which of its cameras, when the scene has no 'camera'"},
+     {"animate", config::boolean_type(), false, true, "play its animations"},
+     {"transforms", config::map_of_type(config::table_type(kTransformTable)), false, nullptr,
+      "by object name: replaces the object's motion (a still object's mesh is in world space)"}}};
+
 const KeyTable kSceneTable{
     "scene",
     "A photonbench scene file (scenes/README.md).",
@@ -232,11 +248,16 @@ const KeyTable kSceneTable{
      {"fps", config::number_type(1e-3, 1e4), false, 30, "time = frame / fps"},
      {"frames", config::integer_type(1, config::kMaxMeasuredFrames), false, 32,
       "the length of its default animation"},
-     {"camera", config::table_type(kCameraTable), true},
-     {"lights", config::list_type(config::variants_type(kLights), 0, false), false},
+     {"gltf", config::table_type(kGltfTable), false, nullptr,
+      "objects, materials, lights and camera from a glTF file, before the scene's own"},
+     {"camera", config::table_type(kCameraTable), false, nullptr,
+      "required unless gltf gives one; replaces the glTF camera"},
+     {"lights", config::list_type(config::variants_type(kLights), 0, false), false, nullptr,
+      "a light named as a glTF light replaces it"},
      {"materials", config::map_of_type(config::variants_type(kMaterials)), false, nullptr,
-      "by name"},
-     {"objects", config::list_type(config::table_type(kObjectTable), 1, false), true}}};
+      "by name; one named as a glTF material replaces it"},
+     {"objects", config::list_type(config::table_type(kObjectTable), 1, false), false, nullptr,
+      "required unless gltf gives some"}}};
 
 float number(const YamlView& v, const ValueType& type) { return float(type.number(v)); }
 
@@ -546,6 +567,45 @@ TransformTrack read_transform(const YamlView& v) {
   return t;
 }
 
+// Smooth shading for a mesh whose file gave no normals: the vertices at one position become one,
+// with the area-weighted average of the normals of the faces around it (the cross products'
+// lengths are twice the faces' areas, so summing them weights by area).
+Mesh smooth_normals(const Mesh& mesh) {
+  auto less = [](const glm::vec3& a, const glm::vec3& b) {
+    return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
+  };
+  std::map<glm::vec3, uint32_t, decltype(less)> welded(less);
+  Mesh out;
+  std::vector<uint32_t> remap(mesh.positions.size());
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    auto [it, added] = welded.try_emplace(mesh.positions[i], uint32_t(out.positions.size()));
+    if (added) out.positions.push_back(mesh.positions[i]);
+    remap[i] = it->second;
+  }
+  out.normals.assign(out.positions.size(), glm::vec3(0.0f));
+  for (const auto& t : mesh.triangles) {
+    glm::uvec3 w(remap[t.x], remap[t.y], remap[t.z]);
+    glm::vec3 n = glm::cross(out.positions[w.y] - out.positions[w.x],
+                             out.positions[w.z] - out.positions[w.x]);
+    for (int k = 0; k < 3; ++k) out.normals[w[k]] += n;
+    out.triangles.push_back(w);
+  }
+  for (auto& n : out.normals) n = glm::length(n) > 0 ? glm::normalize(n) : glm::vec3(0, 1, 0);
+  // At a fold sharper than a right angle the mean can face away from a face meeting there: that
+  // corner keeps the face's own normal, so no shading normal points below its triangle.
+  for (auto& t : out.triangles) {
+    const glm::vec3 face = glm::normalize(glm::cross(out.positions[t.y] - out.positions[t.x],
+                                                     out.positions[t.z] - out.positions[t.x]));
+    for (int k = 0; k < 3; ++k)
+      if (!(glm::dot(face, out.normals[t[k]]) > 0)) {
+        out.positions.push_back(out.positions[t[k]]);
+        out.normals.push_back(face);
+        t[k] = uint32_t(out.positions.size() - 1);
+      }
+  }
+  return out;
+}
+
 std::vector<std::string> names_of(const std::map<std::string, uint32_t>& index) {
   std::vector<std::string> out;
   for (const auto& [name, i] : index) out.push_back(name);
@@ -575,13 +635,80 @@ std::vector<fs::path> scene_dirs(const std::vector<fs::path>& search_dirs) {
 
 const KeyTable& scene_table() { return kSceneTable; }
 
+namespace {
+
+// A glTF file's warning once per process per file: the plan, the runner and each cell load the
+// same scene.
+void warn_once(const fs::path& file, const GltfModel& model) {
+  const std::string warning = unsupported_warning(file, model);
+  if (warning.empty()) return;
+  static std::mutex mutex;
+  static std::set<std::string> warned;
+  std::lock_guard lock(mutex);
+  if (warned.insert(warning).second) fmt::print(stderr, "{}\n", warning);
+}
+
+// The glTF model's materials, objects, lights and camera into `scene`; materials whose names
+// `material_index` already holds (the scene file's own) stay the scene file's.
+void add_gltf(Scene& scene, GltfModel&& model, std::map<std::string, uint32_t>& material_index) {
+  std::vector<uint32_t> material_of;
+  std::set<std::string> from_gltf;  // two glTF materials of one name stay two
+  for (auto& m : model.materials) {
+    const std::string name = m.name;
+    for (int k = 2; from_gltf.count(m.name); ++k) m.name = fmt::format("{}#{}", name, k);
+    from_gltf.insert(m.name);
+    auto [it, added] = material_index.try_emplace(m.name, uint32_t(scene.materials.size()));
+    if (added) scene.materials.push_back(m);
+    material_of.push_back(it->second);
+  }
+  for (auto& o : model.objects) {
+    Object object;
+    object.name = o.name;
+    object.shape = std::make_shared<MeshShape>("gltf", o.mesh);
+    object.mesh = std::move(o.mesh);
+    object.material = material_of[o.material];
+    object.transform = std::move(o.transform);
+    scene.objects.push_back(std::move(object));
+  }
+  for (auto& l : model.lights) scene.lights.push_back(std::move(l));
+  if (model.camera) scene.camera = std::move(*model.camera);
+}
+
+Scene load_gltf_scene(const fs::path& file) {
+  GltfModel model = load_gltf(file);
+  warn_once(file, model);
+  Scene scene;
+  scene.name = file.stem().string();
+  scene.file = file;
+  scene.purpose = fmt::format("the glTF file {}", file.filename().string());
+  scene.fps = 30;
+  // The whole animation, or the default length of a still scene.
+  scene.default_frames =
+      model.duration > 0
+          ? uint32_t(std::min<double>(std::ceil(double(model.duration) * scene.fps) + 1,
+                                      config::kMaxMeasuredFrames))
+          : 32;
+  if (!model.camera)
+    throw InputError(fmt::format(
+        "{}: no perspective camera on a node of its scene; a scene file naming it (gltf: {{file: "
+        "...}}) can give the camera",
+        file.string()));
+  std::map<std::string, uint32_t> material_index;
+  add_gltf(scene, std::move(model), material_index);
+  check_frames(scene, 0, scene.default_frames - 1);
+  return scene;
+}
+
+}  // namespace
+
 Scene load_scene(const fs::path& file) {
+  if (is_gltf_path(file)) return load_gltf_scene(file);
   return parse_scene(config::read_text_file(file, config::kMaxYamlBytes, "scene file"), file);
 }
 
 Scene parse_scene(const std::string& text, const fs::path& file) {
   YamlView root = YamlView::parse(text, file.string());
-  const char* keys = "purpose, fps, frames, camera, lights, materials, objects";
+  const char* keys = "purpose, fps, frames, gltf, camera, lights, materials, objects";
   if (root.node().IsNull() || !root.node().IsDefined())
     root.fail(fmt::format("the file is empty; a scene is a mapping of keys ({})", keys));
   if (!root.is_map())
@@ -593,7 +720,9 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
   scene.purpose = kSceneTable.string(root, "purpose");
   scene.fps = float(kSceneTable.number(root, "fps"));
   scene.default_frames = uint32_t(kSceneTable.integer(root, "frames"));
-  scene.camera = read_camera(root["camera"]);
+  const std::optional<YamlView> gltf = root.get("gltf");
+  // Without a glTF file the camera and the objects are required: reading them says so.
+  if (!gltf || root.has("camera")) scene.camera = read_camera(root["camera"]);
 
   std::map<std::string, uint32_t> material_index;
   if (auto materials = root.get("materials")) {
@@ -605,23 +734,82 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
     }
   }
 
+  const fs::path directory = file.parent_path();
+  std::set<std::string> object_names;
+  size_t triangles = 0;
+  if (gltf) {
+    kGltfTable.allow(*gltf);
+    YamlView file_key = (*gltf)["file"];
+    const fs::path gltf_path = directory / file_key.as_string();
+    if (!is_gltf_path(gltf_path)) file_key.fail("expected a .gltf or .glb file");
+    GltfOptions options;
+    options.camera = int(kGltfTable.integer(*gltf, "camera"));
+    options.animate = kGltfTable.boolean(*gltf, "animate");
+    GltfModel model;
+    try {
+      model = load_gltf(gltf_path, options);
+    } catch (const InputError& e) {
+      file_key.fail(e.what());
+    }
+    warn_once(gltf_path, model);
+    if (!root.has("camera") && !model.camera)
+      gltf->fail(
+          fmt::format("{} has no perspective camera on a node of its scene; give the scene "
+                      "a 'camera'",
+                      gltf_path.string()));
+    if (root.has("camera")) model.camera.reset();
+    const size_t first_object = scene.objects.size();
+    add_gltf(scene, std::move(model), material_index);
+    for (size_t i = first_object; i < scene.objects.size(); ++i) {
+      object_names.insert(scene.objects[i].name);
+      triangles += scene.objects[i].mesh.triangle_count();
+    }
+    if (auto transforms = gltf->get("transforms")) {
+      for (const auto& entry : transforms->entries()) {
+        const std::string& name = entry.first;
+        const YamlView& spec = entry.second;
+        auto it = std::find_if(scene.objects.begin() + long(first_object), scene.objects.end(),
+                               [&](const Object& o) { return o.name == name; });
+        if (it == scene.objects.end()) {
+          std::vector<std::string> names(object_names.begin(), object_names.end());
+          std::string hint = config::closest_name(name, names);
+          spec.fail(fmt::format("no object '{}' in {}{}", name, gltf_path.string(),
+                                hint.empty() ? "" : fmt::format("; did you mean '{}'?", hint)));
+        }
+        it->transform = read_transform(spec);
+      }
+    }
+  }
+
   std::set<std::string> light_names;
+  for (const auto& l : scene.lights) light_names.insert(l.light.name);
+  const size_t gltf_lights = scene.lights.size();
   if (auto lights = root.get("lights")) {
     if (!lights->is_sequence()) lights->fail("expected a list of lights");
     for (const auto& spec : lights->elements()) {
-      scene.lights.push_back(read_light(spec, scene.lights.size()));
+      LightTrack light = read_light(spec, scene.lights.size());
+      // A light named as one of the glTF file's replaces it.
+      auto same =
+          std::find_if(scene.lights.begin(), scene.lights.begin() + long(gltf_lights),
+                       [&](const LightTrack& l) { return l.light.name == light.light.name; });
+      if (same != scene.lights.begin() + long(gltf_lights)) {
+        *same = std::move(light);
+        continue;
+      }
+      scene.lights.push_back(std::move(light));
       if (!light_names.insert(scene.lights.back().light.name).second)
         spec["name"].fail(
             fmt::format("a light named '{}' already exists", scene.lights.back().light.name));
     }
   }
 
+  if (gltf && !root.has("objects")) {
+    check_frames(scene, 0, scene.default_frames - 1);
+    return scene;
+  }
   YamlView objects = root["objects"];
   if (!objects.is_sequence() || objects.size() == 0)
     objects.fail("expected a non-empty list of objects");
-  std::set<std::string> object_names;
-  const fs::path directory = file.parent_path();
-  size_t triangles = 0;
   for (const auto& spec : objects.elements()) {
     if (!spec.is_map()) spec.fail("expected an object mapping with a 'shape'");
     kObjectTable.allow(spec);
@@ -689,7 +877,13 @@ Scene parse_scene(const std::string& text, const fs::path& file) {
           material = it->second;
         }
         if (model.parts.size() == 1) part_name = name;
-        add(part_name, std::make_shared<MeshShape>("obj", part.mesh), material);
+        add(part_name,
+            std::make_shared<MeshShape>(
+                "obj", shape_spec.has("smooth_normals") &&
+                               kShapes.back()->boolean(shape_spec, "smooth_normals")
+                           ? smooth_normals(part.mesh)
+                           : part.mesh),
+            material);
       }
     } else {
       auto shape = read_shape(shape_spec);
@@ -708,7 +902,7 @@ namespace {
 bool looks_like_scene(const fs::path& file) {
   try {
     YamlView root = YamlView::load_file(file);
-    return root.is_map() && root.has("camera") && root.has("objects");
+    return root.is_map() && ((root.has("camera") && root.has("objects")) || root.has("gltf"));
   } catch (const InputError&) {
     return false;
   }
@@ -736,7 +930,7 @@ fs::path find_scene(const std::string& name_or_path, const std::vector<fs::path>
     throw InputError(fmt::format("'{}' is not a scene name or path", config::quote(name_or_path)));
   fs::path given(name_or_path);
   bool is_path = name_or_path.find('/') != std::string::npos || given.extension() == ".yaml" ||
-                 given.extension() == ".yml";
+                 given.extension() == ".yml" || is_gltf_path(given);
   if (is_path) {
     std::error_code ec;
     auto status = fs::status(given, ec);
