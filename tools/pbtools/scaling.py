@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats as sstats
 
+from .figures import slug
 from .rundata import WHOLE_FRAME_PASS, Cell, Run, RunError
 
 PIXELS = "pixels"  # the work variable of a resolution series
@@ -141,14 +142,19 @@ def series(runs: Sequence[Run]) -> List[dict]:
     return out
 
 
-def scaling_table(runs: Sequence[Run]) -> pd.DataFrame:
+def _by_pass(s: dict) -> Dict[str, List[Tuple[float, float]]]:
+    """A series' points per pass: name -> [(work, median ms)]."""
+    out: Dict[str, List[Tuple[float, float]]] = {}
+    for amount, cell in s["points"]:
+        for name, ms in _pass_times(cell).items():
+            out.setdefault(name, []).append((amount, ms))
+    return out
+
+
+def scaling_table(runs: Sequence[Run], all_series: Optional[List[dict]] = None) -> pd.DataFrame:
     rows = []
-    for s in series(runs):
-        by_pass: Dict[str, List[Tuple[float, float]]] = {}
-        for amount, cell in s["points"]:
-            for name, ms in _pass_times(cell).items():
-                by_pass.setdefault(name, []).append((amount, ms))
-        for name, pts in sorted(by_pass.items()):
+    for s in series(runs) if all_series is None else all_series:
+        for name, pts in sorted(_by_pass(s).items()):
             fit = fit_loglog([a for a, _ in pts], [m for _, m in pts])
             if fit["n"] < 2:
                 continue
@@ -185,21 +191,15 @@ def harness_table(runs: Sequence[Run]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_" else "-" for c in text).strip("-")
-
-
-def scaling_figures(runs: Sequence[Run], out_dir: str, max_passes: int = 8) -> List[str]:
+def scaling_figures(runs: Sequence[Run], out_dir: str, max_passes: int = 8,
+                    all_series: Optional[List[dict]] = None) -> List[str]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     written = []
-    for s in series(runs):
-        by_pass: Dict[str, List[Tuple[float, float]]] = {}
-        for amount, cell in s["points"]:
-            for name, ms in _pass_times(cell).items():
-                by_pass.setdefault(name, []).append((amount, ms))
+    for s in series(runs) if all_series is None else all_series:
+        by_pass = _by_pass(s)
         # The whole frame and the costliest passes at the largest work: the rest would crowd it.
         names = sorted(by_pass, key=lambda n: -max(m for _, m in by_pass[n]))
         names = [WHOLE_FRAME_PASS] * (WHOLE_FRAME_PASS in by_pass) + \
@@ -228,8 +228,8 @@ def scaling_figures(runs: Sequence[Run], out_dir: str, max_passes: int = 8) -> L
         ax.set_title(f"{s['scene']}: {s['technique']}{at}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="upper left")
-        stem = os.path.join(out_dir, f"scaling-{_slug(s['scene'])}-{_slug(s['technique'])}-"
-                                     f"{_slug(s['work'])}")
+        stem = os.path.join(out_dir, f"scaling-{slug(s['scene'])}-{slug(s['technique'])}-"
+                                     f"{slug(s['work'])}")
         if not math.isnan(s["pixels"]):
             stem += f"-{s['pixels']:.0f}px"
         if s["fixed"]:
@@ -256,11 +256,12 @@ def main(argv=None) -> int:
         return 2
     out = a.out or os.path.join(runs[0].path, "scaling")
     os.makedirs(out, exist_ok=True)
-    table = scaling_table(runs)
+    all_series = series(runs)  # read once: the table and the figures draw the same series
+    table = scaling_table(runs, all_series)
     harness = harness_table(runs)
     table.to_csv(os.path.join(out, "scaling.csv"), index=False, float_format="%.6g")
     harness.to_csv(os.path.join(out, "harness.csv"), index=False, float_format="%.6g")
-    figures = scaling_figures(runs, out)
+    figures = scaling_figures(runs, out, all_series=all_series)
     if table.empty:
         print("scaling: no series (cells differing in one numeric parameter, or runs differing in "
               f"resolution only, with {MIN_POINTS}+ amounts over {MIN_SPAN:g}x)", file=sys.stderr)
