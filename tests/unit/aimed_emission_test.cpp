@@ -1,8 +1,8 @@
-// Aimed emission (reference/aimed_emission.h): the density it gives a light must be 1 on every
-// texel a caustic-type photon can start from, or photon mapping would lose that light; and it must
-// drop most texels where the specular surfaces are small, or it would aim at nothing.
-#include "reference/aimed_emission.h"
-
+// Aimed emission, the photon tracer's density policy (PhotonTracer::aimed_emission_densities,
+// photonbench/photons.h), read through the public interface as techniques and the reference's
+// photon mapping read it: the density it gives a light must be 1 on every texel a caustic-type
+// photon can start from, or photon mapping would lose that light; and it must drop most texels
+// where the specular surfaces are small, or it would aim at nothing.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,8 +22,10 @@ using namespace test_scenes;
 // first interaction was specular, and checks that each started on a texel the aimed density keeps.
 // Returns the fraction of the density's texels that are kept.
 double check_every_caustic_path_is_aimed_at(const EmbreeScene& world, uint32_t paths) {
-  std::vector<std::optional<EmissionDensity>> densities = aimed_emission_densities(world);
-  EmbreePhotonTracer tracer(world);
+  EmbreePhotonTracer embree_tracer(world);
+  PhotonTracer& tracer = embree_tracer;
+  std::vector<std::optional<EmissionDensity>> densities = tracer.aimed_emission_densities();
+  EXPECT_EQ(densities.size(), tracer.light_count());
   TraceSettings ts;
   ts.paths = paths;
   ts.store = kCausticPhotons | kCausticIndirectPhotons;

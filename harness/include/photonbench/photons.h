@@ -361,6 +361,15 @@ class PhotonTracer {
   virtual TraceStats update_origins(const TraceSettings& settings, const ReuseSettings& reuse,
                                     PhotonBatch& batch) = 0;
   virtual TraceStats retrace_marked(const TraceSettings& settings, PhotonBatch& batch) = 0;
+  // Aimed emission, a density policy for techniques that keep only photons whose first interaction
+  // is specular (caustic and caustic-indirect kinds): per light, in emission order, a density that
+  // is 1 on every texel of the emission domain whose rays may reach a non-diffuse surface of the
+  // current frame and 0 elsewhere, so set_emission_density (or a sampler's own placement) drops
+  // only paths that cannot start with a specular hit and keeps the others' expected power. Nothing
+  // (uniform emission) for area emitters and lights that reach no specular surface. Decided
+  // conservatively from bounding spheres, never by sampling (src/trace/aimed_emission.h). Declared
+  // last, so the older methods keep their places in the vtable.
+  virtual std::vector<std::optional<EmissionDensity>> aimed_emission_densities() const = 0;
 };
 
 }  // namespace pb::trace

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <optional>
 
-#include "reference/aimed_emission.h"
 #include "trace/bsdf.h"
 #include "trace/sampling.h"
 
@@ -222,11 +221,12 @@ void PhotonMappingPass::run(uint32_t iteration_seed, double radius_scale2, tbb::
   });
 }
 
-// Aimed emission (aimed_emission.h; README "Photon mapping's cost"): valid because every photon
-// this pass stores had a specular first interaction (ts.store holds caustic kinds only).
+// Aimed emission, the tracer's density policy (PhotonTracer::aimed_emission_densities; README
+// "Photon mapping's cost"): valid because every photon this pass stores had a specular first
+// interaction (ts.store holds caustic kinds only).
 void PhotonMappingPass::aim_emission(tbb::task_arena& arena) {
   std::vector<std::optional<EmissionDensity>> densities;
-  arena.execute([&] { densities = aimed_emission_densities(world_); });
+  arena.execute([&] { densities = tracer_.aimed_emission_densities(); });
   for (uint32_t e = 0; e < densities.size(); ++e)
     if (densities[e]) tracer_.set_emission_density(e, &*densities[e]);
 }

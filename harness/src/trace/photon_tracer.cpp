@@ -11,6 +11,7 @@
 
 #include "io/clock.h"
 #include "photonbench/error.h"
+#include "trace/aimed_emission.h"
 #include "trace/bsdf.h"
 #include "trace/lights.h"
 #include "trace/photon_paths.h"
@@ -534,6 +535,10 @@ void EmbreePhotonTracer::set_emission_density(uint32_t light, const EmissionDens
       density ? std::make_shared<Distribution2D>(density->width, density->height, density->texels)
               : nullptr;
   ++density_version_[light];
+}
+
+std::vector<std::optional<EmissionDensity>> EmbreePhotonTracer::aimed_emission_densities() const {
+  return trace::aimed_emission_densities(world_);
 }
 
 TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, PhotonBatch& out) {

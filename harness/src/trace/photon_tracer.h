@@ -47,6 +47,7 @@ class EmbreePhotonTracer final : public PhotonTracer {
   glm::vec3 light_power(uint32_t light) const override;
   EmitterInfo light(uint32_t light) const override;
   void set_emission_density(uint32_t light, const EmissionDensity* density) override;
+  std::vector<std::optional<EmissionDensity>> aimed_emission_densities() const override;
   TraceStats trace(const TraceSettings& settings, PhotonBatch& out) override;
   TraceStats retrace_invalid(const TraceSettings& settings, PhotonBatch& batch) override;
   TraceStats verify_paths(const TraceSettings& settings, const ReuseSettings& reuse,

@@ -1,4 +1,4 @@
-#include "reference/aimed_emission.h"
+#include "trace/aimed_emission.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -1,7 +1,8 @@
-// Aimed emission for the reference renderer's photon mapping (README "Aimed emission").
-//
-// Photon mapping there keeps only photons whose first interaction was specular (L S ...: caustic
-// and caustic-indirect photons), so a light path whose first hit is diffuse is traced for nothing.
+// Aimed emission, the photon tracer's density policy for techniques that keep only photons whose
+// first interaction was specular (L S ...: caustic and caustic-indirect photons), where a light
+// path whose first hit is diffuse is traced for nothing: the reference renderer's photon mapping
+// (src/reference/README.md "Aimed emission") and any technique, through
+// PhotonTracer::aimed_emission_densities (photonbench/photons.h).
 // aimed_emission_densities gives each delta-origin emitter (point, spot, directional) an emission
 // density (photons.h, EmissionDensity) that is 1 on every texel of its emission domain whose rays
 // may reach a specular surface and 0 elsewhere; the photon tracer divides each photon's power by
