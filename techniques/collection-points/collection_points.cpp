@@ -6,11 +6,18 @@
 
 namespace cp {
 
-void make_points(std::span<const pb::trace::CameraPathRecord> paths, float cap, PointSet& out) {
+void make_points(std::span<const pb::trace::CameraPathRecord> paths, float cap, PointSet& out,
+                 bool per_pixel) {
   out.points.clear();
   out.boxes.clear();
   out.point_of_pixel.assign(paths.size(), CP_NONE);
-  out.behind_specular = out.capped = 0;
+  if (per_pixel) {
+    CpPoint none{};
+    none.material = CP_NONE;
+    out.points.assign(paths.size(), none);
+    out.boxes.assign(paths.size(), pb::toolkit::empty_box());
+  }
+  out.count = out.behind_specular = out.capped = 0;
   out.radius_sum = 0;
   for (const pb::trace::CameraPathRecord& path : paths) {
     if (!pb::trace::ends_diffuse(path) || path.material == ~0u) continue;
@@ -26,9 +33,18 @@ void make_points(std::span<const pb::trace::CameraPathRecord> paths, float cap, 
     if (c.radius >= cap) ++out.capped;
     if (c.specular > 0) ++out.behind_specular;
     out.radius_sum += c.radius;
+    const pb::toolkit::BvhBox box =
+        pb::toolkit::cylinder_box(c.position, c.normal, c.radius, 0.1f * c.radius);
+    ++out.count;
+    if (per_pixel) {
+      out.point_of_pixel[path.pixel] = path.pixel;
+      out.points[path.pixel] = c;
+      out.boxes[path.pixel] = box;
+      continue;
+    }
     out.point_of_pixel[path.pixel] = uint32_t(out.points.size());
     out.points.push_back(c);
-    out.boxes.push_back(pb::toolkit::cylinder_box(c.position, c.normal, c.radius, 0.1f * c.radius));
+    out.boxes.push_back(box);
   }
 }
 

@@ -46,14 +46,19 @@ struct PointSet {
   std::vector<CpPoint> points;
   std::vector<pb::toolkit::BvhBox> boxes;  // the cylinders' boxes
   std::vector<uint32_t> point_of_pixel;    // CP_NONE where the path ended on no diffuse vertex
+  uint32_t count = 0;                      // CPs (points also holds empty slots when per pixel)
   uint32_t behind_specular = 0;            // CPs with at least one S vertex before them
   uint32_t capped = 0;                     // radii cut to the cap
   double radius_sum = 0;
 };
 
 // One CP per camera path that ends on a diffuse vertex (its first), with a cylinder of radius r
-// and height r / 10 (Paper V §3) and that cylinder's box.
-void make_points(std::span<const pb::trace::CameraPathRecord> paths, float cap, PointSet& out);
+// and height r / 10 (Paper V §3) and that cylinder's box. Packed, the CPs follow one another;
+// `per_pixel`, CP i is pixel i's, and a pixel without one holds an empty slot (material CP_NONE,
+// radius 0, an empty box): the same item for the same pixel every frame, which a refit of the
+// BVH needs (the paper's one box per pixel, inactive where the pixel has no CP).
+void make_points(std::span<const pb::trace::CameraPathRecord> paths, float cap, PointSet& out,
+                 bool per_pixel = false);
 
 // The stored photons with the material of the triangle each landed on (CP_NONE without one).
 void make_photons(std::span<const pb::trace::PhotonRecord> photons, const pb::SceneTriangles& scene,

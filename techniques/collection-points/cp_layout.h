@@ -56,7 +56,7 @@ struct CpPhoton {
 
 // Push block of every pass.
 struct CpPush {
-  CP_UINT points;   // collection points this frame
+  CP_UINT points;   // collection points this frame (pixel slots with cp_update: refit)
   CP_UINT photons;  // photons uploaded
   CP_UINT width;
   CP_UINT height;

@@ -8,7 +8,8 @@
 //   photon-trace       caustic light paths L S+ D (the shared tracer), photon-upload their hits
 //                      with the material each landed on;
 //   cp-bvh             the toolkit's box BVH over the CP boxes, rebuilt every frame (§3.2: the
-//                      paper's DXR build; refit made its tracing 10x slower);
+//                      paper's DXR build) or, cp_update: refit, the first build's tree refitted
+//                      over one box slot per pixel (the paper's refit, its tracing 10x slower);
 //   reuse              temporal only: last frame's CPs gathered at each CP (§3.1, Eqs. 3-4);
 //   accumulate         per photon a point walk; every CP whose cylinder holds the hit, of its
 //                      material, sums the flux in fixed point (§3.2);
@@ -40,6 +41,7 @@ namespace tk = pb::toolkit;
 using pb::gpu::Binding;
 
 enum class Accumulator : uint32_t { fixed64, fixed4_28 };
+enum class CpUpdate : uint32_t { rebuild, refit };
 
 struct CpParams {
   uint32_t light_paths = 1048576;
@@ -47,6 +49,7 @@ struct CpParams {
   uint32_t camera_bounces = 6;
   float radius_cap = 0.005f;
   Accumulator accumulator = Accumulator::fixed64;
+  CpUpdate cp_update = CpUpdate::rebuild;
   bool temporal = false;
   float temporal_alpha = 0.8f;
   uint32_t shadow_map_size = pb::kDefaultShadowMapSize;
@@ -71,6 +74,10 @@ constexpr auto kParams = pb::params(
     pb::param("accumulator", &CpParams::accumulator, Accumulator::fixed64, "fixed64|fixed4_28",
               "fixed64: the toolkit's 64-bit fixed-point sums; fixed4_28: Paper V §3.2's 32-bit "
               "format, 4 integer and 28 fractional bits, each add clamped at 15 (counted)"),
+    pb::param("cp_update", &CpParams::cp_update, CpUpdate::rebuild, "rebuild|refit",
+              "rebuild: a new CP BVH every frame (Paper V §3.2); refit: one box slot per pixel, "
+              "the first frame's tree kept and its boxes joined anew bottom-up, the paper's "
+              "refit, which it found an order of magnitude slower to trace"),
     pb::param("temporal", &CpParams::temporal, false,
               "reuse last frame's CPs (Paper V §3.1): a Gaussian gather (sigma 3/4 r, "
               "|dp| <= r, n . n' >= 0.9, same material), then an exponential average"),
@@ -163,7 +170,7 @@ class CollectionPoints final : public pb::Technique {
     }
     {
       auto scope = ctx.pass("collection-points");
-      cp::make_points(paths_.paths, cap_, points_);
+      cp::make_points(paths_.paths, cap_, points_, p_.cp_update == CpUpdate::refit);
       reserve_points(ctx, cur, uint32_t(points_.points.size()));
       std::memcpy(cur.points.mapped(), points_.points.data(),
                   points_.points.size() * sizeof(cp::CpPoint));
@@ -226,7 +233,10 @@ class CollectionPoints final : public pb::Technique {
     pb::gpu::full_barrier(cmd);
     {
       auto scope = ctx.pass("cp-bvh");
-      cur.bvh.record_build(ctx.cmd(), cur.boxes, cur.count);
+      if (p_.cp_update == CpUpdate::refit && cur.bvh.can_refit(cur.count))
+        cur.bvh.record_refit(ctx.cmd(), cur.boxes, cur.count);
+      else
+        cur.bvh.record_build(ctx.cmd(), cur.boxes, cur.count);
     }
     auto dispatch = [&](const pb::gpu::Pipeline& pipeline, const std::vector<pb::gpu::Resource>& r,
                         uint32_t x, uint32_t y) {
@@ -260,7 +270,7 @@ class CollectionPoints final : public pb::Technique {
   struct Set {
     pb::gpu::Buffer points, boxes, radiance;
     tk::BoxBvh bvh;
-    uint32_t count = 0, capacity = 0;
+    uint32_t count = 0, capacity = 0;  // count: CPs, or pixel slots with cp_update: refit
   };
 
   // Room for `count` CPs in `set` and the accumulator (before any of the frame's GPU work is
@@ -298,10 +308,11 @@ class CollectionPoints final : public pb::Technique {
     auto wide = [&](uint32_t at) { return double(s[at]) + double(s[at + 1]) * 4294967296.0; };
     const tk::BoxBvh::Stats bvh = cur.bvh.read_stats();
     const double photons = double(photons_host_.size());
-    pb::count(ctx, kCounters["collection_points"], cur.count);
+    pb::count(ctx, kCounters["collection_points"], points_.count);
     pb::count(ctx, kCounters["collection_points_behind_specular"], points_.behind_specular);
     pb::count(ctx, kCounters["radii_capped"], points_.capped);
-    pb::count(ctx, kCounters["radius_mean"], cur.count > 0 ? points_.radius_sum / cur.count : 0.0);
+    pb::count(ctx, kCounters["radius_mean"],
+              points_.count > 0 ? points_.radius_sum / points_.count : 0.0);
     pb::count(ctx, tk::kPhotonsStoredCounter, photons);
     pb::count(ctx, kCounters["cp_boxes_tested"], wide(CP_STAT_BOXES_TESTED));
     pb::count(ctx, kCounters["cp_boxes_tested_per_photon"],
@@ -356,7 +367,7 @@ constexpr auto kSchema = pb::join_rows(kParams, pb::toolkit::kDirectLightParams)
 
 PB_EXPORT_TECHNIQUE(CollectionPoints, "collection-points", "indirect_caustics",
                     "Paper V of seed 002: collection points at the camera paths' first diffuse "
-                    "vertex, through mirrors and glass, in a GPU BVH rebuilt each frame; caustic "
-                    "photons summed by point walks in fixed point",
+                    "vertex, through mirrors and glass, in a GPU BVH rebuilt (or refitted) each "
+                    "frame; caustic photons summed by point walks in fixed point",
                     kSchema.rows, .counters = kCounters.specs, .check = &CollectionPoints::check,
                     .budget = kBudget)

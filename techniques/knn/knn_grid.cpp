@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "knn_shaders.h"
+#include "photonbench/toolkit/kd_tree.h"
 #include "photonbench/toolkit/technique.h"
 
 namespace knn {
@@ -44,46 +45,14 @@ float automatic_cell_size(glm::vec3 extent, uint32_t photons, uint32_t k, float 
 }
 
 std::vector<KnnPhoton> build_kdtree(std::span<const pb::trace::PhotonRecord> records) {
-  const size_t n = records.size();
-  std::vector<uint32_t> order(n);
-  for (uint32_t i = 0; i < n; ++i) order[i] = i;
-  std::vector<KnnPhoton> tree(n);
-  // Nodes in a complete tree of `count` nodes left of its root: the full levels' half, and the
-  // last level's nodes up to half its capacity.
-  auto left_size = [](size_t count) -> size_t {
-    if (count <= 1) return 0;
-    size_t levels = 0;
-    while ((size_t(2) << levels) <= count) ++levels;  // 2^levels <= count < 2^(levels + 1)
-    const size_t full = (size_t(1) << levels) - 1, last = count - full;
-    const size_t half = size_t(1) << (levels - 1);
-    return (full - 1) / 2 + std::min(last, half);
-  };
-  struct Task {
-    size_t first, end, node;
-  };
-  std::vector<Task> tasks{{0, n, 0}};
-  while (!tasks.empty()) {
-    const Task t = tasks.back();
-    tasks.pop_back();
-    if (t.first >= t.end) continue;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-    for (size_t i = t.first; i < t.end; ++i) {
-      lo = glm::min(lo, records[order[i]].position);
-      hi = glm::max(hi, records[order[i]].position);
-    }
-    const glm::vec3 extent = hi - lo;
-    const uint32_t axis = extent.x >= extent.y && extent.x >= extent.z ? 0
-                          : extent.y >= extent.z                       ? 1
-                                                                       : 2;
-    const size_t median = t.first + left_size(t.end - t.first);
-    std::nth_element(order.begin() + t.first, order.begin() + median, order.begin() + t.end,
-                     [&](uint32_t a, uint32_t b) {
-                       return records[a].position[axis] < records[b].position[axis];
-                     });
-    const pb::trace::PhotonRecord& p = records[order[median]];
-    tree[t.node] = KnnPhoton{p.position, order[median], p.power, axis, p.direction, 0.0f};
-    tasks.push_back({t.first, median, 2 * t.node + 1});
-    tasks.push_back({median + 1, t.end, 2 * t.node + 2});
+  std::vector<glm::vec3> positions(records.size());
+  for (size_t i = 0; i < records.size(); ++i) positions[i] = records[i].position;
+  const pb::toolkit::KdTree balanced(positions);
+  std::vector<KnnPhoton> tree;
+  tree.reserve(balanced.size());
+  for (const pb::toolkit::KdTree::Node& node : balanced.nodes()) {
+    const pb::trace::PhotonRecord& p = records[node.index];
+    tree.push_back(KnnPhoton{p.position, node.index, p.power, node.axis, p.direction, 0.0f});
   }
   return tree;
 }

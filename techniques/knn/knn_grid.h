@@ -58,10 +58,11 @@ float automatic_cell_size(glm::vec3 extent, uint32_t photons, uint32_t k, float 
 // settings.cell_size (or automatic_cell_size), coarsened until there are at most kMaxGridCells.
 GridLayout plan_grid(std::span<const pb::trace::PhotonRecord> records, const Settings& settings);
 
-// The balanced kd-tree of seed 003's baseline (Jensen 1996, "balanced"): each node a photon, in
-// the implicit order of a complete binary tree (node i's children 2i + 1 and 2i + 2; the last
-// level filled from the left), the node the median along the axis of its subtree's largest extent,
-// `axis` set. `index` is the photon's record index, as the grid's.
+// The balanced kd-tree of seed 003's baseline (Jensen 1996, "balanced"): the toolkit's KdTree
+// (photonbench/toolkit/kd_tree.h: each node a photon, the median along its subtree's widest axis,
+// in the implicit order of a complete binary tree, node i's children 2i + 1 and 2i + 2) with each
+// node's photon record laid out for the GPU walk, `axis` set. `index` is the photon's record index,
+// as the grid's.
 std::vector<KnnPhoton> build_kdtree(std::span<const pb::trace::PhotonRecord> records);
 
 // One frame's query statistics (KNN_STAT_* words) and the build's occupied cells.

@@ -45,6 +45,11 @@ void BoxBvh::setup(gpu::Device& gpu, std::string_view name, bool host_readable) 
   runs_ = make("runs", kbvh_runs_comp_spv);
   karras_ = make("hierarchy", kbvh_karras_comp_spv);
   bottom_up_ = make("bottom-up", kbvh_bottomup_comp_spv);
+  const std::vector<gpu::Binding> refit_bindings(9, gpu::Binding::storage_buffer);
+  refit_gather_ = gpu.create_compute_pipeline(name_ + "/refit-gather", kbvh_refit_gather_comp_spv,
+                                              refit_bindings, sizeof(BvhPush));
+  refit_leaves_ = gpu.create_compute_pipeline(name_ + "/refit-leaves", kbvh_refit_leaves_comp_spv,
+                                              refit_bindings, sizeof(BvhPush));
   probe_ = gpu.create_compute_pipeline(name_ + "/probe", kbvh_probe_comp_spv,
                                        std::vector<gpu::Binding>(7, gpu::Binding::storage_buffer),
                                        4 * sizeof(uint32_t));
@@ -56,6 +61,8 @@ void BoxBvh::setup(gpu::Device& gpu, std::string_view name, bool host_readable) 
 void BoxBvh::reserve(uint32_t count) {
   if (count <= capacity_ && nodes_) return;
   capacity_ = std::max<uint32_t>(1024, std::max(count, capacity_ + capacity_ / 2));
+  built_count_ = 0;  // the tree goes with the buffers
+  refit_bounds_ = {};
   const uint64_t n = capacity_;
   const auto readable = host_readable_ ? gpu::Memory::host_visible : gpu::Memory::device_local;
   auto buffer = [&](const char* what, uint64_t bytes, gpu::Memory memory) {
@@ -91,6 +98,7 @@ void BoxBvh::record_build(vk::CommandBuffer cmd, const gpu::Buffer& boxes, uint3
   cmd.fillBuffer(control_.handle(), 0, 3 * sizeof(uint32_t), 0xffffffffu);  // the minima
   cmd.fillBuffer(control_.handle(), PB_BVH_CTL_COUNT * 4, 4, count);
   gpu::full_barrier(cmd);
+  built_count_ = count;
   if (count == 0) return;  // runs stays 0: every walk finds nothing
   dispatch(bounds_);
   dispatch(morton_);
@@ -104,6 +112,41 @@ void BoxBvh::record_build(vk::CommandBuffer cmd, const gpu::Buffer& boxes, uint3
   for (uint32_t pass = 1; pass <= kBottomUpPasses; ++pass) {
     push.pass = pass;
     dispatch(bottom_up_);
+  }
+}
+
+void BoxBvh::record_refit(vk::CommandBuffer cmd, const gpu::Buffer& boxes, uint32_t count) {
+  if (!can_refit(count))
+    throw Error(
+        fmt::format("{}: a refit over {} boxes needs a build over as many first (built: {})", name_,
+                    count, built_count_));
+  const uint64_t bound_bytes = uint64_t(capacity_) * 6 * sizeof(uint32_t);
+  if (refit_bounds_.size() < bound_bytes) {
+    check_storage_range(*gpu_, bound_bytes, fmt::format("{}: {} boxes", name_, count));
+    refit_bounds_ =
+        storage_buffer(*gpu_, name_ + "/refit-bounds", bound_bytes, gpu::Memory::device_local);
+  }
+  const std::vector<gpu::Resource> resources = {&boxes,      &keys_,   &items_, &heads_,
+                                                &run_index_, &unique_, &nodes_, &control_};
+  std::vector<gpu::Resource> refit_resources = resources;
+  refit_resources.push_back(&refit_bounds_);
+  BvhPush push{count, 0, PB_LOOP_BUDGET, 0};
+  const uint32_t groups = gpu::groups_for(count, kGroup);
+  auto dispatch = [&](const gpu::Pipeline& pipeline, const std::vector<gpu::Resource>& bound) {
+    pipeline.bind(cmd, std::span<const gpu::Resource>(bound), push);
+    cmd.dispatch(groups, 1, 1);
+    gpu::full_barrier(cmd);
+  };
+  // All ones: the minima's start, and the maxima's, which the gather keeps complemented.
+  cmd.fillBuffer(refit_bounds_.handle(), 0, uint64_t(count) * 6 * sizeof(uint32_t), 0xffffffffu);
+  cmd.fillBuffer(control_.handle(), PB_BVH_CTL_INNER * 4, 4, 0u);
+  cmd.fillBuffer(control_.handle(), PB_BVH_CTL_LONG_RUNS * 4, 4, 0u);  // a refit cuts no run
+  gpu::full_barrier(cmd);
+  dispatch(refit_gather_, refit_resources);
+  dispatch(refit_leaves_, refit_resources);
+  for (uint32_t pass = 1; pass <= kBottomUpPasses; ++pass) {
+    push.pass = pass;
+    dispatch(bottom_up_, resources);
   }
 }
 
@@ -122,7 +165,7 @@ BoxBvh::Stats BoxBvh::read_stats() const {
 }
 
 uint64_t BoxBvh::bytes() const {
-  uint64_t b = sort_.bytes() + scan_.scratch_bytes() + control_.size();
+  uint64_t b = sort_.bytes() + scan_.scratch_bytes() + control_.size() + refit_bounds_.size();
   for (const gpu::Buffer* x : {&keys_, &items_, &heads_, &run_index_, &unique_, &nodes_})
     b += x->size();
   return b;

@@ -25,7 +25,7 @@ void main() {
   if (i >= push.points) return;
   current = points[i];
   vec4 reused = vec4(0.0);
-  if (push.prev_points > 0u) {
+  if (push.prev_points > 0u && current.material != CP_NONE) {  // (not an empty pixel slot)
     pb_bvh_budget = push.budget;
     if (!pb_bvh_point_walk(current.position)) atomicAdd(stats[CP_STAT_TRUNCATED], 1u);
     PB_ADD64(stats, CP_STAT_REUSE_TESTED, pb_bvh_boxes_tested);

@@ -1,8 +1,9 @@
 // collection-points technique: the toolkit box BVH's point and segment walks against a brute-force
-// search on random boxes (driven on a device, as the plugin drives it), the reuse gates and weight
-// (cp_gather.h, the text the shaders run), a caustic seen in a mirror against its closed form with
-// both accumulators, fixed4_28's clamp at 15, temporal reuse keeping a static scene's mean, and
-// bad parameters refused with their key.
+// search on random boxes (driven on a device, as the plugin drives it), after a build and after a
+// refit over moved boxes, the reuse gates and weight (cp_gather.h, the text the shaders run), a
+// caustic seen in a mirror against its closed form with both accumulators, fixed4_28's clamp at
+// 15, temporal reuse keeping a static scene's mean, a refit giving the rebuild's image, and bad
+// parameters refused with their key.
 #include "collection_points.h"
 
 #include <gtest/gtest.h>
@@ -61,19 +62,12 @@ float meets(const BvhBox& b, glm::vec3 o, glm::vec3 d, float t1) {
   return leave - enter;
 }
 
-// 6,000 random boxes (sizes from 1e-3 to 0.2 of the unit cube, some duplicated centres so that runs
-// of equal Morton codes hold several, some empty), 2,000 point queries (half at box corners and
-// centres, where containment is decided by equality) and 2,000 segments: each walk must call its
-// hook for exactly the items brute force finds, each once.
-TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
-  constexpr uint32_t kBoxes = 6000, kQueries = 4000, kPerQuery = 512;
-  pb::gpu::Device gpu({});
-  TestGBuffer gbuffer(gpu, 8, 8);
-  TestContext ctx(gpu, gbuffer);
-  std::mt19937 rng(11);
+// `count` random boxes (sizes from 1e-3 to 0.2 of the unit cube, some duplicated centres so that
+// runs of equal Morton codes hold several, some empty).
+std::vector<BvhBox> random_boxes(uint32_t count, std::mt19937& rng) {
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  std::vector<BvhBox> boxes(kBoxes);
-  for (uint32_t i = 0; i < kBoxes; ++i) {
+  std::vector<BvhBox> boxes(count);
+  for (uint32_t i = 0; i < count; ++i) {
     glm::vec3 c = i % 7 == 3 ? 0.5f * (boxes[i - 1].lo + boxes[i - 1].hi)
                              : glm::vec3(unit(rng), unit(rng), unit(rng));
     const float size = std::pow(10.0f, -3.0f + 2.3f * unit(rng));
@@ -81,13 +75,21 @@ TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
     boxes[i] = BvhBox{c - half, 0, c + half, 0};
     if (i % 97 == 5) std::swap(boxes[i].lo, boxes[i].hi);  // empty
   }
-  std::vector<ProbeQuery> queries(kQueries);
-  for (uint32_t q = 0; q < kQueries; ++q) {
-    const BvhBox& b = boxes[(q * 7919u) % kBoxes];
+  return boxes;
+}
+
+// `count` queries about `boxes`: the first half points (half of those at box corners and centres,
+// where containment is decided by equality), the second half segments.
+std::vector<ProbeQuery> random_queries(uint32_t count, const std::vector<BvhBox>& boxes,
+                                       std::mt19937& rng) {
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::vector<ProbeQuery> queries(count);
+  for (uint32_t q = 0; q < count; ++q) {
+    const BvhBox& b = boxes[(q * 7919u) % boxes.size()];
     glm::vec3 x = q % 4 == 0   ? b.lo
                   : q % 4 == 1 ? 0.5f * (b.lo + b.hi)
                                : glm::vec3(unit(rng), unit(rng), unit(rng)) * 1.2f - 0.1f;
-    if (q < kQueries / 2) {
+    if (q < count / 2) {
       queries[q] = {glm::vec4(x, 0), glm::vec4(1, 0, 0, 0)};
     } else {
       glm::vec3 d = glm::vec3(unit(rng), unit(rng), unit(rng)) - 0.5f;
@@ -95,64 +97,63 @@ TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
       queries[q] = {glm::vec4(x, 1), glm::vec4(glm::normalize(d), 0.05f + 0.3f * unit(rng))};
     }
   }
-  auto host = [&](const char* name, uint64_t bytes) {
-    return pb::toolkit::storage_buffer(gpu, name, bytes, pb::gpu::Memory::host_visible);
-  };
-  pb::gpu::Buffer box_buffer = host("test/boxes", kBoxes * sizeof(BvhBox));
-  std::memcpy(box_buffer.mapped(), boxes.data(), kBoxes * sizeof(BvhBox));
-  pb::gpu::Buffer query_buffer = host("test/queries", kQueries * sizeof(ProbeQuery));
-  std::memcpy(query_buffer.mapped(), queries.data(), kQueries * sizeof(ProbeQuery));
-  pb::gpu::Buffer found = host("test/found", uint64_t(kQueries) * kPerQuery * 4);
-  pb::gpu::Buffer counts = host("test/counts", kQueries * 16);
-  pb::toolkit::BoxBvh bvh;
-  bvh.setup(gpu, "test/bvh", /* host_readable */ true);
-  bvh.reserve(kBoxes);
-  bvh.record_build(ctx.cmd(), box_buffer, kBoxes);
-  bvh.record_probe(ctx.cmd(), box_buffer, query_buffer, kQueries, found, counts, kPerQuery,
-                   PB_LOOP_BUDGET);
-  ctx.submit();
-  const auto stats = bvh.read_stats();
-  EXPECT_EQ(stats.items, kBoxes);
-  EXPECT_GT(stats.leaves, kBoxes / 2);
-  EXPECT_EQ(stats.inner + 1, stats.leaves) << "a binary tree over the runs";
-  EXPECT_EQ(stats.long_runs, 0u);
-  {  // the tree: from the root every item is reached exactly once, each inside its node's box
-    const auto* nodes = static_cast<const pb::toolkit::BvhNode*>(bvh.nodes().mapped());
-    const auto* items = static_cast<const uint32_t*>(bvh.items().mapped());
-    std::vector<int> reached(kBoxes, 0);
-    std::vector<uint32_t> stack = {0};
-    size_t bad_boxes = 0, steps = 0;
-    while (!stack.empty() && ++steps < 10 * kBoxes) {
-      const pb::toolkit::BvhNode& node = nodes[stack.back()];
-      stack.pop_back();
-      if (node.left != PB_BVH_NONE) {
-        stack.push_back(node.left);
-        stack.push_back(node.right);
-        continue;
+  return queries;
+}
+
+bool is_empty(const BvhBox& b) { return glm::any(glm::greaterThan(b.lo, b.hi)); }
+bool inside(const BvhBox& b, glm::vec3 lo, glm::vec3 hi) {
+  return glm::all(glm::greaterThanEqual(b.lo, lo)) && glm::all(glm::lessThanEqual(b.hi, hi));
+}
+
+// The tree read back: from the root every item is reached exactly once; every child's box lies in
+// its parent's, every item's (non-empty) box in its leaf's.
+void expect_tree_bounds(const pb::toolkit::BoxBvh& bvh, const std::vector<BvhBox>& boxes) {
+  const auto* nodes = static_cast<const pb::toolkit::BvhNode*>(bvh.nodes().mapped());
+  const auto* items = static_cast<const uint32_t*>(bvh.items().mapped());
+  std::vector<int> reached(boxes.size(), 0);
+  std::vector<uint32_t> stack = {0};
+  size_t bad_items = 0, bad_children = 0, steps = 0;
+  while (!stack.empty() && ++steps < 10 * boxes.size()) {
+    const pb::toolkit::BvhNode& node = nodes[stack.back()];
+    stack.pop_back();
+    if (node.left != PB_BVH_NONE) {
+      for (uint32_t child : {node.left, node.right}) {
+        const BvhBox c{nodes[child].lo, 0, nodes[child].hi, 0};
+        if (!is_empty(c) && !inside(c, node.lo, node.hi)) ++bad_children;
+        stack.push_back(child);
       }
-      for (uint32_t j = node.first; j < node.first + node.count; ++j) {
-        ++reached[items[j]];
-        const BvhBox& b = boxes[items[j]];
-        if (b.lo.x <= b.hi.x && b.lo.y <= b.hi.y && b.lo.z <= b.hi.z &&
-            !(glm::all(glm::greaterThanEqual(b.lo, node.lo)) &&
-              glm::all(glm::lessThanEqual(b.hi, node.hi))))
-          ++bad_boxes;
-      }
+      continue;
     }
-    EXPECT_EQ(std::count(reached.begin(), reached.end(), 1), kBoxes) << "items reached once";
-    EXPECT_EQ(bad_boxes, 0u) << "item boxes outside their leaf's box";
+    for (uint32_t j = node.first; j < node.first + node.count; ++j) {
+      ++reached[items[j]];
+      const BvhBox& b = boxes[items[j]];
+      if (!is_empty(b) && !inside(b, node.lo, node.hi)) ++bad_items;
+    }
   }
+  EXPECT_EQ(size_t(std::count(reached.begin(), reached.end(), 1)), boxes.size())
+      << "items reached once";
+  EXPECT_EQ(bad_children, 0u) << "child boxes outside their parent's box";
+  EXPECT_EQ(bad_items, 0u) << "item boxes outside their leaf's box";
+}
+
+// Each query's walk (record_probe's results) against a brute-force search over `boxes`: the hook
+// called for exactly the items brute force finds, each once. Returns the item boxes the walks
+// tested per query.
+double expect_walks_match(const std::vector<BvhBox>& boxes, const std::vector<ProbeQuery>& queries,
+                          const pb::gpu::Buffer& found, const pb::gpu::Buffer& counts,
+                          uint32_t per_query) {
   const auto* f = static_cast<const uint32_t*>(found.mapped());
   const auto* n = static_cast<const uint32_t*>(counts.mapped());
-  size_t total = 0, wrong = 0;
+  size_t total = 0, wrong = 0, tested = 0;
   // Points are compared exactly. A segment that grazes a box (|leave - enter| within 1e-5: the
   // device's reciprocal may round otherwise than the CPU's division) may go either way.
   size_t grazing = 0;
-  for (uint32_t q = 0; q < kQueries; ++q) {
+  const auto count = uint32_t(queries.size());
+  for (uint32_t q = 0; q < count; ++q) {
     std::multiset<uint32_t> got;
     std::set<uint32_t> surely, maybe;
     const glm::vec3 o(queries[q].origin);
-    for (uint32_t i = 0; i < kBoxes; ++i) {
+    for (uint32_t i = 0; i < boxes.size(); ++i) {
       if (queries[q].origin.w == 0) {
         if (contains(boxes[i], o)) surely.insert(i);
         continue;
@@ -164,21 +165,133 @@ TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
       else if (margin >= -1e-5f)
         maybe.insert(i), ++grazing;
     }
-    ASSERT_EQ(n[4 * q + 1], 1u) << "query " << q << " ran out of its budget";
-    ASSERT_LE(n[4 * q], kPerQuery);
-    for (uint32_t k = 0; k < n[4 * q]; ++k) got.insert(f[q * kPerQuery + k]);
+    EXPECT_EQ(n[4 * q + 1], 1u) << "query " << q << " ran out of its budget";
+    EXPECT_LE(n[4 * q], per_query);
+    tested += n[4 * q + 3];
+    for (uint32_t k = 0; k < std::min(n[4 * q], per_query); ++k) got.insert(f[q * per_query + k]);
     total += surely.size();
     bool ok = got.size() == std::set<uint32_t>(got.begin(), got.end()).size();  // each once
     for (uint32_t i : surely) ok = ok && got.count(i) == 1;
     for (uint32_t i : got) ok = ok && (surely.count(i) == 1 || maybe.count(i) == 1);
     if (!ok && wrong++ < 5)
-      ADD_FAILURE() << (q < kQueries / 2 ? "point" : "segment") << " query " << q << ": walk found "
+      ADD_FAILURE() << (q < count / 2 ? "point" : "segment") << " query " << q << ": walk found "
                     << got.size() << ", brute force " << surely.size() << " (+" << maybe.size()
                     << " grazing; nodes " << n[4 * q + 2] << ", boxes " << n[4 * q + 3] << ")";
   }
-  EXPECT_LT(grazing, size_t(kQueries / 4)) << "grazing pairs";
+  EXPECT_LT(grazing, size_t(count / 4)) << "grazing pairs";
   EXPECT_EQ(wrong, 0u);
-  EXPECT_GT(total, size_t(kQueries)) << "the queries must find something to compare";
+  EXPECT_GT(total, size_t(count)) << "the queries must find something to compare";
+  return double(tested) / count;
+}
+
+// The probe's buffers, host-visible.
+struct Probe {
+  static constexpr uint32_t kPerQuery = 512;
+  pb::gpu::Buffer boxes, queries, found, counts;
+  Probe(pb::gpu::Device& gpu, uint32_t box_count, uint32_t query_count) {
+    auto host = [&](const char* name, uint64_t bytes) {
+      return pb::toolkit::storage_buffer(gpu, name, bytes, pb::gpu::Memory::host_visible);
+    };
+    boxes = host("test/boxes", box_count * sizeof(BvhBox));
+    queries = host("test/queries", query_count * sizeof(ProbeQuery));
+    found = host("test/found", uint64_t(query_count) * kPerQuery * 4);
+    counts = host("test/counts", query_count * 16);
+  }
+  void load(const std::vector<BvhBox>& b, const std::vector<ProbeQuery>& q) {
+    std::memcpy(boxes.mapped(), b.data(), b.size() * sizeof(BvhBox));
+    std::memcpy(queries.mapped(), q.data(), q.size() * sizeof(ProbeQuery));
+  }
+  void record(vk::CommandBuffer cmd, const pb::toolkit::BoxBvh& bvh, uint32_t query_count) {
+    bvh.record_probe(cmd, boxes, queries, query_count, found, counts, kPerQuery, PB_LOOP_BUDGET);
+  }
+};
+
+// 6,000 random boxes, 2,000 point queries and 2,000 segments: each walk must call its hook for
+// exactly the items brute force finds, each once.
+TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
+  constexpr uint32_t kBoxes = 6000, kQueries = 4000;
+  pb::gpu::Device gpu({});
+  TestGBuffer gbuffer(gpu, 8, 8);
+  TestContext ctx(gpu, gbuffer);
+  std::mt19937 rng(11);
+  const std::vector<BvhBox> boxes = random_boxes(kBoxes, rng);
+  const std::vector<ProbeQuery> queries = random_queries(kQueries, boxes, rng);
+  Probe probe(gpu, kBoxes, kQueries);
+  probe.load(boxes, queries);
+  pb::toolkit::BoxBvh bvh;
+  bvh.setup(gpu, "test/bvh", /* host_readable */ true);
+  bvh.reserve(kBoxes);
+  bvh.record_build(ctx.cmd(), probe.boxes, kBoxes);
+  probe.record(ctx.cmd(), bvh, kQueries);
+  ctx.submit();
+  const auto stats = bvh.read_stats();
+  EXPECT_EQ(stats.items, kBoxes);
+  EXPECT_GT(stats.leaves, kBoxes / 2);
+  EXPECT_EQ(stats.inner + 1, stats.leaves) << "a binary tree over the runs";
+  EXPECT_EQ(stats.long_runs, 0u);
+  expect_tree_bounds(bvh, boxes);
+  expect_walks_match(boxes, queries, probe.found, probe.counts, Probe::kPerQuery);
+}
+
+// A refit (Paper V §3.2's) keeps the build's tree over boxes that have since moved: a third by
+// up to 0.02, a third anywhere in the cube, empty ones filled and others emptied. Every child
+// must lie in its parent and every walk find exactly what brute force finds over the moved boxes;
+// the walks test more boxes than after a build over them (printed: the cost the paper measured).
+TEST(CollectionPointsBvh, RefitOverMovedBoxesBoundsEveryChildAndFindsWhatBruteForceFinds) {
+  constexpr uint32_t kBoxes = 6000, kQueries = 4000;
+  pb::gpu::Device gpu({});
+  TestGBuffer gbuffer(gpu, 8, 8);
+  TestContext ctx(gpu, gbuffer);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const std::vector<BvhBox> before = random_boxes(kBoxes, rng);
+  std::vector<BvhBox> after = before;
+  const std::vector<BvhBox> elsewhere = random_boxes(kBoxes, rng);
+  for (uint32_t i = 0; i < kBoxes; ++i) {
+    if (i % 97 == 5 || i % 3 == 1) {  // filled, or moved anywhere
+      after[i] = elsewhere[(i + 1) % kBoxes];
+      if (is_empty(after[i])) std::swap(after[i].lo, after[i].hi);
+    } else if (i % 3 == 0) {
+      const glm::vec3 shift = 0.02f * (glm::vec3(unit(rng), unit(rng), unit(rng)) - 0.5f);
+      after[i].lo += shift;
+      after[i].hi += shift;
+    }
+    if (i % 89 == 7) after[i] = pb::toolkit::empty_box();
+  }
+  const std::vector<ProbeQuery> queries = random_queries(kQueries, after, rng);
+  Probe probe(gpu, kBoxes, kQueries);
+  pb::toolkit::BoxBvh bvh;
+  bvh.setup(gpu, "test/bvh", /* host_readable */ true);
+  bvh.reserve(kBoxes);
+  EXPECT_FALSE(bvh.can_refit(kBoxes)) << "no tree yet";
+  EXPECT_THROW(bvh.record_refit(ctx.cmd(), probe.boxes, kBoxes), pb::Error);
+  // The build over `after`: the cost of a fresh tree.
+  probe.load(after, queries);
+  bvh.record_build(ctx.cmd(), probe.boxes, kBoxes);
+  probe.record(ctx.cmd(), bvh, kQueries);
+  ctx.submit();
+  const double built =
+      expect_walks_match(after, queries, probe.found, probe.counts, Probe::kPerQuery);
+  // The build over `before`, then the refit over `after`.
+  probe.load(before, queries);
+  bvh.record_build(ctx.cmd(), probe.boxes, kBoxes);
+  ctx.submit();
+  const uint32_t leaves = bvh.read_stats().leaves;
+  ASSERT_TRUE(bvh.can_refit(kBoxes));
+  EXPECT_FALSE(bvh.can_refit(kBoxes - 1)) << "another count has no tree";
+  probe.load(after, queries);
+  bvh.record_refit(ctx.cmd(), probe.boxes, kBoxes);
+  probe.record(ctx.cmd(), bvh, kQueries);
+  ctx.submit();
+  const auto stats = bvh.read_stats();
+  EXPECT_EQ(stats.leaves, leaves) << "the build's tree kept";
+  EXPECT_EQ(stats.inner + 1, stats.leaves) << "every inner node joined again";
+  EXPECT_EQ(stats.long_runs, 0u);
+  expect_tree_bounds(bvh, after);
+  const double refitted =
+      expect_walks_match(after, queries, probe.found, probe.counts, Probe::kPerQuery);
+  std::printf("boxes tested per query: build %.1f, refit %.1f\n", built, refitted);
+  EXPECT_GT(refitted, built) << "a third of the boxes moved anywhere: the refitted tree is looser";
 }
 
 // ---- The reuse gates (§3.1, Eqs. 3-4) ----
@@ -343,6 +456,32 @@ TEST(CollectionPointsRun, TemporalReuseKeepsAStaticScenesMean) {
   fs::remove_all(dir);
 }
 
+// cp_update: refit (one box slot per pixel, the first build's tree refitted from the third frame
+// on: each of the two frame sets builds once) finds the same CPs for every photon as a rebuild
+// does, and the integer sums do not depend on the order of the adds: the same image, exactly.
+TEST(CollectionPointsRun, RefitGivesTheRebuildsImage) {
+  fs::path dir = work_dir("refit");
+  ASSERT_EQ(run_scene(dir, kMirrorScene,
+                      "{light_paths: 67500000, max_bounces: 3, cp_update: [rebuild, refit]}", 4),
+            0)
+      << "see " << (dir / "log.txt");
+  fs::path rebuild = find_cell(dir, "collection-points", {{"cp_update", "rebuild"}});
+  fs::path refit = find_cell(dir, "collection-points", {{"cp_update", "refit"}});
+  ASSERT_FALSE(rebuild.empty());
+  ASSERT_FALSE(refit.empty());
+  const CounterSums a(rebuild), b(refit);
+  EXPECT_EQ(b["collection_points"], a["collection_points"]);
+  EXPECT_EQ(b["contributions"], a["contributions"]);
+  EXPECT_GT(a["contributions"], 0);
+  EXPECT_EQ(b["truncated_walks"], 0);
+  const pb::io::Image x = frame_image(rebuild, 3, "indirect_caustics");
+  const pb::io::Image y = frame_image(refit, 3, "indirect_caustics");
+  ASSERT_EQ(x.pixels.size(), y.pixels.size());
+  EXPECT_TRUE(x.pixels == y.pixels) << "frame 3, refitted, differs from the rebuild's";
+  EXPECT_GT(mean_red(y), 0.5 * kMirrorExpected);
+  fs::remove_all(dir);
+}
+
 // Ranges, enumerations and the cross-parameter check: refused before any work at the config's
 // file, line and key.
 TEST(CollectionPoints, BadParametersAreRefusedWithTheirKey) {
@@ -369,6 +508,9 @@ TEST(CollectionPoints, BadParametersAreRefusedWithTheirKey) {
             std::string::npos)
       << e;
   EXPECT_EQ(error("{temporal: true, temporal_alpha: 0.5}"), "");
+  e = error("{cp_update: refitted}");
+  EXPECT_NE(e.find("techniques[0].params.cp_update"), std::string::npos) << e;
+  EXPECT_NE(e.find("rebuild"), std::string::npos) << e;
   EXPECT_EQ(error("{camera_bounces: 0}").find("camera_bounces") != std::string::npos, true);
 }
 

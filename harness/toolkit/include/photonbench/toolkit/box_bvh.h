@@ -8,6 +8,7 @@
 //
 //   BoxBvh bvh;  bvh.setup(gpu, "collection-points/bvh");  bvh.reserve(n);
 //   bvh.record_build(cmd, boxes, n);       // boxes: BvhBox[n]; full barriers inside and after
+//   bvh.record_refit(cmd, boxes, n);       // later, over moved boxes: the built tree, new boxes
 //   pipeline.bind(cmd, {..., walk[0], walk[1], walk[2], walk[3]}, push) with
 //   const auto walk = bvh.walk_resources(boxes);
 //
@@ -34,6 +35,10 @@ static_assert(sizeof(BvhBox) == 32 && offsetof(BvhBox, hi) == 16);
 static_assert(sizeof(BvhNode) == 48 && offsetof(BvhNode, hi) == 16 &&
               offsetof(BvhNode, first) == 32);
 
+// A box no walk meets (lo > hi), for an item slot with nothing in it; joined with a box, it leaves
+// that box as it was.
+inline BvhBox empty_box() { return BvhBox{glm::vec3(3.0e38f), 0, glm::vec3(-3.0e38f), 0}; }
+
 // The smallest box around a flat cylinder: axis `normal` (unit), radius r, height h, centred at c.
 BvhBox cylinder_box(glm::vec3 centre, glm::vec3 normal, float radius, float height);
 
@@ -55,6 +60,17 @@ class BoxBvh {
   // Records the build over boxes[0, count), with full barriers between its passes and after the
   // last. The caller puts a barrier before (boxes written).
   void record_build(vk::CommandBuffer cmd, const gpu::Buffer& boxes, uint32_t count);
+  // True when record_refit may follow: a build over `count` boxes was recorded since the buffers
+  // were last replaced (reserve).
+  bool can_refit(uint32_t count) const { return count > 0 && built_count_ == count; }
+  // Records a refit over boxes[0, count), which may have moved, grown, emptied or filled since the
+  // build: the build's tree is kept (its Morton order, leaves and inner nodes), each leaf's box is
+  // joined anew from its items' boxes and the inner nodes' bottom-up by level, as a DXR
+  // acceleration-structure update keeps the topology (Paper V §3.2's refit). Every node then
+  // bounds its children, so walks find what they find after a build; only their cost grows as the
+  // boxes leave the places the tree sorted them into. Needs can_refit(count); full barriers
+  // inside and after, as record_build.
+  void record_refit(vk::CommandBuffer cmd, const gpu::Buffer& boxes, uint32_t count);
   // The walk's four bindings (nodes, items, boxes, control) for toolkit/bvh_walk.glsl.
   std::array<gpu::Resource, 4> walk_resources(const gpu::Buffer& boxes) const;
   // After the build has run (a flush): its counts.
@@ -79,8 +95,11 @@ class BoxBvh {
   uint32_t capacity_ = 0;
   RadixSort sort_;
   PrefixSum scan_;
+  uint32_t built_count_ = 0;  // boxes of the last build since reserve (0: no tree to refit)
   gpu::Pipeline bounds_, morton_, heads_pipeline_, runs_, karras_, bottom_up_, probe_;
+  gpu::Pipeline refit_gather_, refit_leaves_;
   gpu::Buffer keys_, items_, heads_, run_index_, unique_, nodes_, control_;
+  gpu::Buffer refit_bounds_;  // a refit's per-leaf bounds (6 words a leaf), made by the first refit
 };
 
 }  // namespace pb::toolkit
