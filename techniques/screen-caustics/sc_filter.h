@@ -27,8 +27,8 @@ SC_FN float sc_weight_sum(int k) {
 
 // A pixel's photon count as the count buffer holds it: 8-bit saturates at 255 (the thesis's
 // additive blending into an 8-bit pbuffer), float keeps it.
-SC_FN float sc_count(SC_UINT raw, SC_UINT precision) {
-  return precision == SC_PRECISION_8BIT ? float(min(raw, 255u)) : float(raw);
+SC_FN float sc_count(SC_UINT raw, SC_UINT count_precision) {
+  return count_precision == SC_PRECISION_8BIT ? float(min(raw, 255u)) : float(raw);
 }
 
 // Eq. 12.2: the world area a pixel covers at view-axis depth `depth` (d, m) on a surface whose

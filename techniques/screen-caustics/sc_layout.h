@@ -28,9 +28,9 @@
 struct ScPush {
   SC_UINT width;
   SC_UINT height;
-  SC_UINT photons;     // photons uploaded (all kept slots)
-  SC_UINT precision;   // SC_PRECISION_*
-  SC_UINT cell_width;  // pixels per grid cell (the last column and row may be narrower)
+  SC_UINT photons;          // photons uploaded (all kept slots)
+  SC_UINT count_precision;  // SC_PRECISION_* (GLSL reserves "precision")
+  SC_UINT cell_width;       // pixels per grid cell (the last column and row may be narrower)
   SC_UINT cell_height;
   SC_UINT grid;           // cells per side
   SC_UINT area_scaling;   // SC_AREA_*

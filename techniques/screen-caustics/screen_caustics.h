@@ -17,8 +17,9 @@ namespace sc {
 using glm::max;
 using glm::min;
 using glm::sqrt;
-#include "sc_filter.h"
 #include "sc_layout.h"
+// After the layout: the filter reads its SC_PRECISION_* and SC_AREA_* constants.
+#include "sc_filter.h"
 
 enum class CountPrecision : uint32_t { bits8, floating };
 enum class AreaScaling : uint32_t { off, multiply, divide };

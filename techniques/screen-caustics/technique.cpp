@@ -142,7 +142,7 @@ class ScreenCaustics final : public pb::Technique {
     push.width = width_;
     push.height = height_;
     push.photons = kept;
-    push.precision =
+    push.count_precision =
         p_.count_precision == sc::CountPrecision::bits8 ? SC_PRECISION_8BIT : SC_PRECISION_FLOAT;
     push.grid = grid_;
     push.cell_width = (width_ + grid_ - 1) / grid_;

@@ -17,7 +17,7 @@ void main() {
   vec4 g = imageLoad(g_position, pixel);
   vec4 albedo = imageLoad(g_albedo, pixel);  // w: the material type
   vec3 radiance = vec3(0.0);
-  // Caustic photons are stored on diffuse surfaces: the filter's reach onto other pixels is dropped.
+  // Caustic photons are stored on diffuse surfaces only: other pixels get none.
   if (g.w > 0.0 && uint(albedo.w + 0.5) == PB_MATERIAL_DIFFUSE) {
     float weighted = 0.0;
     for (int j = -push.k; j <= push.k; ++j)
@@ -25,7 +25,7 @@ void main() {
         ivec2 q = pixel + ivec2(i, j);
         if (q.x < 0 || q.y < 0 || q.x >= int(push.width) || q.y >= int(push.height)) continue;
         weighted += sc_weight(i, j, push.k) *
-                    sc_count(counts[uint(q.y) * push.width + uint(q.x)], push.precision);
+                    sc_count(counts[uint(q.y) * push.width + uint(q.x)], push.count_precision);
       }
     if (weighted > 0.0) {
       vec3 normal = imageLoad(g_normal, pixel).xyz;

@@ -22,9 +22,9 @@ void main() {
       found |= counts[uint(y) * push.width + uint(x)] != 0u ? 1u : 0u;
   if (found != 0u) atomicOr(any_photon, 1u);
   barrier();
-  bool active = any_photon != 0u;
-  if (gl_LocalInvocationIndex == 0u) cell_active[cell] = active ? 1u : 0u;
-  if (active) return;
+  bool has_photons = any_photon != 0u;
+  if (gl_LocalInvocationIndex == 0u) cell_active[cell] = has_photons ? 1u : 0u;
+  if (has_photons) return;
   for (int y = lo.y + int(gl_LocalInvocationID.y); y < hi.y; y += 8)
     for (int x = lo.x + int(gl_LocalInvocationID.x); x < hi.x; x += 8)
       imageStore(caustics, ivec2(x, y), vec4(0.0, 0.0, 0.0, 1.0));

@@ -17,8 +17,8 @@ void main() {
       ivec2 pixel = ivec2((ndc * 0.5 + 0.5) * vec2(push.width, push.height));
       pixel = clamp(pixel, ivec2(0), ivec2(push.width - 1u, push.height - 1u));
       vec4 g = imageLoad(g_position, pixel);
-      float distance = length(p - frame.camera_position.xyz);
-      if (g.w > 0.0 && abs(distance - g.w) <= push.depth_tolerance * g.w) {
+      float photon_distance = length(p - frame.camera_position.xyz);
+      if (g.w > 0.0 && abs(photon_distance - g.w) <= push.depth_tolerance * g.w) {
         atomicAdd(counts[uint(pixel.y) * push.width + uint(pixel.x)], 1u);
         drawn = true;
       }
