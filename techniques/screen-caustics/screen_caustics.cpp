@@ -54,6 +54,8 @@ uint32_t HaltonEmission::slice_size(uint32_t slice) const {
 }
 
 uint64_t HaltonEmission::prepare(const pb::trace::EmissionFrame& frame) {
+  // Knuth's multiplicative hash, its top 20 bits: up to a million points further on.
+  start_ = frame.seed_scramble ? uint32_t((*frame.seed_scramble + 1u) * 2654435761u) >> 12 : 0;
   light_cdf_.assign(frame.emitters.size() + 1, 0.f);
   double total = 0;
   for (size_t l = 0; l < frame.emitters.size(); ++l) {
@@ -75,14 +77,15 @@ pb::trace::EmissionPoint HaltonEmission::emission(uint64_t k) const {
   const uint64_t i = uint64_t(slice_ % slices_) + k * slices_;
   pb::trace::EmissionPoint e;
   e.id = uint32_t(i);
+  const uint64_t h = start_ + i;  // the Halton index
   // The light, by power (radical inverse in base 11).
-  const float pick = radical_inverse(11, i);
+  const float pick = radical_inverse(11, h);
   const auto at = std::upper_bound(light_cdf_.begin() + 1, light_cdf_.end(), pick);
   e.light =
       uint32_t(std::min<ptrdiff_t>(at - light_cdf_.begin() - 1, ptrdiff_t(light_cdf_.size()) - 2));
   const float light_share = light_cdf_[e.light + 1] - light_cdf_[e.light];
-  glm::vec2 uv{radical_inverse(2, i), radical_inverse(3, i)};
-  e.direction = {radical_inverse(5, i), radical_inverse(7, i)};
+  glm::vec2 uv{radical_inverse(2, h), radical_inverse(3, h)};
+  e.direction = {radical_inverse(5, h), radical_inverse(7, h)};
   float pdf = 1;
   if (e.light < aims_.size() && aims_[e.light]) {
     // Warp the Halton point into the aimed texels: a row by v, a texel of it by u, the rest of

@@ -76,7 +76,9 @@ std::string check(const ScParams& p);
 // direction, 11 for the light), its light chosen by power and its point warped into the light's
 // aimed density (PhotonTracer::aimed_emission_densities), so every photon starts towards a
 // specular object. Each trace lists the photons of one slice, i = slice + k * slices, so that
-// `slices` traces cover all of them once (the thesis's round robin over 8 frames).
+// `slices` traces cover all of them once (the thesis's round robin over 8 frames). A seed axis's
+// scramble starts the sequence further on (a hashed offset of its index), so that its seeds see
+// other photons while the points stay a Halton sequence.
 class HaltonEmission final : public pb::trace::EmissionSampler {
  public:
   // The aimed densities (one per light, nothing: uniform) and the photon count.
@@ -98,6 +100,7 @@ class HaltonEmission final : public pb::trace::EmissionSampler {
   std::vector<std::optional<Aim>> aims_;
   std::vector<float> light_cdf_;
   uint32_t photons_ = 0, slices_ = 1, slice_ = 0;
+  uint64_t start_ = 0;  // the Halton index of photon 0
 };
 
 float radical_inverse(uint32_t base, uint64_t i);

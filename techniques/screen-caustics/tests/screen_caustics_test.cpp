@@ -117,4 +117,25 @@ TEST(ScreenCaustics, HaltonSlicesCoverEveryPhotonOnceInsideTheAim) {
   EXPECT_EQ(seen.size(), 1001u);
 }
 
+// A seed axis's scramble moves the photons further along the Halton sequence: other points, each
+// still listed once by its slice.
+TEST(ScreenCaustics, SeedScrambleGivesOtherHaltonPoints) {
+  sc::HaltonEmission emission;
+  emission.configure({std::nullopt}, 64, 8);  // an area light: uniform emission
+  pb::trace::EmitterInfo light{pb::trace::EmitterKind::quad, glm::vec3(1.f)};
+  pb::trace::EmissionFrame frame;
+  frame.emitters = std::span<const pb::trace::EmitterInfo>(&light, 1);
+  emission.select_slice(3);
+  ASSERT_EQ(emission.prepare(frame), 8u);
+  const glm::vec2 plain = emission.emission(0).uv;
+  frame.seed_scramble = 1;
+  ASSERT_EQ(emission.prepare(frame), 8u);
+  const pb::trace::EmissionPoint scrambled = emission.emission(0);
+  EXPECT_NE(scrambled.uv, plain);
+  EXPECT_EQ(scrambled.id, 3u);
+  frame.seed_scramble = 2;
+  emission.prepare(frame);
+  EXPECT_NE(emission.emission(0).uv, scrambled.uv);
+}
+
 }  // namespace screen_caustics_test
