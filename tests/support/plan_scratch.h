@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "photonbench/error.h"
 #include "plan/plan.h"
 
 namespace pb::testing {
@@ -28,6 +29,16 @@ class PlanScratch {
   run::RunPlan plan(const std::string& yaml, const std::vector<std::string>& overrides = {}) const {
     std::ofstream(dir_ / "config.yaml") << yaml << "plugin_dirs: [" PB_BINARY_DIR "/plugins]\n";
     return run::plan_run(dir_ / "config.yaml", overrides);
+  }
+
+  // The message of the InputError planning `yaml` throws (a refusal), or "" when it plans.
+  std::string refusal(const std::string& yaml) const {
+    try {
+      plan(yaml);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
   }
 
  private:
