@@ -1,20 +1,8 @@
 #include "screen_caustics.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 
-#include "photonbench/error.h"
-
 namespace sc {
-
-std::string check(const ScParams& p) {
-  if (p.retrace_frames > p.photons)
-    return fmt::format(
-        "retrace_frames: {} frames for {} photons leave frames with none to re-trace",
-        p.retrace_frames, p.photons);
-  return "";
-}
 
 float radical_inverse(uint32_t base, uint64_t i) {
   double inverse = 1.0 / base, scale = inverse, out = 0;

@@ -1,5 +1,5 @@
 // screen-caustics' CPU side (seed 001, Ch. 12), a static library linked into the plugin and the
-// test program: the parameters and their check, and the Halton emission of the caustic photons,
+// test program: the parameters, and the Halton emission of the caustic photons,
 // aimed at the specular objects by the tracer's aimed emission and re-traced a slice a frame.
 #pragma once
 
@@ -45,7 +45,8 @@ inline constexpr auto kParams = pb::params(
               "demo: 10,000)"),
     pb::param("retrace_frames", &ScParams::retrace_frames, 8, {1, 1024}, "frames",
               "frames over which every photon is re-traced once: each frame re-traces 1 / "
-              "retrace_frames of them, round robin, and keeps the rest (Ch. 14: 8)"),
+              "retrace_frames of them, round robin, and keeps the rest (Ch. 14: 8); with fewer "
+              "photons than frames, some frames re-trace none"),
     pb::bind(tk::with_range(tk::kMaxBouncesParam, 6, 2, 31,
                             "surface interactions per caustic path; photons are stored at the "
                             "first diffuse hit after specular ones (L S+ D)"),
@@ -67,9 +68,6 @@ inline constexpr auto kParams = pb::params(
               "visible surface's (the photons lie on the surfaces the G-buffer sees)"),
     pb::bind(tk::kShadowMapSizeParam, &ScParams::shadow_map_size));
 // clang-format on
-
-// Values that go together: "" or a message opening with the parameter at fault.
-std::string check(const ScParams& p);
 
 // Where the caustic photons leave the lights: photon i of `photons` is the Halton point
 // (radical inverses in bases 2 and 3 for the emission domain, 5 and 7 for a surface emitter's

@@ -56,8 +56,6 @@ constexpr auto kCounters = pb::counters({
 
 class ScreenCaustics final : public pb::Technique {
  public:
-  static std::string check(const pb::Params& params) { return sc::check(kParams.read(params)); }
-
   void setup(pb::Context& ctx, const pb::Params& params) override {
     p_ = kParams.read(params);
     pb::toolkit::configure_direct_light(ctx, params);
@@ -246,5 +244,4 @@ PB_EXPORT_TECHNIQUE(ScreenCaustics, "screen-caustics", "caustics",
                     "seed 001 Ch. 12: Halton caustic photons aimed at specular objects, re-traced "
                     "over frames, drawn as points into a screen-space count buffer and filtered "
                     "7 x 7 over the grid cells that hold photons, with the pixel-area term",
-                    kSchema.rows, .counters = kCounters.specs, .check = &ScreenCaustics::check,
-                    .budget = kBudget)
+                    kSchema.rows, .counters = kCounters.specs, .budget = kBudget)

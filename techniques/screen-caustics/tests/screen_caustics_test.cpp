@@ -1,7 +1,7 @@
 // screen-caustics technique: Eq. 12.1's weights (sc_filter.h, the text the shaders run) and one
 // filtered photon integrating to its flux under the physical pixel-area term, the 8-bit count's
-// saturation at 255, the Halton emission's round robin and aim, and bad parameters refused with
-// their key.
+// saturation at 255, the Halton emission's round robin, aim and scramble, and bad parameters
+// refused with their key.
 #include "screen_caustics.h"
 
 #include <gtest/gtest.h>
@@ -10,6 +10,8 @@
 #include <set>
 #include <string>
 #include <vector>
+
+#include "plan_scratch.h"
 
 namespace screen_caustics_test {
 
@@ -81,13 +83,27 @@ TEST(ScreenCaustics, EightBitCountsSaturateAt255) {
       300.0, 1e-2);
 }
 
+// Values outside a parameter's range or enumeration are refused before any work, at the config's
+// file, line and key; fewer photons than re-trace frames is allowed (some frames re-trace none).
 TEST(ScreenCaustics, BadParametersAreRefusedWithTheirKey) {
-  sc::ScParams p;
-  EXPECT_EQ(sc::check(p), "");
-  p.photons = 4;
-  p.retrace_frames = 8;
-  const std::string message = sc::check(p);
-  EXPECT_EQ(message.rfind("retrace_frames: ", 0), 0u) << message;
+  pb::testing::PlanScratch scratch("screen_caustics_test_params");
+  auto error = [&](const std::string& params) {
+    return scratch.refusal(
+        "name: t\nscenes: [cornell-glass]\ntechniques:\n  - technique: screen-caustics\n"
+        "    params: " +
+        params + "\n");
+  };
+  std::string e = error("{count_precision: 16bit}");
+  EXPECT_NE(e.find("config.yaml:5:"), std::string::npos) << e;
+  EXPECT_NE(e.find("techniques[0].params.count_precision"), std::string::npos) << e;
+  EXPECT_NE(e.find("8bit, float"), std::string::npos) << e;
+  e = error("{area_scaling: divided}");
+  EXPECT_NE(e.find("techniques[0].params.area_scaling"), std::string::npos) << e;
+  EXPECT_NE(e.find("off, multiply, divide"), std::string::npos) << e;
+  EXPECT_NE(error("{filter_k: 16}").find("techniques[0].params.filter_k"), std::string::npos);
+  EXPECT_NE(error("{photons: 0}").find("techniques[0].params.photons"), std::string::npos);
+  EXPECT_NE(error("{grid: 0}").find("techniques[0].params.grid"), std::string::npos);
+  EXPECT_EQ(error("{photons: 1, retrace_frames: 8}"), "");
 }
 
 // Every Halton photon is listed by exactly one slice, and each starts on a texel the aim keeps,
