@@ -42,6 +42,7 @@ using pb::gpu::Binding;
 
 enum class Accumulator : uint32_t { fixed64, fixed4_28 };
 enum class CpUpdate : uint32_t { rebuild, refit };
+enum class Emission : uint32_t { aimed, power };
 
 struct CpParams {
   uint32_t light_paths = 1048576;
@@ -50,6 +51,7 @@ struct CpParams {
   float radius_cap = 0.005f;
   Accumulator accumulator = Accumulator::fixed64;
   CpUpdate cp_update = CpUpdate::rebuild;
+  Emission emission = Emission::aimed;
   bool temporal = false;
   float temporal_alpha = 0.8f;
   uint32_t shadow_map_size = pb::kDefaultShadowMapSize;
@@ -78,6 +80,11 @@ constexpr auto kParams = pb::params(
               "rebuild: a new CP BVH every frame (Paper V §3.2); refit: one box slot per pixel, "
               "the first frame's tree kept and its boxes joined anew bottom-up, the paper's "
               "refit, which it found an order of magnitude slower to trace"),
+    pb::param("emission", &CpParams::emission, Emission::aimed, "aimed|power",
+              "aimed: each light emits only towards the frame's specular objects, the tracer's "
+              "aimed-emission policy in place of Paper V §4's projection volume (Kim 2019), valid "
+              "because only caustic photons (L S+ D) are kept; power: from the lights by power "
+              "over their whole emission domain"),
     pb::param("temporal", &CpParams::temporal, false,
               "reuse last frame's CPs (Paper V §3.1): a Gaussian gather (sigma 3/4 r, "
               "|dp| <= r, n . n' >= 0.9, same material), then an exponential average"),
@@ -182,7 +189,15 @@ class CollectionPoints final : public pb::Technique {
     }
     {
       auto scope = ctx.pass("photon-trace");
-      ctx.photon_tracer().trace(trace_, batch_);
+      pb::trace::PhotonTracer& tracer = ctx.photon_tracer();
+      if (p_.emission == Emission::aimed) {
+        // Every frame: the specular objects move. A light that reaches none keeps its uniform
+        // emission (no density).
+        const auto densities = tracer.aimed_emission_densities();
+        for (uint32_t light = 0; light < densities.size(); ++light)
+          tracer.set_emission_density(light, densities[light] ? &*densities[light] : nullptr);
+      }
+      tracer.trace(trace_, batch_);
     }
     {
       auto scope = ctx.pass("photon-upload");

@@ -409,6 +409,31 @@ TEST(CollectionPointsRun, CausticSeenInAMirrorMatchesTheClosedForm) {
   fs::remove_all(dir);
 }
 
+// emission: aimed sends the light's photons only where they may meet the mirror (the tracer's
+// aimed-emission policy) and weights them by the share it keeps: the same closed form, from more
+// stored caustic photons for the same light paths than emission over the whole scene square.
+TEST(CollectionPointsRun, AimedEmissionKeepsTheMeanWithMoreCausticPhotons) {
+  fs::path dir = work_dir("aimed");
+  ASSERT_EQ(run_scene(dir, kMirrorScene,
+                      "{light_paths: 67500000, max_bounces: 3, emission: [aimed, power]}"),
+            0)
+      << "see " << (dir / "log.txt");
+  fs::path aimed = find_cell(dir, "collection-points", {{"emission", "aimed"}});
+  fs::path power = find_cell(dir, "collection-points", {{"emission", "power"}});
+  ASSERT_FALSE(aimed.empty());
+  ASSERT_FALSE(power.empty());
+  const CounterSums a(aimed), p(power);
+  std::printf("photons stored: aimed %.0f, power %.0f\n", a["photons_stored"], p["photons_stored"]);
+  EXPECT_GT(a["photons_stored"], 1.5 * p["photons_stored"]);
+  for (const fs::path& cell : {aimed, power}) {
+    const double mean = mean_red(frame_image(cell, 1, "indirect_caustics"));
+    std::printf("%s: mean %.5f, closed form %.5f\n", cell.filename().c_str(), mean,
+                kMirrorExpected);
+    EXPECT_NEAR(mean / kMirrorExpected, 1.0, 0.06) << cell;
+  }
+  fs::remove_all(dir);
+}
+
 // fixed4_28 reproduces the paper's clamp: with the light 250 times brighter (E = 500 W/m^2) and
 // 1,000 paths at 64x48, each photon carries about E A / 1000 x 0.9 > 15 W per channel (A, the
 // emission square over the scene, is above 40 m^2): every add is clamped and counted in every
