@@ -1,7 +1,8 @@
 // A linear BVH over axis-aligned boxes, built on the GPU from scratch each time it is recorded
 // (kernels: harness/shaders/toolkit/bvh/), and walked by a technique's own shaders with
 // toolkit/bvh_walk.glsl's point walk and segment walk and their any-hit hook. Moved out of
-// photon-differentials (seed 003 §5.2, §6.2): 30-bit Morton codes of the box centres, the
+// photon-differentials, which builds it over its footprints' boxes and walks it with its leaf
+// size T (seed 003 §5.2, §5.3, §6.2): 30-bit Morton codes of the box centres, the
 // toolkit's radix sort, runs of equal codes as leaves, Karras's radix tree over the runs, boxes
 // joined bottom-up one level a dispatch. It stands in for DXR's per-frame build over procedural
 // AABBs and its any-hit shader (Paper V §3; thesis §3.2), as Vulkan compute any GPU runs.
