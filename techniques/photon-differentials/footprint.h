@@ -1,5 +1,5 @@
-// photon-differentials on the CPU: the footprint post-processing, kernel, Morton code and T_auto
-// exactly as the GPU passes compute them (shaders/pd_common.glsl), and the checks of the GPU's BVH
+// photon-differentials on the CPU: the footprint post-processing, kernel and T_auto exactly as
+// the GPU passes compute them (shaders/pd_common.glsl), and the checks of the GPU's BVH
 // and query the `verify` test hook runs; the tests call these directly (seed 003, Fabianowski and
 // Dingliana 2009; README.md).
 #pragma once
@@ -14,14 +14,17 @@
 #include <vector>
 
 #include "photonbench/photons.h"
+#include "photonbench/toolkit/box_bvh.h"
 
 namespace pd {
 
 #include "pd_layout.h"
 
+using pb::toolkit::BvhBox;
+using pb::toolkit::BvhNode;
+
 static_assert(sizeof(PdFootprint) == 96 && offsetof(PdFootprint, inverse0) == 16);
 static_assert(offsetof(PdFootprint, flux_density) == 64 && offsetof(PdFootprint, incoming) == 80);
-static_assert(sizeof(PdBox) == 32 && sizeof(PdNode) == 48 && offsetof(PdNode, first) == 32);
 static_assert(sizeof(PdPush) == 64);
 
 constexpr float kPi = 3.14159265358979f;
@@ -72,9 +75,10 @@ inline bool clamp_semiaxis(glm::vec3& a, float r_max) {
 }
 
 // The footprint record and box of photon `index` (shaders/pd_postprocess.comp does the same).
-// Returns false for a degenerate footprint (area 0: it contributes nothing and its box is empty).
+// Returns false for a degenerate footprint (area 0: it contributes nothing and its box is the
+// point where it landed).
 inline bool make_footprint(const pb::trace::PhotonRecord& p, uint32_t index, const PostProcess& pp,
-                           PdFootprint& f, PdBox& box) {
+                           PdFootprint& f, BvhBox& box) {
   glm::vec3 a1, a2;
   scaled_semiaxes(p, pp, a1, a2);
   clamp_semiaxis(a1, pp.r_max);
@@ -123,21 +127,6 @@ inline glm::vec3 contribution(const PdFootprint& f, const glm::vec3& x, const gl
   return f.flux_density * kernel(ellipsoid_q2(f, x), epanechnikov);
 }
 
-// 30-bit Morton code of a point in [0, 1]^3 (10 bits per axis, x in the highest bit of each
-// triple).
-inline uint32_t expand_bits(uint32_t v) {
-  v = (v * 0x00010001u) & 0xFF0000FFu;
-  v = (v * 0x00000101u) & 0x0F00F00Fu;
-  v = (v * 0x00000011u) & 0xC30C30C3u;
-  v = (v * 0x00000005u) & 0x49249249u;
-  return v;
-}
-inline uint32_t morton30(glm::vec3 unit) {
-  glm::vec3 q = glm::clamp(unit * 1024.f, glm::vec3(0.f), glm::vec3(1023.f));
-  return expand_bits(uint32_t(q.x)) * 4 + expand_bits(uint32_t(q.y)) * 2 +
-         expand_bits(uint32_t(q.z));
-}
-
 // §5.3: T_auto = c sum A_i / A_surfaces, at least 1 (rounded to the nearest whole hit count).
 inline uint32_t t_auto(double footprint_area, double surface_area, double c) {
   if (!(surface_area > 0)) return 1;
@@ -150,12 +139,13 @@ inline uint32_t radius_bin(float radius) {
   return std::min<uint32_t>(PD_RADIUS_BINS - 1, uint32_t(radius / float(PD_RADIUS_BIN_WIDTH)));
 }
 
-// The GPU's BVH checked (the `verify` hook): internal node boxes contain their children's, each
-// node's range is its children's two ranges joined, each run leaf's box contains its footprints'
-// boxes, and every footprint 0 .. count-1 lies in exactly one leaf reached from the root. Returns
-// the number of violations; `first` gets the first one described.
-inline size_t check_bvh(const std::vector<PdNode>& nodes, uint32_t runs, uint32_t count,
-                        const std::vector<PdBox>& sorted_boxes, std::string* first = nullptr) {
+// The toolkit BVH built over the footprints' boxes, checked (the `verify` hook): internal node
+// boxes contain their children's, each node's range is its children's two ranges joined, each run
+// leaf's box contains its footprints' boxes (sorted_boxes: in the BVH's item order), and every
+// footprint 0 .. count-1 lies in exactly one leaf reached from the root. Returns the number of
+// violations; `first` gets the first one described.
+inline size_t check_bvh(const std::vector<BvhNode>& nodes, uint32_t runs, uint32_t count,
+                        const std::vector<BvhBox>& sorted_boxes, std::string* first = nullptr) {
   size_t bad = 0;
   auto fail = [&](const std::string& what) {
     if (bad++ == 0 && first) *first = what;
@@ -179,9 +169,9 @@ inline size_t check_bvh(const std::vector<PdNode>& nodes, uint32_t runs, uint32_
       fail("node index out of range or a cycle");
       return bad;
     }
-    const PdNode& n = nodes[i];
+    const BvhNode& n = nodes[i];
     if (n.first + uint64_t(n.count) > count) fail("node " + std::to_string(i) + " range");
-    if (n.left == PD_NONE) {
+    if (n.left == PB_BVH_NONE) {
       if (i < runs - 1) fail("internal node " + std::to_string(i) + " without children");
       for (uint32_t j = n.first; j < n.first + n.count && j < count; ++j) {
         ++reached[j];
@@ -195,13 +185,13 @@ inline size_t check_bvh(const std::vector<PdNode>& nodes, uint32_t runs, uint32_
         fail("child out of range");
         return bad;
       }
-      const PdNode& k = nodes[c];
+      const BvhNode& k = nodes[c];
       if (!contains(n.lo, n.hi, k.lo, k.hi))
         fail("node " + std::to_string(i) + " box misses child " + std::to_string(c));
       if (k.parent != i) fail("child " + std::to_string(c) + " parent");
       stack.push_back(c);
     }
-    const PdNode &l = nodes[n.left], &r = nodes[n.right];
+    const BvhNode &l = nodes[n.left], &r = nodes[n.right];
     if (l.first != n.first || r.first != l.first + l.count || l.count + r.count != n.count)
       fail("node " + std::to_string(i) + " range is not its children's");
   }

@@ -30,41 +30,16 @@ struct PdFootprint {
   float pad;
 };
 
-// The ellipsoid's axis-aligned box (what the BVH bounds). 32 bytes.
-struct PdBox {
-  PD_VEC3 lo;
-  PD_UINT pad0;
-  PD_VEC3 hi;
-  PD_UINT pad1;
-};
-
-// A node of the linear BVH (seed 003 §5.2): internal nodes 0 .. U-2 (Karras 2012 over the U
-// distinct Morton codes, node 0 the root), then the U runs of equal codes as leaves U-1 .. 2U-2.
-// Every node covers sorted footprints [first, first + count). 48 bytes.
-struct PdNode {
-  PD_VEC3 lo;
-  PD_UINT left;  // child node, PD_NONE for a run (a leaf that cannot be split)
-  PD_VEC3 hi;
-  PD_UINT right;
-  PD_UINT first;
-  PD_UINT count;
-  PD_UINT parent;  // PD_NONE at the root
-  PD_UINT visits;  // the bottom-up pass's arrivals
-};
-
-#define PD_NONE 0xffffffffu
+// The ellipsoid's axis-aligned box is the toolkit's BvhBox (photonbench/toolkit/box_bvh_layout.h):
+// the toolkit's BVH (seed 003 §5.2, §6.2) is built over the boxes, in photon order.
 
 // Words of the control buffer (uint).
-#define PD_CTL_MIN 0u             // 3 words: the hits' bounds, order-preserving float bits
-#define PD_CTL_MAX 3u             // 3 words
-#define PD_CTL_RUNS 6u            // U, the distinct Morton codes
 #define PD_CTL_THRESHOLD 7u       // T used: nodes of at most T hits are leaves
 #define PD_CTL_T_AUTO 8u          // T_auto of this frame
 #define PD_CTL_INNER 9u           // inner nodes (hit count above T)
 #define PD_CTL_LEAVES 10u         // leaves (runs and fused nodes) below an inner node
 #define PD_CTL_AREA 11u           // sum of footprint areas, float bits, m^2
 #define PD_CTL_DEGENERATE 12u     // footprints dropped (a singular ellipsoid)
-#define PD_CTL_LONG_RUNS 13u      // runs longer than the loop budget (their bounds cut short)
 #define PD_CTL_QUERIES 14u        // G-buffer samples queried
 #define PD_CTL_TESTED 16u         // 2 words (64-bit): footprints tested in visited leaves
 #define PD_CTL_CONTRIBUTING 18u   // 2 words: footprints containing the query point

@@ -10,10 +10,12 @@
 //   postprocess    per hit the compressed (|dp|^-3/4), smoothed (s, or 5 for specular-only
 //                  paths) and clamped (r_max) semi-axes, the skewed ellipsoid and its box, Table
 //                  3's radius histogram; the footprint areas summed and T_auto (§4.3, §5.3, §7);
-//   build          30-bit Morton codes, the toolkit's stable radix sort, runs of equal codes as
-//                  leaves, the radix tree over the runs, bottom-up boxes and counts with leaves of
-//                  at most T hits fused (§5.2, §6.2);
-//   query          per G-buffer sample the BVH walk and Eq. 1's sum, radiance albedo / pi x E.
+//   build          the toolkit's box BVH over the footprints' boxes (photonbench/toolkit/box_bvh.h:
+//                  30-bit Morton codes, its stable radix sort, runs of equal codes as leaves, the
+//                  radix tree over the runs, bottom-up boxes, §5.2, §6.2), and the counts of the
+//                  tree the query walks, nodes of at most T hits fused into leaves (§5.3);
+//   query          per G-buffer sample the toolkit's point walk with leaf size T, Eq. 1's sum in
+//                  its any-hit hook, radiance albedo / pi x E.
 // README.md gives the parameters, every choice the paper leaves open, the deviations and the
 // measured figures. When it fails: large footprints (high s, r_max, sparse photons) make queries
 // slow and blur, and a query walk is cut at llvmpipe's loop limit (counted, warned).
@@ -35,7 +37,7 @@
 #include "photonbench/error.h"
 #include "photonbench/plugin.h"
 #include "photonbench/scene_layout.h"
-#include "photonbench/toolkit/radix_sort.h"
+#include "photonbench/toolkit/box_bvh.h"
 
 namespace {
 
@@ -141,7 +143,8 @@ constexpr auto kCounters = pb::counters({
     {"nodes_fetched", PB_COUNTER_WORK, "nodes",
      "nodes the queries read (popped), boxes tested or not"},
     {"bytes_read_per_query", PB_COUNTER_RATIO, "bytes",
-     "node and footprint records a query reads: (nodes_fetched 48 + hits_tested 96) / queries"},
+     "records a query reads: (nodes_fetched 48 + hits_tested (4 + 96: item index and footprint)) "
+     "/ queries"},
     {"hits_per_query", PB_COUNTER_RATIO, "hits", "hits_contributing / queries (Table 2's k_PD)"},
     {"hits_tested_per_query", PB_COUNTER_RATIO, "hits", "hits_tested / queries"},
     {"truncated_queries", PB_COUNTER_WORK, "samples", "queries cut short by the loop budget"},
@@ -151,9 +154,10 @@ constexpr auto kCounters = pb::counters({
     {"footprint_area", PB_COUNTER_SIZE, "m^2", "sum of the footprints' areas pi |a1 x a2|"},
     {"surface_area", PB_COUNTER_SIZE, "m^2", "the surface area T_auto used (params_resolved)"},
     {"bytes_total", PB_COUNTER_SIZE, "bytes", "GPU memory of the technique's buffers"},
-    {"bytes_bvh", PB_COUNTER_SIZE, "bytes", "the BVH's nodes and sorted footprints"},
+    {"bytes_bvh", PB_COUNTER_SIZE, "bytes",
+     "the BVH's buffers, sort and scan scratch, and the footprints in its order"},
     {"bvh_violations", PB_COUNTER_WORK, "checks",
-     "verify: BVH invariants broken (footprint.h check_bvh)"},
+     "verify: BVH invariants broken (footprint.h check_bvh), footprints out of its order"},
     {"query_mismatches", PB_COUNTER_WORK, "samples",
      "verify: sampled queries off the brute-force sum"},
     {"query_checked", PB_COUNTER_WORK, "samples", "verify: sampled queries compared"},
@@ -177,8 +181,6 @@ constexpr size_t kFirstRadiusBin = &kCounters["radius_0p00_0p05"] - kCounters.sp
 static_assert(kFirstRadiusBin + PD_RADIUS_BINS == kCounters.size());
 
 constexpr uint32_t kGroup = 256;
-constexpr uint32_t kMortonBits = 30;      // §6.2
-constexpr uint32_t kBottomUpPasses = 32;  // > the radix tree's depth over distinct 30-bit codes
 
 class PhotonDifferentials final : public pb::Technique {
  public:
@@ -220,9 +222,9 @@ class PhotonDifferentials final : public pb::Technique {
                                  vk::Format::eR32G32B32A32Sfloat, vk::ImageUsageFlagBits::eStorage);
     control_ = tk::storage_buffer(gpu, "photon-differentials/control", PD_CTL_WORDS * 4,
                                   pb::gpu::Memory::host_visible);
-    sort_.setup(gpu, "photon-differentials/morton");
-    scan_.setup(gpu);
-    std::vector<Binding> bindings(12, Binding::storage_buffer);
+    // The verify hook reads the BVH on the host: its buffers are host-visible then.
+    bvh_.setup(gpu, "photon-differentials/bvh", /* host_readable */ verify_);
+    std::vector<Binding> bindings(10, Binding::storage_buffer);  // pd_common.glsl's
     bindings.insert(bindings.end(), 4, Binding::storage_image);
     auto make = [&](const char* name, std::span<const uint32_t> spirv) {
       return gpu.create_compute_pipeline(std::string("photon-differentials/") + name, spirv,
@@ -230,11 +232,7 @@ class PhotonDifferentials final : public pb::Technique {
     };
     postprocess_ = make("postprocess", kpd_postprocess_comp_spv);
     reduce_ = make("reduce", kpd_reduce_comp_spv);
-    morton_ = make("morton", kpd_morton_comp_spv);
-    gather_ = make("gather", kpd_gather_comp_spv);
-    runs_ = make("runs", kpd_runs_comp_spv);
-    karras_ = make("hierarchy", kpd_karras_comp_spv);
-    bottom_up_ = make("bottom-up", kpd_bottomup_comp_spv);
+    tree_ = make("tree", kpd_tree_comp_spv);
     query_ = make("query", kpd_query_comp_spv);
     reserve(ctx, 1024);
   }
@@ -284,9 +282,10 @@ class PhotonDifferentials final : public pb::Technique {
     push.fixed_threshold = fixed_threshold_;
     push.budget = PB_LOOP_BUDGET;
     const pb::GBuffer g = ctx.shared().gbuffer_images();
+    const auto walk = bvh_.walk_resources(boxes_);
     const std::vector<pb::gpu::Resource> resources = {
-        &photons_, &footprints_, &boxes_,   &sorted_,   &keys_,     &values_, &heads_,  &run_index_,
-        &unique_,  &nodes_,      &control_, &partials_, g.position, g.normal, g.albedo, &radiance_};
+        &photons_, &footprints_, &boxes_, &control_,  &partials_, &sorted_, walk[0],
+        walk[1],   walk[2],      walk[3], g.position, g.normal,   g.albedo, &radiance_};
     auto dispatch = [&](vk::CommandBuffer cmd, const pb::gpu::Pipeline& pipeline, uint32_t groups) {
       if (groups == 0) return;
       pipeline.bind(cmd, std::span<const pb::gpu::Resource>(resources), push);
@@ -305,40 +304,12 @@ class PhotonDifferentials final : public pb::Technique {
       dispatch(cmd, reduce_, 1);
     }
     {
+      // The toolkit's build over the boxes (barriers inside and after), then the footprints in
+      // its order and the counts of the tree as the query walks it with leaf size T.
       auto scope = ctx.pass("build");
-      {
-        auto step = ctx.pass("morton");
-        dispatch(ctx.cmd(), morton_, groups);
-      }
-      {
-        auto step = ctx.pass("sort");
-        vk::CommandBuffer cmd = ctx.cmd();
-        sort_.record(cmd, keys_, values_, count, kMortonBits);
-        pb::gpu::full_barrier(cmd);
-      }
-      {
-        auto step = ctx.pass("runs");
-        vk::CommandBuffer cmd = ctx.cmd();
-        dispatch(cmd, gather_, groups);
-        if (count > 0) {
-          scan_.record(cmd, heads_, run_index_, count, &control_, PD_CTL_RUNS);
-          pb::gpu::full_barrier(cmd);
-        }
-        dispatch(cmd, runs_, groups);
-      }
-      {
-        auto step = ctx.pass("hierarchy");
-        vk::CommandBuffer cmd = ctx.cmd();
-        dispatch(cmd, karras_, groups);
-        // One level a dispatch (pd_bottomup.comp): at most 30 internal levels over 30-bit codes.
-        pd::PdPush level = push;
-        for (uint32_t pass = 1; pass <= kBottomUpPasses && groups > 0; ++pass) {
-          level.budget = pass;
-          bottom_up_.bind(cmd, std::span<const pb::gpu::Resource>(resources), level);
-          cmd.dispatch(groups, 1, 1);
-          pb::gpu::full_barrier(cmd);
-        }
-      }
+      vk::CommandBuffer cmd = ctx.cmd();
+      bvh_.record_build(cmd, boxes_, count);
+      dispatch(cmd, tree_, groups);
     }
     {
       auto scope = ctx.pass("query");
@@ -360,7 +331,7 @@ class PhotonDifferentials final : public pb::Technique {
     capacity_ = std::max<uint32_t>(1024, std::max(count, capacity_ + capacity_ / 2));
     pb::gpu::Device& gpu = ctx.gpu();
     const uint64_t n = capacity_;
-    // The verify hook reads the BVH on the host: its buffers are host-visible then.
+    // The verify hook reads the boxes and footprints on the host: host-visible then.
     const auto readable = verify_ ? pb::gpu::Memory::host_visible : pb::gpu::Memory::device_local;
     auto buffer = [&](const char* name, uint64_t bytes, pb::gpu::Memory memory) {
       tk::check_storage_range(gpu, bytes, fmt::format("photon-differentials: {} hits", count));
@@ -368,25 +339,17 @@ class PhotonDifferentials final : public pb::Technique {
     };
     photons_ =
         buffer("photons", n * sizeof(pb::trace::PhotonRecord), pb::gpu::Memory::host_visible);
-    footprints_ = buffer("footprints", n * sizeof(pd::PdFootprint), pb::gpu::Memory::device_local);
-    boxes_ = buffer("boxes", n * sizeof(pd::PdBox), readable);
+    footprints_ = buffer("footprints", n * sizeof(pd::PdFootprint), readable);
+    boxes_ = buffer("boxes", n * sizeof(pd::BvhBox), readable);
     sorted_ = buffer("sorted-footprints", n * sizeof(pd::PdFootprint), readable);
-    keys_ = buffer("keys", n * 4, pb::gpu::Memory::device_local);
-    values_ = buffer("values", n * 4, readable);
-    heads_ = buffer("heads", n * 4, pb::gpu::Memory::device_local);
-    run_index_ = buffer("run-index", n * 4, pb::gpu::Memory::device_local);
-    unique_ = buffer("unique-keys", n * 4, pb::gpu::Memory::device_local);
-    nodes_ = buffer("nodes", 2 * n * sizeof(pd::PdNode), readable);
     partials_ = buffer("partials", uint64_t(pb::gpu::groups_for(capacity_, kGroup)) * 4,
                        pb::gpu::Memory::device_local);
-    sort_.reserve(capacity_);
-    scan_.reserve(capacity_);
+    bvh_.reserve(capacity_);
   }
 
   uint64_t bytes_total() const {
-    uint64_t b = sort_.bytes() + scan_.scratch_bytes() + control_.size() + radiance_.bytes();
-    for (const pb::gpu::Buffer* x : {&photons_, &footprints_, &boxes_, &sorted_, &keys_, &values_,
-                                     &heads_, &run_index_, &unique_, &nodes_, &partials_})
+    uint64_t b = bvh_.bytes() + control_.size() + radiance_.bytes();
+    for (const pb::gpu::Buffer* x : {&photons_, &footprints_, &boxes_, &sorted_, &partials_})
       b += x->size();
     return b;
   }
@@ -394,7 +357,8 @@ class PhotonDifferentials final : public pb::Technique {
   void report(pb::Context& ctx, uint32_t count, float surface) {
     const uint32_t* c = static_cast<const uint32_t*>(control_.mapped());
     auto wide = [&](uint32_t at) { return double(c[at]) + double(c[at + 1]) * 4294967296.0; };
-    const uint32_t runs = count > 0 ? c[PD_CTL_RUNS] : 0;
+    const pb::toolkit::BoxBvh::Stats bvh = bvh_.read_stats();
+    const uint32_t runs = bvh.leaves;
     uint32_t inner = c[PD_CTL_INNER], leaves = c[PD_CTL_LEAVES];
     if (inner == 0 && runs > 0) leaves = 1;  // the root alone, a leaf
     const double queries = c[PD_CTL_QUERIES];
@@ -413,8 +377,8 @@ class PhotonDifferentials final : public pb::Technique {
     pb::count(ctx, kCounters["nodes_visited"], wide(PD_CTL_NODES_VISITED));
     pb::count(ctx, kCounters["nodes_fetched"], wide(PD_CTL_NODES_FETCHED));
     pb::count(ctx, kCounters["bytes_read_per_query"],
-              queries > 0 ? (wide(PD_CTL_NODES_FETCHED) * sizeof(pd::PdNode) +
-                             wide(PD_CTL_TESTED) * sizeof(pd::PdFootprint)) /
+              queries > 0 ? (wide(PD_CTL_NODES_FETCHED) * sizeof(pd::BvhNode) +
+                             wide(PD_CTL_TESTED) * (sizeof(uint32_t) + sizeof(pd::PdFootprint))) /
                                 queries
                           : 0.0);
     pb::count(ctx, kCounters["hits_per_query"],
@@ -424,20 +388,20 @@ class PhotonDifferentials final : public pb::Technique {
     pb::count(ctx, kCounters["truncated_queries"], c[PD_CTL_TRUNCATED]);
     pb::count(ctx, kCounters["footprints_degenerate"], c[PD_CTL_DEGENERATE]);
     pb::count(ctx, kCounters["semiaxes_clamped"], c[PD_CTL_CLAMPED]);
-    pb::count(ctx, kCounters["long_runs"], c[PD_CTL_LONG_RUNS]);
+    pb::count(ctx, kCounters["long_runs"], bvh.long_runs);
     pb::count(ctx, kCounters["footprint_area"],
               count > 0 ? std::bit_cast<float>(c[PD_CTL_AREA]) : 0.0);
     pb::count(ctx, kCounters["surface_area"], surface);
     pb::count(ctx, kCounters["bytes_total"], double(bytes_total()));
-    pb::count(ctx, kCounters["bytes_bvh"], double(nodes_.size() + sorted_.size()));
+    pb::count(ctx, kCounters["bytes_bvh"], double(bvh_.bytes() + sorted_.size()));
     for (uint32_t b = 0; b < PD_RADIUS_BINS; ++b)
       pb::count(ctx, kCounters.specs[kFirstRadiusBin + b], c[PD_CTL_HISTOGRAM + b]);
     if (c[PD_CTL_TRUNCATED] > 0)
       ctx.warn(fmt::format("photon-differentials: {} queries cut short by the loop budget",
                            c[PD_CTL_TRUNCATED]));
-    if (c[PD_CTL_LONG_RUNS] > 0)
+    if (bvh.long_runs > 0)
       ctx.warn(fmt::format("photon-differentials: {} Morton runs longer than the loop budget",
-                           c[PD_CTL_LONG_RUNS]));
+                           bvh.long_runs));
     size_t violations = 0, mismatches = 0, checked = 0, footprints_off = 0, totals_off = 0;
     if (verify_ && count > 0) {
       verify(ctx, count, runs, violations, mismatches, checked);
@@ -457,7 +421,7 @@ class PhotonDifferentials final : public pb::Technique {
   // and Table 3's histogram bins.
   void verify_postprocess(pb::Context& ctx, uint32_t count, float surface, size_t& footprints_off,
                           size_t& totals_off) {
-    const auto* sorted = static_cast<const pd::PdFootprint*>(sorted_.mapped());
+    const auto* footprints = static_cast<const pd::PdFootprint*>(footprints_.mapped());
     const uint32_t* c = static_cast<const uint32_t*>(control_.mapped());
     auto near = [](float got, float want, float scale) {
       return std::abs(got - want) <= 1e-4f * scale + 1e-12f;
@@ -469,7 +433,7 @@ class PhotonDifferentials final : public pb::Technique {
     std::vector<uint32_t> seen(count, 0), histogram(PD_RADIUS_BINS, 0);
     double area = 0;
     for (uint32_t j = 0; j < count; ++j) {
-      const pd::PdFootprint& got = sorted[j];
+      const pd::PdFootprint& got = footprints[j];
       if (got.photon >= count || seen[got.photon]++ > 0) {
         ++footprints_off;
         continue;
@@ -480,7 +444,7 @@ class PhotonDifferentials final : public pb::Technique {
       ++histogram[pd::radius_bin(glm::length(a1))];
       ++histogram[pd::radius_bin(glm::length(a2))];
       pd::PdFootprint want;
-      pd::PdBox box;
+      pd::BvhBox box;
       if (pd::make_footprint(p, got.photon, post_, want, box)) area += want.area;
       const bool same = got.position == want.position && got.kind == want.kind &&
                         near(got.area, want.area, want.area) &&
@@ -519,19 +483,26 @@ class PhotonDifferentials final : public pb::Technique {
       }
   }
 
-  // The verify hook: the BVH's invariants (footprint.h check_bvh), and every 41st lit pixel's
-  // irradiance against the sum over every footprint.
+  // The verify hook: the BVH's invariants (footprint.h check_bvh) and the query's copy of the
+  // footprints in its order, and every 41st lit pixel's irradiance against the sum over every
+  // footprint.
   void verify(pb::Context& ctx, uint32_t count, uint32_t runs, size_t& violations,
               size_t& mismatches, size_t& checked) {
-    const auto* nodes = static_cast<const pd::PdNode*>(nodes_.mapped());
-    const auto* boxes = static_cast<const pd::PdBox*>(boxes_.mapped());
-    const auto* values = static_cast<const uint32_t*>(values_.mapped());
-    const auto* sorted = static_cast<const pd::PdFootprint*>(sorted_.mapped());
-    std::vector<pd::PdNode> tree(nodes, nodes + (runs > 0 ? 2 * size_t(runs) - 1 : 0));
-    std::vector<pd::PdBox> sorted_boxes(count);
-    for (uint32_t j = 0; j < count; ++j) sorted_boxes[j] = boxes[values[j]];
+    const auto* nodes = static_cast<const pd::BvhNode*>(bvh_.nodes().mapped());
+    const auto* items = static_cast<const uint32_t*>(bvh_.items().mapped());
+    const auto* boxes = static_cast<const pd::BvhBox*>(boxes_.mapped());
+    const auto* footprints = static_cast<const pd::PdFootprint*>(footprints_.mapped());
+    std::vector<pd::BvhNode> tree(nodes, nodes + (runs > 0 ? 2 * size_t(runs) - 1 : 0));
+    std::vector<pd::BvhBox> sorted_boxes(count);
+    for (uint32_t j = 0; j < count; ++j) sorted_boxes[j] = boxes[items[j]];
     std::string first;
     violations = pd::check_bvh(tree, runs, count, sorted_boxes, &first);
+    // The query's copy of the footprints in the BVH's order (pd_tree.comp).
+    const auto* sorted = static_cast<const pd::PdFootprint*>(sorted_.mapped());
+    for (uint32_t j = 0; j < count; ++j)
+      if (std::memcmp(&sorted[j], &footprints[items[j]], sizeof(pd::PdFootprint)) != 0 &&
+          violations++ == 0)
+        first = fmt::format("footprint {} of the BVH's order is not photon {}'s", j, items[j]);
     if (violations > 0) ctx.warn("photon-differentials verify: " + first);
     std::vector<float> position, normal, albedo, estimate;
     const pb::GBuffer g = ctx.shared().gbuffer_images();
@@ -550,7 +521,7 @@ class PhotonDifferentials final : public pb::Technique {
           n(normal[4 * px], normal[4 * px + 1], normal[4 * px + 2]);
       glm::vec3 e(0.f);
       for (uint32_t j = 0; j < count; ++j)
-        e += pd::contribution(sorted[j], x, n, epanechnikov_, normal_gate_);
+        e += pd::contribution(footprints[j], x, n, epanechnikov_, normal_gate_);
       for (int k = 0; k < 3; ++k) {
         const double expected = a[k] / pd::kPi * e[k], got = estimate[4 * px + k];
         if (std::abs(got - expected) > 1e-3 * std::abs(expected) + 1e-6) {
@@ -578,12 +549,10 @@ class PhotonDifferentials final : public pb::Technique {
   pd::DifferentialRules differential_rules_;  // the tracer policy of §4 (differential_rules.h)
   pb::trace::PhotonBatch batch_;
   std::vector<size_t> kept_;
-  tk::RadixSort sort_;
-  tk::PrefixSum scan_;
+  tk::BoxBvh bvh_;  // over boxes_, rebuilt every frame
   pb::gpu::Image radiance_;
-  pb::gpu::Buffer photons_, footprints_, boxes_, sorted_, keys_, values_, heads_, run_index_,
-      unique_, nodes_, control_, partials_;
-  pb::gpu::Pipeline postprocess_, reduce_, morton_, gather_, runs_, karras_, bottom_up_, query_;
+  pb::gpu::Buffer photons_, footprints_, boxes_, sorted_, control_, partials_;
+  pb::gpu::Pipeline postprocess_, reduce_, tree_, query_;
 };
 
 // The budget knobs (match: in a config): more light paths cost more to trace and build and lower

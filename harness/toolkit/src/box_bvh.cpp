@@ -52,7 +52,7 @@ void BoxBvh::setup(gpu::Device& gpu, std::string_view name, bool host_readable) 
                                               refit_bindings, sizeof(BvhPush));
   probe_ = gpu.create_compute_pipeline(name_ + "/probe", kbvh_probe_comp_spv,
                                        std::vector<gpu::Binding>(7, gpu::Binding::storage_buffer),
-                                       4 * sizeof(uint32_t));
+                                       8 * sizeof(uint32_t));
   control_ =
       storage_buffer(gpu, name_ + "/control", PB_BVH_CTL_WORDS * 4, gpu::Memory::host_visible);
   reserve(1024);
@@ -173,8 +173,10 @@ uint64_t BoxBvh::bytes() const {
 
 void BoxBvh::record_probe(vk::CommandBuffer cmd, const gpu::Buffer& boxes,
                           const gpu::Buffer& queries, uint32_t count, const gpu::Buffer& found,
-                          const gpu::Buffer& counts, uint32_t per_query, uint32_t budget) const {
-  const std::array<uint32_t, 4> push = {count, per_query, budget, 0};
+                          const gpu::Buffer& counts, uint32_t per_query, uint32_t budget,
+                          uint32_t leaf_size, bool test_item_boxes) const {
+  const std::array<uint32_t, 8> push = {
+      count, per_query, budget, leaf_size, test_item_boxes ? 1u : 0u, 0, 0, 0};
   const std::vector<gpu::Resource> resources = {&queries, &found, &counts,  &nodes_,
                                                 &items_,  &boxes, &control_};
   probe_.bind(cmd, std::span<const gpu::Resource>(resources), push);

@@ -165,10 +165,10 @@ double expect_walks_match(const std::vector<BvhBox>& boxes, const std::vector<Pr
       else if (margin >= -1e-5f)
         maybe.insert(i), ++grazing;
     }
-    EXPECT_EQ(n[4 * q + 1], 1u) << "query " << q << " ran out of its budget";
-    EXPECT_LE(n[4 * q], per_query);
-    tested += n[4 * q + 3];
-    for (uint32_t k = 0; k < std::min(n[4 * q], per_query); ++k) got.insert(f[q * per_query + k]);
+    EXPECT_EQ(n[8 * q + 1], 1u) << "query " << q << " ran out of its budget";
+    EXPECT_LE(n[8 * q], per_query);
+    tested += n[8 * q + 3];
+    for (uint32_t k = 0; k < std::min(n[8 * q], per_query); ++k) got.insert(f[q * per_query + k]);
     total += surely.size();
     bool ok = got.size() == std::set<uint32_t>(got.begin(), got.end()).size();  // each once
     for (uint32_t i : surely) ok = ok && got.count(i) == 1;
@@ -176,7 +176,7 @@ double expect_walks_match(const std::vector<BvhBox>& boxes, const std::vector<Pr
     if (!ok && wrong++ < 5)
       ADD_FAILURE() << (q < count / 2 ? "point" : "segment") << " query " << q << ": walk found "
                     << got.size() << ", brute force " << surely.size() << " (+" << maybe.size()
-                    << " grazing; nodes " << n[4 * q + 2] << ", boxes " << n[4 * q + 3] << ")";
+                    << " grazing; nodes " << n[8 * q + 2] << ", boxes " << n[8 * q + 3] << ")";
   }
   EXPECT_LT(grazing, size_t(count / 4)) << "grazing pairs";
   EXPECT_EQ(wrong, 0u);
@@ -195,14 +195,38 @@ struct Probe {
     boxes = host("test/boxes", box_count * sizeof(BvhBox));
     queries = host("test/queries", query_count * sizeof(ProbeQuery));
     found = host("test/found", uint64_t(query_count) * kPerQuery * 4);
-    counts = host("test/counts", query_count * 16);
+    counts = host("test/counts", query_count * 32);
   }
   void load(const std::vector<BvhBox>& b, const std::vector<ProbeQuery>& q) {
     std::memcpy(boxes.mapped(), b.data(), b.size() * sizeof(BvhBox));
     std::memcpy(queries.mapped(), q.data(), q.size() * sizeof(ProbeQuery));
   }
-  void record(vk::CommandBuffer cmd, const pb::toolkit::BoxBvh& bvh, uint32_t query_count) {
-    bvh.record_probe(cmd, boxes, queries, query_count, found, counts, kPerQuery, PB_LOOP_BUDGET);
+  void record(vk::CommandBuffer cmd, const pb::toolkit::BoxBvh& bvh, uint32_t query_count,
+              uint32_t leaf_size = 0, bool test_item_boxes = true) {
+    bvh.record_probe(cmd, boxes, queries, query_count, found, counts, kPerQuery, PB_LOOP_BUDGET,
+                     leaf_size, test_item_boxes);
+  }
+};
+
+// A device, `box_count` random boxes and `query_count` queries about them (seeded), loaded into
+// the probe, and the BVH set up (host-readable) with its build over the boxes recorded.
+struct BuiltOverRandomBoxes {
+  pb::gpu::Device gpu{pb::gpu::Device::Options{}};
+  TestGBuffer gbuffer{gpu, 8, 8};
+  TestContext ctx{gpu, gbuffer};
+  std::vector<BvhBox> boxes;
+  std::vector<ProbeQuery> queries;
+  Probe probe;
+  pb::toolkit::BoxBvh bvh;
+  BuiltOverRandomBoxes(uint32_t box_count, uint32_t query_count, uint32_t seed)
+      : probe(gpu, box_count, query_count) {
+    std::mt19937 rng(seed);
+    boxes = random_boxes(box_count, rng);
+    queries = random_queries(query_count, boxes, rng);
+    probe.load(boxes, queries);
+    bvh.setup(gpu, "test/bvh", /* host_readable */ true);
+    bvh.reserve(box_count);
+    bvh.record_build(ctx.cmd(), probe.boxes, box_count);
   }
 };
 
@@ -210,27 +234,89 @@ struct Probe {
 // exactly the items brute force finds, each once.
 TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
   constexpr uint32_t kBoxes = 6000, kQueries = 4000;
-  pb::gpu::Device gpu({});
-  TestGBuffer gbuffer(gpu, 8, 8);
-  TestContext ctx(gpu, gbuffer);
-  std::mt19937 rng(11);
-  const std::vector<BvhBox> boxes = random_boxes(kBoxes, rng);
-  const std::vector<ProbeQuery> queries = random_queries(kQueries, boxes, rng);
-  Probe probe(gpu, kBoxes, kQueries);
-  probe.load(boxes, queries);
-  pb::toolkit::BoxBvh bvh;
-  bvh.setup(gpu, "test/bvh", /* host_readable */ true);
-  bvh.reserve(kBoxes);
-  bvh.record_build(ctx.cmd(), probe.boxes, kBoxes);
-  probe.record(ctx.cmd(), bvh, kQueries);
-  ctx.submit();
-  const auto stats = bvh.read_stats();
+  BuiltOverRandomBoxes t(kBoxes, kQueries, 11);
+  t.probe.record(t.ctx.cmd(), t.bvh, kQueries);
+  t.ctx.submit();
+  const auto stats = t.bvh.read_stats();
   EXPECT_EQ(stats.items, kBoxes);
   EXPECT_GT(stats.leaves, kBoxes / 2);
   EXPECT_EQ(stats.inner + 1, stats.leaves) << "a binary tree over the runs";
   EXPECT_EQ(stats.long_runs, 0u);
-  expect_tree_bounds(bvh, boxes);
-  expect_walks_match(boxes, queries, probe.found, probe.counts, Probe::kPerQuery);
+  expect_tree_bounds(t.bvh, t.boxes);
+  expect_walks_match(t.boxes, t.queries, t.probe.found, t.probe.counts, Probe::kPerQuery);
+}
+
+// The point walk as bvh_walk.glsl makes it, on the tree read back: (nodes popped, nodes met, items
+// of reached leaves), an inner node of at most `leaf_size` items walked as a leaf.
+glm::uvec3 host_point_walk(const pb::toolkit::BoxBvh& bvh, glm::vec3 x, uint32_t leaf_size) {
+  const auto* nodes = static_cast<const pb::toolkit::BvhNode*>(bvh.nodes().mapped());
+  glm::uvec3 n(0);
+  std::vector<uint32_t> stack = {0};
+  while (!stack.empty()) {
+    const pb::toolkit::BvhNode& node = nodes[stack.back()];
+    stack.pop_back();
+    ++n.x;
+    if (!contains(BvhBox{node.lo, 0, node.hi, 0}, x)) continue;
+    ++n.y;
+    if (node.left != PB_BVH_NONE && node.count > leaf_size) {
+      stack.push_back(node.right);
+      stack.push_back(node.left);
+      continue;
+    }
+    n.z += node.count;
+  }
+  return n;
+}
+
+// The walk's leaf size (seed 003 §5.3's T, photon-differentials' leaf_threshold) over one tree: at
+// 0, 8 and 64 every walk still finds exactly what brute force finds, and each point walk pops,
+// meets and reaches exactly the nodes and items a walk on the host does with that leaf size; the
+// larger the leaf size, the fewer nodes popped and the more items reached. With item boxes left
+// untested, the hook is called for every item reached. In every hook pb_bvh_slot is the item's
+// place in the BVH's order.
+TEST(CollectionPointsBvh, WalkingSmallNodesAsLeavesFindsTheSameItemsWithFewerNodes) {
+  constexpr uint32_t kBoxes = 6000, kQueries = 2000;
+  BuiltOverRandomBoxes t(kBoxes, kQueries, 31);
+  t.ctx.submit();
+  struct Walk {
+    uint32_t leaf_size;
+    bool test_item_boxes;
+  };
+  std::vector<double> popped, reached;
+  for (const Walk walk : {Walk{0, true}, Walk{8, true}, Walk{64, true}, Walk{8, false}}) {
+    SCOPED_TRACE("leaf size " + std::to_string(walk.leaf_size) +
+                 (walk.test_item_boxes ? "" : ", item boxes untested"));
+    t.probe.record(t.ctx.cmd(), t.bvh, kQueries, walk.leaf_size, walk.test_item_boxes);
+    t.ctx.submit();
+    if (walk.test_item_boxes)
+      expect_walks_match(t.boxes, t.queries, t.probe.found, t.probe.counts, Probe::kPerQuery);
+    const auto* n = static_cast<const uint32_t*>(t.probe.counts.mapped());
+    size_t off = 0, met = 0, wrong_slots = 0;
+    double nodes = 0, items = 0;
+    for (uint32_t q = 0; q < kQueries; ++q) wrong_slots += n[8 * q + 5];
+    for (uint32_t q = 0; q < kQueries / 2; ++q) {  // the point walks
+      const glm::uvec3 want =
+          host_point_walk(t.bvh, glm::vec3(t.queries[q].origin), walk.leaf_size);
+      const glm::uvec3 got(n[8 * q + 2], n[8 * q + 4], n[8 * q + 3]);
+      const bool hits_ok = walk.test_item_boxes || n[8 * q] == want.z;
+      if ((got != want || !hits_ok) && off++ < 3)
+        ADD_FAILURE() << "point query " << q << ": popped, met, reached " << got.x << " " << got.y
+                      << " " << got.z << " (hook calls " << n[8 * q] << "), on the host " << want.x
+                      << " " << want.y << " " << want.z;
+      met += got.y;
+      nodes += got.x;
+      items += got.z;
+    }
+    EXPECT_EQ(off, 0u);
+    EXPECT_EQ(wrong_slots, 0u) << "hook calls whose pb_bvh_slot did not hold their item";
+    EXPECT_GT(met, size_t(kQueries / 4)) << "the points at boxes' corners and centres meet nodes";
+    popped.push_back(nodes);
+    reached.push_back(items);
+  }
+  EXPECT_GT(popped[0], popped[1]);
+  EXPECT_GT(popped[1], popped[2]);
+  EXPECT_LT(reached[0], reached[1]);
+  EXPECT_LT(reached[1], reached[2]);
 }
 
 // A refit (Paper V §3.2's) keeps the build's tree over boxes that have since moved: a third by

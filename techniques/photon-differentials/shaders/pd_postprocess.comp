@@ -1,13 +1,14 @@
 #version 460
 // Pass "postprocess" (seed 003 §4.3, §7, Fig. 1; footprint.h's make_footprint): per photon the
 // compressed, smoothed and clamped semi-axes, the skewed ellipsoid's inverse and box, Table 3's
-// histogram of the semi-axes before the clamp, the hits' bounds (for the Morton codes) and this
-// group's sum of footprint areas (for T_auto).
+// histogram of the semi-axes before the clamp and this group's sum of footprint areas (for
+// T_auto). The boxes are what the toolkit's BVH is built over (a degenerate footprint's is the
+// point where it landed).
 #include "pd_common.glsl"
 layout(local_size_x = 256) in;
 shared float group_area[256];
 shared uint group_histogram[PD_RADIUS_BINS];
-shared uint group_min[3], group_max[3], group_clamped, group_degenerate;
+shared uint group_clamped, group_degenerate;
 
 bool specular_only(PhotonRecord p) {
   uint before = p.bounce >= 32u ? 0xffffffffu : ((1u << p.bounce) - 1u);
@@ -36,7 +37,6 @@ vec3 clamped(vec3 a) {
 void main() {
   uint id = gl_LocalInvocationID.x, i = gl_GlobalInvocationID.x;
   if (id < PD_RADIUS_BINS) group_histogram[id] = 0u;
-  if (id < 3u) group_min[id] = 0xffffffffu, group_max[id] = 0u;
   if (id == 0u) group_clamped = 0u, group_degenerate = 0u;
   barrier();
   float area = 0.0;
@@ -70,7 +70,7 @@ void main() {
     vec3 c3 = push.normal_extent * sqrt(l1 * l2) * p.normal;
     float cross_len = length(cross(a1, a2));
     float det = dot(a1, cross(a2, c3));
-    PdBox box;
+    BvhBox box;
     box.lo = p.position;
     box.hi = p.position;
     box.pad0 = 0u;
@@ -93,10 +93,6 @@ void main() {
     }
     footprints[i] = f;
     boxes[i] = box;
-    for (uint k = 0u; k < 3u; ++k) {
-      atomicMin(group_min[k], pd_ordered(p.position[k]));
-      atomicMax(group_max[k], pd_ordered(p.position[k]));
-    }
   }
   group_area[id] = area;
   barrier();
@@ -105,10 +101,6 @@ void main() {
     barrier();
   }
   if (id == 0u) partials[gl_WorkGroupID.x] = group_area[0];
-  if (id < 3u) {
-    atomicMin(control[PD_CTL_MIN + id], group_min[id]);
-    atomicMax(control[PD_CTL_MAX + id], group_max[id]);
-  }
   if (id == 0u && group_clamped != 0u) atomicAdd(control[PD_CTL_CLAMPED], group_clamped);
   if (id == 0u && group_degenerate != 0u) atomicAdd(control[PD_CTL_DEGENERATE], group_degenerate);
   if (id < PD_RADIUS_BINS && group_histogram[id] != 0u)

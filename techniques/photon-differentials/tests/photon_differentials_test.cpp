@@ -329,7 +329,7 @@ TEST(PhotonDifferentials, DefaultFootprintIsHalfAsThickAsItIsWide) {
   const float r = 0.1f;
   auto p = photon({r, 0, 0}, {0, 0, r}, 1, 0u, 1.f);  // round, on the floor (normal +y)
   pd::PdFootprint f;
-  pd::PdBox box;
+  pd::BvhBox box;
   ASSERT_TRUE(pd::make_footprint(p, 0, pp, f, box));
   // A wall through the photon's position facing -x (the photon arrives from +x above it).
   const glm::vec3 wall_normal(-1, 0, 0);
@@ -345,7 +345,7 @@ TEST(PhotonDifferentials, FootprintKernelIntegratesToTheFlux) {
   pd::PostProcess pp;
   pp.smoothing = 1, pp.exponent = 0, pp.r_max = 10;
   pd::PdFootprint f;
-  pd::PdBox box;
+  pd::BvhBox box;
   ASSERT_TRUE(pd::make_footprint(p, 0, pp, f, box));
   EXPECT_NEAR(f.area, kPi * glm::length(glm::cross(p.footprint_u, p.footprint_v)), 1e-6);
   for (bool epanechnikov : {false, true}) {

@@ -10,6 +10,15 @@
 //   bool pb_bvh_hit(uint item)   the any-hit hook: false ends the walk (true: go on, "IgnoreHit")
 // Budget: each node popped and each item box tested takes one unit of pb_bvh_budget (llvmpipe's
 // loop limit), which the shader sets before a walk; a walk that runs out returns false.
+// Leaf size: an inner node of at most pb_bvh_leaf_size items (0, the default: none) is walked as
+// a leaf, its items' boxes tested in turn without descending: fewer nodes popped for more boxes
+// tested (seed 003 §5.3's threshold T: "otherwise, the two children ... are fused into one larger
+// leaf"), chosen per walk over the same tree.
+// Item boxes: the walk tests an item's own box and calls the hook only when it meets the query;
+// with pb_bvh_test_item_boxes false it calls the hook for every item of a leaf it reaches, for a
+// hook whose own test is exact and cheaper than reading the box (photon-differentials' ellipsoid).
+// In the hook, pb_bvh_slot is the item's place in the BVH's Morton order (BoxBvh::items()), so a
+// caller that keeps a copy of its records in that order reads a leaf's records in sequence.
 #ifndef PB_TOOLKIT_BVH_WALK_GLSL
 #define PB_TOOLKIT_BVH_WALK_GLSL
 
@@ -29,8 +38,12 @@ layout(std430, binding = PB_BVH_WALK_BINDING + 3) readonly buffer BvhControl {
 bool pb_bvh_hit(uint item);
 
 uint pb_bvh_budget = 0u;
+uint pb_bvh_leaf_size = 0u;
+bool pb_bvh_test_item_boxes = true;
+uint pb_bvh_slot = 0u;
 uint pb_bvh_nodes_visited = 0u;  // nodes popped by this invocation's walks
-uint pb_bvh_boxes_tested = 0u;   // item boxes tested by this invocation's walks
+uint pb_bvh_nodes_met = 0u;      // of them, nodes whose box the point or segment met
+uint pb_bvh_boxes_tested = 0u;   // items of reached leaves (their boxes tested, unless not asked)
 
 #define PB_BVH_STACK 64u
 
@@ -81,7 +94,8 @@ bool pb_bvh_walk(bool segment, vec3 a, vec3 d, float t0, float t1) {
     BvhNode node = bvh_nodes[pb_bvh_stack[top]];
     bool in_box = segment ? pb_bvh_meets(node.lo, node.hi, a, d, inv, t0, t1)
                           : pb_bvh_contains(node.lo, node.hi, a);
-    if (in_box && node.left != PB_BVH_NONE) {
+    if (in_box) ++pb_bvh_nodes_met;
+    if (in_box && node.left != PB_BVH_NONE && node.count > pb_bvh_leaf_size) {
       if (top + 2u > PB_BVH_STACK) {
         complete = false;
       } else {
@@ -99,9 +113,13 @@ bool pb_bvh_walk(bool segment, vec3 a, vec3 d, float t0, float t1) {
         --pb_bvh_budget;
         ++pb_bvh_boxes_tested;
         uint item = bvh_items[j];
-        BvhBox b = bvh_boxes[item];
-        bool hit =
-            segment ? pb_bvh_meets(b.lo, b.hi, a, d, inv, t0, t1) : pb_bvh_contains(b.lo, b.hi, a);
+        bool hit = true;
+        if (pb_bvh_test_item_boxes) {
+          BvhBox b = bvh_boxes[item];
+          hit = segment ? pb_bvh_meets(b.lo, b.hi, a, d, inv, t0, t1)
+                        : pb_bvh_contains(b.lo, b.hi, a);
+        }
+        pb_bvh_slot = j;
         if (hit && !pb_bvh_hit(item)) {
           pb_bvh_stopped = true;
           complete = false;

@@ -1,7 +1,8 @@
 // A linear BVH over axis-aligned boxes, built on the GPU from scratch each time it is recorded
 // (kernels: harness/shaders/toolkit/bvh/), and walked by a technique's own shaders with
 // toolkit/bvh_walk.glsl's point walk and segment walk and their any-hit hook. Moved out of
-// photon-differentials (seed 003 §5.2, §6.2): 30-bit Morton codes of the box centres, the
+// photon-differentials, which builds it over its footprints' boxes and walks it with its leaf
+// size T (seed 003 §5.2, §5.3, §6.2): 30-bit Morton codes of the box centres, the
 // toolkit's radix sort, runs of equal codes as leaves, Karras's radix tree over the runs, boxes
 // joined bottom-up one level a dispatch. It stands in for DXR's per-frame build over procedural
 // AABBs and its any-hit shader (Paper V §3; thesis §3.2), as Vulkan compute any GPU runs.
@@ -12,7 +13,9 @@
 //   pipeline.bind(cmd, {..., walk[0], walk[1], walk[2], walk[3]}, push) with
 //   const auto walk = bvh.walk_resources(boxes);
 //
-// The boxes stay the caller's: the walk reads them (an item's own box is tested before its hook).
+// The boxes stay the caller's: the walk reads them (an item's own box is tested before its hook,
+// unless the shader sets pb_bvh_test_item_boxes false). items() is the Morton order: a caller may
+// keep its records in it and read them in the hook at pb_bvh_slot.
 #pragma once
 
 #include <array>
@@ -79,12 +82,14 @@ class BoxBvh {
   uint64_t bytes() const;
 
   // Test hook: per query (BvhProbeQuery of bvh_probe.comp: origin.w 0 point, 1 segment with t1 in
-  // direction.w) the items the walk's hook was called for, at most `per_query` in `found`, and
-  // (hits, complete, nodes popped, item boxes tested) in `counts` (uvec4). Buffers are the
-  // caller's; a barrier after.
+  // direction.w) the items the walk's hook was called for, at most `per_query` in `found`, and two
+  // uvec4 in `counts`: (hits, complete, nodes popped, items of reached leaves), (nodes met, hook
+  // calls whose pb_bvh_slot did not hold the item, 0, 0). `leaf_size` and `test_item_boxes`: the
+  // walk's pb_bvh_leaf_size and pb_bvh_test_item_boxes. Buffers are the caller's; a barrier after.
   void record_probe(vk::CommandBuffer cmd, const gpu::Buffer& boxes, const gpu::Buffer& queries,
                     uint32_t count, const gpu::Buffer& found, const gpu::Buffer& counts,
-                    uint32_t per_query, uint32_t budget) const;
+                    uint32_t per_query, uint32_t budget, uint32_t leaf_size = 0,
+                    bool test_item_boxes = true) const;
   const gpu::Buffer& nodes() const { return nodes_; }
   const gpu::Buffer& items() const { return items_; }
 
