@@ -22,7 +22,7 @@ using glm::sqrt;
 #include "sc_filter.h"
 
 enum class CountPrecision : uint32_t { bits8, floating };
-enum class AreaScaling : uint32_t { off, multiply, divide };
+enum class AreaScaling : uint32_t { none, multiply, divide };
 
 struct ScParams {
   uint32_t photons = 10000;
@@ -60,8 +60,8 @@ inline constexpr auto kParams = pb::params(
     pb::param("filter_k", &ScParams::filter_k, 3, {0, 15}, "px",
               "half-width of Eq. 12.1's filter, (2k + 1)^2 pixels (the thesis: k = 3, 7 x 7)"),
     pb::param("area_scaling", &ScParams::area_scaling, AreaScaling::divide,
-              "off|multiply|divide",
-              "Eq. 12.2's pixel-area term: off (a fixed scale), multiply (the cosine multiplies "
+              "none|multiply|divide",
+              "Eq. 12.2's pixel-area term: none (a fixed scale), multiply (the cosine multiplies "
               "the area, as printed) or divide (the physical footprint)"),
     pb::param("depth_tolerance", &ScParams::depth_tolerance, 0.01, {1e-6, 1}, "",
               "a point passes the depth test when its distance is within this fraction of the "

@@ -99,7 +99,7 @@ TEST(ScreenCaustics, BadParametersAreRefusedWithTheirKey) {
   EXPECT_NE(e.find("8bit, float"), std::string::npos) << e;
   e = error("{area_scaling: divided}");
   EXPECT_NE(e.find("techniques[0].params.area_scaling"), std::string::npos) << e;
-  EXPECT_NE(e.find("off, multiply, divide"), std::string::npos) << e;
+  EXPECT_NE(e.find("none, multiply, divide"), std::string::npos) << e;
   EXPECT_NE(error("{filter_k: 16}").find("techniques[0].params.filter_k"), std::string::npos);
   EXPECT_NE(error("{photons: 0}").find("techniques[0].params.photons"), std::string::npos);
   EXPECT_NE(error("{grid: 0}").find("techniques[0].params.grid"), std::string::npos);
