@@ -121,5 +121,25 @@ TEST(ReferenceConfig, EstimatorNamesAreTheRenderersEstimators) {
             std::string::npos);
 }
 
+// The light sampler names: each one the config accepts is the renderer's LightSelection of that
+// name, power by default, and a misspelt one is refused naming the key.
+TEST(ReferenceConfig, LightSamplerNamesAreTheRenderersLightChoices) {
+  ASSERT_EQ(config::light_sampler_names().size(), 2u);
+  for (const std::string& name : config::light_sampler_names()) {
+    config::Config c =
+        config::load_config(write_config("reference: {light_sampler: " + name + "}\n"), {});
+    std::optional<trace::LightSelection> s =
+        trace::parse_light_selection(c.reference.light_sampler);
+    ASSERT_TRUE(s) << name;
+    EXPECT_EQ(trace::light_selection_name(*s), name);
+    EXPECT_EQ(run::reference_options(c).light_selection, *s);
+  }
+  EXPECT_EQ(run::reference_options(config::load_config(write_config(""), {})).light_selection,
+            trace::LightSelection::power);
+  std::string error = load_error("reference: {light_sampler: bhv}\n");
+  EXPECT_NE(error.find("light_sampler"), std::string::npos) << error;
+  EXPECT_NE(error.find("did you mean 'bvh'?"), std::string::npos) << error;
+}
+
 }  // namespace reference_config_test
 }  // namespace pb

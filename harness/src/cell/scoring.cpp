@@ -24,6 +24,8 @@ trace::ReferenceOptions reference_options(const config::Config& config) {
   options.max_bounces = config.reference.max_bounces;
   options.estimator =
       trace::parse_estimator(config.reference.estimator).value_or(trace::Estimator::automatic);
+  options.light_selection = trace::parse_light_selection(config.reference.light_sampler)
+                                .value_or(trace::LightSelection::power);
   options.seed = uint32_t(config.seed);
   return options;
 }

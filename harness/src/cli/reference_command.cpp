@@ -30,6 +30,7 @@ struct Args {
   uint32_t samples = pb::config::ReferenceSettings{}.samples;
   uint32_t max_bounces = 0;
   std::string estimator = pb::config::ReferenceSettings{}.estimator;
+  std::string light_sampler = pb::config::ReferenceSettings{}.light_sampler;
   uint32_t photons = pb::trace::PhotonMappingOptions{}.photons;
   std::string resolution = "640x360";
   std::string cache = "results/reference-cache";
@@ -100,6 +101,11 @@ void add_reference(CLI::App& app, int& exit_code) {
          "(bidirectional path tracing) or pt (path tracing with next-event estimation, the "
          "anchor); photon mapping adds the caustic-type paths to each")
       ->check(CLI::IsMember(pb::config::estimator_names()));
+  cmd->add_option("--light-sampler", args->light_sampler,
+                  "path tracing's next-event light choice: power (by power alone, the default) "
+                  "or bvh (the light BVH's walk from the shading point: fewer samples to an "
+                  "error, slower per sample)")
+      ->check(CLI::IsMember(pb::config::light_sampler_names()));
   cmd->add_option("--photons", args->photons, "photon paths per photon-mapping iteration")
       ->check(CLI::Range(1u, 1u << 26));
   cmd->add_option("--resolution", args->resolution, "WIDTHxHEIGHT");
@@ -133,6 +139,7 @@ void add_reference(CLI::App& app, int& exit_code) {
     options.samples = args->samples;
     options.max_bounces = args->max_bounces;
     options.estimator = *pb::trace::parse_estimator(args->estimator);
+    options.light_selection = *pb::trace::parse_light_selection(args->light_sampler);
     options.photon_mapping.photons = args->photons;
     options.seed = args->seed;
     options.threads = args->threads;

@@ -157,6 +157,9 @@ const KeyTable kReferenceTable{
       "scattering vertices on a full path (0: untruncated)"},
      {"estimator", choice_type(estimator_names()), false, kReferenceDefaults.estimator,
       "the unbiased estimator: bidirectional path tracing, path tracing, or a pilot's choice"},
+     {"light_sampler", choice_type(light_sampler_names()), false, kReferenceDefaults.light_sampler,
+      "path tracing's next-event light choice: by power alone, or by the light BVH's walk from "
+      "the shading point (fewer samples to an error, slower per sample)"},
      {"bounce_matched", boolean_type(), false, kReferenceDefaults.bounce_matched,
       "also score techniques with a max_bounces parameter against a reference truncated like "
       "them"},
@@ -514,6 +517,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
       (problem->key.empty() ? reference : reference[problem->key]).fail(problem->message);
     r.max_bounces = uint32_t(kReferenceTable.integer(reference, "max_bounces"));
     r.estimator = kReferenceTable.string(reference, "estimator");
+    r.light_sampler = kReferenceTable.string(reference, "light_sampler");
     r.bounce_matched = kReferenceTable.boolean(reference, "bounce_matched");
     r.cache_dir = kReferenceTable.string(reference, "cache_dir");
   }

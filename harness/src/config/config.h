@@ -55,6 +55,7 @@ struct ReferenceSettings {
   uint32_t samples = 0;            // iterations (camera samples per pixel); 0 or at least 2
   uint32_t max_bounces = 0;        // scattering vertices on a full path; 0: untruncated
   std::string estimator = "auto";  // auto | bdpt | pt (trace::Estimator)
+  std::string light_sampler = "power";  // power | bvh (trace::LightSelection)
   // Also score every cell of a technique with a max_bounces parameter against a reference truncated
   // like it (trace::bounces_matching_photon_technique): metrics.csv rows with reference
   // "bounce_matched" beside the "full" ones, so a study separates estimator error from truncation.

@@ -7,6 +7,11 @@ const std::vector<std::string>& estimator_names() {
   return names;
 }
 
+const std::vector<std::string>& light_sampler_names() {
+  static const std::vector<std::string> names = {"power", "bvh"};
+  return names;
+}
+
 std::optional<StopRuleProblem> stop_rule_problem(double rel_error, double max_seconds,
                                                  uint32_t samples) {
   if (samples == 1) return StopRuleProblem{"samples", "0 (off) or at least 2 iterations"};

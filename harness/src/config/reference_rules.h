@@ -12,6 +12,9 @@ namespace pb::config {
 // The reference's unbiased estimators by name, in the order of trace::Estimator
 // (reference/estimators.h): "pt", "bdpt", "auto".
 const std::vector<std::string>& estimator_names();
+// Path tracing's next-event light choices by name, in the order of trace::LightSelection
+// (reference/estimators.h): "power", "bvh".
+const std::vector<std::string>& light_sampler_names();
 
 // The stop rule at fault, by its key ("samples"; empty: the rules together), and why.
 struct StopRuleProblem {

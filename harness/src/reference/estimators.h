@@ -21,6 +21,27 @@ inline constexpr uint32_t kUntruncatedBounces = 64;
 // unbiased too, only noisier, except that BSDF sampling alone cannot reach delta lights).
 enum class LightStrategies : uint8_t { mis, nee_only, bsdf_only };
 
+// How path tracing's next-event estimation chooses a light: by power alone, the same choice for
+// every shading point (trace::LightSet: an emissive mesh is one emitter, its triangles chosen by
+// area; the default), or by the light BVH's walk from the shading point over every emissive
+// triangle and scene light (trace/incident_light_tree.h; Paper III of seed 002), whose MIS density
+// for a BSDF-sampled emitter hit is that walk's probability from the previous vertex. Power is the
+// default because it won at equal time where the tree should win most: on lamp-hall (1,152
+// emissive triangles) the tree's walk took the variance per sample to 0.42x but the time per
+// sample to 3.6x (README.md, "Many lights"). Bidirectional path tracing always chooses by power:
+// its MIS weights use light-vertex densities that do not depend on the shading point.
+enum class LightSelection : uint8_t { power, bvh };
+// Their names are config::light_sampler_names(), in this order: what the config's reference block
+// (`light_sampler`) and `photonbench reference --light-sampler` accept.
+inline std::string_view light_selection_name(LightSelection s) {
+  return config::light_sampler_names().at(size_t(s));
+}
+inline std::optional<LightSelection> parse_light_selection(std::string_view name) {
+  for (LightSelection s : {LightSelection::power, LightSelection::bvh})
+    if (light_selection_name(s) == name) return s;
+  return std::nullopt;
+}
+
 // How bidirectional path tracing weights its strategies: the power heuristic (Veach 1997 §9.2.3,
 // the default), or the same weight for every strategy that can sample the path (unbiased too, only
 // noisier; for tests, where every strategy's share should be large enough to be checked).

@@ -28,6 +28,7 @@ struct ReferenceOptions {
   Estimator estimator = Estimator::automatic;
   LightStrategies light_strategies = LightStrategies::mis;  // pt only
   MisHeuristic mis_heuristic = MisHeuristic::power;         // bdpt only
+  LightSelection light_selection = LightSelection::power;   // pt's next-event estimation
   uint32_t seed = 1;
   int threads = 0;  // 0: all cores
 

@@ -28,6 +28,7 @@ struct CameraPath {
   Ray ray;
   glm::vec3 beta{1.f};
   glm::vec3 prev_position{0.f};
+  glm::vec3 prev_normal{0.f};  // the last scattering vertex's geometric normal (the light walk's)
   float prev_pdf = 0;
   bool prev_delta = true, prev_specular = false;  // the camera counts as a delta vertex
   ClassState state;
@@ -56,8 +57,20 @@ struct PathWavefront {
 struct PathTracingSetup {
   const EmbreeScene& world;
   const LightSet& lights;
+  const IncidentLightTree* tree;  // null: lights chosen by power
   uint32_t wanted, budget;
   bool use_nee, use_hits;
+
+  bool sample_incident(const Hit& at, float u_select, glm::vec2 u, IncidentSample& out) const {
+    return tree ? tree->sample_incident(at.position, at.geometric_normal, u_select, u, out)
+                : lights.sample_incident(at.position, u_select, u, out);
+  }
+  // The density with which next-event estimation at the path's last vertex would have sampled
+  // emitter point y: from that vertex's position and normal, as the walk saw them.
+  float pdf_incident(const CameraPath& path, const Hit& y) const {
+    return tree ? tree->pdf_incident(path.prev_position, path.prev_normal, y)
+                : lights.pdf_incident(path.prev_position, y);
+  }
 };
 
 // The path's vertex at `hit`: emission reached by the BSDF-sampled segment, next-event estimation
@@ -79,7 +92,7 @@ bool shade_vertex(const PathTracingSetup& setup, CameraPath& path, const Hit& hi
       if (!setup.use_hits)
         w = 0.f;
       else if (setup.use_nee)
-        w = power_heuristic(path.prev_pdf, setup.lights.pdf_incident(path.prev_position, hit));
+        w = power_heuristic(path.prev_pdf, setup.pdf_incident(path, hit));
     }
     path.out[path.state.classify()] += path.beta * le * w;
   }
@@ -95,7 +108,7 @@ bool shade_vertex(const PathTracingSetup& setup, CameraPath& path, const Hit& hi
     IncidentSample is;
     float u_select = path.rng.next_float();
     glm::vec2 u = path.rng.next_2d();
-    if (setup.lights.sample_incident(hit.position, u_select, u, is)) {
+    if (setup.sample_incident(hit, u_select, u, is)) {
       glm::vec3 f = bsdf.eval(wo, is.wi, Transport::radiance);
       if (max3(f) > 0) {
         ++rays;
@@ -124,6 +137,7 @@ bool shade_vertex(const PathTracingSetup& setup, CameraPath& path, const Hit& hi
   path.prev_delta = s.delta;
   path.prev_pdf = s.pdf;
   path.prev_position = hit.position;
+  path.prev_normal = hit.geometric_normal;
   path.prev_specular = !diffuse;
   path.state = next;
   path.ray = Ray{offset_origin(hit, s.wi), s.wi, kUnboundedRay};
@@ -161,12 +175,14 @@ void advance_wavefront(const PathTracingSetup& setup, PathWavefront& wave, uint6
 }  // namespace
 
 // A row at a time, as one wavefront (above).
-void path_tracing_pass(const EmbreeScene& world, const LightSet& lights, const Rig& rig,
-                       LightStrategies strategies, uint32_t wanted, uint32_t budget,
-                       uint32_t iteration_seed, int stride, tbb::task_arena& arena,
-                       tbb::combinable<uint64_t>& ray_count, std::vector<glm::vec3>& frame) {
+void path_tracing_pass(const EmbreeScene& world, const LightSet& lights,
+                       const IncidentLightTree* tree, const Rig& rig, LightStrategies strategies,
+                       uint32_t wanted, uint32_t budget, uint32_t iteration_seed, int stride,
+                       tbb::task_arena& arena, tbb::combinable<uint64_t>& ray_count,
+                       std::vector<glm::vec3>& frame) {
   const PathTracingSetup setup{world,
                                lights,
+                               tree,
                                wanted,
                                budget,
                                strategies != LightStrategies::bsdf_only,

@@ -18,6 +18,7 @@
 #include "reference/path_space.h"
 #include "reference/path_tracing_pass.h"
 #include "reference/photon_mapping_pass.h"
+#include "trace/incident_light_tree.h"
 #include "trace/lights.h"
 #include "trace/sampling.h"
 
@@ -86,6 +87,10 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
   // render is. Smaller images are bidirectional: a grid of every pixel would cost a pilot a whole
   // bidirectional iteration per step.
   Estimator estimator = options.estimator;
+  // Path tracing's light choice (LightSelection): the light tree where asked.
+  std::unique_ptr<IncidentLightTree> light_tree;
+  if (estimator != Estimator::bdpt && options.light_selection == LightSelection::bvh)
+    light_tree = std::make_unique<IncidentLightTree>(world, lights);
   std::unique_ptr<BdptPass> bdpt;
   if (estimator != Estimator::pt)
     bdpt = std::make_unique<BdptPass>(world, lights, rig, wanted, budget, options.mis_heuristic);
@@ -112,8 +117,8 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
     if (estimator == Estimator::bdpt)
       bdpt->run(iteration_seed, *arena, ray_count, frame);
     else
-      path_tracing_pass(world, lights, rig, options.light_strategies, wanted, budget,
-                        iteration_seed, 1, *arena, ray_count, frame);
+      path_tracing_pass(world, lights, light_tree.get(), rig, options.light_strategies, wanted,
+                        budget, iteration_seed, 1, *arena, ray_count, frame);
     if (pilot) pilot->observe(Pilot::path_tracing, frame, total_rays() - rays_before);
     // ---- photon mapping: visible points, photons, gather ----
     if (photons) {
@@ -170,6 +175,8 @@ ReferenceResult render_reference_classes(const EmbreeScene& world, int width, in
   result.rel_error = acc->rel_error();
   result.stopped_by = stopped_by;
   result.estimator = estimator;
+  result.light_selection =
+      estimator == Estimator::pt && light_tree ? LightSelection::bvh : LightSelection::power;
   result.pilot = report;
   result.rays = total_rays();
   result.seconds = io::seconds_since(t0);

@@ -61,7 +61,9 @@ namespace pb::trace {
 // 3: shadow rays aimed from their offset origin (area lights near surfaces were biased low).
 // 4: photon mapping's aimed emission and new default photon counts and radius.
 // 5: the automatic choice pilots renders of a fixed number of samples too (bidirectional before).
-inline constexpr int kReferenceRendererVersion = 5;
+// 6: path tracing's light choice (LightSelection: by power, or through the light BVH), in the
+// sidecar.
+inline constexpr int kReferenceRendererVersion = 6;
 
 // Which stop rule ended a render (the first one reached wins).
 enum class StopRule : uint8_t { rel_error, max_seconds, samples };
@@ -115,6 +117,8 @@ struct ReferenceResult {
   StopRule stopped_by = StopRule::samples;
   uint32_t seed = 0;
   Estimator estimator = Estimator::pt;  // the one that rendered it (never automatic)
+  // How its next-event estimation chose lights (never automatic; bidirectional: power).
+  LightSelection light_selection = LightSelection::power;
   PilotReport pilot;
   const io::Image& image(PathClass c) const { return classes[int(c)].mean; }
   double mrays_per_second() const { return seconds > 0 ? rays / seconds * 1e-6 : 0.0; }

@@ -295,6 +295,7 @@ int ReferenceCache::render_missing(const scene::Scene& scene, const scene::Frame
         {"max_bounces", options.max_bounces},
         {"estimator", std::string(estimator_name(img.estimator))},
         {"estimator_why", r.pilot.why},
+        {"light_sampler", std::string(light_selection_name(r.light_selection))},
         {"photons_per_iteration", r.photon_paths > 0 ? options.photon_mapping.photons : 0u},
         {"rays", r.rays},
         {"images",

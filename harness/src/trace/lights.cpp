@@ -209,20 +209,7 @@ bool LightSet::sample_incident(const glm::vec3& p, float u_select, glm::vec2 u,
     } else {
       y = mesh_point(e, u, &ny, nullptr, nullptr);
     }
-    glm::vec3 d = y - p;
-    float dist2 = glm::dot(d, d);
-    if (dist2 <= 0) return false;
-    float dist = std::sqrt(dist2);
-    out.wi = d / dist;
-    out.point = y;
-    out.normal = ny;
-    float cos_l = -glm::dot(out.wi, ny);
-    if (cos_l <= 0) return false;  // the back of a one-sided emitter
-    out.distance = dist;
-    out.pdf = select * dist2 / (cos_l * e.area);
-    out.weight = e.radiance / out.pdf;
-    out.delta = false;
-    return true;
+    return area_incident_sample(p, y, ny, e.area, e.radiance, select, out);
   }
   const scene::Light& light = world_.state().lights[e.source];
   out.delta = true;
@@ -259,6 +246,24 @@ float LightSet::pdf_incident(const glm::vec3& p, const Hit& y) const {
   float cos_l = std::abs(glm::dot(y.geometric_normal, d)) / std::sqrt(dist2);
   if (cos_l <= 0 || e.area <= 0) return 0;
   return selection_pdf_[i] * dist2 / (cos_l * e.area);
+}
+
+bool area_incident_sample(const glm::vec3& p, const glm::vec3& y, const glm::vec3& ny, float area,
+                          const glm::vec3& radiance, float select, IncidentSample& out) {
+  glm::vec3 d = y - p;
+  float dist2 = glm::dot(d, d);
+  if (dist2 <= 0 || !(area > 0)) return false;
+  float dist = std::sqrt(dist2);
+  out.wi = d / dist;
+  out.point = y;
+  out.normal = ny;
+  float cos_l = -glm::dot(out.wi, ny);
+  if (cos_l <= 0) return false;  // the back of a one-sided emitter
+  out.distance = dist;
+  out.pdf = select * dist2 / (cos_l * area);
+  out.weight = radiance / out.pdf;
+  out.delta = false;
+  return true;
 }
 
 Aabb light_bounds(const scene::Light& light) {

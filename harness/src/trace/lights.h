@@ -52,6 +52,11 @@ struct IncidentSample {
 };
 
 float spot_falloff(float cos_theta, float cos_inner, float cos_outer);
+// Next-event estimation towards point y (normal ny, the emitting side) drawn uniformly on a
+// one-sided area emitter of `area` and `radiance` that was chosen with probability `select`, seen
+// from p: the solid-angle density and radiance / density. False at the emitter's back.
+bool area_incident_sample(const glm::vec3& p, const glm::vec3& y, const glm::vec3& ny, float area,
+                          const glm::vec3& radiance, float select, IncidentSample& out);
 // World bounds of a light's surface (quad, disc; a point for the others).
 Aabb light_bounds(const scene::Light& light);
 

@@ -22,22 +22,6 @@ float power_heuristic(float mine, float other) {
   return a + b > 0 ? a / (a + b) : 0.f;
 }
 
-// A uniform point on an area light for u in [0,1)^2 (Paper III: density 1/A).
-glm::vec3 area_point(const NeeLight& l, glm::vec2 u) {
-  switch (l.shape) {
-    case NeeLight::Shape::triangle: {
-      glm::vec2 b = triangle_from_unit(u);
-      return l.origin + b.x * l.edge_u + b.y * l.edge_v;
-    }
-    case NeeLight::Shape::quad:
-      return l.origin + u.x * l.edge_u + u.y * l.edge_v;
-    default: {  // disc: polar, equal-area (scene::Light::surface_point's mapping)
-      float rho = std::sqrt(u.x), phi = 2.f * kPi * u.y;
-      return l.origin + rho * (std::cos(phi) * l.edge_u + std::sin(phi) * l.edge_v);
-    }
-  }
-}
-
 // The solid-angle density of choosing direction towards y on area light l from distance^2 r2 with
 // cos_y at the light, given the probability of choosing the light.
 float solid_angle_pdf(const NeeLight& l, float pick_pdf, float r2, float cos_y) {
@@ -62,6 +46,21 @@ glm::vec3 ray_origin(const GBufferSamples& gbuffer, uint32_t pixel) {
 Pcg32 pixel_stream(uint64_t seed, uint32_t pixel) { return Pcg32(seed, pixel); }
 
 }  // namespace
+
+glm::vec3 area_point(const NeeLight& l, glm::vec2 u) {
+  switch (l.shape) {
+    case NeeLight::Shape::triangle: {
+      glm::vec2 b = triangle_from_unit(u);
+      return l.origin + b.x * l.edge_u + b.y * l.edge_v;
+    }
+    case NeeLight::Shape::quad:
+      return l.origin + u.x * l.edge_u + u.y * l.edge_v;
+    default: {  // disc: polar, equal-area (scene::Light::surface_point's mapping)
+      float rho = std::sqrt(u.x), phi = 2.f * kPi * u.y;
+      return l.origin + rho * (std::cos(phi) * l.edge_u + std::sin(phi) * l.edge_v);
+    }
+  }
+}
 
 uint32_t NeeLightSet::find(uint32_t object, uint32_t primitive, const EmbreeScene& world) const {
   uint64_t key = world.is_light_object(object) ? hit_key(object, ~0u) : hit_key(object, primitive);

@@ -42,6 +42,9 @@ struct NeeLight {
   }
 };
 
+// A uniform point on area light `l` for u in [0,1)^2 (Paper III: density 1/area).
+glm::vec3 area_point(const NeeLight& l, glm::vec2 u);
+
 // The lights of one frame, with their sampler primitives and where a BSDF ray that hits an emitter
 // finds its light.
 struct NeeLightSet {
