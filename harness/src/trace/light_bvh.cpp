@@ -85,6 +85,14 @@ float OrientationCone::measure() const {
              (2.f * theta_w * s - std::cos(theta_o - 2.f * theta_w) - 2.f * theta_o * s + c);
 }
 
+OrientationCone::OrientationCone(glm::vec3 axis_, float theta_o_, float theta_e_)
+    : axis(axis_),
+      theta_o(theta_o_),
+      theta_e(theta_e_),
+      cos_o(std::cos(theta_o_)),
+      sin_o(std::sin(theta_o_)),
+      cos_e(std::cos(theta_e_)) {}
+
 OrientationCone merge(const OrientationCone& first, const OrientationCone& second) {
   // CEK18 Algorithm 1: the wider cone, grown and turned towards the other until it holds both.
   const OrientationCone& a = first.theta_o >= second.theta_o ? first : second;
@@ -355,13 +363,20 @@ float LightBvh::importance(const glm::vec3& p, const glm::vec3& n, const Aabb& b
   };
   if (glm::dot(n, n) > 0) value *= std::abs(widened(glm::dot(n, wi)));
   if (options_.importance == LightImportance::dfb) return value;
-  // theta' = max(0, theta - theta_o - theta_u): the smallest angle between a normal in the cone
-  // and the direction towards p.
-  float theta = std::acos(std::clamp(glm::dot(cone.axis, -wi), -1.f, 1.f));
-  float theta_u = std::asin(std::min(1.f, sin_u));
-  float theta_p = std::max(0.f, theta - cone.theta_o - theta_u);
-  if (theta_p >= cone.theta_e) return 0;
-  return value * std::cos(theta_p);
+  // theta' = max(0, theta - theta_o - theta_u), the smallest angle between a normal in the cone
+  // and the direction towards p, by its cosine: each difference of angles in [0, pi] from their
+  // cosines and sines (cos(a - b) = cos a cos b + sin a sin b, sin(a - b) = sin a cos b -
+  // cos a sin b), 0 where a <= b, so that the walk's inner loop calls no trigonometry.
+  float cos_t = std::clamp(glm::dot(cone.axis, -wi), -1.f, 1.f);
+  float sin_t = std::sqrt(std::max(0.f, 1.f - cos_t * cos_t));
+  float cos_x = 1, sin_x = 0;  // x = max(0, theta - theta_o)
+  if (cos_t < cone.cos_o) {
+    cos_x = cos_t * cone.cos_o + sin_t * cone.sin_o;
+    sin_x = sin_t * cone.cos_o - cos_t * cone.sin_o;
+  }
+  float cos_p = cos_x < cos_u ? cos_x * cos_u + sin_x * sin_u : 1.f;
+  if (cos_p <= cone.cos_e) return 0;  // theta' >= theta_e
+  return value * cos_p;
 }
 
 float LightBvh::leaf_probability(const Node& leaf, uint32_t j, const glm::vec3& p,

@@ -35,6 +35,12 @@ struct OrientationCone {
   glm::vec3 axis{0, 0, 1};
   float theta_o = 0;
   float theta_e = 0;
+  // The angles' cosines and sine, kept beside them so that a walk's importance needs no
+  // trigonometric call (LightBvh::importance).
+  float cos_o = 1, sin_o = 0, cos_e = 1;
+
+  OrientationCone() = default;
+  OrientationCone(glm::vec3 axis, float theta_o, float theta_e);
   // CEK18's orientation measure M_Omega, the SAOH/VOH weight of a cone.
   float measure() const;
 };
