@@ -193,9 +193,7 @@ class CollectionPoints final : public pb::Technique {
       if (p_.emission == Emission::aimed) {
         // Every frame: the specular objects move. A light that reaches none keeps its uniform
         // emission (no density).
-        const auto densities = tracer.aimed_emission_densities();
-        for (uint32_t light = 0; light < densities.size(); ++light)
-          tracer.set_emission_density(light, densities[light] ? &*densities[light] : nullptr);
+        pb::trace::aim_emission(tracer);
       }
       tracer.trace(trace_, batch_);
     }

@@ -512,7 +512,9 @@ TEST(SceneFiles, EveryShippedSceneLoadsAndAnimates) {
       EXPECT_LT(o.material, scene.materials.size());
       expect_well_formed(o.mesh);
     }
-    EXPECT_LT(triangles, 70000u);  // they run on a software rasteriser (bunny-glass: 69,676)
+    // They run on a software rasteriser: tens of thousands of triangles (bunny-glass: 69,676), up
+    // to seed 001's largest final-gather timing scene (cornell-bumpy-133k: 133,160; Table 14.2).
+    EXPECT_LT(triangles, 140000u);
     // The default animation changes something between its first and last frame, and every frame is
     // finite.
     FrameState first = scene.at(0), last = scene.at(scene.default_frames - 1);
@@ -521,7 +523,8 @@ TEST(SceneFiles, EveryShippedSceneLoadsAndAnimates) {
                  first.object_to_world != last.object_to_world || !first.deformed_objects.empty();
     for (size_t i = 0; i < first.lights.size(); ++i)
       moves = moves || first.lights[i].position != last.lights[i].position ||
-              first.lights[i].direction != last.lights[i].direction;
+              first.lights[i].direction != last.lights[i].direction ||
+              first.lights[i].radiant != last.lights[i].radiant;  // power tracks
     EXPECT_TRUE(moves);
     for (uint32_t f = 0; f < scene.default_frames; f += 7) {
       FrameState s = scene.at(f);

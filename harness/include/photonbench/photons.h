@@ -372,4 +372,12 @@ class PhotonTracer {
   virtual std::vector<std::optional<EmissionDensity>> aimed_emission_densities() const = 0;
 };
 
+// Aimed emission applied: every light's density set to its aimed_emission_densities() entry, and
+// reset to uniform where the entry is empty (a light that reaches no specular surface this frame).
+inline void aim_emission(PhotonTracer& tracer) {
+  const std::vector<std::optional<EmissionDensity>> densities = tracer.aimed_emission_densities();
+  for (uint32_t light = 0; light < densities.size(); ++light)
+    tracer.set_emission_density(light, densities[light] ? &*densities[light] : nullptr);
+}
+
 }  // namespace pb::trace

@@ -225,10 +225,7 @@ void PhotonMappingPass::run(uint32_t iteration_seed, double radius_scale2, tbb::
 // "Photon mapping's cost"): valid because every photon this pass stores had a specular first
 // interaction (ts.store holds caustic kinds only).
 void PhotonMappingPass::aim_emission(tbb::task_arena& arena) {
-  std::vector<std::optional<EmissionDensity>> densities;
-  arena.execute([&] { densities = tracer_.aimed_emission_densities(); });
-  for (uint32_t e = 0; e < densities.size(); ++e)
-    if (densities[e]) tracer_.set_emission_density(e, &*densities[e]);
+  arena.execute([&] { trace::aim_emission(tracer_); });
 }
 
 void PhotonMappingPass::gather(const PhotonGrid& grid, size_t i,

@@ -20,8 +20,9 @@ PAPERS = {"paper1": "Photon Splatting Using a View-Sample Cluster Hierarchy (Mor
           "rsm": "Real-time global illumination with photon mapping (seed 000, Ray Tracing Gems ch. 24)",
           "paper003": "Interactive Global Photon Mapping (Fabianowski and Dingliana, EGSR 2009)",
           "manylights": "Importance Sampling of Many Lights; Dynamic Many-Light Sampling (seed 002 III, IV)",
+          "paper001": "Real-time Photon Mapping (Larsen, DTU thesis 2004; seed 001)",
           "ivc": "Real-Time Rendering of Indirectly Visible Caustics (Paper V) against AAPS's splat BVH"}
-ALIASES = {"003": "paper003"}  # the seed's number, as the issues name it
+ALIASES = {"003": "paper003", "001": "paper001"}  # the seed's number, as the issues name it
 
 
 def main(argv=None) -> int:
