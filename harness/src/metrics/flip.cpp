@@ -345,12 +345,25 @@ template <class Isa, int C, bool Accumulate>
 template <int S>
 [[gnu::always_inline]] inline void ldr_body(const float* px, int n, float* yy, float* cx,
                                             float* cz) {
-  constexpr int g = S == 1 ? 0 : 1, b = S == 1 ? 0 : 2;
   // sRGB decode (IEC 61966-2-1), clamp to [0, 1] as the reference tool does for LDR input.
-  auto decode = [](float v) { return clamp01(detail::srgb_decode_fast(v)); };
-  for (int i = 0; i < n; ++i)
-    rgb_to_ycxcz(decode(px[i * S]), decode(px[i * S + g]), decode(px[i * S + b]), yy[i], cx[i],
-                 cz[i]);
+  // One loop per channel into the output planes, then the colour matrix in place: a loop with one
+  // power live rather than three keeps its constants in registers on AVX2 (16 of them).
+  float* const linear[3] = {yy, cx, cz};
+  constexpr int channels = S == 1 ? 1 : 3;
+  for (int c = 0; c < channels; ++c) {
+    float* __restrict out = linear[c];
+    for (int i = 0; i < n; ++i) out[i] = clamp01(detail::srgb_decode_fast(px[i * S + c]));
+  }
+  float* __restrict y_plane = yy;
+  float* __restrict cx_plane = cx;
+  float* __restrict cz_plane = cz;
+  for (int i = 0; i < n; ++i) {
+    const float r = y_plane[i];
+    if constexpr (channels == 1)
+      rgb_to_ycxcz(r, r, r, y_plane[i], cx_plane[i], cz_plane[i]);
+    else
+      rgb_to_ycxcz(r, cx_plane[i], cz_plane[i], y_plane[i], cx_plane[i], cz_plane[i]);
+  }
 }
 
 // Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021).
@@ -418,9 +431,18 @@ struct FlipPass {
 }
 
 // The per-pixel part of FLIP for one row, from the filtered values of reference (r) and test (t):
-// {Y, Cx, Cz, dx, dy, ddx, ddy}. Keeps the larger of the new error and out[j].
+// {Y, Cx, Cz, dx, dy, ddx, ddy}, the first three overwritten. Keeps the larger of the new error and
+// out[j].
 [[gnu::always_inline]] inline void pixel_errors(int n, float* const* r, float* const* t, float cmax,
                                                 float pccmax, float* __restrict out) {
+  // Each image's filtered YCxCz to Hunt-adjusted Lab in place, a loop of its own: fewer values live
+  // at once than in one loop over everything, so AVX2's 16 registers hold them.
+  for (float* const* planes : {r, t}) {
+    float* __restrict l = planes[0];
+    float* __restrict a = planes[1];
+    float* __restrict b = planes[2];
+    for (int j = 0; j < n; ++j) ycxcz_to_hunt_lab(l[j], a[j], b[j], l[j], a[j], b[j]);
+  }
   const float* __restrict ry = r[0];
   const float* __restrict rcx = r[1];
   const float* __restrict rcz = r[2];
@@ -444,9 +466,7 @@ struct FlipPass {
   for (int j = 0; j < n; ++j) {
     // Colour difference (HPG 2020, colour pipeline): HyAB of the Hunt-adjusted Lab values, raised
     // to q_c, remapped to [0, 1] with p_c * cmax going to p_t.
-    float l1, a1, b1, l2, a2, b2;
-    ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
-    ycxcz_to_hunt_lab(ty[j], tcx[j], tcz[j], l2, a2, b2);
+    const float l1 = ry[j], a1 = rcx[j], b1 = rcz[j], l2 = ty[j], a2 = tcx[j], b2 = tcz[j];
     const float da = a1 - a2, db = b1 - b2;
     float colour = fast_pow(abs_f(l1 - l2) + sqrt_f(da * da + db * db), kQc);
     colour = colour < pccmax ? colour * low_slope : kPt + (colour - pccmax) * high_slope;
