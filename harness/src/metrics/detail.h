@@ -108,14 +108,15 @@ struct Vector {
 template <class Isa>
 using DoublesOf = typename Vector<double, Isa::lanes>::type;
 
-template <class V>
-[[gnu::always_inline]] inline V load(const double* p) {  // unaligned
+// A vector V from, or to, consecutive elements (doubles or floats) at p.
+template <class V, class T>
+[[gnu::always_inline]] inline V load(const T* p) {  // unaligned
   V v;
   __builtin_memcpy(&v, p, sizeof v);
   return v;
 }
-template <class V>
-[[gnu::always_inline]] inline void store(double* p, V v) {  // unaligned
+template <class T, class V>
+[[gnu::always_inline]] inline void store(T* p, V v) {  // unaligned
   __builtin_memcpy(p, &v, sizeof v);
 }
 

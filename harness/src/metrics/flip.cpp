@@ -221,47 +221,121 @@ Filters make_filters(float ppd) {
   return f;
 }
 
-// w * x + a, fused (one rounding) where the build has FMA: the explicit builtin is fused in the
-// vector body and the scalar remainder alike, so a pixel's value does not depend on where the loop
-// split falls (which contraction by the compiler would not promise).
+// ---- Filters in registers -----------------------------------------------------------------------
+//
+// Each filtered value is one chain of multiply-adds over its taps in order: w_0 x_0, then
+// w_k x_k + acc (fused where the build has FMA; the baseline build rounds the product separately).
+// Every column of every FMA build computes this same chain, so the AVX2 and AVX-512 builds give the
+// same bits, and so did the row sweeps this replaced. A chain stays in a register for all its taps:
+// a block of B vectors of columns is filtered by C filters at once (C x B = 8 accumulators), so
+// each vector loaded feeds C multiply-adds and an accumulator is stored once per block rather than
+// loaded and stored every four taps, and the vertical pass reads the ring rows of a plane once for
+// all the filters on it (the Y plane: its CSF and the three feature filters) rather than once per
+// filter. Blocks run past the end of a row into the buffers' slack (kSlack floats), so there is no
+// remainder loop; what lands in the slack is never read as a result.
+
 template <class Isa>
-[[gnu::always_inline]] inline float madd_f(float w, float x, float a) {
-  if constexpr (Isa::fma)
-    return __builtin_fmaf(w, x, a);
-  else
-    return w * x + a;
+using FloatsOf = typename detail::Vector<float, Isa::float_lanes>::type;
+
+template <class Isa>
+[[gnu::always_inline]] inline FloatsOf<Isa> splat(float x) {
+  FloatsOf<Isa> v;
+#pragma GCC unroll 16
+  for (int l = 0; l < Isa::float_lanes; ++l) v[l] = x;
+  return v;
 }
 
-// acc[j] (=|+=) sum_k w[k] rows[k][j], four taps per sweep so the accumulator is loaded and
-// stored once per four multiply-adds.
-template <class Isa, bool Accumulate>
-[[gnu::always_inline]] inline void fir(float* __restrict acc, const float* const* rows,
-                                       const float* w, int taps, int n) {
-  int k = 0;
-  bool first = !Accumulate;
-  for (; k + 4 <= taps; k += 4) {
-    const float *r0 = rows[k], *r1 = rows[k + 1], *r2 = rows[k + 2], *r3 = rows[k + 3];
-    const float w0 = w[k], w1 = w[k + 1], w2 = w[k + 2], w3 = w[k + 3];
-    if (first) {
-      for (int j = 0; j < n; ++j)
-        acc[j] = madd_f<Isa>(w3, r3[j], madd_f<Isa>(w2, r2[j], madd_f<Isa>(w1, r1[j], w0 * r0[j])));
-    } else {
-      for (int j = 0; j < n; ++j)
-        acc[j] = madd_f<Isa>(
-            w3, r3[j],
-            madd_f<Isa>(w2, r2[j], madd_f<Isa>(w1, r1[j], madd_f<Isa>(w0, r0[j], acc[j]))));
-    }
-    first = false;
+// w * x + a per lane, fused (one rounding) where the build has FMA: explicitly, since detail.h
+// turns off the compiler's contraction, so every lane and column rounds alike.
+template <class Isa, class V>
+[[gnu::always_inline]] inline V madd_v(V w, V x, V a) {
+  if constexpr (Isa::fma) {
+    V r;
+#pragma GCC unroll 16
+    for (int l = 0; l < Isa::float_lanes; ++l) r[l] = __builtin_fmaf(w[l], x[l], a[l]);
+    return r;
+  } else {
+    return w * x + a;
   }
-  for (; k < taps; ++k) {
-    const float* r0 = rows[k];
-    const float w0 = w[k];
-    if (first) {
-      for (int j = 0; j < n; ++j) acc[j] = w0 * r0[j];
-    } else {
-      for (int j = 0; j < n; ++j) acc[j] = madd_f<Isa>(w0, r0[j], acc[j]);
+}
+
+// Accumulators per block: eight chains in flight hide the multiply-add latency (four cycles, two
+// issued a cycle).
+constexpr int kChains = 8;
+// Floats a block may run past the end of a buffer row: 8 vectors of 16.
+constexpr int kSlack = 128;
+
+// Vertical: out[c][j] = sum_t w[c][t] rows[pad - radius[c] + t][j], t = 0 .. 2 radius[c], for
+// j in [0, count) (and on into the slack). rows: the 2 pad + 1 input rows around the output row.
+template <class Isa, int C>
+[[gnu::always_inline]] inline void vertical_bank(const float* const* rows, int pad,
+                                                 const float* const* w, const int* radius,
+                                                 float* const* out, int count) {
+  using V = FloatsOf<Isa>;
+  constexpr int L = Isa::float_lanes, B = kChains / C;
+  static_assert(B * L <= kSlack, "a block must fit in the slack");
+  for (int j = 0; j < count; j += B * L) {
+    V acc[C][B] = {};  // (every chain starts at its first tap: no value is read)
+    for (int k = 0; k <= 2 * pad; ++k) {
+      V x[B];
+#pragma GCC unroll 8
+      for (int b = 0; b < B; ++b) x[b] = detail::load<V>(rows[k] + j + b * L);
+#pragma GCC unroll 4
+      for (int c = 0; c < C; ++c) {
+        const int t = k - (pad - radius[c]);
+        if (t < 0 || t > 2 * radius[c]) continue;
+        const V wt = splat<Isa>(w[c][t]);
+        if (t == 0) {
+#pragma GCC unroll 8
+          for (int b = 0; b < B; ++b) acc[c][b] = wt * x[b];
+        } else {
+#pragma GCC unroll 8
+          for (int b = 0; b < B; ++b) acc[c][b] = madd_v<Isa>(wt, x[b], acc[c][b]);
+        }
+      }
     }
-    first = false;
+#pragma GCC unroll 4
+    for (int c = 0; c < C; ++c)
+#pragma GCC unroll 8
+      for (int b = 0; b < B; ++b) detail::store(out[c] + j + b * L, acc[c][b]);
+  }
+}
+
+// Horizontal: out[c][j] (=|+=) sum_t w[c][t] in[c][j + t], t = 0 .. taps - 1, for j in [0, n) (and
+// on into the slack); `in` already points at the first tap of column 0. Accumulate continues the
+// chain already in out (Cz's second Gaussian after its first).
+template <class Isa, int C, bool Accumulate>
+[[gnu::always_inline]] inline void horizontal_bank(const float* const* in, const float* const* w,
+                                                   int taps, float* const* out, int n) {
+  using V = FloatsOf<Isa>;
+  constexpr int L = Isa::float_lanes, B = kChains / C;
+  static_assert(B * L <= kSlack, "a block must fit in the slack");
+  for (int j = 0; j < n; j += B * L) {
+    V acc[C][B] = {};  // (every chain starts at its first tap: no value is read)
+    if constexpr (Accumulate) {
+#pragma GCC unroll 4
+      for (int c = 0; c < C; ++c)
+#pragma GCC unroll 8
+        for (int b = 0; b < B; ++b) acc[c][b] = detail::load<V>(out[c] + j + b * L);
+    }
+    for (int t = 0; t < taps; ++t) {
+#pragma GCC unroll 4
+      for (int c = 0; c < C; ++c) {
+        const V wt = splat<Isa>(w[c][t]);
+        if (!Accumulate && t == 0) {
+#pragma GCC unroll 8
+          for (int b = 0; b < B; ++b) acc[c][b] = wt * detail::load<V>(in[c] + j + t + b * L);
+        } else {
+#pragma GCC unroll 8
+          for (int b = 0; b < B; ++b)
+            acc[c][b] = madd_v<Isa>(wt, detail::load<V>(in[c] + j + t + b * L), acc[c][b]);
+        }
+      }
+    }
+#pragma GCC unroll 4
+    for (int c = 0; c < C; ++c)
+#pragma GCC unroll 8
+      for (int b = 0; b < B; ++b) detail::store(out[c] + j + b * L, acc[c][b]);
   }
 }
 
@@ -271,12 +345,25 @@ template <class Isa, bool Accumulate>
 template <int S>
 [[gnu::always_inline]] inline void ldr_body(const float* px, int n, float* yy, float* cx,
                                             float* cz) {
-  constexpr int g = S == 1 ? 0 : 1, b = S == 1 ? 0 : 2;
   // sRGB decode (IEC 61966-2-1), clamp to [0, 1] as the reference tool does for LDR input.
-  auto decode = [](float v) { return clamp01(detail::srgb_decode_fast(v)); };
-  for (int i = 0; i < n; ++i)
-    rgb_to_ycxcz(decode(px[i * S]), decode(px[i * S + g]), decode(px[i * S + b]), yy[i], cx[i],
-                 cz[i]);
+  // One loop per channel into the output planes, then the colour matrix in place: a loop with one
+  // power live rather than three keeps its constants in registers on AVX2 (16 of them).
+  float* const linear[3] = {yy, cx, cz};
+  constexpr int channels = S == 1 ? 1 : 3;
+  for (int c = 0; c < channels; ++c) {
+    float* __restrict out = linear[c];
+    for (int i = 0; i < n; ++i) out[i] = clamp01(detail::srgb_decode_fast(px[i * S + c]));
+  }
+  float* __restrict y_plane = yy;
+  float* __restrict cx_plane = cx;
+  float* __restrict cz_plane = cz;
+  for (int i = 0; i < n; ++i) {
+    const float r = y_plane[i];
+    if constexpr (channels == 1)
+      rgb_to_ycxcz(r, r, r, y_plane[i], cx_plane[i], cz_plane[i]);
+    else
+      rgb_to_ycxcz(r, cx_plane[i], cz_plane[i], y_plane[i], cx_plane[i], cz_plane[i]);
+  }
 }
 
 // Radiance scaled by 2^exposure, tone mapped, clamped, to YCxCz (EG 2021).
@@ -344,9 +431,18 @@ struct FlipPass {
 }
 
 // The per-pixel part of FLIP for one row, from the filtered values of reference (r) and test (t):
-// {Y, Cx, Cz, dx, dy, ddx, ddy}. Keeps the larger of the new error and out[j].
+// {Y, Cx, Cz, dx, dy, ddx, ddy}, the first three overwritten. Keeps the larger of the new error and
+// out[j].
 [[gnu::always_inline]] inline void pixel_errors(int n, float* const* r, float* const* t, float cmax,
                                                 float pccmax, float* __restrict out) {
+  // Each image's filtered YCxCz to Hunt-adjusted Lab in place, a loop of its own: fewer values live
+  // at once than in one loop over everything, so AVX2's 16 registers hold them.
+  for (float* const* planes : {r, t}) {
+    float* __restrict l = planes[0];
+    float* __restrict a = planes[1];
+    float* __restrict b = planes[2];
+    for (int j = 0; j < n; ++j) ycxcz_to_hunt_lab(l[j], a[j], b[j], l[j], a[j], b[j]);
+  }
   const float* __restrict ry = r[0];
   const float* __restrict rcx = r[1];
   const float* __restrict rcz = r[2];
@@ -370,9 +466,7 @@ struct FlipPass {
   for (int j = 0; j < n; ++j) {
     // Colour difference (HPG 2020, colour pipeline): HyAB of the Hunt-adjusted Lab values, raised
     // to q_c, remapped to [0, 1] with p_c * cmax going to p_t.
-    float l1, a1, b1, l2, a2, b2;
-    ycxcz_to_hunt_lab(ry[j], rcx[j], rcz[j], l1, a1, b1);
-    ycxcz_to_hunt_lab(ty[j], tcx[j], tcz[j], l2, a2, b2);
+    const float l1 = ry[j], a1 = rcx[j], b1 = rcz[j], l2 = ty[j], a2 = tcx[j], b2 = tcz[j];
     const float da = a1 - a2, db = b1 - b2;
     float colour = fast_pow(abs_f(l1 - l2) + sqrt_f(da * da + db * db), kQc);
     colour = colour < pccmax ? colour * low_slope : kPt + (colour - pccmax) * high_slope;
@@ -412,30 +506,50 @@ inline void FlipTile::run(const FlipPass* pass, int y0, int y1, int x0, int x1) 
   const int c0 = x0 - pad > 0 ? x0 - pad : 0, c1 = x1 + pad < w ? x1 + pad : w;
   const int lead = c0 - (x0 - pad), count = c1 - c0;
 
-  // Scratch: ring [2 images][3 planes][ring rows][count], vertical rows [14][pn], outputs [14][n].
-  const size_t ring_floats = size_t(6) * size_t(ring) * size_t(count);
+  // Scratch: ring [2 images][3 planes][ring rows][count], vertical rows [7][pn], outputs [14][n],
+  // each row followed by the slack the filters' blocks run into.
+  auto with_slack = [](int floats) { return size_t(floats + kSlack + 15) / 16 * 16; };
+  const size_t ring_stride = with_slack(count), v_stride = with_slack(pn), o_stride = with_slack(n);
+  const size_t ring_floats = size_t(6) * size_t(ring) * ring_stride;
   std::vector<float>& scratch = p.scratch->local();
-  const size_t need = ring_floats + size_t(14) * size_t(pn) + size_t(14) * size_t(n);
+  const size_t need = ring_floats + size_t(7) * v_stride + size_t(14) * o_stride;
   if (scratch.size() < need) scratch.resize(need);
   // (Lambdas here stay trivial: a lambda is its own function, compiled for the baseline target
   // unless inlined, so the conversion loops are called directly.)
   auto ring_row = [&](int img, int plane, int y) {  // y: an image row, already clamped
     return scratch.data() +
-           (size_t(img * 3 + plane) * size_t(ring) + size_t(y % ring)) * size_t(count);
+           (size_t(img * 3 + plane) * size_t(ring) + size_t(y % ring)) * ring_stride;
   };
   const float* rows[512];  // taps; make_filters keeps 2 * pad + 1 below this
-  auto vertical_rows = [&](int img, int plane, int y, int radius) {
-    for (int k = 0; k <= 2 * radius; ++k) {
-      int yy = y + k - radius;
+  auto vertical_rows = [&](int img, int plane, int y) {
+    for (int k = 0; k <= 2 * pad; ++k) {
+      int yy = y + k - pad;
       yy = yy < 0 ? 0 : (yy > h - 1 ? h - 1 : yy);
       rows[k] = ring_row(img, plane, yy);
     }
   };
-  auto horizontal_rows = [&](const float* padded, int radius) {
-    for (int k = 0; k <= 2 * radius; ++k) rows[k] = padded + (pad - radius) + k;
-  };
   const float cmax = p.cmax, pccmax = p.pccmax;
-  float* const work = scratch.data() + ring_floats;
+  float* v[7];
+  for (int q = 0; q < 7; ++q) v[q] = scratch.data() + ring_floats + size_t(q) * v_stride;
+  float* o[2][7];
+  for (int img = 0; img < 2; ++img)
+    for (int q = 0; q < 7; ++q)
+      o[img][q] =
+          scratch.data() + ring_floats + size_t(7) * v_stride + size_t(img * 7 + q) * o_stride;
+
+  // Filter banks: the Y plane feeds the CSF and the three feature filters, Cz its two Gaussians.
+  const float* const y_weights[4] = {f.y.data(), f.g.data(), f.dg.data(), f.ddg.data()};
+  const int y_radii[4] = {rs, rf, rf, rf};
+  const float* const cx_weights[1] = {f.cx.data()};
+  const float* const cz_weights[2] = {f.cz1.data(), f.cz2.data()};
+  const int cx_radii[1] = {rs}, cz_radii[2] = {rs, rs};
+  const float* const y_horizontal[1] = {f.y.data()};
+  const float* const cx_horizontal[1] = {f.cx.data()};
+  const float* const cz1_horizontal[1] = {f.cz1.data()};
+  const float* const cz2_horizontal[1] = {f.cz2.data()};
+  const float* const derivatives[2] = {f.dg.data(), f.ddg.data()};
+  const float* const gaussians[2] = {f.g.data(), f.g.data()};
+  const int spatial_offset = pad - rs, feature_offset = pad - rf;
 
   // Output row y needs input rows y - pad .. y + pad (clamped): all of them for the first row, then
   // one more per row, overwriting the ring slot of the row no longer needed.
@@ -445,45 +559,53 @@ inline void FlipTile::run(const FlipPass* pass, int y0, int y1, int x0, int x1) 
       for (int img = 0; img < 2; ++img)
         convert_span(p, img, next, c0, count, ring_row(img, 0, next), ring_row(img, 1, next),
                      ring_row(img, 2, next));
-    float* o[2][7];
     for (int img = 0; img < 2; ++img) {
-      float* v[7];
-      for (int q = 0; q < 7; ++q) {
-        v[q] = work + size_t(img * 7 + q) * size_t(pn);
-        o[img][q] = work + size_t(14) * size_t(pn) + size_t(img * 7 + q) * size_t(n);
-      }
       // Vertical: v = {Y, Cx, Cz (1st Gaussian), Cz (2nd), G Y, G' Y, G'' Y}.
-      vertical_rows(img, 0, y, rs);
-      fir<Isa, false>(v[0] + lead, rows, f.y.data(), ts, count);
-      vertical_rows(img, 1, y, rs);
-      fir<Isa, false>(v[1] + lead, rows, f.cx.data(), ts, count);
-      vertical_rows(img, 2, y, rs);
-      fir<Isa, false>(v[2] + lead, rows, f.cz1.data(), ts, count);
-      fir<Isa, false>(v[3] + lead, rows, f.cz2.data(), ts, count);
-      vertical_rows(img, 0, y, rf);
-      fir<Isa, false>(v[4] + lead, rows, f.g.data(), tf, count);
-      fir<Isa, false>(v[5] + lead, rows, f.dg.data(), tf, count);
-      fir<Isa, false>(v[6] + lead, rows, f.ddg.data(), tf, count);
+      {
+        vertical_rows(img, 0, y);
+        float* const out[4] = {v[0] + lead, v[4] + lead, v[5] + lead, v[6] + lead};
+        vertical_bank<Isa, 4>(rows, pad, y_weights, y_radii, out, count);
+      }
+      {
+        vertical_rows(img, 1, y);
+        float* const out[1] = {v[1] + lead};
+        vertical_bank<Isa, 1>(rows, pad, cx_weights, cx_radii, out, count);
+      }
+      {
+        vertical_rows(img, 2, y);
+        float* const out[2] = {v[2] + lead, v[3] + lead};
+        vertical_bank<Isa, 2>(rows, pad, cz_weights, cz_radii, out, count);
+      }
       for (int q = 0; q < 7; ++q) {
         for (int j = 0; j < lead; ++j) v[q][j] = v[q][lead];
         for (int j = lead + count; j < pn; ++j) v[q][j] = v[q][lead + count - 1];
       }
       // Horizontal: o = {Y, Cx, Cz, dx, dy, ddx, ddy}.
-      horizontal_rows(v[0], rs);
-      fir<Isa, false>(o[img][0], rows, f.y.data(), ts, n);
-      horizontal_rows(v[1], rs);
-      fir<Isa, false>(o[img][1], rows, f.cx.data(), ts, n);
-      horizontal_rows(v[2], rs);
-      fir<Isa, false>(o[img][2], rows, f.cz1.data(), ts, n);
-      horizontal_rows(v[3], rs);
-      fir<Isa, true>(o[img][2], rows, f.cz2.data(), ts, n);
-      horizontal_rows(v[4], rf);
-      fir<Isa, false>(o[img][3], rows, f.dg.data(), tf, n);
-      fir<Isa, false>(o[img][5], rows, f.ddg.data(), tf, n);
-      horizontal_rows(v[5], rf);
-      fir<Isa, false>(o[img][4], rows, f.g.data(), tf, n);
-      horizontal_rows(v[6], rf);
-      fir<Isa, false>(o[img][6], rows, f.g.data(), tf, n);
+      float* const* out = o[img];
+      {
+        const float* const in[1] = {v[0] + spatial_offset};
+        horizontal_bank<Isa, 1, false>(in, y_horizontal, ts, &out[0], n);
+      }
+      {
+        const float* const in[1] = {v[1] + spatial_offset};
+        horizontal_bank<Isa, 1, false>(in, cx_horizontal, ts, &out[1], n);
+      }
+      {
+        const float* const first[1] = {v[2] + spatial_offset};
+        horizontal_bank<Isa, 1, false>(first, cz1_horizontal, ts, &out[2], n);
+        const float* const second[1] = {v[3] + spatial_offset};
+        horizontal_bank<Isa, 1, true>(second, cz2_horizontal, ts, &out[2], n);
+      }
+      {
+        const float* const in[2] = {v[4] + feature_offset, v[4] + feature_offset};
+        float* const d[2] = {out[3], out[5]};
+        horizontal_bank<Isa, 2, false>(in, derivatives, tf, d, n);
+      }
+      {
+        const float* const in[2] = {v[5] + feature_offset, v[6] + feature_offset};
+        float* const d[2] = {out[4], out[6]};
+        horizontal_bank<Isa, 2, false>(in, gaussians, tf, d, n);
+      }
     }
     pixel_errors(n, o[0], o[1], cmax, pccmax, p.error + size_t(y) * size_t(w) + size_t(x0));
   }
@@ -493,8 +615,8 @@ void run_pass(const FlipPass& pass) {
   // Tiles of a fixed size, one task each. Every tile converts 2 * pad halo rows and columns beyond
   // its own and filters its halo columns vertically, so tiles must be large: 96 x 512 pixels spend
   // 1.26x the conversions of a whole image, where blocked_range2d's halving (grain 64 x 256) left
-  // 34 x 240 tiles at 1080p, 1.72x. A tile's ring (6 planes x 21 rows x 532 floats) still fits in
-  // the core's L2 cache.
+  // 34 x 240 tiles at 1080p, 1.72x. A tile's ring (6 planes x 21 rows x 532 floats, plus the
+  // filters' slack: 660) still fits in the core's L2 cache.
   constexpr int kTileRows = 96, kTileCols = 512;
   const int across = (pass.width + kTileCols - 1) / kTileCols;
   const int down = (pass.height + kTileRows - 1) / kTileRows;
