@@ -14,6 +14,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -24,8 +26,10 @@
 #include "trace/embree_scene.h"
 #include "trace/photon_tracer.h"
 
-int main(int argc, char** argv) {
-  const auto source_dir = pb::bench::source_dir();
+namespace {
+
+int run(int argc, char** argv) {
+  const std::filesystem::path source_dir = PB_SOURCE_DIR;  // __FILE__ is relative under ccache
   auto options = pb::bench::parse_options(
       argc, argv,
       {{"--scene", (source_dir / "scenes/walker.yaml").string()},
@@ -116,4 +120,15 @@ int main(int argc, char** argv) {
         100 * stale_energy_sum / n);
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_selective_emission: %s\n", e.what());
+    return 1;
+  }
 }
