@@ -1,8 +1,9 @@
 // Selective photon emission (photonbench/toolkit/selective_emission.h, seed 001 Ch. 9): the groups
 // are Halton cells, a static scene invalidates nothing and probes each photon once per group_size
 // updates, a moved object invalidates the groups whose probes it changes and the re-traced groups
-// equal a fresh trace of the same emission points, the per-surface ledger equals a recomputation
-// from the kept photons bit for bit, and bad settings are refused by key.
+// equal a fresh trace of the same emission points, a moving light invalidates all its groups, the
+// per-surface ledger equals a recomputation from the kept photons bit for bit, and bad settings
+// are refused by key.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -210,6 +211,31 @@ TEST(SelectiveEmission, AMovedObjectInvalidatesTheGroupsItsProbesHitAndMatchesAF
   EXPECT_GT(move_and_check(room, world, tracer, selective,
                            glm::translate(glm::mat4(1.f), {-0.5f, 0.2f, 0.4f}), 2),
             0u);
+}
+
+// Ch. 9: "a moving light source will cause all photon paths from this particular light to be
+// invalidated each frame"; a light whose power changes traces everything afresh.
+TEST(SelectiveEmission, AMovingLightInvalidatesAllItsGroupsEveryUpdate) {
+  Room room;
+  trace::EmbreeScene world(room.t.scene, room.t.state);
+  trace::EmbreePhotonTracer tracer(world);
+  SelectiveEmission selective(tracer, room_settings());
+  selective.update();
+  scene::FrameState next = room.t.state;
+  for (int f = 1; f <= 3; ++f) {
+    next.lights[0].position.x = 0.1f * f;
+    world.update(next);
+    const SelectiveEmissionStats s = selective.update();
+    EXPECT_FALSE(s.traced_all);
+    EXPECT_EQ(s.groups_invalidated, 77u);
+    EXPECT_EQ(s.paths_retraced, 3080u);
+  }
+  next.lights[0].radiant *= 2.f;
+  world.update(next);
+  const SelectiveEmissionStats s = selective.update();
+  EXPECT_TRUE(s.traced_all);
+  EXPECT_EQ(s.probes, 0u);
+  EXPECT_EQ(s.paths_retraced, 3080u);
 }
 
 TEST(SelectiveEmission, TheLedgerIsExactWhateverTheOrderOfAddsAndRemoves) {

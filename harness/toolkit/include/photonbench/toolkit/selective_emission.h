@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "photonbench/photons.h"
+#include "photonbench/plugin.h"
 
 namespace pb::toolkit {
 
@@ -73,6 +74,28 @@ struct SelectiveEmissionStats {
   bool traced_all = false;          // the first update, or the lights' count or power changed
   uint64_t rays() const { return probe_rays + retrace_rays; }
 };
+
+// The counters report() emits, for a technique's descriptor (.counters).
+// clang-format off
+inline constexpr pb_counter_spec kProbesCounter = {
+    "probes", PB_COUNTER_WORK, "paths", "selective emission: paths traced to test their group"};
+inline constexpr pb_counter_spec kGroupsInvalidatedCounter = {
+    "groups_invalidated", PB_COUNTER_WORK, "groups",
+    "selective emission: groups whose probe diverged from its kept path"};
+inline constexpr pb_counter_spec kPathsRetracedCounter = {
+    "paths_retraced", PB_COUNTER_WORK, "paths",
+    "selective emission: kept paths replaced (invalidated groups, or all on a full trace)"};
+inline constexpr pb_counter_spec kSelectiveRaysCounter = {
+    "selective_rays", PB_COUNTER_WORK, "rays", "selective emission: rays of probes and re-traces"};
+// clang-format on
+inline constexpr std::array kSelectiveEmissionCounters = {
+    kProbesCounter, kGroupsInvalidatedCounter, kPathsRetracedCounter, kSelectiveRaysCounter};
+inline void report(Context& ctx, const SelectiveEmissionStats& s) {
+  count(ctx, kProbesCounter, double(s.probes));
+  count(ctx, kGroupsInvalidatedCounter, double(s.groups_invalidated));
+  count(ctx, kPathsRetracedCounter, double(s.paths_retraced));
+  count(ctx, kSelectiveRaysCounter, double(s.rays()));
+}
 
 // The per-surface energy of stored photons (the thesis's per-surface photon maps, Ch. 9: "the total
 // energy of a surface is easily maintained"): 64-bit fixed point per channel, each photon's power
