@@ -57,14 +57,15 @@ struct SelectiveEmissionSettings {
   uint32_t group_size = 40;                     // photons per group (per light)
   float divergence_tolerance = 1e-3f;           // metres a probe's hit may move and still agree
   // max_bounces, store, rr_start and seed; the emission, keep_light_paths and seed_per_frame are
-  // the policy's own, and paths and photon_target are unused (an emission sampler's trace).
+  // the policy's own, paths and photon_target are unused (an emission sampler's trace), and a
+  // vertex policy is refused by the tracer (kept paths go with its own decisions).
   trace::TraceSettings trace;
 };
 
 // "" or "<key>: why" (keys halton_bases, group_size, divergence_tolerance).
 std::string check_selective_emission(const SelectiveEmissionSettings& settings);
 
-// Per update. A technique reports probes, groups_invalidated and paths_retraced as its counters.
+// Per update; report() below emits them as a technique's counters.
 struct SelectiveEmissionStats {
   uint64_t probes = 0;              // paths traced to test their group
   uint64_t groups_invalidated = 0;  // groups whose probe diverged
