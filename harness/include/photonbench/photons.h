@@ -95,7 +95,9 @@ struct EmissionPoint {
   glm::vec2 direction{0.5f};  // surface emitters: the sample of the cosine-distributed direction
   // Photons this light emits per unit of its emission domain at `uv` (N times the density's pdf):
   // the photon carries the light's power divided by it, and its footprint is scaled by the photon
-  // spacing 1 / sqrt(photon_density).
+  // spacing 1 / sqrt(photon_density). 0: nothing is emitted (no ray, no photon; a kept path of
+  // its light vertex alone), so a sampler can trace a subset of its emissions while each keeps its
+  // index, and with it the samples its bounces draw.
   float photon_density = 1;
   uint32_t id = 0;  // PhotonRecord::path of the photons this emission stores
 };
@@ -202,7 +204,10 @@ struct TraceSettings {
   bool seed_per_frame = true;  // true: the sequence is scrambled with hash(seed, frame) (fresh
                                // photons each frame); false: identical photons every frame
   // Keep whole light paths (PhotonBatch::paths) for the path-reuse service (retrace_invalid,
-  // verify_paths): with the tracer's own emission and decisions only.
+  // verify_paths): with the tracer's own decisions only. With an emission sampler, path i is
+  // emission i (LightPath::sample = i) and its bounces draw the samples of index i, so the caller
+  // can re-trace any subset and get the same paths (toolkit/selective_emission.h); the reuse
+  // service re-validates only the tracer's own emission and traces a sampler's paths afresh.
   bool keep_light_paths = false;
   // The technique's policies (owned by it, alive through the trace; null: the tracer's own).
   // With an emission sampler, `paths`, `photon_target` and the seed are unused.
@@ -287,7 +292,7 @@ struct PathVertex {
 
 struct LightPath {
   uint32_t light = 0;
-  uint32_t sample = 0;          // sample index within its light
+  uint32_t sample = 0;          // sample index within its light (an emission sampler's index)
   glm::vec2 emission_uv{0.0f};  // where in the light's emission domain it started
   uint32_t first_vertex = 0, vertex_count = 0;
   uint32_t first_photon = 0, photon_count = 0;

@@ -432,10 +432,10 @@ void check_settings(const TraceSettings& s) {
   if (s.paths < 1) throw InputError("photon tracer: paths must be at least 1");
   if ((s.store & ~uint32_t(kAllPhotons)) != 0 || s.store == 0)
     throw InputError("photon tracer: store must be a non-empty PhotonKind mask");
-  if (s.keep_light_paths && (s.emission || s.policy))
+  if (s.keep_light_paths && s.policy)
     throw InputError(
-        "photon tracer: keep_light_paths goes with the tracer's own emission and decisions only "
-        "(a kept path is re-traced by them)");
+        "photon tracer: keep_light_paths goes with the tracer's own decisions only (a kept path "
+        "is re-traced by them)");
   if (s.photon_target > 0 && (s.emission || s.policy))
     throw InputError(
         "photon tracer: photon_target goes with the tracer's own emission and decisions only (its "
@@ -564,9 +564,11 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
   const uint32_t blocks = uint32_t((total + kBlockSize - 1) / kBlockSize);
   std::vector<BlockOutput>& outputs = scratch_->blocks;
   reset_blocks(outputs, blocks);
+  const bool keep = settings.keep_light_paths;
   tbb::parallel_for(
       tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
         std::vector<PathVertex> verts;
+        std::vector<PhotonRecord> photons;
         for (uint32_t b = r.begin(); b != r.end(); ++b) {
           BlockOutput& o = outputs[b];
           const uint32_t end = uint32_t(std::min<uint64_t>(total, uint64_t(b + 1) * kBlockSize));
@@ -576,15 +578,29 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
               throw Error(fmt::format("photon tracer: emission {} names light {} of {}", i,
                                       point.light, lights.size()));
             const EmissionRay ray = lights.emit(point.light, point.uv, point.direction);
+            const PathTask task{point.light, i};
             verts.clear();
+            photons.clear();
             verts.push_back(start_vertex(c, point.light, ray, point.photon_density));
             out.emitted_power[i] = mean3(verts.back().power);
-            o.rays += continue_path(c, {point.light, i}, point.id, verts, o.photons);
+            o.rays += continue_path(c, task, point.id, verts, photons);
+            append_path(o, task, point.uv, point.direction, keep, verts, photons);
           }
         }
       });
   TraceStats stats;
-  gather(outputs, blocks, 0, false, out, stats);
+  gather(outputs, blocks, 0, keep, out, stats);
+  if (keep) {  // the snapshot; no paths_per_light: these are not the tracer's own emissions
+    LightPaths& lp = out.paths;
+    lp.object_to_world.resize(world_.object_count());
+    for (uint32_t o = 0; o < world_.object_count(); ++o)
+      lp.object_to_world[o] = world_.object_to_world(o);
+    lp.light_state = light_state(world_, lights, density_version_);
+    lp.seed = c.seed;
+    lp.max_bounces = settings.max_bounces;
+    lp.store = settings.store;
+    lp.rr_start = settings.rr_start;
+  }
   stats.paths = total;
   stats.photons = out.photons.size();
   stats.seconds = io::seconds_since(t0);
