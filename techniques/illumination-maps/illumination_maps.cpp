@@ -312,10 +312,13 @@ std::vector<uint32_t> IlluminationMaps::take_gather_texels(uint32_t max_texels) 
   return order;
 }
 
-glm::vec3 IlluminationMaps::aim_radiance(uint32_t chart, glm::vec3 p) const {
+glm::vec3 IlluminationMaps::aim_radiance(uint32_t chart, glm::vec3 p,
+                                         glm::vec3 towards_viewer) const {
   const ImBilinear b = im_bilinear(charts_[chart].grid, p);
   glm::vec3 sum(0.f);
-  for (int i = 0; i < 4; ++i) sum += b.weight[i] * glm::vec3(aim_[b.texel[i]]);
+  for (int i = 0; i < 4; ++i)
+    if (glm::dot(sites_[b.texel[i]].normal, towards_viewer) > 0.f)
+      sum += b.weight[i] * glm::vec3(aim_[b.texel[i]]);
   return sum;
 }
 
@@ -332,7 +335,7 @@ glm::vec3 IlluminationMaps::gather_rays(uint32_t texel, const tk::TriangleRayCas
     const glm::vec3 d = cosine_direction(site.normal, u1, u2);
     const auto hit = caster.closest(origin, d, 0.f, std::numeric_limits<float>::infinity());
     if (!hit || hit->triangle >= chart_of_.size()) continue;
-    sum += glm::dvec3(aim_radiance(chart_of_[hit->triangle], origin + hit->distance * d));
+    sum += glm::dvec3(aim_radiance(chart_of_[hit->triangle], origin + hit->distance * d, -d));
   }
   return glm::vec3(M_PI * sum / double(std::max(1u, rays)));
 }

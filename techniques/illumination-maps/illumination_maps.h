@@ -123,6 +123,8 @@ float hemi_plane_scale_8bit(float largest_radiance, uint32_t size, float half_wi
 // A texel's place on its chart: the centre, where the AIM is estimated and the gather starts.
 struct TexelSite {
   glm::vec3 position{0.0f};
+  // The lit side: the geometric normal, turned towards the photons near the centre when they
+  // arrive on the other side (a chart's AIM belongs to the side its photons arrived on).
   glm::vec3 normal{0.0f, 0.0f, 1.0f};
   glm::vec3 albedo{0.0f};  // of the surface at the centre: AIM radiance = albedo / pi * E
   uint32_t chart = 0;
@@ -173,8 +175,9 @@ class IlluminationMaps {
   // since their last gather (Ch. 11's delta i), at most `max_texels`; marks them gathered.
   std::vector<uint32_t> take_gather_texels(uint32_t max_texels);
 
-  // The AIM's radiance at `p` on chart `chart` (bilinear).
-  glm::vec3 aim_radiance(uint32_t chart, glm::vec3 p) const;
+  // The AIM's radiance at `p` on chart `chart` seen from the side of `towards_viewer` (bilinear,
+  // a texel counting only where its lit side, TexelSite::normal, faces the viewer).
+  glm::vec3 aim_radiance(uint32_t chart, glm::vec3 p, glm::vec3 towards_viewer) const;
 
   // Irradiance at texel `texel` by `rays` cosine-distributed rays (stratified, rotated per texel):
   // pi times the mean AIM radiance the rays hit (0 where they hit nothing).

@@ -91,8 +91,8 @@ class IlluminationMaps final : public pb::Technique {
     trace_.paths = p_.paths;
     trace_.max_bounces = p_.max_bounces;
     trace_.store = pb::trace::kAllPhotons;
-    std::vector<Binding> bindings(6, Binding::storage_buffer);
-    bindings.insert(bindings.end(), 4, Binding::storage_image);
+    std::vector<Binding> bindings(7, Binding::storage_buffer);
+    bindings.insert(bindings.end(), 5, Binding::storage_image);
     auto make = [&](const char* name, std::span<const uint32_t> spirv) {
       return gpu.create_compute_pipeline(std::string("illumination-maps/") + name, spirv, bindings,
                                          sizeof(im::ImPush));
@@ -132,6 +132,9 @@ class IlluminationMaps final : public pb::Technique {
       charts_updated = maps_.update_aims(rebuild ? charts : p_.charts_per_frame, p_.aim_threshold,
                                          p_.aim_photons, p_.aim_estimate);
       std::memcpy(aim_.mapped(), maps_.aim().data(), maps_.aim().size_bytes());
+      auto* normals = static_cast<glm::vec4*>(texel_normals_.mapped());
+      const auto sites = maps_.sites();
+      for (size_t t = 0; t < sites.size(); ++t) normals[t] = glm::vec4(sites[t].normal, 0.f);
     }
     ctx.shared().gbuffer();
     ctx.shared().direct_light();
@@ -186,7 +189,8 @@ class IlluminationMaps final : public pb::Technique {
     pb::count(ctx, kCounters["texels_gathered"], double(texels.size()));
     pb::count(ctx, kCounters["bytes_total"],
               double(camera_.bytes() + atlas_.bytes() + triangle_chart_.size() + charts_.size() +
-                     aim_.size() + iim_.size() + level_a_.size() + level_b_.size() + map_bytes));
+                     aim_.size() + iim_.size() + texel_normals_.size() + level_a_.size() +
+                     level_b_.size() + map_bytes));
     ++frames_;
   }
 
@@ -224,6 +228,8 @@ class IlluminationMaps final : public pb::Technique {
                               pb::gpu::Memory::host_visible);
     iim_ = tk::storage_buffer(gpu, "illumination-maps/iim", texel_bytes,
                               pb::gpu::Memory::host_visible);
+    texel_normals_ = tk::storage_buffer(gpu, "illumination-maps/texel-normals", texel_bytes,
+                                        pb::gpu::Memory::host_visible);
     front_.assign(texels, glm::vec3(0.f));
     back_.assign(texels, glm::vec3(0.f));
     shown_.assign(texels, false);
@@ -275,8 +281,8 @@ class IlluminationMaps final : public pb::Technique {
                 uint32_t x, uint32_t y) {
     if (x == 0 || y == 0) return;
     const std::vector<pb::gpu::Resource> resources{
-        &triangle_chart_, &charts_,        &aim_,           &iim_,    &level_in,
-        &level_out,       &drawn.position, &drawn.triangle, g.albedo, &indirect};
+        &triangle_chart_, &charts_,        &aim_,         &iim_,           &level_in, &level_out,
+        &texel_normals_,  &drawn.position, &drawn.normal, &drawn.triangle, g.albedo,  &indirect};
     vk::CommandBuffer c = ctx.cmd();
     pipeline.bind(c, std::span<const pb::gpu::Resource>(resources), push);
     c.dispatch(x, y, 1);
@@ -337,7 +343,7 @@ class IlluminationMaps final : public pb::Technique {
   pb::trace::PhotonBatch batch_;
   std::vector<glm::vec3> front_, back_;  // the displayed IIM and the newest gathered
   std::vector<bool> shown_;
-  pb::gpu::Buffer triangle_chart_, charts_, aim_, iim_, level_a_, level_b_;
+  pb::gpu::Buffer triangle_chart_, charts_, aim_, iim_, texel_normals_, level_a_, level_b_;
   DrawTarget camera_, atlas_;
   pb::gpu::Pipeline weigh_, reduce_, lookup_;
 };

@@ -12,8 +12,8 @@ void main() {
   uint t = imageLoad(drawn_triangle, pixel).x;
   vec3 radiance = vec3(0.0);
   if (t != PB_NO_TRIANGLE && uint(albedo.w + 0.5) == PB_MATERIAL_DIFFUSE) {
-    vec3 irradiance;
-    IM_SAMPLE(iim, t, imageLoad(drawn_position, pixel).xyz, irradiance);
+    vec3 irradiance =
+        im_sample_iim(t, imageLoad(drawn_position, pixel).xyz, imageLoad(drawn_normal, pixel).xyz);
     radiance = albedo.rgb * PB_INV_PI * irradiance;
   }
   imageStore(indirect, pixel, vec4(radiance, 1.0));

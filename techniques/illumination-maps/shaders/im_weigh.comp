@@ -14,7 +14,8 @@ void main() {
                    (plane / push.planes_per_row) * push.hemi_size + y);
   uint t = imageLoad(drawn_triangle, at).x;
   vec3 radiance = vec3(0.0);
-  if (t != PB_NO_TRIANGLE) IM_SAMPLE(aim, t, imageLoad(drawn_position, at).xyz, radiance);
+  if (t != PB_NO_TRIANGLE)
+    radiance = im_sample_aim(t, imageLoad(drawn_position, at).xyz, imageLoad(drawn_normal, at).xyz);
   level_out[i] = vec4(im_level0(radiance, x, y, push.hemi_size, push.half_width, push.scale_8bit,
                                 push.sum_precision),
                       0.0);
