@@ -15,12 +15,21 @@ that lag, for any technique of the run:
     against the same reference: a change below it is not resolved). A window without 8 scored frames, or
     whose last quarter still trends (its fitted line moves by more than the band across it), is reported
     as not settled, never as 0.
-    Beside each lag, the work the technique did in the window: paths re-traced and rays traced
-    (counters `paths_retraced`, `rays_traced` where the technique has them, summed over the window's
-    frames), so that two techniques' lags are read at the work each spent.
+    Beside each lag, the work the technique did until it settled: paths re-traced and rays traced
+    (counters `paths_retraced`, and `rays_traced` or `selective_rays`, where the technique has them,
+    summed from the event to the settled frame), so that two techniques' lags are read at the work
+    each spent.
 
 Scored every frame over the events' windows (the config's metrics_every: 1); the indirect class where the
 cell scores it, else the combined image.
+
+And on a run of configs/paper001.yaml (frame 0 of static scenes, where every IIM texel is gathered):
+  * **Table 14.2**: the final gather's time per texel (the `gather` pass over the `texels_gathered`
+    counter, frame 0), the hemi-plane at each size against the cosine rays, per scene and its triangles,
+    with the rays-over-raster ratio beside the thesis's (16.7 ms for 1,024 rays against 0.75-1.59 ms a
+    hemi-plane: 10.5x-22x); per round (the seed axis' rounds) and the median over the rounds, on the
+    pass's time and on the process CPU time it took (lavapipe draws on the CPU here);
+  * **Fig. 14.4**: the indirect FLIP of IIMs at each `aim_texels` beside its floor.
 """
 
 import math
@@ -39,11 +48,26 @@ EVENTS: Dict[str, List[Tuple[str, int, int]]] = {
     "walker": [("the figure stops at the stand", 90, 90), ("the figure stops at the door", 300, 300)],
     "two-rooms": [("the right room's lights go out", 60, 63)],
 }
-WORK_COUNTERS = ("paths_retraced", "rays_traced")
+# The work a cell did in a window: paths re-traced, and rays traced (path-verification's `rays_traced`,
+# selective photon emission's `selective_rays`; a cell reports one or the other).
+PATHS_COUNTER = "paths_retraced"
+RAYS_COUNTERS = ("rays_traced", "selective_rays")
 MIN_WINDOW = 8  # scored frames a window needs for a lag
 TAIL_SHARE = 0.25
 MIN_TAIL = 4
 NOISE_SIGMAS = 3.0
+
+
+TECHNIQUE = "illumination-maps"
+# Triangles of the Table 14.2 scenes (scenes/cornell-bumpy-*.yaml say how they are made).
+TRIANGLES = {"cornell-box": 34, "cornell-bumpy-13k": 12832, "cornell-bumpy-133k": 133160}
+# Table 14.2: (render size, polygons) -> ms a gather; and 1,024 rays in an 8,000-polygon scene.
+THESIS_TABLE_142 = {(8, 34): 0.75, (16, 34): 0.76, (32, 34): 0.78, (8, 13000): 0.90, (16, 13000): 0.91,
+                    (32, 13000): 0.97, (8, 133000): 1.55, (16, 133000): 1.57, (32, 133000): 1.59}
+THESIS_RAYS_MS = 16.7
+# The technique's defaults for the parameters that name a gather (techniques/illumination-maps).
+DEFAULTS = {"gather": "raster", "hemi_size": 16, "sum_precision": "8bit", "gather_rays": 1024,
+            "aim_texels": 5}
 
 
 class MissingCells(Exception):
@@ -110,8 +134,9 @@ def lag_rows(run: Run) -> List[dict]:
                 row = {"scene": scene, "cell": cell, "event": name, "start": start, "stop": stop,
                        "class": cls, "scored": len(wf), "settle": s}
                 end = s["settle_frame"] if s else hi
-                for counter in WORK_COUNTERS:
-                    row[counter] = counter_sum(cell, counter, start, end)
+                row["paths_retraced"] = counter_sum(cell, PATHS_COUNTER, start, end)
+                row["rays"] = next((r for r in (counter_sum(cell, c, start, end) for c in RAYS_COUNTERS)
+                                    if r is not None), None)
                 rows.append(row)
     return rows
 
@@ -144,7 +169,7 @@ def lag_section(run: Run) -> str:
             f"| {r['scene']} | {r['event']} ({r['start']}–{r['stop']}) | {cell_label(r['cell'])} | "
             f"{r['class']} | {r['scored']} | {fmt(s and s['settled'], 3)} | {fmt(s and s['band'], 3)} | "
             f"{'not settled' if s is None else lag} | {'–' if lag is None else f'{lag / 30:.2f}'} | "
-            f"{fmt(r['paths_retraced'])} | {fmt(r['rays_traced'])} |")
+            f"{fmt(r['paths_retraced'])} | {fmt(r['rays'])} |")
     out += ["", "Lag: frames from the event's first frame until every later score of the window stays within "
             "the band of its settled value (the mean of its last quarter); the band is the larger of 3 "
             "standard deviations of that quarter about its fitted line and the FLIP floor (scores closer than the floor "
@@ -153,7 +178,99 @@ def lag_section(run: Run) -> str:
     return "\n".join(out) + "\n"
 
 
+def setting(cell: Cell, name: str):
+    v = cell.params.get(name, DEFAULTS[name])
+    if v in ("", None) or (isinstance(v, float) and math.isnan(v)):
+        v = DEFAULTS[name]
+    return int(float(v)) if isinstance(DEFAULTS[name], int) else str(v)
+
+
+def gather_label(cell: Cell) -> str:
+    if setting(cell, "gather") == "rays":
+        return f"rays, {setting(cell, 'gather_rays')}"
+    return f"hemi-plane {setting(cell, 'hemi_size')} px, {setting(cell, 'sum_precision')}"
+
+
+def per_texel_ms(cell: Cell, clock: str) -> Optional[float]:
+    """The gather pass's time over the texels it gathered, at the first measured frame."""
+    frames, ms = cell.pass_samples("gather", clock)
+    c = cell.counters
+    if not len(frames) or c is None or c.empty:
+        return None
+    texels = c[(c["name"] == "texels_gathered") & (c["frame"] == frames[0])]["value"]
+    if not len(texels) or float(texels.iloc[0]) <= 0:
+        return None
+    return float(ms[0]) / float(texels.iloc[0])
+
+
+def round_median(cells: Sequence[Cell], clock: str) -> Tuple[Optional[float], List[float]]:
+    values = [v for v in (per_texel_ms(c, clock) for c in cells) if v is not None]
+    return (float(np.median(values)) if values else None), values
+
+
+def gather_section(run: Run) -> str:
+    out = ["## Table 14.2: the final gather per texel, hemi-plane against rays", ""]
+    rows = []
+    for scene in run.scenes():
+        groups: Dict[str, List[Cell]] = {}
+        for cell in run.cells_of(scene):
+            default_texels = setting(cell, "aim_texels") == DEFAULTS["aim_texels"]
+            if cell.ok and cell.technique == TECHNIQUE and default_texels:
+                groups.setdefault(gather_label(cell), []).append(cell)
+        if groups:
+            rows.append((scene, groups))
+    if not rows:
+        return ""
+    out += ["| scene (triangles) | gather | ms a texel (median of rounds) | rounds | process CPU ms a texel | "
+            "rays / this | thesis ms (its render size, polygons) |", "|---|---|---|---|---|---|---|"]
+    for scene, groups in rows:
+        tri = TRIANGLES.get(scene)
+        rays_key = next((k for k in groups if k.startswith("rays")), None)
+        rays_ms = round_median(groups[rays_key], "auto")[0] if rays_key else None
+        for label in sorted(groups, key=lambda k: (k.startswith("rays"), k)):
+            med, values = round_median(groups[label], "auto")
+            cpu, _ = round_median(groups[label], "process")
+            ratio = "–"
+            if rays_ms and med and not label.startswith("rays"):
+                ratio = f"{rays_ms / med:.2f}×"
+            thesis = "–"
+            if label.startswith("rays"):
+                thesis = f"{THESIS_RAYS_MS} (1,024 rays, 8,000)"
+            elif tri is not None:
+                size = setting(groups[label][0], "hemi_size")
+                polys = min(THESIS_TABLE_142, key=lambda k: (k[0] != size, abs(math.log(k[1] / tri))))
+                if polys[0] == size:
+                    thesis = f"{THESIS_TABLE_142[polys]} ({size}, {polys[1]:,})"
+            out.append(f"| {scene} ({'–' if tri is None else f'{tri:,}'}) | {label} | {fmt(med, 3)} | "
+                       f"{', '.join(f'{v:.3f}' for v in values)} | {fmt(cpu, 3)} | {ratio} | {thesis} |")
+    out += ["", "Per texel: frame 0's `gather` pass (every texel of a static scene is gathered there) over its "
+            "`texels_gathered`. The thesis's ratio of 1,024 rays to a hemi-plane is 10.5x-22x (a 2004 GPU "
+            "against a CPU); here both run on the CPU (lavapipe draws the hemi-planes), so the ratio says "
+            "what the hemi-plane costs a software rasteriser, not what it costs a GPU."]
+    return "\n".join(out) + "\n"
+
+
+def resolution_section(run: Run) -> str:
+    cells = [c for scene in run.scenes() for c in run.cells_of(scene)
+             if c.ok and c.technique == TECHNIQUE and "aim_texels" in c.params
+             and c.params.get("aim_texels") not in ("", None)]
+    if len({setting(c, "aim_texels") for c in cells}) < 2:
+        return ""
+    out = ["## Fig. 14.4: IIM resolution", "",
+           "| scene | aim_texels | FLIP (indirect) | its floor |", "|---|---|---|---|"]
+    for c in sorted(cells, key=lambda c: (c.scene, setting(c, "aim_texels"))):
+        cls = score_class(c)
+        out.append(f"| {c.scene} | {setting(c, 'aim_texels')} | {fmt(c.metric_mean('flip', cls), 3)} | "
+                   f"{fmt(c.metric_mean('flip_floor', cls), 3)} |")
+    return "\n".join(out) + "\n"
+
+
 def claims(run: Run) -> str:
-    if not any(run.cells_of(scene) for scene in EVENTS):
-        raise MissingCells(f"no cell on {', '.join(EVENTS)}: run configs/paper001.yaml")
-    return f"# {TITLE}\n\n" + lag_section(run)
+    parts = [gather_section(run), resolution_section(run)]
+    if any(run.cells_of(scene) for scene in EVENTS):
+        parts.append(lag_section(run))
+    parts = [p for p in parts if p]
+    if not parts:
+        raise MissingCells(f"no cell of {TECHNIQUE} on frame 0 and none on {', '.join(EVENTS)}: run "
+                           "configs/paper001.yaml or configs/paper001-lag.yaml")
+    return f"# {TITLE}\n\n" + "\n".join(parts)
