@@ -10,13 +10,33 @@
 
 namespace im {
 
+tk::SelectiveEmissionSettings selective_settings(const ImParams& p) {
+  tk::SelectiveEmissionSettings s;
+  s.halton_bases = {p.halton_base_1, p.halton_base_2};
+  s.group_size = p.group_size;
+  s.divergence_tolerance = p.divergence_tolerance;
+  s.trace.max_bounces = p.max_bounces;
+  s.trace.store = pb::trace::kAllPhotons;
+  return s;
+}
+
 std::string check(const pb::Params& params) {
-  const uint32_t size = kParams.read(params).hemi_size;
+  const ImParams p = kParams.read(params);
+  const uint32_t size = p.hemi_size;
   if ((size & (size - 1)) != 0)
     return fmt::format(
         "hemi_size: {} is not a power of two (the MIP reduction halves the hemi-plane to one "
         "pixel, Ch. 11)",
         size);
+  if (p.emission == Emission::selective) {
+    // The policy's "<key>: why" names its settings; halton_bases is two rows here.
+    std::string why = tk::check_selective_emission(selective_settings(p));
+    const std::string bases = "halton_bases: ";
+    if (why.starts_with(bases))
+      why =
+          (p.halton_base_1 < 2 ? "halton_base_1: " : "halton_base_2: ") + why.substr(bases.size());
+    return why;
+  }
   return "";
 }
 
@@ -107,7 +127,13 @@ glm::mat4 hemi_plane_view_projection(glm::vec3 position, glm::vec3 normal, float
 }
 
 void IlluminationMaps::build(const pb::SceneTriangles& triangles, std::span<const glm::vec3> albedo,
-                             float crease_angle_degrees, uint32_t aim_texels) {
+                             float crease_angle_degrees, uint32_t aim_texels, bool keep_unmoved) {
+  std::vector<ChartMap> old_charts = std::move(charts_);
+  const std::vector<uint32_t> old_chart_of = chart_of_;
+  const std::vector<TexelSite> old_sites = sites_;
+  const std::vector<glm::vec4> old_aim = aim_;
+  const std::vector<double> old_change = input_change_;
+  const std::vector<bool> old_gathered = gathered_;
   std::vector<glm::vec3> positions(triangles.vertex_count());
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (uint32_t v = 0; v < triangles.vertex_count(); ++v) {
@@ -184,6 +210,47 @@ void IlluminationMaps::build(const pb::SceneTriangles& triangles, std::span<cons
   aim_.assign(sites_.size(), glm::vec4(0.f));
   input_change_.assign(sites_.size(), 0.0);
   gathered_.assign(sites_.size(), false);
+  texel_before_.assign(sites_.size(), kNoTexel);
+  fresh_charts_.clear();
+  const bool same_partition =
+      keep_unmoved && chart_of_ == old_chart_of && charts_.size() == old_charts.size();
+  for (uint32_t c = 0; c < charts_.size(); ++c) {
+    ChartMap& m = charts_[c];
+    bool unmoved = same_partition;
+    if (unmoved) {
+      const ImChart a = m.grid, b = old_charts[c].grid;
+      unmoved = a.axis == b.axis && a.width == b.width && a.height == b.height &&
+                a.lower_u == b.lower_u && a.lower_v == b.lower_v &&
+                a.texels_per_m_u == b.texels_per_m_u && a.texels_per_m_v == b.texels_per_m_v;
+      for (uint32_t t = 0; unmoved && t < a.width * a.height; ++t)
+        unmoved = sites_[a.first_texel + t].position == old_sites[b.first_texel + t].position;
+    }
+    if (!unmoved) {
+      fresh_charts_.push_back(c);
+      continue;
+    }
+    const ImChart grid = m.grid;
+    const uint32_t before = old_charts[c].grid.first_texel;
+    m = std::move(old_charts[c]);
+    m.grid = grid;
+    for (uint32_t t = 0; t < grid.width * grid.height; ++t) {
+      const uint32_t now = grid.first_texel + t;
+      texel_before_[now] = before + t;
+      sites_[now].normal = old_sites[before + t].normal;  // the lit side found before
+      aim_[now] = old_aim[before + t];
+      input_change_[now] = old_change[before + t];
+      gathered_[now] = old_gathered[before + t];
+    }
+  }
+}
+
+uint32_t IlluminationMaps::charts_without_aim() const {
+  return uint32_t(std::count_if(charts_.begin(), charts_.end(),
+                                [](const ChartMap& m) { return !m.aim_valid; }));
+}
+
+uint32_t IlluminationMaps::texels_never_gathered() const {
+  return uint32_t(std::count(gathered_.begin(), gathered_.end(), false));
 }
 
 void IlluminationMaps::store_photons(std::span<const pb::trace::PhotonRecord> photons) {
@@ -202,6 +269,30 @@ void IlluminationMaps::store_photons(std::span<const pb::trace::PhotonRecord> ph
     m.flux += glm::dvec3(p.power);
   }
   for (ChartMap& m : charts_) m.tree = tk::KdTree(m.positions);
+}
+
+void IlluminationMaps::store_chart_photons(std::span<const pb::trace::PhotonRecord> photons,
+                                           std::span<const uint32_t> charts,
+                                           const tk::SurfaceEnergyLedger& ledger) {
+  std::vector<bool> taken(charts_.size(), false);
+  for (uint32_t c : charts) {
+    if (c >= charts_.size()) continue;
+    taken[c] = true;
+    ChartMap& m = charts_[c];
+    m.positions.clear();
+    m.powers.clear();
+    m.normals.clear();
+    m.flux = ledger.watts(c);
+  }
+  for (const pb::trace::PhotonRecord& p : photons) {
+    if (p.triangle >= chart_of_.size() || !taken[chart_of_[p.triangle]]) continue;
+    ChartMap& m = charts_[chart_of_[p.triangle]];
+    m.positions.push_back(p.position);
+    m.powers.push_back(p.power);
+    m.normals.push_back(p.normal);
+  }
+  for (uint32_t c : charts)
+    if (c < charts_.size()) charts_[c].tree = tk::KdTree(charts_[c].positions);
 }
 
 glm::vec3 IlluminationMaps::estimate_aim(uint32_t texel, uint32_t k) const {

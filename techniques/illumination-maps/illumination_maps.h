@@ -14,6 +14,7 @@
 #include "photonbench/toolkit/charts.h"
 #include "photonbench/toolkit/kd_tree.h"
 #include "photonbench/toolkit/ray_caster.h"
+#include "photonbench/toolkit/selective_emission.h"
 #include "photonbench/toolkit/technique.h"
 
 namespace im {
@@ -28,8 +29,14 @@ using glm::min;
 enum class Gather : uint32_t { raster, rays };
 enum class SumPrecision : uint32_t { bits8, floating };
 enum class AimEstimate : uint32_t { nearest, texel };
+enum class Emission : uint32_t { selective, fresh };
 
 struct ImParams {
+  Emission emission = Emission::selective;
+  uint32_t halton_base_1 = 7;
+  uint32_t halton_base_2 = 11;
+  uint32_t group_size = 40;
+  float divergence_tolerance = 1e-3f;
   uint32_t paths = 100000;
   uint32_t max_bounces = 4;
   float crease_angle = pb::toolkit::kDefaultCreaseAngleDegrees;
@@ -51,7 +58,28 @@ namespace tk = pb::toolkit;
 
 // clang-format off
 inline constexpr auto kParams = pb::params(
-    pb::bind(tk::kPhotonsParam, &ImParams::paths),
+    pb::param("emission", &ImParams::emission, Emission::selective, "selective|fresh",
+              "selective: Ch. 9's fixed Halton emission points in groups, one probe path per "
+              "group a frame, a diverged group re-traced, and only the charts whose photons "
+              "changed get a new photon map and are considered for an AIM; fresh: photons paths "
+              "traced anew every frame"),
+    pb::param("halton_base_1", &ImParams::halton_base_1, 7, {2, 997}, "",
+              "selective: the Halton base of the emission domain's first coordinate; with "
+              "halton_base_2 coprime, the groups are its first-level cells (Ch. 9)"),
+    pb::param("halton_base_2", &ImParams::halton_base_2, 11, {2, 997}, "",
+              "selective: the Halton base of the second coordinate (7 x 11 = the thesis's 77 "
+              "groups, Ch. 14)"),
+    pb::param("group_size", &ImParams::group_size, 40, {1, 1e6}, "photons",
+              "selective: photons per group and light; each is probed once in group_size frames "
+              "(Ch. 14: 40)"),
+    pb::param("divergence_tolerance", &ImParams::divergence_tolerance, 1e-3, {0, 1e3}, "m",
+              "selective: how far a probe's hit may move and its path still agree with the kept "
+              "one (the thesis gives none)"),
+    pb::bind(tk::with_range(tk::kPhotonsParam, tk::kPhotonsParam.default_value,
+                            tk::kPhotonsParam.min_value, tk::kPhotonsParam.max_value,
+                            "fresh: light paths traced per frame (selective keeps group_size x "
+                            "halton_base_1 x halton_base_2 paths a light)"),
+             &ImParams::paths),
     pb::bind(tk::with_range(tk::kMaxBouncesParam, 4, 1, 31,
                             "surface interactions per light path; photons are stored at every "
                             "diffuse hit, the first included (the AIMs hold direct and indirect "
@@ -96,8 +124,12 @@ inline constexpr auto kParams = pb::params(
     pb::bind(tk::kShadowMapSizeParam, &ImParams::shadow_map_size));
 // clang-format on
 
-// "" or "<parameter>: why" (hemi_size a power of two).
+// "" or "<parameter>: why" (hemi_size a power of two; the selective emission's settings as
+// check_selective_emission has them, at this technique's keys).
 std::string check(const pb::Params& params);
+
+// The selective emission policy's settings of `p` (Ch. 9), tracing as the fresh emission does.
+tk::SelectiveEmissionSettings selective_settings(const ImParams& p);
 
 // The fraction of the cosine-weighted hemisphere a square plane of half-width `half_width` at
 // height 1 covers: (1/pi) times the integral of dA / (x^2 + y^2 + 1)^2 over it,
@@ -152,11 +184,28 @@ struct StepStats {
 class IlluminationMaps {
  public:
   // Charts of `triangles` (Ch. 8) and their texel grids and sites; `albedo` per material index.
+  // With `keep_unmoved`, when the partition is the previous one, a chart whose grid and texel
+  // sites are unchanged keeps its photons, map, AIM and its texels' gather state (selective
+  // emission: its photons change only through the ledger); the others start afresh.
   void build(const pb::SceneTriangles& triangles, std::span<const glm::vec3> albedo,
-             float crease_angle_degrees, uint32_t aim_texels);
+             float crease_angle_degrees, uint32_t aim_texels, bool keep_unmoved = false);
+  // The charts the last build started afresh (ascending; all unless keep_unmoved kept some).
+  std::span<const uint32_t> fresh_charts() const { return fresh_charts_; }
+  // Per texel: its index before the last build, or kNoTexel for a texel of a fresh chart.
+  static constexpr uint32_t kNoTexel = ~0u;
+  std::span<const uint32_t> texel_before() const { return texel_before_; }
+  // Charts with no AIM yet and texels never gathered: the first call's must-do work.
+  uint32_t charts_without_aim() const;
+  uint32_t texels_never_gathered() const;
 
   // The frame's photons split per chart by their hit triangle, each chart's kd-tree balanced.
   void store_photons(std::span<const pb::trace::PhotonRecord> photons);
+  // Selective emission: only the charts `charts` (ascending) take their photons among `photons`
+  // (the kept paths') and get a new kd-tree, their flux the ledger's exact sum (the ledger keyed
+  // by chart id); every other chart keeps its photons, tree and flux, so its AIM is not
+  // reconsidered (its flux equals the one its AIM was computed from).
+  void store_chart_photons(std::span<const pb::trace::PhotonRecord> photons,
+                           std::span<const uint32_t> charts, const tk::SurfaceEnergyLedger& ledger);
 
   // Recomputes the AIMs of at most `max_charts` charts whose flux per area changed by more than
   // `threshold` times the scene's mean (all charts not yet computed first, then the largest
@@ -198,6 +247,7 @@ class IlluminationMaps {
   std::vector<glm::vec4> aim_;        // per texel: rgb radiance
   std::vector<double> input_change_;  // per texel: delta i since its last gather
   std::vector<bool> gathered_;
+  std::vector<uint32_t> fresh_charts_, texel_before_;
   double total_area_ = 0;
   float epsilon_ = 1e-4f;
 };

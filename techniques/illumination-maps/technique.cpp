@@ -2,11 +2,14 @@
 // photons stored per chart, estimated into small approximated illumination maps (AIMs) and final
 // gathered at each texel into indirect illumination maps (IIMs) that the screen looks up. Per
 // frame:
-//   photon-trace  the tracer's photons at every diffuse hit (direct and indirect: the AIMs hold
-//                 the surfaces' full reflected light, Ch. 10) (CPU);
+//   photon-trace  photons at every diffuse hit (direct and indirect: the AIMs hold the surfaces'
+//                 full reflected light, Ch. 10): with `emission: selective` (Ch. 9) the toolkit's
+//                 SelectiveEmission keeps fixed Halton paths, probes one per group and re-traces
+//                 the diverged groups; with `fresh` the tracer's new paths every frame (CPU);
 //   charts        on the first frame and when the scene's triangles change: segment_charts' crease
 //                 angle partition (Ch. 8), a texel grid per chart, each texel's centre (CPU);
 //   kd-trees      the photons split by their hit triangle's chart, one photon map each (Ch. 8);
+//                 selective: only the charts whose kept photons changed (the ledger, by chart);
 //   aims          the charts whose flux per area moved most (|delta f| / A over a threshold, at
 //                 most charts_per_frame): each texel the N nearest photons' radiance (Ch. 10);
 //   gather        the texels whose AIM input moved most (at most gather_texels): raster draws the
@@ -26,6 +29,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <vector>
@@ -48,6 +52,18 @@ constexpr float kHalfWidth = 2.0f;  // Ch. 11: the hemi-cube's front face, doubl
 
 constexpr auto kCounters = pb::counters({
     tk::kPhotonsStoredCounter,
+    tk::kProbesCounter,
+    tk::kGroupsInvalidatedCounter,
+    tk::kPathsRetracedCounter,
+    tk::kSelectiveRaysCounter,
+    {"trace_rays", PB_COUNTER_WORK, "rays",
+     "rays of the frame's photon trace (fresh: every path; selective: probes and re-traces)"},
+    {"maps_rebuilt", PB_COUNTER_WORK, "charts", "charts whose photon map was rebuilt this frame"},
+    {"charts_changed", PB_COUNTER_WORK, "charts",
+     "selective: charts whose kept photons changed (the ledger's changed surfaces)"},
+    {"charts_rebuilt", PB_COUNTER_WORK, "charts",
+     "charts a rebuild of the charts (the scene's triangles moved) started afresh: all, or with "
+     "selective emission the moved ones"},
     {"charts", PB_COUNTER_SIZE, "charts", "charts of the crease-angle partition (Ch. 8)"},
     {"texels", PB_COUNTER_SIZE, "texels", "AIM (and IIM) texels over all charts"},
     {"photons_per_chart", PB_COUNTER_SIZE, "photons", "photons stored per chart, the mean"},
@@ -110,27 +126,61 @@ class IlluminationMaps final : public pb::Technique {
     const bool rebuild = frames_ == 0 || triangles.changed_frame != built_frame_;
     if (rebuild) {
       auto scope = ctx.pass("charts");
-      maps_.build(triangles, albedo_, p_.crease_angle, p_.aim_texels);
+      maps_.build(triangles, albedo_, p_.crease_angle, p_.aim_texels,
+                  p_.emission == im::Emission::selective);
       built_frame_ = triangles.changed_frame;
       caster_ = std::make_unique<tk::TriangleRayCaster>(triangles);
       upload_charts(gpu, triangles);
+      // The ledger is keyed by chart id: a new partition starts the kept paths afresh.
+      const auto chart_of = maps_.chart_of();
+      if (p_.emission == im::Emission::selective &&
+          (!selective_ || !std::ranges::equal(chart_of, selective_chart_of_))) {
+        selective_chart_of_.assign(chart_of.begin(), chart_of.end());
+        selective_ = std::make_unique<tk::SelectiveEmission>(
+            ctx.photon_tracer(), im::selective_settings(p_), selective_chart_of_);
+      }
     }
-    uint64_t stored = 0;
+    uint64_t stored = 0, trace_rays = 0, maps_rebuilt = 0;
+    tk::SelectiveEmissionStats selective_stats;
     {
       auto scope = ctx.pass("photon-trace");
-      ctx.photon_tracer().trace(trace_, batch_);
-      stored = batch_.photons.size();
+      if (selective_) {
+        selective_stats = selective_->update();
+        trace_rays = selective_stats.rays();
+      } else {
+        trace_rays = ctx.photon_tracer().trace(trace_, batch_).rays;
+        stored = batch_.photons.size();
+      }
     }
     {
       auto scope = ctx.pass("kd-trees");
-      maps_.store_photons(batch_.photons);
+      if (selective_) {
+        // Ch. 9 with Ch. 10: only the charts whose kept photons changed get a new map, and after
+        // a rebuild of the charts the ones it started afresh (moved, or all on a new partition).
+        batch_.photons = selective_->photons();
+        stored = batch_.photons.size();
+        const auto changed = selective_->changed_surfaces();
+        std::vector<uint32_t> charts(changed.begin(), changed.end());
+        if (rebuild) {
+          const auto moved = maps_.fresh_charts();
+          std::vector<uint32_t> both;
+          std::ranges::set_union(charts, moved, std::back_inserter(both));
+          charts = std::move(both);
+        }
+        maps_.store_chart_photons(batch_.photons, charts, selective_->ledger());
+        maps_rebuilt = charts.size();
+      } else {
+        maps_.store_photons(batch_.photons);
+        maps_rebuilt = maps_.charts().size();
+      }
     }
     uint32_t charts_updated = 0;
     {
       auto scope = ctx.pass("aims");
-      const uint32_t charts = uint32_t(maps_.charts().size());
-      charts_updated = maps_.update_aims(rebuild ? charts : p_.charts_per_frame, p_.aim_threshold,
-                                         p_.aim_photons, p_.aim_estimate);
+      // Every chart with no AIM yet (all on the first frame and after a rebuild of the charts,
+      // the moved ones with selective emission), then at most charts_per_frame by their change.
+      charts_updated = maps_.update_aims(maps_.charts_without_aim() + p_.charts_per_frame,
+                                         p_.aim_threshold, p_.aim_photons, p_.aim_estimate);
       std::memcpy(aim_.mapped(), maps_.aim().data(), maps_.aim().size_bytes());
       auto* normals = static_cast<glm::vec4*>(texel_normals_.mapped());
       const auto sites = maps_.sites();
@@ -141,8 +191,9 @@ class IlluminationMaps final : public pb::Technique {
     const pb::GBuffer g = ctx.shared().gbuffer_images();
     const pb::gpu::Image& indirect = ctx.class_output("indirect");
 
+    // Every texel never gathered (all on the first frame), then at most gather_texels.
     const std::vector<uint32_t> texels =
-        maps_.take_gather_texels(rebuild ? maps_.texel_count() : p_.gather_texels);
+        maps_.take_gather_texels(maps_.texels_never_gathered() + p_.gather_texels);
     {
       auto scope = ctx.pass("gather");
       if (p_.gather == im::Gather::rays) {
@@ -181,6 +232,13 @@ class IlluminationMaps final : public pb::Technique {
     }
     const double charts = double(maps_.charts().size());
     pb::count(ctx, tk::kPhotonsStoredCounter, double(stored));
+    tk::report(ctx, selective_stats);
+    pb::count(ctx, kCounters["trace_rays"], double(trace_rays));
+    pb::count(ctx, kCounters["maps_rebuilt"], double(maps_rebuilt));
+    pb::count(ctx, kCounters["charts_rebuilt"],
+              rebuild ? double(maps_.fresh_charts().size()) : 0.0);
+    pb::count(ctx, kCounters["charts_changed"],
+              selective_ ? double(selective_->changed_surfaces().size()) : 0.0);
     pb::count(ctx, kCounters["charts"], charts);
     pb::count(ctx, kCounters["texels"], maps_.texel_count());
     pb::count(ctx, kCounters["photons_per_chart"], charts > 0 ? double(stored) / charts : 0.0);
@@ -230,9 +288,19 @@ class IlluminationMaps final : public pb::Technique {
                               pb::gpu::Memory::host_visible);
     texel_normals_ = tk::storage_buffer(gpu, "illumination-maps/texel-normals", texel_bytes,
                                         pb::gpu::Memory::host_visible);
+    // Texels of the charts a selective rebuild kept keep their IIM values.
+    const std::vector<glm::vec3> front = std::move(front_), back = std::move(back_);
+    const std::vector<bool> shown = std::move(shown_);
     front_.assign(texels, glm::vec3(0.f));
     back_.assign(texels, glm::vec3(0.f));
     shown_.assign(texels, false);
+    const auto before = maps_.texel_before();
+    for (uint32_t t = 0; t < texels; ++t)
+      if (before[t] != im::IlluminationMaps::kNoTexel && before[t] < front.size()) {
+        front_[t] = front[before[t]];
+        back_[t] = back[before[t]];
+        shown_[t] = shown[before[t]];
+      }
     // The scene's size bounds the hemi-plane cameras' depth range.
     glm::vec3 lo(1e30f), hi(-1e30f);
     for (const auto& v : triangles.host_vertices) {
@@ -341,17 +409,20 @@ class IlluminationMaps final : public pb::Technique {
   std::unique_ptr<tk::TriangleRayCaster> caster_;
   pb::trace::TraceSettings trace_;
   pb::trace::PhotonBatch batch_;
-  std::vector<glm::vec3> front_, back_;  // the displayed IIM and the newest gathered
+  std::unique_ptr<tk::SelectiveEmission> selective_;  // emission: selective (Ch. 9)
+  std::vector<uint32_t> selective_chart_of_;          // the partition its ledger is keyed by
+  std::vector<glm::vec3> front_, back_;               // the displayed IIM and the newest gathered
   std::vector<bool> shown_;
   pb::gpu::Buffer triangle_chart_, charts_, aim_, iim_, texel_normals_, level_a_, level_b_;
   DrawTarget camera_, atlas_;
   pb::gpu::Pipeline weigh_, reduce_, lookup_;
 };
 
-// More photons cost more to trace and lower the AIMs' noise; more texels gathered a frame cost
-// more and cut the lag behind a change.
+// More photons (fresh: paths a frame; selective: photons a group) cost more to trace and lower the
+// AIMs' noise; more texels gathered a frame cost more and cut the lag behind a change.
 const pb_budget_knob kBudget[] = {
     {"photons", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
+    {"group_size", PB_COST_GROWS, PB_ERROR_FALLS, PB_SCALE_LOG},
     {"aim_texels", PB_COST_GROWS, PB_ERROR_MIXED, PB_SCALE_LINEAR},
 };
 

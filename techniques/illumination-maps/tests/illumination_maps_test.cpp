@@ -222,14 +222,17 @@ TEST(IlluminationMaps, AimIsSeenOnlyFromTheSideItsPhotonsArrivedOn) {
   }
 }
 
+// The refusal of a config of cornell-box and illumination-maps with `params` ("" when valid).
+std::string params_refusal(pb::testing::PlanScratch& scratch, const std::string& params) {
+  return scratch.refusal(
+      "name: t\nscenes: [cornell-box]\ntechniques:\n  - technique: illumination-maps\n"
+      "    params: " +
+      params + "\n");
+}
+
 TEST(IlluminationMaps, BadParametersAreRefusedWithTheirKey) {
   pb::testing::PlanScratch scratch("illumination_maps_test_params");
-  auto error = [&](const std::string& params) {
-    return scratch.refusal(
-        "name: t\nscenes: [cornell-box]\ntechniques:\n  - technique: illumination-maps\n"
-        "    params: " +
-        params + "\n");
-  };
+  auto error = [&](const std::string& params) { return params_refusal(scratch, params); };
   std::string e = error("{hemi_size: 12}");
   EXPECT_NE(e.find("techniques[0].params.hemi_size"), std::string::npos) << e;
   EXPECT_NE(e.find("power of two"), std::string::npos) << e;
@@ -260,6 +263,8 @@ double image_mean(const pb::io::Image& image) {
 // rays and by the hemi-plane). The box filter (`texel`) keeps the hotspot's energy: its ratios
 // (measured 0.92 to 1.16) must lie within 30% of 1, a coarse check of order for a method with 5
 // texels a wall (set after the first measurement, 0.94 by rays).
+// Fresh photons (20,000 paths a frame), as measured: frame 1 re-gathers the texels their noise
+// moves.
 TEST(IlluminationMapsRender, CornellBoxIndirectIsOfTheReferencesOrder) {
   const fs::path dir = pb::testing::work_dir("illumination_maps_test", "render");
   const int width = 96, height = 54, frame = 1;
@@ -271,11 +276,10 @@ TEST(IlluminationMapsRender, CornellBoxIndirectIsOfTheReferencesOrder) {
       "frames: {{warmup: {}, count: 1, metrics_every: 1}}\nmetrics: [psnr]\n"
       "reference: {{samples: {}, cache_dir: {}}}\n"
       "techniques:\n"
-      "  - {{technique: illumination-maps, params: {{gather: rays, gather_rays: 256, aim_estimate: "
-      "[nearest, texel]}}}}\n"
-      "  - {{technique: illumination-maps, params: {{gather: raster, aim_estimate: [nearest, "
-      "texel], "
-      "sum_precision: [float, 8bit]}}}}\n",
+      "  - {{technique: illumination-maps, params: {{emission: fresh, gather: rays, gather_rays: "
+      "256, aim_estimate: [nearest, texel]}}}}\n"
+      "  - {{technique: illumination-maps, params: {{emission: fresh, gather: raster, "
+      "aim_estimate: [nearest, texel], sum_precision: [float, 8bit]}}}}\n",
       width, height, frame, samples, (dir / "refs").string());
   ASSERT_EQ(pb::testing::run_config(dir, config), 0) << "see " << (dir / "log.txt");
   pb::scene::Scene scene = pb::scene::load_scene(PB_SOURCE_DIR "/scenes/cornell-box.yaml");
@@ -315,6 +319,143 @@ TEST(IlluminationMapsRender, CornellBoxIndirectIsOfTheReferencesOrder) {
       ratio_of({{"gather", "raster"}, {"aim_estimate", "nearest"}, {"sum_precision", "float"}});
   EXPECT_NEAR(raster / rays, 1.0, 0.1);
   ratio_of({{"gather", "raster"}, {"aim_estimate", "nearest"}, {"sum_precision", "8bit"}});
+}
+
+// Selective emission's settings (Ch. 9) are refused at this technique's keys: the policy's own
+// checks (coprime bases, at most 2^24 photons a light) and the rows' ranges.
+TEST(IlluminationMaps, BadSelectiveEmissionSettingsAreRefusedWithTheirKey) {
+  pb::testing::PlanScratch scratch("illumination_maps_test_selective_params");
+  auto error = [&](const std::string& params) { return params_refusal(scratch, params); };
+  std::string e = error("{group_size: 0}");
+  EXPECT_NE(e.find("techniques[0].params.group_size"), std::string::npos) << e;
+  e = error("{group_size: 300000}");  // 77 groups of 300,000: over 2^24 photons a light
+  EXPECT_NE(e.find("techniques[0].params.group_size"), std::string::npos) << e;
+  EXPECT_NE(e.find("2^24"), std::string::npos) << e;
+  e = error("{halton_base_1: 6, halton_base_2: 9}");
+  EXPECT_NE(e.find("techniques[0].params.halton_base_2"), std::string::npos) << e;
+  EXPECT_NE(e.find("coprime"), std::string::npos) << e;
+  e = error("{halton_base_1: 1}");
+  EXPECT_NE(e.find("techniques[0].params.halton_base_1"), std::string::npos) << e;
+  e = error("{divergence_tolerance: -1}");
+  EXPECT_NE(e.find("techniques[0].params.divergence_tolerance"), std::string::npos) << e;
+  e = error("{emission: some}");
+  EXPECT_NE(e.find("techniques[0].params.emission"), std::string::npos) << e;
+  // fresh emission has no groups: their settings are not its concern.
+  EXPECT_EQ(error("{emission: fresh, group_size: 300000}"), "");
+  EXPECT_EQ(error("{emission: selective, halton_base_1: 3, halton_base_2: 5, group_size: 8}"), "");
+}
+
+// Into `dir`: one cell per emission on `scene` at 32 x 18, `frames` frames from frame 0, the ray
+// gather (64 rays) and every chart allowed to update each frame, so that what is updated is what
+// changed.
+void run_emissions(const fs::path& dir, const std::string& name, const std::string& scene,
+                   int frames) {
+  const std::string config = fmt::format(
+      "name: im-{}\nresolution: [32, 18]\nseed: 1\n"
+      "scenes: [{{scene: {}, params: {{photons: 5000}}}}]\n"
+      "limits: {{cell_seconds: 300}}\n"
+      "frames: {{warmup: 0, count: {}, metrics_every: 1}}\nmetrics: [psnr]\n"
+      "reference: {{samples: 2, cache_dir: {}}}\n"
+      "techniques:\n"
+      "  - {{technique: illumination-maps, params: {{emission: [selective, fresh], gather: rays, "
+      "gather_rays: 64, aim_estimate: texel, charts_per_frame: 1000}}}}\n",
+      name, scene, frames, (dir / "refs").string());
+  EXPECT_EQ(pb::testing::run_config(dir, config), 0) << "see " << (dir / "log.txt");
+}
+
+double max_difference(const pb::io::Image& a, const pb::io::Image& b) {
+  double most = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        most = std::max(most, double(std::abs(a.at(x, y, c) - b.at(x, y, c))));
+  return most;
+}
+
+// A static Cornell box (the test fixture's grey box: cornell-box's camera sways, so its screen
+// images differ frame to frame): after the first frame's full trace of the 3,080 kept paths every
+// probe agrees with its path, so no group is invalidated, no chart's photons change, no AIM is
+// recomputed, no photon map rebuilt and no texel re-gathered, and the indirect image stays the
+// first frame's to the bit.
+// Fresh photons (5,000 paths a frame) move some charts past the threshold by their noise alone.
+TEST(IlluminationMapsSelective, StaticSceneUpdatesNothingAfterTheFirstFrame) {
+  const int frames = 4;
+  const fs::path dir = pb::testing::work_dir("illumination_maps_test", "static");
+  run_emissions(dir, "static", pb::testing::grey_box_scene(dir, "grey-box", "[1, 1, 1]").string(),
+                frames);
+  const fs::path selective =
+      pb::testing::find_cell(dir, "illumination-maps", {{"emission", "selective"}});
+  const fs::path fresh = pb::testing::find_cell(dir, "illumination-maps", {{"emission", "fresh"}});
+  ASSERT_FALSE(selective.empty());
+  ASSERT_FALSE(fresh.empty());
+  auto series = [](const fs::path& cell, const char* counter) {
+    auto values = pb::testing::counter_series(cell, counter);
+    EXPECT_EQ(values.size(), size_t(frames)) << counter;
+    values.resize(frames, -1.0);
+    return values;
+  };
+  const auto probes = series(selective, "probes");
+  const auto invalidated = series(selective, "groups_invalidated");
+  const auto retraced = series(selective, "paths_retraced");
+  const auto changed = series(selective, "charts_changed");
+  const auto maps = series(selective, "maps_rebuilt");
+  const auto updated = series(selective, "charts_updated");
+  const auto gathered = series(selective, "texels_gathered");
+  const auto charts = series(selective, "charts");
+  EXPECT_EQ(retraced[0], 3080);  // the first frame traces every kept path
+  EXPECT_EQ(updated[0], charts[0]);
+  EXPECT_GT(gathered[0], 0);
+  const pb::io::Image first = pb::testing::frame_image(selective, 0, "indirect");
+  ASSERT_GT(pb::testing::mean_rgb(first), 0);
+  for (int f = 1; f < frames; ++f) {
+    EXPECT_EQ(probes[f], 77) << f;  // one a group
+    EXPECT_EQ(invalidated[f], 0) << f;
+    EXPECT_EQ(retraced[f], 0) << f;
+    EXPECT_EQ(changed[f], 0) << f;
+    EXPECT_EQ(maps[f], 0) << f;
+    EXPECT_EQ(updated[f], 0) << f;
+    EXPECT_EQ(gathered[f], 0) << f;
+    EXPECT_EQ(max_difference(pb::testing::frame_image(selective, f, "indirect"), first), 0.0) << f;
+  }
+  double fresh_updates = 0;
+  const auto fresh_updated = series(fresh, "charts_updated");
+  for (int f = 1; f < frames; ++f) fresh_updates += fresh_updated[f];
+  EXPECT_GT(fresh_updates, 0);
+}
+
+// seed001-room's cube slides and its glass sphere circles (every frame moves triangles, so the
+// charts are rebuilt each frame): with selective emission a rebuild keeps the charts that did not
+// move, and the AIMs recomputed are only those of charts whose kept photons changed (the ledger's
+// changed surfaces) or that moved; fresh emission recomputes every chart every frame.
+TEST(IlluminationMapsSelective, MovingSceneUpdatesOnlyChangedOrMovedCharts) {
+  const int frames = 5;
+  const fs::path dir = pb::testing::work_dir("illumination_maps_test", "moving");
+  run_emissions(dir, "moving", "seed001-room", frames);
+  const fs::path selective =
+      pb::testing::find_cell(dir, "illumination-maps", {{"emission", "selective"}});
+  const fs::path fresh = pb::testing::find_cell(dir, "illumination-maps", {{"emission", "fresh"}});
+  ASSERT_FALSE(selective.empty());
+  ASSERT_FALSE(fresh.empty());
+  const auto charts = pb::testing::counter_series(selective, "charts");
+  const auto changed = pb::testing::counter_series(selective, "charts_changed");
+  const auto rebuilt = pb::testing::counter_series(selective, "charts_rebuilt");
+  const auto updated = pb::testing::counter_series(selective, "charts_updated");
+  const auto invalidated = pb::testing::counter_series(selective, "groups_invalidated");
+  const auto fresh_updated = pb::testing::counter_series(fresh, "charts_updated");
+  ASSERT_EQ(updated.size(), size_t(frames));
+  ASSERT_EQ(fresh_updated.size(), size_t(frames));
+  double changed_sum = 0, invalidated_sum = 0;
+  for (int f = 1; f < frames; ++f) {
+    EXPECT_GT(rebuilt[f], 0) << f;          // the cube's and the sphere's charts
+    EXPECT_LT(rebuilt[f], charts[f]) << f;  // the room's walls kept
+    EXPECT_LE(updated[f], changed[f] + rebuilt[f]) << f;
+    EXPECT_LT(updated[f], charts[f]) << f;
+    EXPECT_EQ(fresh_updated[f], charts[f]) << f;
+    changed_sum += changed[f];
+    invalidated_sum += invalidated[f];
+  }
+  EXPECT_GT(invalidated_sum, 0);  // the probes found the cube's moves
+  EXPECT_GT(changed_sum, 0);
 }
 
 }  // namespace illumination_maps_test
