@@ -147,8 +147,11 @@ def fmt(v: Optional[float], digits: int = 0) -> str:
     return f"{v:,.{digits}f}"
 
 
-def cell_label(cell: Cell) -> str:
-    params = ", ".join(f"{k} {v}" for k, v in sorted(cell.params.items()) if v not in ("", None))
+def cell_label(run: Run, cell: Cell) -> str:
+    """The technique and the parameters its cells of the scene sweep (the rest are the same)."""
+    alike = [c for c in run.cells_of(cell.scene) if c.technique == cell.technique]
+    swept = run.swept_params(alike) if len(alike) > 1 else []
+    params = ", ".join(f"{k} {cell.params.get(k)}" for k in swept)
     return f"`{cell.technique}`" + (f" ({params})" if params else "")
 
 
@@ -166,7 +169,7 @@ def lag_section(run: Run) -> str:
         s = r["settle"]
         lag = None if s is None else s["settle_frame"] - r["start"]
         out.append(
-            f"| {r['scene']} | {r['event']} ({r['start']}–{r['stop']}) | {cell_label(r['cell'])} | "
+            f"| {r['scene']} | {r['event']} ({r['start']}–{r['stop']}) | {cell_label(run, r['cell'])} | "
             f"{r['class']} | {r['scored']} | {fmt(s and s['settled'], 3)} | {fmt(s and s['band'], 3)} | "
             f"{'not settled' if s is None else lag} | {'–' if lag is None else f'{lag / 30:.2f}'} | "
             f"{fmt(r['paths_retraced'])} | {fmt(r['rays'])} |")
@@ -215,7 +218,8 @@ def gather_section(run: Run) -> str:
         groups: Dict[str, List[Cell]] = {}
         for cell in run.cells_of(scene):
             default_texels = setting(cell, "aim_texels") == DEFAULTS["aim_texels"]
-            if cell.ok and cell.technique == TECHNIQUE and default_texels:
+            if (cell.ok and cell.technique == TECHNIQUE and default_texels
+                    and per_texel_ms(cell, "auto") is not None):
                 groups.setdefault(gather_label(cell), []).append(cell)
         if groups:
             rows.append((scene, groups))
