@@ -7,12 +7,14 @@ import csv
 import json
 import os
 import shutil
+import struct
 import tempfile
 import unittest
 
 import numpy as np
 
 import common  # noqa: F401  (import paths for pbtools)
+from fixture import write_exr
 from pbtools.claims import paper001
 from pbtools.rundata import Run
 
@@ -25,11 +27,12 @@ def write_csv(path, header, rows):
 
 
 def make_run(root, cells):
-    """cells: [(scene, technique, {frame: flip}, floor, {counter: per-frame value})]."""
+    """cells: [(scene, technique, {frame: flip}, floor, {counter: per-frame value}[, {param: value}])]."""
+    params = sorted({k for c in cells if len(c) > 5 for k in c[5]})
     rows = []
-    for i, (scene, technique, flips, floor, counters) in enumerate(cells):
+    for i, (scene, technique, flips, floor, counters, *rest) in enumerate(cells):
         cid = f"{scene}__{technique}__{i:02d}"
-        rows.append([cid, scene, technique, "ok"])
+        rows.append([cid, scene, technique, "ok"] + [(rest[0] if rest else {}).get(k, "") for k in params])
         d = os.path.join(root, "cells", cid)
         os.makedirs(d)
         frames = sorted(flips)
@@ -41,7 +44,8 @@ def make_run(root, cells):
                   [[f, n, v] for n, v in counters.items() for f in frames])
         with open(os.path.join(d, "cell.json"), "w") as fh:
             json.dump({"status": "ok"}, fh)
-    write_csv(os.path.join(root, "summary.csv"), ["cell", "scene", "technique", "status"], rows)
+    write_csv(os.path.join(root, "summary.csv"),
+              ["cell", "scene", "technique", "status"] + [f"param.{k}" for k in params], rows)
     with open(os.path.join(root, "run.json"), "w") as f:
         json.dump({"config": "name: paper001\n", "overrides": [], "device": "test"}, f)
 
@@ -183,6 +187,159 @@ class Paper001LagTest(unittest.TestCase):
         make_run(d, [("cornell-box", "direct", {0: 0.1}, 0.01, {})])
         with self.assertRaises(paper001.MissingCells):
             paper001.claims(Run(d))
+
+    def test_equal_rays_picks_the_sweeps_cell_nearest_in_rays_over_the_window(self):
+        # The lights go out at frame 60; the window is frames 60..147 (88 frames). illumination-maps
+        # traces 1,000 rays a frame (88,000 over the window) and settles at 80 (lag 20);
+        # path-verification's sweep traces 500, 1,100 and 3,000 a frame (44,000, 96,800 and 264,000)
+        # and settles at 64, 70 and 67. The nearest by ratio is 1,100 a frame (1.10 against 2.00 for
+        # 500): its lag is 10, bracketed by the 500 cell's 4. Rays to the settled frame would pick the
+        # 3,000 cell (8 frames x 3,000 = 24,000 against illumination-maps' 21 x 1,000, 1.14; the
+        # 1,100 cell's 11 x 1,100 = 12,100 is 1.74 apart).
+        cells = [("two-rooms", "illumination-maps", falling(56, 147, 80, 0.5, 0.2, 0.002), 0.01,
+                  {"selective_rays": 1000}, {"photons": 20000})]
+        for rays, settle_at, photons in ((500, 64, 5000), (1100, 70, 10000), (3000, 67, 20000)):
+            cells.append(("two-rooms", "path-verification", falling(56, 147, settle_at, 0.5, 0.2, 0.002),
+                          0.01, {"rays_traced": rays}, {"photons": photons}))
+        text = self.claims(cells)
+        row = self.row(text, "| two-rooms | the right room's lights go out | `illumination-maps` | 88,000 |")
+        self.assertEqual(row[4], "20")
+        self.assertEqual(row[5], "`path-verification` (photons 10000)")
+        self.assertEqual(row[6], "96,800")
+        self.assertEqual(row[7], "1.10")
+        self.assertEqual(row[8], "10")
+        self.assertEqual(row[9], "`path-verification` (photons 5000): 4 (44,000); "
+                                 "`path-verification` (photons 10000): 10 (96,800)")
+        # One cell of each technique: no sweep, no equal-rays table.
+        self.assertNotIn("At equal rays", self.claims(cells[:2]))
+
+
+def exr(rgb, written):
+    """An uncompressed OpenEXR of `rgb` (fixture.write_exr) whose header also says when it was written
+    (capDate, as the harness's writer records it)."""
+    d = tempfile.mkdtemp(prefix="pb_exr_")
+    try:
+        write_exr(os.path.join(d, "x.exr"), rgb)
+        with open(os.path.join(d, "x.exr"), "rb") as f:
+            data = f.read()
+    finally:
+        shutil.rmtree(d)
+    date = written.encode()
+    attribute = b"capDate\0string\0" + struct.pack("<i", len(date)) + date
+    return data[:8] + attribute + data[8:]
+
+
+def make_culling_run(root, cells):
+    """A run of screen-caustics cells: [(scene, grid, seed, {pass: [(gpu_ms, cpu_ms) per frame]},
+    (cells_active, cells_skipped), {image name: bytes})]."""
+    rows = []
+    for i, (scene, grid, seed, passes, (active, skipped), images) in enumerate(cells):
+        cid = f"{scene}__screen-caustics__{i:02d}"
+        rows.append([cid, scene, "screen-caustics", "ok", seed, grid, "divide"])
+        d = os.path.join(root, "cells", cid)
+        os.makedirs(os.path.join(d, "images"))
+        frames = range(8, 8 + len(next(iter(passes.values()))))
+        write_csv(os.path.join(d, "frames.csv"), ["frame", "pass", "gpu_ms", "cpu_ms"],
+                  [[f, name, gpu, cpu] for name, times in passes.items() for f, (gpu, cpu) in zip(frames, times)])
+        write_csv(os.path.join(d, "counters.csv"), ["frame", "name", "value"],
+                  [[f, n, v] for f in frames for n, v in (("cells_active", active), ("cells_skipped", skipped))])
+        for name, data in images.items():
+            with open(os.path.join(d, "images", name), "wb") as fh:
+                fh.write(data)
+        with open(os.path.join(d, "cell.json"), "w") as fh:
+            json.dump({"status": "ok"}, fh)
+    write_csv(os.path.join(root, "summary.csv"),
+              ["cell", "scene", "technique", "status", "seed", "param.grid", "param.area_scaling"], rows)
+    with open(os.path.join(root, "run.json"), "w") as f:
+        json.dump({"config": "name: screen-caustics-culling\n", "overrides": [], "device": "test"}, f)
+
+
+class Paper001ScreenCausticsTest(unittest.TestCase):
+    def culling_text(self, images_culled=None, images_full=None, with_full=True):
+        # ring, two rounds of three frames. 10 x 10: the filter 30, 34, 32 | 36, 38, 40 ms on the GPU
+        # (pooled median 35, quartiles 32.5 and 37.5), the grid 0.1 GPU and 2.0 CPU (its read-back):
+        # grid + filter, each pass on its larger clock, 32, 36, 34 | 38, 40, 42 (median 37, quartiles
+        # 34.5 and 39.5). Full screen: the filter 50 | 54, the grid 0.1 GPU and 1.0 CPU: 51 | 55.
+        # Culled / full: 37 / 53 = 0.70; per round 34 / 51 = 0.67 and 40 / 55 = 0.73.
+        def passes(filters, grid_cpu):
+            return {"grid": [(0.1, grid_cpu)] * len(filters), "filter": [(ms, 0.05) for ms in filters]}
+
+        cells = [("ring", 10, 1, passes([30, 34, 32], 2.0), (58, 42), images_culled or {}),
+                 ("ring", 10, 2, passes([36, 38, 40], 2.0), (58, 42), {})]
+        if with_full:
+            cells += [("ring", 1, 1, passes([50, 50, 50], 1.0), (1, 0), images_full or {}),
+                      ("ring", 1, 2, passes([54, 54, 54], 1.0), (1, 0), {})]
+        d = tempfile.mkdtemp(prefix="pb_claims001_")
+        self.addCleanup(shutil.rmtree, d)
+        make_culling_run(d, cells)
+        return paper001.claims(Run(d))
+
+    def test_culled_grid_against_the_full_screen(self):
+        text = self.culling_text()
+        row = Paper001LagTest.row(self, text, "| ring | 10 x 10 |")
+        self.assertEqual(row[2:], ["2", "6", "58 of 100", "35.00 (32.50–37.50)", "0.10 (0.10–0.10)",
+                                   "2.00 (2.00–2.00)", "37.00 (34.50–39.50)"])
+        full = Paper001LagTest.row(self, text, "| ring | 1 (full screen) |")
+        self.assertEqual(full[4], "1 of 1")
+        self.assertEqual(full[8], "53.00 (51.00–55.00)")
+        line = next(l for l in text.splitlines() if l.startswith("* ring, 10 x 10 against the full screen"))
+        self.assertIn("culled / full, grid + filter (the pooled medians' ratio) 0.70; per round 0.67–0.73", line)
+        self.assertIn("images: not recorded", line)
+
+    def test_images_of_one_seed_compared(self):
+        # Written a second apart (the header's capDate differs), with the same pixels or one pixel
+        # apart; a PNG (not compared) differs throughout.
+        dark, lit = np.zeros((2, 3, 3)), np.zeros((2, 3, 3))
+        lit[1, 2] = 0.5
+        culled = {"frame_0008_caustics.exr": exr(lit, "2026:12:07 03:49:53"),
+                  "frame_0008.exr": exr(dark, "2026:12:07 03:49:53"), "frame_0008.png": b"a"}
+        same = self.culling_text(culled, {"frame_0008_caustics.exr": exr(lit, "2026:12:07 03:49:54"),
+                                          "frame_0008.exr": exr(dark, "2026:12:07 03:49:54"),
+                                          "frame_0008.png": b"b"})
+        self.assertIn("images: identical, pixel for pixel (2 images)", same)
+        differ = self.culling_text(culled, {"frame_0008_caustics.exr": exr(dark, "2026:12:07 03:49:54"),
+                                            "frame_0008.exr": exr(dark, "2026:12:07 03:49:54")})
+        self.assertIn("images: differ: 1 of 2 images", differ)
+
+    def test_no_full_screen_no_section(self):
+        with self.assertRaises(paper001.MissingCells):
+            self.culling_text(with_full=False)
+
+    def match_text(self, aaps_caustics, aaps_floor, aaps_status="matched"):
+        from test_claims import make_match_run
+        d = tempfile.mkdtemp(prefix="pb_claims001_")
+        self.addCleanup(shutil.rmtree, d)
+        make_match_run(d, "cornell-glass", "screen-caustics", "photons", 200, [
+            {"params": {}, "status": "matched", "knob_value": "10000", "ms": ("169.6", "97.4", "208.5"),
+             "flip": "0.423", "floor": "0.098", "classes": {"caustics": (0.378, 0.098)}},
+            {"technique": "aaps", "params": {}, "status": aaps_status, "knob_value": "6.72",
+             "reason": "" if aaps_status == "matched" else "4 probes, none within 15% of the target",
+             "ms": ("188.8", "114.5", "387.4"), "flip": "0.424", "floor": "0.098",
+             "classes": {"caustics": (aaps_caustics, aaps_floor)}}])
+        return paper001.claims(Run(d))
+
+    def test_equal_time_beside_aaps(self):
+        text = self.match_text(0.358, 0.098)
+        sc = Paper001LagTest.row(self, text, "| cornell-glass | `screen-caustics` |")
+        self.assertEqual(sc[2:], ["matched", "photons = 10000", "4", "169.6 [97.4, 208.5]",
+                                  "0.378 (floor 0.098)", "0.423 (floor 0.098)"])
+        aaps = Paper001LagTest.row(self, text, "| cornell-glass | `aaps` |")
+        self.assertEqual(aaps[3], "photons = 6.72")  # the fixture names one knob for both
+        self.assertEqual(aaps[6], "0.358 (floor 0.098)")
+        # 0.020 apart against floors of 0.098: the order is the reference's noise as far as it tells.
+        self.assertIn("* cornell-glass, caustics: `aaps` 0.358 against `screen-caustics` 0.378, a difference "
+                      "of 0.020 beside the floors 0.098 / 0.098: not resolved.", text)
+        self.assertIn("* cornell-glass, combined: `screen-caustics` 0.423 against `aaps` 0.424", text)
+        # Far apart against small floors: resolved.
+        text = self.match_text(0.100, 0.010)
+        self.assertIn("* cornell-glass, caustics: `aaps` 0.100 against `screen-caustics` 0.378, a difference "
+                      "of 0.278 beside the floors 0.010 / 0.098: resolved.", text)
+        # A side that did not match holds no equal time: no order.
+        text = self.match_text(0.100, 0.010, "not_converged")
+        self.assertIn("| cornell-glass | `aaps` | not_converged |", text)
+        self.assertIn("* cornell-glass: no comparison, aaps not_converged (4 probes, none within 15% of the "
+                      "target).", text)
+        self.assertNotIn("* cornell-glass, caustics:", text)
 
 
 if __name__ == "__main__":

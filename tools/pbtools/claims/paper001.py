@@ -19,6 +19,11 @@ that lag, for any technique of the run:
     (counters `paths_retraced`, and `rays_traced` or `selective_rays`, where the technique has them,
     summed from the event to the settled frame), so that two techniques' lags are read at the work
     each spent.
+  * **lag at equal rays**: where a technique's budget is swept (configs/paper001-lag.yaml sweeps
+    path-verification's photons), each other cell beside the sweep's cell whose rays over the event's
+    whole window (the same frames for every cell, so a budget that does not depend on the lag) are
+    nearest to its own by ratio, with the ratio and the two cells of the sweep that bracket it (no
+    interpolation: a lag is a count of frames).
 
 Scored every frame over the events' windows (the config's metrics_every: 1); the indirect class where the
 cell scores it, else the combined image.
@@ -30,6 +35,18 @@ And on a run of configs/paper001.yaml (frame 0 of static scenes, where every IIM
     hemi-plane: 10.5x-22x); per round (the seed axis' rounds) and the median over the rounds, on the
     pass's time and on the process CPU time it took (lavapipe draws on the CPU here);
   * **Fig. 14.4**: the indirect FLIP of IIMs at each `aim_texels` beside its floor.
+
+And for the screen-space caustics (Ch. 12; techniques/screen-caustics):
+  * on a run of configs/screen-caustics-culling.yaml, Eq. 12.1's filter over the culled grid (the
+    thesis's occlusion queries) against the full screen (`grid: 1`), cells alike but for `grid`: per
+    scene the active cells, the `filter` pass's GPU time, the `grid` pass's GPU time and its read-back's
+    CPU time, grid + filter, each the median (quartiles) over the rounds' frames pooled; the ratio
+    culled / full of the pooled medians (and per round); whether the images are the same, where the run
+    scored frames;
+  * on a run of configs/screen-caustics-equal-time.yaml (match.csv), screen-caustics beside aaps at one
+    frame time: each one's knob as found, its probes, the frame time (median [p5, p95]), FLIP of the
+    caustics class and of the combined image beside the reference's floor, and whether each order is
+    resolved (tools/pbtools/matching.py's rule; "not resolved" when the difference is within the floors).
 """
 
 import math
@@ -37,7 +54,9 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..rundata import Cell, Run
+from .. import matching
+from ..rundata import Cell, Run, format_param
+from .paper1 import class_row, knob_value, matched_pairs, matched_rows
 
 TITLE = "Real-time Photon Mapping (Larsen, DTU thesis 2004; seed 001)"
 
@@ -114,6 +133,12 @@ def counter_sum(cell: Cell, name: str, first: int, last: int) -> Optional[float]
     return float(rows["value"].sum()) if len(rows) else None
 
 
+def rays_sum(cell: Cell, first: int, last: int) -> Optional[float]:
+    """Rays the cell traced over frames [first, last]: whichever of RAYS_COUNTERS it reports."""
+    return next((r for r in (counter_sum(cell, c, first, last) for c in RAYS_COUNTERS) if r is not None),
+                None)
+
+
 def lag_rows(run: Run) -> List[dict]:
     rows = []
     for scene, events in EVENTS.items():
@@ -135,8 +160,8 @@ def lag_rows(run: Run) -> List[dict]:
                        "class": cls, "scored": len(wf), "settle": s}
                 end = s["settle_frame"] if s else hi
                 row["paths_retraced"] = counter_sum(cell, PATHS_COUNTER, start, end)
-                row["rays"] = next((r for r in (counter_sum(cell, c, start, end) for c in RAYS_COUNTERS)
-                                    if r is not None), None)
+                row["rays"] = rays_sum(cell, start, end)
+                row["window_rays"] = rays_sum(cell, lo, hi)
                 rows.append(row)
     return rows
 
@@ -155,6 +180,61 @@ def cell_label(run: Run, cell: Cell) -> str:
     return f"`{cell.technique}`" + (f" ({params})" if params else "")
 
 
+def lag_of(row: dict) -> Optional[int]:
+    return None if row["settle"] is None else row["settle"]["settle_frame"] - row["start"]
+
+
+def lag_text(row: dict) -> str:
+    lag = lag_of(row)
+    return "not settled" if lag is None else str(lag)
+
+
+def equal_rays_pairs(rows: List[dict]):
+    """(row of a cell, the other technique's rows ordered by their rays, its nearest row in rays) for
+    every cell with rays over its window and every other technique of the same event with two or more
+    such cells (a sweep of its budget): nearest by the ratio of the rays over the event's window."""
+    events: Dict[Tuple[str, str], Dict[str, List[dict]]] = {}
+    for r in rows:
+        if r["window_rays"]:
+            events.setdefault((r["scene"], r["event"]), {}).setdefault(r["cell"].technique, []).append(r)
+    for by_technique in events.values():
+        for technique, own in by_technique.items():
+            for other, sweep in by_technique.items():
+                if other == technique or len(sweep) < 2:
+                    continue
+                sweep = sorted(sweep, key=lambda r: r["window_rays"])
+                for r in own:
+                    nearest = min(sweep, key=lambda s: abs(math.log(s["window_rays"] / r["window_rays"])))
+                    yield r, sweep, nearest
+
+
+def equal_rays_lines(run: Run, rows: List[dict]) -> List[str]:
+    pairs = list(equal_rays_pairs(rows))
+    if not pairs:
+        return []
+    out = ["", "### At equal rays", "",
+           "Each cell beside the cell of another technique's budget sweep whose rays over the event's "
+           "window (from the event's first frame to the window's last, the same frames for every cell) "
+           "are nearest to its own (nearest by their ratio; no interpolation: a lag is a count of frames), "
+           "with the ratio of the two and the sweep's cells that bracket it.", "",
+           "| scene | event | cell | rays over the window | lag, frames | nearest in rays | its rays over the "
+           "window | rays ratio (nearest / cell) | its lag, frames | the sweep's bracketing cells: lag (rays) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for r, sweep, nearest in pairs:
+        below = [s for s in sweep if s["window_rays"] <= r["window_rays"]]
+        above = [s for s in sweep if s["window_rays"] >= r["window_rays"]]
+        if below and above:
+            ends = [below[-1]] + ([above[0]] if above[0] is not below[-1] else [])
+            bracket = "; ".join(f"{cell_label(run, s['cell'])}: {lag_text(s)} ({fmt(s['window_rays'])})"
+                                for s in ends)
+        else:
+            bracket = "none: every cell of the sweep traced " + ("more" if not below else "fewer")
+        out.append(f"| {r['scene']} | {r['event']} | {cell_label(run, r['cell'])} | {fmt(r['window_rays'])} | "
+                   f"{lag_text(r)} | {cell_label(run, nearest['cell'])} | {fmt(nearest['window_rays'])} | "
+                   f"{nearest['window_rays'] / r['window_rays']:.2f} | {lag_text(nearest)} | {bracket} |")
+    return out
+
+
 def lag_section(run: Run) -> str:
     rows = lag_rows(run)
     out = ["## Lag after a change (B11: popping against lag)", ""]
@@ -167,17 +247,18 @@ def lag_section(run: Run) -> str:
             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         s = r["settle"]
-        lag = None if s is None else s["settle_frame"] - r["start"]
+        lag = lag_of(r)
         out.append(
             f"| {r['scene']} | {r['event']} ({r['start']}–{r['stop']}) | {cell_label(run, r['cell'])} | "
             f"{r['class']} | {r['scored']} | {fmt(s and s['settled'], 3)} | {fmt(s and s['band'], 3)} | "
-            f"{'not settled' if s is None else lag} | {'–' if lag is None else f'{lag / 30:.2f}'} | "
+            f"{lag_text(r)} | {'–' if lag is None else f'{lag / 30:.2f}'} | "
             f"{fmt(r['paths_retraced'])} | {fmt(r['rays'])} |")
     out += ["", "Lag: frames from the event's first frame until every later score of the window stays within "
             "the band of its settled value (the mean of its last quarter); the band is the larger of 3 "
             "standard deviations of that quarter about its fitted line and the FLIP floor (scores closer than the floor "
             "are not resolved). Work: the counters summed from the event to the settled frame (to the "
             "window's end when not settled). Seconds at the scenes' 30 fps."]
+    out += equal_rays_lines(run, rows)
     return "\n".join(out) + "\n"
 
 
@@ -283,12 +364,238 @@ def resolution_section(run: Run) -> str:
     return "\n".join(out) + "\n"
 
 
+SCREEN_CAUSTICS = "screen-caustics"
+AAPS = "aaps"
+GRID_DEFAULT = 10  # techniques/screen-caustics: `grid`'s default
+FULL_SCREEN = 1  # grid 1: one cell, every diffuse pixel filtered (no culling)
+CULLING_PASSES = ("grid", "filter")
+
+
+def grid_of(cell: Cell) -> int:
+    v = cell.params.get("grid", GRID_DEFAULT)
+    return int(float(v)) if v not in ("", None) else GRID_DEFAULT
+
+
+def pooled(cells: Sequence[Cell], name: str, clock: str) -> np.ndarray:
+    """One pass's times on one clock over every measured frame of `cells` (the rounds' frames pooled)."""
+    parts = [c.pass_samples(name, clock)[1] for c in cells]
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def pooled_totals(cells: Sequence[Cell]) -> np.ndarray:
+    """Per frame, grid and filter each on the clock it ran on (the harness's rule: the larger of its GPU
+    and CPU times; the grid's CPU time holds the read-back that waits for its dispatch), summed."""
+    parts = [c.pass_sums(CULLING_PASSES).to_numpy(float) for c in cells]
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def median_quartiles(values: np.ndarray, digits: int = 2) -> str:
+    if not len(values):
+        return "–"
+    q1, med, q3 = np.percentile(values, [25, 50, 75])
+    return f"{med:.{digits}f} ({q1:.{digits}f}–{q3:.{digits}f})"
+
+
+def counter_values(cells: Sequence[Cell], name: str) -> np.ndarray:
+    parts = [c.counters[c.counters["name"] == name]["value"].dropna().to_numpy(float) for c in cells
+             if c.counters is not None and not c.counters.empty]
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def active_text(cells: Sequence[Cell], grid: int) -> str:
+    active = counter_values(cells, "cells_active")
+    if not len(active):
+        return "–"
+    skipped = counter_values(cells, "cells_skipped")
+    total = int(active[0] + skipped[0]) if len(skipped) else grid * grid
+    return f"{format_param(float(np.median(active)))} of {total}"
+
+
+def by_seed(cells: Sequence[Cell]) -> Dict[str, Cell]:
+    return {c.text("seed"): c for c in cells}
+
+
+# OpenEXR header attributes that say when the file was written, not what it holds.
+EXR_TIME_ATTRIBUTES = {b"capDate", b"utcOffset"}
+
+
+def exr_parts(path: str) -> Tuple[Dict[bytes, bytes], bytes]:
+    """An OpenEXR file's header attributes (name -> type and value) and everything after the header
+    (the chunk offsets and the pixel chunks). A header starts with the magic number and version (8
+    bytes), then attributes as name NUL type NUL size (int32, little-endian) value, ending at an empty
+    name."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:4] != b"\x76\x2f\x31\x01":
+        raise ValueError(f"{path}: not an OpenEXR file")
+    attributes, at = {}, 8
+    while data[at:at + 1] != b"\x00":
+        name_end = data.index(b"\x00", at)
+        type_end = data.index(b"\x00", name_end + 1)
+        size = int.from_bytes(data[type_end + 1:type_end + 5], "little")
+        attributes[data[at:name_end]] = data[name_end + 1:type_end + 5 + size]
+        at = type_end + 5 + size
+    return attributes, data[at + 1:]
+
+
+def same_pixels(a: str, b: str) -> bool:
+    """Whether two EXRs of one writer hold the same pixels: the same header but for the time it was
+    written, and the same chunks (a deterministic lossless compressor gives equal chunks for equal
+    pixels, and different chunks only for different ones)."""
+    (ha, ca), (hb, cb) = exr_parts(a), exr_parts(b)
+    strip = lambda h: {k: v for k, v in h.items() if k not in EXR_TIME_ATTRIBUTES}  # noqa: E731
+    return strip(ha) == strip(hb) and ca == cb
+
+
+def images_verdict(culled: Sequence[Cell], full: Sequence[Cell]) -> str:
+    """Whether the EXR images both settings wrote (cells of one seed, the same frame and class) hold the
+    same pixels (same_pixels)."""
+    full_by_seed = by_seed(full)
+    same = differ = 0
+    for seed, c in by_seed(culled).items():
+        f = full_by_seed.get(seed)
+        if f is None:
+            continue
+        theirs = {k: v for k, v in f.images().items() if k[0] == "frame" and k[3] == "exr"}
+        for key, path in c.images().items():
+            if key in theirs:
+                if same_pixels(path, theirs[key]):
+                    same += 1
+                else:
+                    differ += 1
+    if same + differ == 0:
+        return "not recorded (no scored frame: no images to compare)"
+    if differ:
+        return f"differ: {differ} of {same + differ} images"
+    return f"identical, pixel for pixel ({same} images)"
+
+
+def culling_groups(run: Run, scene: str) -> List[Tuple[str, Dict[int, List[Cell]]]]:
+    """(what tells the group apart, grid -> cells) of screen-caustics cells of `scene` alike but for
+    `grid` and the seed, where the group holds the full screen and a culled grid."""
+    cells = [c for c in run.cells_of(scene) if c.ok and c.technique == SCREEN_CAUSTICS
+             and c.match_round is None and len(c.pass_samples("filter")[0])]
+    swept = [p for p in run.swept_params(cells) if p != "grid"] if len(cells) > 1 else []
+    groups: Dict[tuple, Dict[int, List[Cell]]] = {}
+    for c in cells:
+        key = tuple(sorted((k, format_param(v)) for k, v in c.params.items() if k != "grid"))
+        groups.setdefault(key, {}).setdefault(grid_of(c), []).append(c)
+    out = []
+    for key, by_grid in groups.items():
+        if FULL_SCREEN in by_grid and any(g != FULL_SCREEN for g in by_grid):
+            out.append((", ".join(f"{k} {v}" for k, v in key if k in swept), by_grid))
+    return out
+
+
+def culling_section(run: Run) -> str:
+    """Ch. 12's occlusion queries: the filter over the culled grid against the full screen."""
+    found = [(scene, label, by_grid) for scene in run.scenes() for label, by_grid in culling_groups(run, scene)]
+    if not found:
+        return ""
+    out = ["## Eq. 12.1's filter over the culled grid against the full screen (Ch. 12)", "",
+           "The thesis culls the filter with occlusion queries on a 10 x 10 screen grid; `grid: 1` is one "
+           "cell, every diffuse pixel filtered. Medians (quartiles) over every measured frame of the "
+           "rounds, pooled.", "",
+           "| scene | grid | rounds | frames | active cells | `filter` GPU ms | `grid` GPU ms | "
+           "`grid` read-back CPU ms | grid + filter ms |", "|---|---|---|---|---|---|---|---|---|"]
+    notes = []
+    for scene, label, by_grid in found:
+        name = f"{scene} ({label})" if label else scene
+        for grid in sorted(by_grid, reverse=True):
+            cells = by_grid[grid]
+            totals = pooled_totals(cells)
+            grid_text = "1 (full screen)" if grid == FULL_SCREEN else f"{grid} x {grid}"
+            out.append(f"| {name} | {grid_text} | {len(cells)} | {len(totals)} | {active_text(cells, grid)} | "
+                       f"{median_quartiles(pooled(cells, 'filter', 'gpu'))} | "
+                       f"{median_quartiles(pooled(cells, 'grid', 'gpu'))} | "
+                       f"{median_quartiles(pooled(cells, 'grid', 'cpu'))} | {median_quartiles(totals)} |")
+        full = by_grid[FULL_SCREEN]
+        full_total = pooled_totals(full)
+        for grid in sorted(g for g in by_grid if g != FULL_SCREEN):
+            culled = by_grid[grid]
+            culled_total = pooled_totals(culled)
+            ratio = (float(np.median(culled_total)) / float(np.median(full_total))
+                     if len(culled_total) and len(full_total) else math.nan)
+            rounds = []
+            full_by_seed = by_seed(full)
+            for seed, c in by_seed(culled).items():
+                if seed not in full_by_seed:
+                    continue
+                a, b = pooled_totals([c]), pooled_totals([full_by_seed[seed]])
+                if len(a) and len(b):
+                    rounds.append(float(np.median(a)) / float(np.median(b)))
+            per_round = (f"; per round {min(rounds):.2f}–{max(rounds):.2f}" if len(rounds) > 1 else "")
+            notes.append(f"* {name}, {grid} x {grid} against the full screen: culled / full, grid + filter "
+                         f"(the pooled medians' ratio) {fmt(ratio, 2)}{per_round}; images: "
+                         f"{images_verdict(culled, full)}.")
+    out += [""] + notes + ["", "grid + filter: per frame, each pass on the clock it ran on (the larger of "
+                           "its GPU and CPU times, the harness's rule; the grid's CPU time is the read-back "
+                           "of its flags, which waits for its dispatch), summed. Images: the EXRs both "
+                           "settings wrote at a scored frame (cells of one seed), their pixel chunks "
+                           "compared byte for byte (the header's write time aside)."]
+    return "\n".join(out) + "\n"
+
+
+def equal_time_section(run: Run) -> str:
+    """screen-caustics beside aaps at one frame time, from a matched run
+    (configs/screen-caustics-equal-time.yaml)."""
+    mode, metric, rows = matched_rows(run, (SCREEN_CAUSTICS, AAPS))
+    if not any(row["technique"] == SCREEN_CAUSTICS for row, _ in rows):
+        return ""
+    at = "time" if mode == "time" else f"quality ({metric})"
+    name = "FLIP" if metric == "flip" else metric
+    out = [f"## Screen-space caustics beside AAPS at equal {at}", "",
+           "Each technique's budget knob as the match found it, the probes it took, the achieved frame time "
+           "(median [p5, p95] over the found setting's re-measurement rounds), and " + name + " of the "
+           "caustics class and of the combined image, each with the reference's floor (what the true "
+           "image would score: a difference under it is not resolved).", "",
+           f"| scene | technique | status | knob found | probes | frame ms | {name} caustics | "
+           f"{name} combined |", "|---|---|---|---|---|---|---|---|"]
+    by_scene: Dict[str, Dict[str, dict]] = {}
+    classes: Dict[str, Dict[str, dict]] = {}
+    for row, _ in rows:
+        caustics = class_row(run, row, metric, "caustics")
+        knob = f"{row['knob']} = {knob_value(row)}" if row.get("knob_value") else "–"
+        out.append(f"| {row['scene']} | `{row['technique']}` | {row['status']} | {knob} | {row['probes']} | "
+                   f"{matching.time_text(row) or '–'} | {matching.score_text(caustics, metric) or '–'} | "
+                   f"{matching.score_text(row, metric) or '–'} |")
+        by_scene.setdefault(row["scene"], {})[row["technique"]] = row
+        classes.setdefault(row["scene"], {})[row["technique"]] = caustics
+    out.append("")
+    for scene, _, aaps, sc, why in matched_pairs(by_scene, SCREEN_CAUSTICS, (AAPS,)):
+        if why:
+            out.append(f"* {scene}: no comparison, {why}.")
+            continue
+        out.append(f"* {scene}, caustics: "
+                   f"{score_order_text(classes[scene][SCREEN_CAUSTICS], classes[scene][AAPS], metric, mode)}")
+        out.append(f"* {scene}, combined: {score_order_text(sc, aaps, metric, mode)}")
+    return "\n".join(out) + "\n"
+
+
+def score_order_text(a: dict, b: dict, metric: str, mode: str) -> str:
+    """Which of two match rows scores better, the difference beside the floors, and whether the order
+    holds against the reference's noise (matching.order_verdict's rule)."""
+    va, vb = (float(r.get(metric) or "nan") for r in (a, b))
+    if math.isnan(va) or math.isnan(vb):
+        return f"{metric} not scored"
+    better, worse = (a, b) if va <= vb else (b, a)
+    verdict = matching.order_verdict(better, worse, metric, "time")
+    verdict = {"unresolved": "not resolved"}.get(verdict, verdict)
+    floors = " / ".join(fmt(float(r.get(f"{metric}_floor") or "nan"), 3) for r in (better, worse))
+    note = "" if mode == "time" else " (a quality match: the times differ, not the scores)"
+    return (f"`{better['technique']}` {fmt(min(va, vb), 3)} against `{worse['technique']}` "
+            f"{fmt(max(va, vb), 3)}, a difference of {fmt(abs(va - vb), 3)} beside the floors {floors}: "
+            f"{verdict}{note}.")
+
+
 def claims(run: Run) -> str:
-    parts = [gather_section(run), resolution_section(run)]
+    parts = [gather_section(run), resolution_section(run), culling_section(run), equal_time_section(run)]
     if any(run.cells_of(scene) for scene in EVENTS):
         parts.append(lag_section(run))
     parts = [p for p in parts if p]
     if not parts:
-        raise MissingCells(f"no cell of {TECHNIQUE} on frame 0 and none on {', '.join(EVENTS)}: run "
-                           "configs/paper001.yaml or configs/paper001-lag.yaml")
+        raise MissingCells(f"no cell of {TECHNIQUE} on frame 0, none on {', '.join(EVENTS)}, no "
+                           f"{SCREEN_CAUSTICS} cells alike but for grid and no match of it: run "
+                           "configs/paper001.yaml, configs/paper001-lag.yaml, "
+                           "configs/screen-caustics-culling.yaml or configs/screen-caustics-equal-time.yaml")
     return f"# {TITLE}\n\n" + "\n".join(parts)
