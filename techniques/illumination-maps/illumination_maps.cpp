@@ -11,13 +11,10 @@
 namespace im {
 
 tk::SelectiveEmissionSettings selective_settings(const ImParams& p) {
-  tk::SelectiveEmissionSettings s;
-  s.halton_bases = {p.halton_base_1, p.halton_base_2};
-  s.group_size = p.group_size;
-  s.divergence_tolerance = p.divergence_tolerance;
-  s.trace.max_bounces = p.max_bounces;
-  s.trace.store = pb::trace::kAllPhotons;
-  return s;
+  pb::trace::TraceSettings trace;
+  trace.max_bounces = p.max_bounces;
+  trace.store = pb::trace::kAllPhotons;
+  return p.settings(trace);
 }
 
 std::string check(const pb::Params& params) {
@@ -28,15 +25,7 @@ std::string check(const pb::Params& params) {
         "hemi_size: {} is not a power of two (the MIP reduction halves the hemi-plane to one "
         "pixel, Ch. 11)",
         size);
-  if (p.emission == Emission::selective) {
-    // The policy's "<key>: why" names its settings; halton_bases is two rows here.
-    std::string why = tk::check_selective_emission(selective_settings(p));
-    const std::string bases = "halton_bases: ";
-    if (why.starts_with(bases))
-      why =
-          (p.halton_base_1 < 2 ? "halton_base_1: " : "halton_base_2: ") + why.substr(bases.size());
-    return why;
-  }
+  if (p.emission == Emission::selective) return tk::check_selective_emission_params(p);
   return "";
 }
 

@@ -31,12 +31,12 @@ enum class SumPrecision : uint32_t { bits8, floating };
 enum class AimEstimate : uint32_t { nearest, texel };
 enum class Emission : uint32_t { selective, fresh };
 
-struct ImParams {
+namespace tk = pb::toolkit;
+
+// The selective emission rows' fields (halton_base_1, halton_base_2, group_size,
+// divergence_tolerance) are the toolkit's.
+struct ImParams : tk::SelectiveEmissionParams {
   Emission emission = Emission::selective;
-  uint32_t halton_base_1 = 7;
-  uint32_t halton_base_2 = 11;
-  uint32_t group_size = 40;
-  float divergence_tolerance = 1e-3f;
   uint32_t paths = 100000;
   uint32_t max_bounces = 4;
   float crease_angle = pb::toolkit::kDefaultCreaseAngleDegrees;
@@ -54,8 +54,6 @@ struct ImParams {
   uint32_t shadow_map_size = pb::kDefaultShadowMapSize;
 };
 
-namespace tk = pb::toolkit;
-
 // clang-format off
 inline constexpr auto kParams = pb::params(
     pb::param("emission", &ImParams::emission, Emission::selective, "selective|fresh",
@@ -63,18 +61,14 @@ inline constexpr auto kParams = pb::params(
               "group a frame, a diverged group re-traced, and only the charts whose photons "
               "changed get a new photon map and are considered for an AIM; fresh: photons paths "
               "traced anew every frame"),
-    pb::param("halton_base_1", &ImParams::halton_base_1, 7, {2, 997}, "",
-              "selective: the Halton base of the emission domain's first coordinate; with "
-              "halton_base_2 coprime, the groups are its first-level cells (Ch. 9)"),
-    pb::param("halton_base_2", &ImParams::halton_base_2, 11, {2, 997}, "",
-              "selective: the Halton base of the second coordinate (7 x 11 = the thesis's 77 "
-              "groups, Ch. 14)"),
-    pb::param("group_size", &ImParams::group_size, 40, {1, 1e6}, "photons",
-              "selective: photons per group and light; each is probed once in group_size frames "
-              "(Ch. 14: 40)"),
-    pb::param("divergence_tolerance", &ImParams::divergence_tolerance, 1e-3, {0, 1e3}, "m",
-              "selective: how far a probe's hit may move and its path still agree with the kept "
-              "one (the thesis gives none)"),
+    pb::bind(tk::kHaltonBase1Param,
+             pb::base_field<ImParams>(&tk::SelectiveEmissionParams::halton_base_1)),
+    pb::bind(tk::kHaltonBase2Param,
+             pb::base_field<ImParams>(&tk::SelectiveEmissionParams::halton_base_2)),
+    pb::bind(tk::kGroupSizeParam,
+             pb::base_field<ImParams>(&tk::SelectiveEmissionParams::group_size)),
+    pb::bind(tk::kDivergenceToleranceParam,
+             pb::base_field<ImParams>(&tk::SelectiveEmissionParams::divergence_tolerance)),
     pb::bind(tk::with_range(tk::kPhotonsParam, tk::kPhotonsParam.default_value,
                             tk::kPhotonsParam.min_value, tk::kPhotonsParam.max_value,
                             "fresh: light paths traced per frame (selective keeps group_size x "

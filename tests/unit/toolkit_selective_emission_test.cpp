@@ -305,5 +305,43 @@ TEST(SelectiveEmission, RefusesBadSettingsNamingTheKey) {
   EXPECT_EQ(check_selective_emission(s), "");
 }
 
+// The settings as parameter rows (what a technique binds): their values make the policy's
+// settings, and a refusal names the row at fault, of the two bases the one a config would change.
+TEST(SelectiveEmission, ParameterRowsMakeTheSettingsAndNameTheRowAtFault) {
+  SelectiveEmissionParams p;
+  p.halton_base_1 = 5;
+  p.halton_base_2 = 3;
+  p.group_size = 8;
+  p.divergence_tolerance = 0.25f;
+  trace::TraceSettings trace;
+  trace.max_bounces = 3;
+  const SelectiveEmissionSettings s = p.settings(trace);
+  EXPECT_EQ(s.halton_bases[0], 5u);
+  EXPECT_EQ(s.halton_bases[1], 3u);
+  EXPECT_EQ(s.group_size, 8u);
+  EXPECT_EQ(s.divergence_tolerance, 0.25f);
+  EXPECT_EQ(s.trace.max_bounces, 3u);
+  EXPECT_EQ(check_selective_emission_params(p), "");
+  // The rows' defaults are the thesis's 77 groups of 40 (Ch. 14), the policy's own defaults.
+  const SelectiveEmissionSettings defaults;
+  EXPECT_EQ(kHaltonBase1Param.default_value, defaults.halton_bases[0]);
+  EXPECT_EQ(kHaltonBase2Param.default_value, defaults.halton_bases[1]);
+  EXPECT_EQ(kGroupSizeParam.default_value, defaults.group_size);
+  EXPECT_FLOAT_EQ(float(kDivergenceToleranceParam.default_value), defaults.divergence_tolerance);
+  EXPECT_EQ(std::string(kDivergenceToleranceParam.unit), "m");
+
+  p.halton_base_1 = 6;
+  p.halton_base_2 = 9;
+  EXPECT_EQ(check_selective_emission_params(p).rfind("halton_base_2: [6, 9] share the factor 3", 0),
+            0u)
+      << check_selective_emission_params(p);
+  p.halton_base_1 = 1;
+  EXPECT_EQ(check_selective_emission_params(p).rfind("halton_base_1: ", 0), 0u)
+      << check_selective_emission_params(p);
+  p = SelectiveEmissionParams{};
+  p.group_size = 0;
+  EXPECT_EQ(check_selective_emission_params(p), "group_size: must be at least 1");
+}
+
 }  // namespace
 }  // namespace pb::toolkit

@@ -38,6 +38,26 @@ std::string check_selective_emission(const SelectiveEmissionSettings& s) {
   return "";
 }
 
+SelectiveEmissionSettings SelectiveEmissionParams::settings(
+    const trace::TraceSettings& trace) const {
+  SelectiveEmissionSettings s;
+  s.halton_bases = {halton_base_1, halton_base_2};
+  s.group_size = group_size;
+  s.divergence_tolerance = divergence_tolerance;
+  s.trace = trace;
+  return s;
+}
+
+std::string check_selective_emission_params(const SelectiveEmissionParams& params) {
+  std::string why = check_selective_emission(params.settings({}));
+  // The settings' halton_bases are two rows here.
+  const std::string_view bases = "halton_bases: ";
+  if (why.starts_with(bases))
+    why = std::string(params.halton_base_1 < 2 ? "halton_base_1: " : "halton_base_2: ") +
+          why.substr(bases.size());
+  return why;
+}
+
 // ---- SurfaceEnergyLedger
 
 SurfaceEnergyLedger::SurfaceEnergyLedger(std::vector<uint32_t> surface_of_triangle,

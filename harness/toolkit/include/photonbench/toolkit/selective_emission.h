@@ -44,6 +44,7 @@
 #include <string>
 #include <vector>
 
+#include "photonbench/param_table.h"
 #include "photonbench/photons.h"
 #include "photonbench/plugin.h"
 
@@ -64,6 +65,49 @@ struct SelectiveEmissionSettings {
 
 // "" or "<key>: why" (keys halton_bases, group_size, divergence_tolerance).
 std::string check_selective_emission(const SelectiveEmissionSettings& settings);
+
+// The settings as a technique's parameter rows, declared once so that every technique offering
+// the policy names and bounds them alike: its params struct derives from SelectiveEmissionParams
+// and binds each row to the inherited field, e.g.
+//   struct MyParams : pb::toolkit::SelectiveEmissionParams { ... };
+//   pb::bind(tk::kGroupSizeParam,
+//            pb::base_field<MyParams>(&tk::SelectiveEmissionParams::group_size))
+// The docs' "selective:" marks rows read only while selective emission is on.
+struct SelectiveEmissionParams {
+  uint32_t halton_base_1 = 7;
+  uint32_t halton_base_2 = 11;
+  uint32_t group_size = 40;
+  float divergence_tolerance = 1e-3f;
+
+  // The policy's settings of these rows, tracing with `trace`.
+  SelectiveEmissionSettings settings(const trace::TraceSettings& trace) const;
+};
+// clang-format off
+inline constexpr auto kSelectiveEmissionParams = pb::params(
+    pb::param("halton_base_1", &SelectiveEmissionParams::halton_base_1, 7, {2, 997}, "",
+              "selective: the Halton base of the emission domain's first coordinate; with "
+              "halton_base_2 coprime, the groups are its first-level cells (Ch. 9)"),
+    pb::param("halton_base_2", &SelectiveEmissionParams::halton_base_2, 11, {2, 997}, "",
+              "selective: the Halton base of the second coordinate (7 x 11 = the thesis's 77 "
+              "groups, Ch. 14)"),
+    pb::param("group_size", &SelectiveEmissionParams::group_size, 40, {1, 1e6}, "photons",
+              "selective: photons per group and light; each is probed once in group_size frames "
+              "(Ch. 14: 40)"),
+    pb::param("divergence_tolerance", &SelectiveEmissionParams::divergence_tolerance, 1e-3,
+              {0, 1e3}, "m",
+              "selective: how far a probe's hit may move and its path still agree with the kept "
+              "one (the thesis gives none)"));
+// clang-format on
+static_assert(kSelectiveEmissionParams.member_defaults_match());
+inline constexpr pb_param_spec kHaltonBase1Param = kSelectiveEmissionParams.row("halton_base_1");
+inline constexpr pb_param_spec kHaltonBase2Param = kSelectiveEmissionParams.row("halton_base_2");
+inline constexpr pb_param_spec kGroupSizeParam = kSelectiveEmissionParams.row("group_size");
+inline constexpr pb_param_spec kDivergenceToleranceParam =
+    kSelectiveEmissionParams.row("divergence_tolerance");
+
+// check_selective_emission of the rows' values, "<row>: why" naming the row at fault (of the two
+// bases, the one below 2, else the second for bases that share a factor).
+std::string check_selective_emission_params(const SelectiveEmissionParams& params);
 
 // Per update; report() below emits them as a technique's counters.
 struct SelectiveEmissionStats {
