@@ -171,6 +171,16 @@ class Paper001LagTest(unittest.TestCase):
         text = self.claims([("two-rooms", "creeping", slow, 0.01, {})])
         self.assertEqual(self.row(text, "`creeping`")[7], "not settled")
 
+    def test_a_change_within_the_band_is_not_a_lag_of_zero(self):
+        # A fall of 0.005 at frame 62, under the floor 0.01: the series never leaves the band of its
+        # settled value, so its lag of 0 says the change is not resolved, not that it was followed at
+        # once; a fall of 0.05 is followed in 2 frames.
+        small = {f: 0.2 if f < 62 else 0.195 for f in range(56, 148)}
+        large = {f: 0.25 if f < 62 else 0.2 for f in range(56, 148)}
+        text = self.claims([("two-rooms", "small", small, 0.01, {}), ("two-rooms", "large", large, 0.01, {})])
+        self.assertEqual(self.row(text, "`small`")[7], "0 (never left the band)")
+        self.assertEqual(self.row(text, "`large`")[7], "2")
+
     def test_walker_windows_end_at_the_next_event(self):
         # Two events, 90 and 300: the first window is frames 90..299, the second 300..359; a step down at
         # 100 and one at 310 each settle within their own window (a first window running on to the end

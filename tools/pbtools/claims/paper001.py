@@ -112,7 +112,9 @@ def settle(frames: np.ndarray, values: np.ndarray, floors: Optional[np.ndarray])
     first = 0 if len(outside) == 0 else int(outside[-1]) + 1
     if first >= n - tail_n:
         return None  # it left the band inside the tail itself
-    return {"settled": settled, "band": band, "settle_frame": int(frames[first])}
+    # Never outside the band: the change, if any, is not resolved from the noise and the floor (a lag
+    # of 0 here says nothing about how fast the technique follows).
+    return {"settled": settled, "band": band, "settle_frame": int(frames[first]), "unresolved": len(outside) == 0}
 
 
 def window_of(events: Sequence[Tuple[str, int, int]], i: int, last_frame: int) -> Tuple[int, int]:
@@ -186,7 +188,9 @@ def lag_of(row: dict) -> Optional[int]:
 
 def lag_text(row: dict) -> str:
     lag = lag_of(row)
-    return "not settled" if lag is None else str(lag)
+    if lag is None:
+        return "not settled"
+    return f"{lag} (never left the band)" if row["settle"]["unresolved"] else str(lag)
 
 
 def equal_rays_pairs(rows: List[dict]):
@@ -254,7 +258,8 @@ def lag_section(run: Run) -> str:
             f"{lag_text(r)} | {'–' if lag is None else f'{lag / 30:.2f}'} | "
             f"{fmt(r['paths_retraced'])} | {fmt(r['rays'])} |")
     out += ["", "Lag: frames from the event's first frame until every later score of the window stays within "
-            "the band of its settled value (the mean of its last quarter); the band is the larger of 3 "
+            "the band of its settled value (the mean of its last quarter; a series that never left the band "
+            "has a change too small to resolve, and a lag of 0 that says nothing); the band is the larger of 3 "
             "standard deviations of that quarter about its fitted line and the FLIP floor (scores closer than the floor "
             "are not resolved). Work: the counters summed from the event to the settled frame (to the "
             "window's end when not settled). Seconds at the scenes' 30 fps."]
