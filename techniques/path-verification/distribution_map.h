@@ -89,6 +89,9 @@ class DistributionMaps {
   // normal) with DM_T uniform over the light's paths.
   void setup(const trace::PhotonBatch& batch, uint32_t position_cells, uint32_t direction_cells) {
     const auto& paths = batch.paths.paths;
+    split_ = batch.paths.paths_per_light;
+    position_cells_ = position_cells;
+    direction_cells_ = direction_cells;
     maps_.assign(batch.paths.paths_per_light.size(), DistributionMap{});
     for (size_t l = 0; l < maps_.size(); ++l) {
       maps_[l].position_cells = position_cells;
@@ -107,8 +110,14 @@ class DistributionMaps {
   bool empty() const { return maps_.empty(); }
   const std::vector<DistributionMap>& maps() const { return maps_; }
 
-  // compute-dm: DM_C from the paths whose origin is kept (restart != kReemit).
+  // compute-dm: DM_C from the paths whose origin is kept (restart != kReemit). A power change
+  // re-splits the paths among the lights in a fresh trace (§3.1's DM_T is uniform over a light's
+  // paths): the maps are then made anew from that trace, as at the first frame; against the old
+  // split's DM_T a light that gained paths would be over-full in every cell, and prune and fill
+  // would re-trace a share of its paths every frame of a static scene.
   void compute(const trace::PhotonBatch& batch) {
+    if (batch.paths.paths_per_light != split_)
+      return setup(batch, position_cells_, direction_cells_);
     for (auto& m : maps_) std::fill(m.current.begin(), m.current.end(), 0u);
     for (const auto& path : batch.paths.paths)
       if (path.restart != trace::LightPath::kReemit) ++maps_[path.light].current[cell_of(path)];
@@ -197,6 +206,8 @@ class DistributionMaps {
   }
 
   std::vector<DistributionMap> maps_;
+  std::vector<uint32_t> split_;  // the paths of each light that DM_T was made for
+  uint32_t position_cells_ = 0, direction_cells_ = 0;
 };
 
 }  // namespace pb::pathverification

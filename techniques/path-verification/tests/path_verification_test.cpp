@@ -590,6 +590,45 @@ TEST(PathVerification, AStaticLightIsNeverPruned) {
   }
 }
 
+// Two lights, one switched off: the tracer re-splits the paths among the lights by power in a
+// fresh trace, so the light left on holds twice the paths its first DM_T was made for. The maps
+// follow the new split; a static scene then prunes and refills nothing (with DM_T kept from the
+// first split, every cell of the lit light stayed over-full: measured on two-rooms, 20-25% of the
+// paths pruned and re-traced every frame after its lights went out).
+TEST(PathVerification, ASwitchedOffLightLeavesTheOtherLightsMapSettled) {
+  Room room;
+  room.t.point_light({-1.2f, 2.5f, 1.0f}, 1.f);
+  EmbreeScene world(room.t.scene, room.t.state);
+  EmbreePhotonTracer tracer(world);
+  PhotonBatch batch;
+  tracer.trace(settings(), batch);
+  ASSERT_EQ(batch.paths.paths_per_light.size(), 2u);
+  const uint32_t first_split = batch.paths.paths_per_light[0];
+  pathverification::DistributionMaps maps;
+  maps.setup(batch, 1, 8);  // 64 direction cells, ~150 paths a cell
+  ReuseSettings reuse{ReuseRule::naive};
+  reuse.update_origins = true;
+  std::vector<uint32_t> pruned;
+  uint64_t pruned_after_the_switch = 0, refilled_after_the_switch = 0;
+  for (int frame = 1; frame <= 4; ++frame) {
+    scene::FrameState next = room.t.state;
+    next.lights[1].radiant = glm::vec3(0.f);
+    next.frame = frame;
+    world.update(next);
+    tracer.update_origins(settings(), reuse, batch);
+    maps.compute(batch);
+    tracer.verify_paths(settings(), reuse, batch);
+    uint64_t p = maps.prune(batch, frame, pruned);
+    uint64_t f = maps.fill(batch, frame, pruned);
+    if (frame > 1) pruned_after_the_switch += p, refilled_after_the_switch += f;
+    tracer.retrace_marked(settings(), batch);
+  }
+  EXPECT_EQ(batch.paths.paths_per_light[0], settings().paths);  // the dark light's paths moved
+  EXPECT_GT(batch.paths.paths_per_light[0], first_split);
+  EXPECT_EQ(pruned_after_the_switch, 0u);
+  EXPECT_EQ(refilled_after_the_switch, 0u);
+}
+
 // ---- the data layout (§4)
 
 TEST(PathVerification, PathInformationWordPacksEachFieldApart) {
