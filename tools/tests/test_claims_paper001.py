@@ -27,7 +27,8 @@ def write_csv(path, header, rows):
 
 
 def make_run(root, cells):
-    """cells: [(scene, technique, {frame: flip}, floor, {counter: per-frame value}[, {param: value}])]."""
+    """cells: [(scene, technique, {frame: flip}, floor, {counter: per-frame value, or {frame: value}}
+    [, {param: value}])]."""
     params = sorted({k for c in cells if len(c) > 5 for k in c[5]})
     rows = []
     for i, (scene, technique, flips, floor, counters, *rest) in enumerate(cells):
@@ -41,7 +42,7 @@ def make_run(root, cells):
         write_csv(os.path.join(d, "metrics.csv"), ["frame", "path_class", "reference", "flip", "flip_floor"],
                   [[f, "indirect", "full", flips[f], floor] for f in frames])
         write_csv(os.path.join(d, "counters.csv"), ["frame", "name", "value"],
-                  [[f, n, v] for n, v in counters.items() for f in frames])
+                  [[f, n, v.get(f, 0) if isinstance(v, dict) else v] for n, v in counters.items() for f in frames])
         with open(os.path.join(d, "cell.json"), "w") as fh:
             json.dump({"status": "ok"}, fh)
     write_csv(os.path.join(root, "summary.csv"),
@@ -190,6 +191,31 @@ class Paper001LagTest(unittest.TestCase):
         text = self.claims([("walker", "cache", flips, 0.01, {})])
         self.assertEqual(self.row(text, "the figure stops at the stand")[7], "10")
         self.assertEqual(self.row(text, "the figure stops at the door")[7], "10")
+
+    def test_retracing_is_the_frames_until_the_last_path_re_traced(self):
+        # Lights out at frame 60, window 60..147: a cache probing a share of its paths re-traces until
+        # frame 99 (40 frames from 60 on), one that follows at once stops after frame 60 (1), one that
+        # re-traces every frame never stops in the window, one that re-traced only before the event is
+        # 0, and a technique without the counter has no figure.
+        series = falling(56, 147, 64, 0.5, 0.2, 0.002)
+        text = self.claims([
+            ("two-rooms", "probing", series, 0.01, {"paths_retraced": {f: 5 for f in range(56, 100)}}),
+            ("two-rooms", "at-once", series, 0.01, {"paths_retraced": {f: 5 for f in range(56, 61)}}),
+            ("two-rooms", "always", series, 0.01, {"paths_retraced": 3}),
+            ("two-rooms", "before", series, 0.01, {"paths_retraced": {f: 5 for f in range(56, 60)}}),
+            ("two-rooms", "fresh", series, 0.01, {})])
+        self.assertEqual(self.row(text, "`probing`")[11], "40")
+        self.assertEqual(self.row(text, "`at-once`")[11], "1")
+        self.assertEqual(self.row(text, "`always`")[11], "still at the window's end")
+        self.assertEqual(self.row(text, "`before`")[11], "0")
+        self.assertEqual(self.row(text, "`fresh`")[11], "–")
+
+    def test_an_event_outside_the_scored_frames_has_no_row(self):
+        # walker scored over frames 86..141 only: the stop at the door (frame 300) has no row.
+        flips = {f: 0.3 for f in range(86, 142)}
+        text = self.claims([("walker", "cache", flips, 0.01, {})])
+        self.row(text, "the figure stops at the stand")
+        self.assertNotIn("the figure stops at the door", text)
 
     def test_a_run_without_event_scenes_is_refused(self):
         d = tempfile.mkdtemp(prefix="pb_claims001_")

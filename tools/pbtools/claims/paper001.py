@@ -141,6 +141,20 @@ def rays_sum(cell: Cell, first: int, last: int) -> Optional[float]:
                 None)
 
 
+def retracing_frames(cell: Cell, first: int, last: int) -> Optional[int]:
+    """Frames from `first` until the cell's last frame of [first, last] that re-traced a path (0: none
+    re-traced from `first` on); None when it reports no re-traced paths, or when it still re-traces at
+    `last` (its work has not settled in the window)."""
+    c = cell.counters
+    if c is None or c.empty or PATHS_COUNTER not in set(c["name"]):
+        return None
+    rows = c[(c["name"] == PATHS_COUNTER) & (c["frame"] >= first) & (c["frame"] <= last)]
+    busy = rows[rows["value"] > 0]["frame"]
+    if not len(busy):
+        return 0
+    return None if int(busy.max()) >= last else int(busy.max()) - first + 1
+
+
 def lag_rows(run: Run) -> List[dict]:
     rows = []
     for scene, events in EVENTS.items():
@@ -156,6 +170,8 @@ def lag_rows(run: Run) -> List[dict]:
                 lo, hi = window_of(events, i, int(frames.max()))
                 keep = (frames >= lo) & (frames <= hi)
                 wf, wv = frames[keep], values[keep]
+                if not len(wf):  # the event lies outside the frames the run scored
+                    continue
                 wfl = np.array([floor_by_frame.get(f, np.nan) for f in wf]) if floor_by_frame else None
                 s = settle(wf, wv, wfl)
                 row = {"scene": scene, "cell": cell, "event": name, "start": start, "stop": stop,
@@ -164,6 +180,8 @@ def lag_rows(run: Run) -> List[dict]:
                 row["paths_retraced"] = counter_sum(cell, PATHS_COUNTER, start, end)
                 row["rays"] = rays_sum(cell, start, end)
                 row["window_rays"] = rays_sum(cell, lo, hi)
+                row["retracing"] = retracing_frames(cell, start, hi)
+                row["retracing_known"] = counter_sum(cell, PATHS_COUNTER, start, hi) is not None
                 rows.append(row)
     return rows
 
@@ -239,6 +257,12 @@ def equal_rays_lines(run: Run, rows: List[dict]) -> List[str]:
     return out
 
 
+def retracing_text(row: dict) -> str:
+    if not row["retracing_known"]:
+        return "–"
+    return "still at the window's end" if row["retracing"] is None else str(row["retracing"])
+
+
 def lag_section(run: Run) -> str:
     rows = lag_rows(run)
     out = ["## Lag after a change (B11: popping against lag)", ""]
@@ -247,8 +271,8 @@ def lag_section(run: Run) -> str:
                    ") every frame; run configs/paper001.yaml.")
         return "\n".join(out) + "\n"
     out += ["| scene | event (frames) | cell | class | scored frames | settled FLIP | band | lag, frames | "
-            "lag, s | paths re-traced | rays traced |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
+            "lag, s | paths re-traced | rays traced | re-tracing, frames |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         s = r["settle"]
         lag = lag_of(r)
@@ -256,13 +280,17 @@ def lag_section(run: Run) -> str:
             f"| {r['scene']} | {r['event']} ({r['start']}–{r['stop']}) | {cell_label(run, r['cell'])} | "
             f"{r['class']} | {r['scored']} | {fmt(s and s['settled'], 3)} | {fmt(s and s['band'], 3)} | "
             f"{lag_text(r)} | {'–' if lag is None else f'{lag / 30:.2f}'} | "
-            f"{fmt(r['paths_retraced'])} | {fmt(r['rays'])} |")
+            f"{fmt(r['paths_retraced'])} | {fmt(r['rays'])} | {retracing_text(r)} |")
     out += ["", "Lag: frames from the event's first frame until every later score of the window stays within "
             "the band of its settled value (the mean of its last quarter; a series that never left the band "
             "has a change too small to resolve, and a lag of 0 that says nothing); the band is the larger of 3 "
             "standard deviations of that quarter about its fitted line and the FLIP floor (scores closer than the floor "
             "are not resolved). Work: the counters summed from the event to the settled frame (to the "
-            "window's end when not settled). Seconds at the scenes' 30 fps."]
+            "window's end when not settled). Seconds at the scenes' 30 fps. Re-tracing: frames from the "
+            "event until the technique re-traced its last path in the window, the lag of its work (a cache "
+            "that probes a share of its paths a frame, such as selective emission's one photon a group a "
+            "frame, keeps re-tracing after its image has settled; 'still at the window's end' when it "
+            "re-traced at the window's last frame)."]
     out += equal_rays_lines(run, rows)
     return "\n".join(out) + "\n"
 
