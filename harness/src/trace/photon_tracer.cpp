@@ -135,18 +135,25 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     Scatter arrived_by = Scatter::sample;
     PathVertex vertex;
   };
-  Part waiting[kMaxSplitParts];
+  // Left uninitialised (a Part's vertex would otherwise be zeroed kMaxSplitParts times a path):
+  // most paths never split.
+  union WaitingPart {
+    Part part;
+    WaitingPart() {}
+  };
+  WaitingPart waiting[kMaxSplitParts];
   int waiting_count = 0;
   uint32_t k = uint32_t(verts.size()) - 1;  // index of the interaction the next segment leads to
   uint32_t state = 0;
   Scatter arrived_by = Scatter::sample;
   uint64_t rays = 0;
   for (;;) {
-    const PathVertex v = verts.back();
+    // The path's last vertex, read in place: nothing is appended to `verts` before its last use.
+    const PathVertex& v = verts.back();
     if ((v.flags & PathVertex::kTerminated) || k >= c.max_bounces) {
       if (!(v.flags & PathVertex::kTerminated)) verts.back().flags |= PathVertex::kTerminated;
       if (waiting_count == 0) return rays;
-      const Part& part = waiting[--waiting_count];
+      const Part& part = waiting[--waiting_count].part;
       k = part.k, state = part.state, arrived_by = part.arrived_by;
       verts.push_back(part.vertex);
       continue;
@@ -257,7 +264,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
         if (waiting_count == kMaxSplitParts)
           throw Error("photon tracer: a policy split one path more than " +
                       std::to_string(kMaxSplitParts) + " times");
-        waiting[waiting_count++] = {k + 1, decision.state, reflected_by, reflected};
+        waiting[waiting_count++].part = {k + 1, decision.state, reflected_by, reflected};
       }
       if (has_reflected || has_refracted) {
         verts.push_back(has_refracted ? refracted : reflected);
@@ -329,16 +336,15 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
 }
 
 void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2 dir, bool keep,
-                 const std::vector<PathVertex>& verts, const std::vector<PhotonRecord>& photons) {
-  LightPath p;
-  p.light = task.light;
-  p.sample = task.sample;
-  p.emission_uv = uv;
-  p.emission_dir = dir;
-  p.first_photon = uint32_t(out.photons.size());
-  p.photon_count = uint32_t(photons.size());
-  out.photons.insert(out.photons.end(), photons.begin(), photons.end());
+                 const std::vector<PathVertex>& verts, size_t first_photon) {
   if (keep) {
+    LightPath p;
+    p.light = task.light;
+    p.sample = task.sample;
+    p.emission_uv = uv;
+    p.emission_dir = dir;
+    p.first_photon = uint32_t(first_photon);
+    p.photon_count = uint32_t(out.photons.size() - first_photon);
     p.first_vertex = uint32_t(out.vertices.size());
     p.vertex_count = uint32_t(verts.size());
     out.vertices.insert(out.vertices.end(), verts.begin(), verts.end());
@@ -568,7 +574,6 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
   tbb::parallel_for(
       tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
         std::vector<PathVertex> verts;
-        std::vector<PhotonRecord> photons;
         for (uint32_t b = r.begin(); b != r.end(); ++b) {
           BlockOutput& o = outputs[b];
           const uint32_t end = uint32_t(std::min<uint64_t>(total, uint64_t(b + 1) * kBlockSize));
@@ -580,11 +585,11 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
             const EmissionRay ray = lights.emit(point.light, point.uv, point.direction);
             const PathTask task{point.light, i};
             verts.clear();
-            photons.clear();
+            const size_t first_photon = o.photons.size();
             verts.push_back(start_vertex(c, point.light, ray, point.photon_density));
             out.emitted_power[i] = mean3(verts.back().power);
-            o.rays += continue_path(c, task, point.id, verts, photons);
-            append_path(o, task, point.uv, point.direction, keep, verts, photons);
+            o.rays += continue_path(c, task, point.id, verts, o.photons);
+            append_path(o, task, point.uv, point.direction, keep, verts, first_photon);
           }
         }
       });
@@ -641,19 +646,18 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     tbb::parallel_for(
         tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
           std::vector<PathVertex> verts;
-          std::vector<PhotonRecord> photons;
           for (uint32_t b = r.begin(); b != r.end(); ++b) {
             BlockOutput& o = outputs[b];
             uint32_t end = std::min<uint32_t>(uint32_t(tasks.size()), (b + 1) * kBlockSize);
             for (uint32_t t = b * kBlockSize; t < end; ++t) {
               verts.clear();
-              photons.clear();
+              const size_t first_photon = o.photons.size();
               glm::vec2 uv, dir;
               verts.push_back(emit(c, tasks[t], &uv, &dir));
               uint32_t local =
                   t - b * kBlockSize;  // path index within the wave, fixed up in gather
-              o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, photons);
-              append_path(o, tasks[t], uv, dir, keep, verts, photons);
+              o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, o.photons);
+              append_path(o, tasks[t], uv, dir, keep, verts, first_photon);
             }
           }
         });
