@@ -561,7 +561,7 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
                         old.paths[pi].restart != LightPath::kKeep;
   PhotonBatch next;
   TraceStats stats;
-  gather(outputs, blocks, 0, true, next, stats);
+  next.photons.resize(gather(outputs, blocks, 0, true, next.photons.size(), next, stats));
   uint32_t n_objects = world_.object_count();
   next.paths.object_to_world.resize(n_objects);
   for (uint32_t ob = 0; ob < n_objects; ++ob)

@@ -137,9 +137,17 @@ void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2
                  const std::vector<PathVertex>& verts, size_t first_photon);
 
 // Concatenates block outputs in block order (the fixed partition makes this thread-count
-// independent): sizes first, then every block copies itself into place in parallel.
-void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
-            PhotonBatch& out, TraceStats& stats);
+// independent): sizes first, then every block copies itself into place in parallel. The photons go
+// to out.photons from index `photons_before` on (what earlier waves gathered); the vector grows
+// only where it is shorter than that (a batch traced into again keeps its last trace's size, and
+// its memory need not be zeroed and faulted in again). Returns the photon count after it; the
+// caller trims out.photons to its final count.
+size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
+              size_t photons_before, PhotonBatch& out, TraceStats& stats);
+
+// Empties a batch's light paths for a new trace; where `keep`, their vectors' memory (faulted in by
+// the last trace) is kept for the new paths.
+void reset_paths(LightPaths& paths, bool keep);
 
 // Block outputs reused from call to call, so their memory is not faulted in again every frame.
 void reset_blocks(std::vector<BlockOutput>& blocks, size_t count);
@@ -171,6 +179,7 @@ struct OriginResult {
 // what one reuse step hands the next.
 struct TracerScratch {
   std::vector<BlockOutput> blocks;
+  std::vector<PathTask> tasks;  // a wave's paths (the tracer's own emission)
   // verify_paths -> retrace_marked: the visibility ray's hit of each path's restart segment, so
   // that the re-trace does not trace it twice (Paper II §3.3).
   std::vector<Hit> handover_hit;

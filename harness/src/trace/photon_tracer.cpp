@@ -352,11 +352,11 @@ void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2
   }
 }
 
-void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
-            PhotonBatch& out, TraceStats& stats) {
+size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
+              size_t photons_before, PhotonBatch& out, TraceStats& stats) {
   std::vector<size_t> photon_at(block_count + 1), vertex_at(block_count + 1),
       path_at(block_count + 1);
-  photon_at[0] = out.photons.size();
+  photon_at[0] = photons_before;
   vertex_at[0] = out.paths.vertices.size();
   path_at[0] = out.paths.paths.size();
   for (size_t b = 0; b < block_count; ++b) {
@@ -367,7 +367,7 @@ void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_
     stats.paths_retraced += blocks[b].paths_retraced;
     stats.segments_retraced += blocks[b].segments_retraced;
   }
-  out.photons.resize(photon_at[block_count]);
+  if (out.photons.size() < photon_at[block_count]) out.photons.resize(photon_at[block_count]);
   if (keep) {
     out.paths.vertices.resize(vertex_at[block_count]);
     out.paths.paths.resize(path_at[block_count]);
@@ -392,6 +392,21 @@ void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_
                         }
                       }
                     });
+  return photon_at[block_count];
+}
+
+void reset_paths(LightPaths& paths, bool keep) {
+  std::vector<LightPath> kept_paths;
+  std::vector<PathVertex> kept_vertices;
+  if (keep) {
+    kept_paths = std::move(paths.paths);
+    kept_vertices = std::move(paths.vertices);
+    kept_paths.clear();
+    kept_vertices.clear();
+  }
+  paths = LightPaths{};
+  paths.paths = std::move(kept_paths);
+  paths.vertices = std::move(kept_vertices);
 }
 
 void reset_blocks(std::vector<BlockOutput>& blocks, size_t count) {
@@ -560,8 +575,7 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
         fmt::format("photon tracer: an emission sampler asks for {} photons, more "
                     "than 2^32",
                     total));
-  out.photons.clear();
-  out.paths = LightPaths{};
+  reset_paths(out.paths, settings.keep_light_paths);
   out.emitted_power.assign(total, 0.f);
   // A sampled emission draws no random numbers at emission; its interactions draw from the
   // Sobol sequence of its index, as a path of the tracer's own emission does.
@@ -594,7 +608,7 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
         }
       });
   TraceStats stats;
-  gather(outputs, blocks, 0, keep, out, stats);
+  out.photons.resize(gather(outputs, blocks, 0, keep, 0, out, stats));
   if (keep) {  // the snapshot; no paths_per_light: these are not the tracer's own emissions
     LightPaths& lp = out.paths;
     lp.object_to_world.resize(world_.object_count());
@@ -623,8 +637,9 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   std::vector<float> powers(lights.size());
   for (uint32_t e = 0; e < lights.size(); ++e) powers[e] = mean3(lights.emitter(e).power);
 
-  out.photons.clear();
-  out.paths = LightPaths{};
+  bool keep = settings.keep_light_paths;
+  reset_paths(out.paths, keep);
+  size_t stored = 0;  // photons gathered so far (out.photons is trimmed to it after the waves)
   TraceStats stats;
   const uint32_t seed = frame_seed(settings);
 
@@ -632,12 +647,11 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
   for (auto& n : emission_count) n = std::max(n, 1u);
   Context c = trace_context(settings, lights, seed, emission_count);
-  bool keep = settings.keep_light_paths;
   uint32_t wave = settings.paths, total = 0;
+  std::vector<PathTask>& tasks = scratch_->tasks;
   for (;;) {
     std::vector<uint32_t> alloc = split_paths(powers, wave);
-    std::vector<PathTask> tasks;
-    tasks.reserve(wave);
+    tasks.clear();
     for (uint32_t e = 0; e < lights.size(); ++e)
       for (uint32_t j = 0; j < alloc[e]; ++j) tasks.push_back({e, emitted[e] + j});
     uint32_t blocks = uint32_t((tasks.size() + kBlockSize - 1) / kBlockSize);
@@ -661,18 +675,19 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
             }
           }
         });
-    gather(outputs, blocks, total, keep, out, stats);
+    stored = gather(outputs, blocks, total, keep, stored, out, stats);
     for (uint32_t e = 0; e < lights.size(); ++e) emitted[e] += alloc[e];
     total += uint32_t(tasks.size());
-    if (settings.photon_target == 0 || out.photons.size() >= settings.photon_target ||
+    if (settings.photon_target == 0 || stored >= settings.photon_target ||
         total >= settings.max_paths || tasks.empty())
       break;
     // Next wave: enough paths for the photons still missing at the rate seen so far, plus 10%.
-    double rate = double(out.photons.size()) / std::max<uint32_t>(total, 1);
-    double need = (settings.photon_target - out.photons.size()) / std::max(rate, 1e-3) * 1.1 + 64;
+    double rate = double(stored) / std::max<uint32_t>(total, 1);
+    double need = (settings.photon_target - stored) / std::max(rate, 1e-3) * 1.1 + 64;
     wave = uint32_t(std::min<double>(need, double(settings.max_paths - total)));
     if (wave == 0) break;
   }
+  out.photons.resize(stored);
   // Photon-target mode: power and spacing were set for the first wave's path count; rescale to the
   // final count of each emitter.
   for (uint32_t e = 0; e < lights.size(); ++e) {
