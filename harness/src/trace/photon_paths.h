@@ -179,7 +179,6 @@ struct OriginResult {
 // what one reuse step hands the next.
 struct TracerScratch {
   std::vector<BlockOutput> blocks;
-  std::vector<PathTask> tasks;  // a wave's paths (the tracer's own emission)
   // verify_paths -> retrace_marked: the visibility ray's hit of each path's restart segment, so
   // that the re-trace does not trace it twice (Paper II §3.3).
   std::vector<Hit> handover_hit;

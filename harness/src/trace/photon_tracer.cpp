@@ -674,10 +674,10 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   for (auto& n : emission_count) n = std::max(n, 1u);
   Context c = trace_context(settings, lights, seed, emission_count);
   uint32_t wave = settings.paths, total = 0;
-  std::vector<PathTask>& tasks = scratch_->tasks;
   for (;;) {
     std::vector<uint32_t> alloc = split_paths(powers, wave);
-    tasks.clear();
+    std::vector<PathTask> tasks;
+    tasks.reserve(wave);
     for (uint32_t e = 0; e < lights.size(); ++e)
       for (uint32_t j = 0; j < alloc[e]; ++j) tasks.push_back({e, emitted[e] + j});
     uint32_t blocks = uint32_t((tasks.size() + kBlockSize - 1) / kBlockSize);
