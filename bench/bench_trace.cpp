@@ -24,6 +24,7 @@
 // Mrays/s are 0.5-0.8 of path tracing's, harness/src/reference/README.md), and which this bench
 // measured from the estimators' landing until issue 30 (0.48x).
 #include <fmt/format.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -143,6 +144,14 @@ std::string find_pathtracer() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Both tracers run in this one process: with glibc's defaults, which of them faults in fresh
+  // pages each round depends on what the other freed last (its dynamic mmap threshold and heap
+  // trimming), so a change to one moved the other's rate (a photon tracer that kept its batch
+  // memory made the path tracer's buffers fault in afresh: 1.5x its time on cornell-box). Memory
+  // freed stays in the heap, and blocks up to the largest threshold come from it: every round
+  // after the warm-up measures the rays, not the page faults the other side caused.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   const fs::path source_dir = pb::bench::source_dir();
   auto options = pb::bench::parse_options(
       argc, argv,
