@@ -12,6 +12,7 @@
 #include <memory>
 #include <numeric>
 #include <random>
+#include <type_traits>
 
 #include "photonbench/photons.h"
 #include "scene/emissive_triangles.h"
@@ -663,6 +664,38 @@ TEST(PhotonTracer, DeterministicForAGivenSeedWhateverTheThreadCount) {
   EXPECT_EQ(std::memcmp(fixed0.photons.data(), fixed1.photons.data(),
                         fixed0.photons.size() * sizeof(PhotonRecord)),
             0);
+}
+
+// A batch traced into again keeps its memory from its last trace (no zero fill): what it then
+// holds must be exactly what a fresh batch gets, whether the last trace stored more photons or
+// fewer, and its kept paths too.
+TEST(PhotonTracer, ABatchTracedIntoAgainHoldsWhatAFreshBatchGets) {
+  TestScene t;
+  t.object(box_mesh({-1, 0, -1}, {1, 2, 1}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
+  t.object(sphere_mesh({0, 0.5f, 0}, 0.3f, 32), t.material(scene::MaterialType::dielectric));
+  t.light(point_light({0, 1.8f, 0}, 1.f));
+  EmbreeScene world(t.scene, t.state);
+  EmbreePhotonTracer tracer(world);
+  auto same = [](const auto& a, const auto& b) {
+    using T = typename std::decay_t<decltype(a)>::value_type;
+    return a.size() == b.size() &&
+           (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+  };
+  TraceSettings many, few, kept;
+  many.paths = 20000, many.store = kAllPhotons, many.seed = 3;
+  few.paths = 5000, few.store = kCausticPhotons, few.seed = 4;
+  kept.paths = 8000, kept.keep_light_paths = true, kept.seed = 5;
+  PhotonBatch reused;
+  for (const TraceSettings* s : {&many, &few, &kept, &many, &kept, &few}) {
+    PhotonBatch fresh;
+    tracer.trace(*s, reused);
+    tracer.trace(*s, fresh);
+    ASSERT_GT(fresh.photons.size(), 0u);
+    EXPECT_TRUE(same(reused.photons, fresh.photons)) << "store " << s->store;
+    EXPECT_TRUE(same(reused.paths.paths, fresh.paths.paths)) << "store " << s->store;
+    EXPECT_TRUE(same(reused.paths.vertices, fresh.paths.vertices)) << "store " << s->store;
+  }
 }
 
 // ---- sampling
