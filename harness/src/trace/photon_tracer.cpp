@@ -393,7 +393,12 @@ size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t pat
     stats.paths_retraced += blocks[b].paths_retraced;
     stats.segments_retraced += blocks[b].segments_retraced;
   }
-  if (out.photons.size() < photon_at[block_count]) out.photons.resize(photon_at[block_count]);
+  if (out.photons.size() < photon_at[block_count]) {
+    // Past the capacity the vector moves: carry the photons gathered so far, not the rest of the
+    // last trace's.
+    if (photon_at[block_count] > out.photons.capacity()) out.photons.resize(photons_before);
+    out.photons.resize(photon_at[block_count]);
+  }
   if (keep) {
     out.paths.vertices.resize(vertex_at[block_count]);
     out.paths.paths.resize(path_at[block_count]);
