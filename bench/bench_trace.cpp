@@ -1,6 +1,8 @@
 // bench_trace: ray throughput of our Embree path tracer (the reference renderer) next to Embree's
 // own `pathtracer` tutorial (Debian package embree-tools) on the same triangles and camera, as a
-// ratio (issue 30 target: at least 1.0x), plus the photon tracer's throughput on the same scene.
+// ratio (issue 30 target: at least 1.0x), plus the photon tracer's throughput on the same scene,
+// traced in the same alternating rounds, and its cost per ray over the path tracer's (the median
+// of the per-round ratios; target at most 1.3x). `--pathtracer none` leaves the tutorial out.
 // The tutorial's OBJ materials are diffuse (Kd) and its light here is one point light, so both
 // renderers get the scene as the tutorial can render it (make_comparable): every material diffuse
 // with its albedo, and the lights replaced by one point light of their total power at the first
@@ -22,6 +24,7 @@
 // Mrays/s are 0.5-0.8 of path tracing's, harness/src/reference/README.md), and which this bench
 // measured from the estimators' landing until issue 30 (0.48x).
 #include <fmt/format.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -141,6 +144,14 @@ std::string find_pathtracer() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Both tracers run in this one process: with glibc's defaults, which of them faults in fresh
+  // pages each round depends on what the other freed last (its dynamic mmap threshold and heap
+  // trimming), so a change to one moved the other's rate (a photon tracer that kept its batch
+  // memory made the path tracer's buffers fault in afresh: 1.5x its time on cornell-box). Memory
+  // freed stays in the heap, and blocks up to the largest threshold come from it: every round
+  // after the warm-up measures the rays, not the page faults the other side caused.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   const fs::path source_dir = pb::bench::source_dir();
   auto options = pb::bench::parse_options(
       argc, argv,
@@ -149,9 +160,10 @@ int main(int argc, char** argv) {
        {"--depth", "8"},
        {"--frames", "7"},
        {"--pathtracer", ""},
-       {"--estimator", "pt"}},
-      "bench_trace [--scene FILE] [--spp N] [--depth N] [--frames N] [--pathtracer PATH] "
-      "[--estimator pt|bdpt|auto]");
+       {"--estimator", "pt"},
+       {"--photon-paths", "500000"}},
+      "bench_trace [--scene FILE] [--spp N] [--depth N] [--frames N] [--pathtracer PATH|none] "
+      "[--estimator pt|bdpt|auto] [--photon-paths N]");
   if (!options) return 2;
   auto& opt = *options;
   const int width = 640, height = 360;
@@ -175,26 +187,28 @@ int main(int argc, char** argv) {
   std::printf("scene for both renderers: %s\n", comparable.c_str());
   std::printf("vector units: %s\n", pb::bench::vector_units().c_str());
 
-  // ---- the photon tracer on the same scene ----
+  // ---- the photon tracer on the same scene: every diffuse hit stored, the tracer's own decisions
+  // (no policy, so no footprint hooks), a fresh seed each round ----
   pb::trace::EmbreePhotonTracer tracer(world);
   pb::trace::TraceSettings ts;
-  ts.paths = 500000;
+  ts.paths = uint32_t(std::stoul(opt["--photon-paths"]));
   ts.store = pb::trace::kAllPhotons;
+  ts.seed_per_frame = false;
   pb::trace::PhotonBatch batch;
-  tracer.trace(ts, batch);
-  std::vector<double> photon_rates;
-  for (int f = 0; f < frames; ++f)
-    photon_rates.push_back(tracer.trace(ts, batch).mrays_per_second());
-  std::sort(photon_rates.begin(), photon_rates.end());
+  tracer.trace(ts, batch);  // warm-up: faults the batch's memory in
+  std::vector<double> photon_rates, photon_cost_ratios;
+  double photon_rays_per_path = 0;
 
-  // ---- ours (the reference path tracer, NEE + MIS) and Embree's tutorial, in alternating rounds
-  // ---- The machine may be shared: alternating the two and taking the median of per-round ratios
-  // keeps a load change from favouring whichever side ran during it.
+  // ---- ours (the reference path tracer, NEE + MIS), Embree's tutorial and the photon tracer, in
+  // ---- alternating rounds. The machine may be shared: alternating them and taking the median of
+  // per-round ratios keeps a load change from favouring whichever side ran during it.
   fs::path dir = fs::temp_directory_path() / fmt::format("pb_bench_trace_{}", ::getpid());
   fs::create_directories(dir);
   write_obj(scene, state, dir);
   std::string pathtracer = opt["--pathtracer"].empty() ? find_pathtracer() : opt["--pathtracer"];
-  if (pathtracer.empty())
+  if (pathtracer == "none")
+    pathtracer.clear();
+  else if (pathtracer.empty())
     std::printf("embree pathtracer not found (install embree-tools); no ratio\n");
   const auto& c = state.camera;
   glm::vec3 light = state.lights[0].position, power = state.lights[0].radiant;
@@ -223,6 +237,12 @@ int main(int argc, char** argv) {
     double mine = r.mrays_per_second();
     ours.push_back(mine);
     our_rays_per_path = double(r.rays) / paths;
+    ts.seed = uint32_t(f + 2);
+    pb::trace::TraceStats photon_stats = tracer.trace(ts, batch);
+    photon_rates.push_back(photon_stats.mrays_per_second());
+    photon_rays_per_path = double(photon_stats.rays) / double(photon_stats.paths);
+    // Cost per ray: the photon tracer's seconds a ray over the path tracer's.
+    photon_cost_ratios.push_back(mine / photon_rates.back());
     if (pathtracer.empty()) continue;
     std::string out = pb::bench::run_capture(cmd);
     double theirs = parse_value(out, "BENCHMARK_RENDER_MRAYPS_AVG");
@@ -245,7 +265,12 @@ int main(int argc, char** argv) {
               our_rays_per_path);
   if (theirs > 0)
     std::printf("%-34s %10.2f %14.2f\n", "embree pathtracer tutorial", theirs, their_rays_per_path);
-  std::printf("%-34s %10.2f\n", "photonbench photon tracer", photon_rates[photon_rates.size() / 2]);
+  std::printf("%-34s %10.2f %14.2f\n", "photonbench photon tracer", median(photon_rates),
+              photon_rays_per_path);
+  std::printf(
+      "photon tracer / path tracer, cost per ray: %.2fx  (median of %zu alternating rounds; "
+      "target <= 1.3x)\n",
+      median(photon_cost_ratios), photon_cost_ratios.size());
   if (theirs > 0)
     std::printf(
         "ratio (ours / embree): %.2fx  (median of %zu alternating rounds; target >= 1.0x)\n",

@@ -12,6 +12,7 @@
 #include <memory>
 #include <numeric>
 #include <random>
+#include <type_traits>
 
 #include "photonbench/photons.h"
 #include "scene/emissive_triangles.h"
@@ -665,6 +666,38 @@ TEST(PhotonTracer, DeterministicForAGivenSeedWhateverTheThreadCount) {
             0);
 }
 
+// A batch traced into again keeps its memory from its last trace (no zero fill): what it then
+// holds must be exactly what a fresh batch gets, whether the last trace stored more photons or
+// fewer, and its kept paths too.
+TEST(PhotonTracer, ABatchTracedIntoAgainHoldsWhatAFreshBatchGets) {
+  TestScene t;
+  t.object(box_mesh({-1, 0, -1}, {1, 2, 1}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.6f)));
+  t.object(sphere_mesh({0, 0.5f, 0}, 0.3f, 32), t.material(scene::MaterialType::dielectric));
+  t.light(point_light({0, 1.8f, 0}, 1.f));
+  EmbreeScene world(t.scene, t.state);
+  EmbreePhotonTracer tracer(world);
+  auto same = [](const auto& a, const auto& b) {
+    using T = typename std::decay_t<decltype(a)>::value_type;
+    return a.size() == b.size() &&
+           (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+  };
+  TraceSettings many, few, kept;
+  many.paths = 20000, many.store = kAllPhotons, many.seed = 3;
+  few.paths = 5000, few.store = kCausticPhotons, few.seed = 4;
+  kept.paths = 8000, kept.keep_light_paths = true, kept.seed = 5;
+  PhotonBatch reused;
+  for (const TraceSettings* s : {&many, &few, &kept, &many, &kept, &few}) {
+    PhotonBatch fresh;
+    tracer.trace(*s, reused);
+    tracer.trace(*s, fresh);
+    ASSERT_GT(fresh.photons.size(), 0u);
+    EXPECT_TRUE(same(reused.photons, fresh.photons)) << "store " << s->store;
+    EXPECT_TRUE(same(reused.paths.paths, fresh.paths.paths)) << "store " << s->store;
+    EXPECT_TRUE(same(reused.paths.vertices, fresh.paths.vertices)) << "store " << s->store;
+  }
+}
+
 // ---- sampling
 // ------------------------------------------------------------------------------------
 
@@ -686,6 +719,26 @@ TEST(Sampling, ScrambledSobolPairsAreNets) {
           ++count[int(p.x * (1 << a)) * (1 << (m - a)) + int(p.y * (1 << (m - a)))];
         for (int c : count)
           ASSERT_EQ(c, 1) << "group " << group << " pair " << pair << " split " << a;
+      }
+    }
+  }
+}
+
+// sobol_group cancels the bit reversals between its Owen scrambles (sampling.h): every value must
+// be, bit for bit, the scrambled Sobol point of the definition, for any index and seed.
+TEST(Sampling, SobolGroupIsTheScrambledSobolOfItsDefinition) {
+  std::mt19937 rng(2024);
+  for (int i = 0; i < 200000; ++i) {
+    const uint32_t index = i < 1000 ? uint32_t(i) : uint32_t(rng());
+    const SobolGroupSeeds seeds = sobol_group_seeds(uint32_t(rng() % 32), uint32_t(rng()));
+    const glm::vec4 fast = sobol_group(index, seeds);
+    for (int pair = 0; pair < 2; ++pair) {
+      const uint32_t shuffled = owen_scramble(index, seeds.pair[pair]);
+      for (int d = 0; d < 2; ++d) {
+        const float defined =
+            u32_to_unit(owen_scramble(sobol_u32(shuffled, d), seeds.digits[pair][d]));
+        ASSERT_EQ(fast[2 * pair + d], defined)
+            << "index " << index << " dimension " << 2 * pair + d;
       }
     }
   }

@@ -512,9 +512,9 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   tbb::parallel_for(
       tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
         std::vector<PathVertex> verts;
-        std::vector<PhotonRecord> photons;
         for (uint32_t b = r.begin(); b != r.end(); ++b) {
           BlockOutput& o = outputs[b];
+          std::vector<PhotonRecord>& photons = o.photons;
           uint32_t end = std::min(n_paths, (b + 1) * kBlockSize);
           for (uint32_t pi = b * kBlockSize; pi < end; ++pi) {
             const LightPath& path = old.paths[pi];
@@ -522,12 +522,12 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
             const PathVertex* pv = &old.vertices[path.first_vertex];
             auto first_photon = old_photons.begin() + path.first_photon;
             verts.clear();
-            photons.clear();
+            const size_t path_photons = photons.size();
             glm::vec2 uv = path.emission_uv, dir = path.emission_dir;
             uint32_t restart = path.restart;
             if (restart == LightPath::kKeep) {  // still valid: kept as it was (or moved within T)
               verts.assign(pv, pv + path.vertex_count);
-              photons.assign(first_photon, first_photon + path.photon_count);
+              photons.insert(photons.end(), first_photon, first_photon + path.photon_count);
             } else if (restart == LightPath::kReemit) {
               verts.push_back(emit(c, task, &uv, &dir));
             } else if (restart == LightPath::kRefill) {
@@ -536,9 +536,10 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
             } else {  // keep vertices 0..restart and the photons stored on them
               verts.assign(pv, pv + restart + 1);
               verts.back().flags &= ~(PathVertex::kEscapes | PathVertex::kTerminated);
-              photons.assign(first_photon, first_photon + photon_at_vertex(pv, restart + 1));
+              photons.insert(photons.end(), first_photon,
+                             first_photon + photon_at_vertex(pv, restart + 1));
             }
-            for (auto& ph : photons) ph.path = pi;
+            for (size_t i = path_photons; i < photons.size(); ++i) photons[i].path = pi;
             if (restart != LightPath::kKeep) {
               // A handed-over hit belongs to a restart segment (not to a path re-emitted since).
               bool segment = restart < LightPath::kRefill;
@@ -547,7 +548,7 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
               uint64_t rays = continue_path(c, task, pi, verts, photons, hit);
               o.rays += rays, o.segments_retraced += rays, ++o.paths_retraced;
             }
-            append_path(o, task, uv, dir, true, verts, photons);
+            append_path(o, task, uv, dir, true, verts, path_photons);
           }
         }
       });
@@ -560,7 +561,7 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
                         old.paths[pi].restart != LightPath::kKeep;
   PhotonBatch next;
   TraceStats stats;
-  gather(outputs, blocks, 0, true, next, stats);
+  next.photons.resize(gather(outputs, blocks, 0, true, next.photons.size(), next, stats));
   uint32_t n_objects = world_.object_count();
   next.paths.object_to_world.resize(n_objects);
   for (uint32_t ob = 0; ob < n_objects; ++ob)

@@ -122,21 +122,32 @@ PathVertex start_vertex(const Context& c, uint32_t light, const EmissionRay& ray
                         float photon_density);
 
 // Continues a path from its last vertex, which holds the outgoing state, until it terminates.
-// Appends vertices and the photons stored on the way; returns the number of segments traced.
+// Appends vertices (`verts` holds this path's alone: its size is the interaction count) and the
+// photons stored on the way (`photons` may be a block's whole output: they are appended where they
+// will stay); returns the number of segments traced.
 // `first_hit`: the hit of the first segment, already traced (path verification hands over its
 // visibility ray, Paper II §3.3); it is counted here as a traced segment.
 uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_index,
                        std::vector<PathVertex>& verts, std::vector<PhotonRecord>& photons,
                        const Hit* first_hit = nullptr);
 
-// Appends one path's vertices and photons (from scratch buffers) to a block's output.
+// Records one path in a block's output: its photons are out.photons[first_photon, end), written
+// there as they were stored; its vertices (a scratch buffer) are copied where paths are kept.
 void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2 dir, bool keep,
-                 const std::vector<PathVertex>& verts, const std::vector<PhotonRecord>& photons);
+                 const std::vector<PathVertex>& verts, size_t first_photon);
 
 // Concatenates block outputs in block order (the fixed partition makes this thread-count
-// independent): sizes first, then every block copies itself into place in parallel.
-void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
-            PhotonBatch& out, TraceStats& stats);
+// independent): sizes first, then every block copies itself into place in parallel. The photons go
+// to out.photons from index `photons_before` on (what earlier waves gathered); the vector grows
+// only where it is shorter than that (a batch traced into again keeps its last trace's size, and
+// its memory need not be zeroed and faulted in again). Returns the photon count after it; the
+// caller trims out.photons to its final count.
+size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
+              size_t photons_before, PhotonBatch& out, TraceStats& stats);
+
+// Empties a batch's light paths for a new trace; where `keep`, their vectors' memory (faulted in by
+// the last trace) is kept for the new paths.
+void reset_paths(LightPaths& paths, bool keep);
 
 // Block outputs reused from call to call, so their memory is not faulted in again every frame.
 void reset_blocks(std::vector<BlockOutput>& blocks, size_t count);

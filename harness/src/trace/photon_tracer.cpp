@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -38,6 +39,31 @@ glm::vec3 normal_derivative(const Triangle& tri, glm::vec2 bary, const glm::vec3
   glm::vec3 dn = db1 * (tri.n[1] - tri.n[0]) + db2 * (tri.n[2] - tri.n[0]);
   glm::vec3 ns = n_raw / len;
   return (dn - ns * glm::dot(ns, dn)) / len;
+}
+
+// Four lanes of floats (GCC/Clang vector extensions) for cosine_hemisphere4.
+using Float4 = float __attribute__((vector_size(16)));
+
+// cosine_hemisphere of four points at once: per lane the very operations of concentric_disk,
+// cos_sin_quarter and cosine_hemisphere (sampling.h), in the same order, so each lane gives the
+// same bits as the scalar call; the differentials of a diffuse bounce need four of them.
+std::array<glm::vec3, 4> cosine_hemisphere4(const Float4& ux, const Float4& uy) {
+  const Float4 ox = 2.f * ux - 1.f, oy = 2.f * uy - 1.f;
+  const Float4 zero = {0.f, 0.f, 0.f, 0.f}, one = {1.f, 1.f, 1.f, 1.f};
+  const auto x_major = (ox < zero ? -ox : ox) > (oy < zero ? -oy : oy);
+  const Float4 r = x_major ? ox : oy, minor = x_major ? oy : ox;
+  const Float4 phi = (kPi / 4) * (minor / (r != zero ? r : one));
+  const Float4 x2 = phi * phi;
+  const Float4 sin_phi =
+      phi * (1.f + x2 * (-1.f / 6 + x2 * (1.f / 120 + x2 * (-1.f / 5040 + x2 / 362880))));
+  const Float4 cos_phi =
+      1.f +
+      x2 * (-1.f / 2 + x2 * (1.f / 24 + x2 * (-1.f / 720 + x2 * (1.f / 40320 - x2 / 3628800))));
+  const Float4 dx = r * (x_major ? cos_phi : sin_phi), dy = r * (x_major ? sin_phi : cos_phi);
+  const Float4 z2 = 1.f - dx * dx - dy * dy;
+  std::array<glm::vec3, 4> out;
+  for (int i = 0; i < 4; ++i) out[i] = {dx[i], dy[i], std::sqrt(std::max(0.f, z2[i]))};
+  return out;
 }
 
 }  // namespace
@@ -135,18 +161,25 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     Scatter arrived_by = Scatter::sample;
     PathVertex vertex;
   };
-  Part waiting[kMaxSplitParts];
+  // Left uninitialised (a Part's vertex would otherwise be zeroed kMaxSplitParts times a path):
+  // most paths never split.
+  union WaitingPart {
+    Part part;
+    WaitingPart() {}
+  };
+  WaitingPart waiting[kMaxSplitParts];
   int waiting_count = 0;
   uint32_t k = uint32_t(verts.size()) - 1;  // index of the interaction the next segment leads to
   uint32_t state = 0;
   Scatter arrived_by = Scatter::sample;
   uint64_t rays = 0;
   for (;;) {
-    const PathVertex v = verts.back();
+    // The path's last vertex, read in place: nothing is appended to `verts` before its last use.
+    const PathVertex& v = verts.back();
     if ((v.flags & PathVertex::kTerminated) || k >= c.max_bounces) {
       if (!(v.flags & PathVertex::kTerminated)) verts.back().flags |= PathVertex::kTerminated;
       if (waiting_count == 0) return rays;
-      const Part& part = waiting[--waiting_count];
+      const Part& part = waiting[--waiting_count].part;
       k = part.k, state = part.state, arrived_by = part.arrived_by;
       verts.push_back(part.vertex);
       continue;
@@ -257,7 +290,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
         if (waiting_count == kMaxSplitParts)
           throw Error("photon tracer: a policy split one path more than " +
                       std::to_string(kMaxSplitParts) + " times");
-        waiting[waiting_count++] = {k + 1, decision.state, reflected_by, reflected};
+        waiting[waiting_count++].part = {k + 1, decision.state, reflected_by, reflected};
       }
       if (has_reflected || has_refracted) {
         verts.push_back(has_refracted ? refracted : reflected);
@@ -296,12 +329,12 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
           glm::vec2 u = glm::clamp(glm::vec2(xi.x, xi.y), glm::vec2(h), glm::vec2(1.f - h));
           Frame f(s.normal);
           next.dp_du = next.dp_dv = glm::vec3(0.f);
-          next.dd_du = f.to_world(cosine_hemisphere(u + glm::vec2(h, 0)) -
-                                  cosine_hemisphere(u - glm::vec2(h, 0))) /
-                       (2 * h);
-          next.dd_dv = f.to_world(cosine_hemisphere(u + glm::vec2(0, h)) -
-                                  cosine_hemisphere(u - glm::vec2(0, h))) /
-                       (2 * h);
+          // u + (h, 0), u - (h, 0), u + (0, h), u - (0, h).
+          const std::array<glm::vec3, 4> d =
+              cosine_hemisphere4(Float4{u.x + h, u.x - h, u.x + 0.f, u.x - 0.f},
+                                 Float4{u.y + 0.f, u.y - 0.f, u.y + h, u.y - h});
+          next.dd_du = f.to_world(d[0] - d[1]) / (2 * h);
+          next.dd_dv = f.to_world(d[2] - d[3]) / (2 * h);
           next.spacing = restart_spacing;
         } else {
           Triangle tri = world.triangle(hit.object, hit.primitive);
@@ -329,16 +362,15 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
 }
 
 void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2 dir, bool keep,
-                 const std::vector<PathVertex>& verts, const std::vector<PhotonRecord>& photons) {
-  LightPath p;
-  p.light = task.light;
-  p.sample = task.sample;
-  p.emission_uv = uv;
-  p.emission_dir = dir;
-  p.first_photon = uint32_t(out.photons.size());
-  p.photon_count = uint32_t(photons.size());
-  out.photons.insert(out.photons.end(), photons.begin(), photons.end());
+                 const std::vector<PathVertex>& verts, size_t first_photon) {
   if (keep) {
+    LightPath p;
+    p.light = task.light;
+    p.sample = task.sample;
+    p.emission_uv = uv;
+    p.emission_dir = dir;
+    p.first_photon = uint32_t(first_photon);
+    p.photon_count = uint32_t(out.photons.size() - first_photon);
     p.first_vertex = uint32_t(out.vertices.size());
     p.vertex_count = uint32_t(verts.size());
     out.vertices.insert(out.vertices.end(), verts.begin(), verts.end());
@@ -346,11 +378,11 @@ void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2
   }
 }
 
-void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
-            PhotonBatch& out, TraceStats& stats) {
+size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
+              size_t photons_before, PhotonBatch& out, TraceStats& stats) {
   std::vector<size_t> photon_at(block_count + 1), vertex_at(block_count + 1),
       path_at(block_count + 1);
-  photon_at[0] = out.photons.size();
+  photon_at[0] = photons_before;
   vertex_at[0] = out.paths.vertices.size();
   path_at[0] = out.paths.paths.size();
   for (size_t b = 0; b < block_count; ++b) {
@@ -361,7 +393,12 @@ void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_
     stats.paths_retraced += blocks[b].paths_retraced;
     stats.segments_retraced += blocks[b].segments_retraced;
   }
-  out.photons.resize(photon_at[block_count]);
+  if (out.photons.size() < photon_at[block_count]) {
+    // Past the capacity the vector moves: carry the photons gathered so far, not the rest of the
+    // last trace's.
+    if (photon_at[block_count] > out.photons.capacity()) out.photons.resize(photons_before);
+    out.photons.resize(photon_at[block_count]);
+  }
   if (keep) {
     out.paths.vertices.resize(vertex_at[block_count]);
     out.paths.paths.resize(path_at[block_count]);
@@ -386,6 +423,21 @@ void gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_
                         }
                       }
                     });
+  return photon_at[block_count];
+}
+
+void reset_paths(LightPaths& paths, bool keep) {
+  std::vector<LightPath> kept_paths;
+  std::vector<PathVertex> kept_vertices;
+  if (keep) {
+    kept_paths = std::move(paths.paths);
+    kept_vertices = std::move(paths.vertices);
+    kept_paths.clear();
+    kept_vertices.clear();
+  }
+  paths = LightPaths{};
+  paths.paths = std::move(kept_paths);
+  paths.vertices = std::move(kept_vertices);
 }
 
 void reset_blocks(std::vector<BlockOutput>& blocks, size_t count) {
@@ -554,8 +606,7 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
         fmt::format("photon tracer: an emission sampler asks for {} photons, more "
                     "than 2^32",
                     total));
-  out.photons.clear();
-  out.paths = LightPaths{};
+  reset_paths(out.paths, settings.keep_light_paths);
   out.emitted_power.assign(total, 0.f);
   // A sampled emission draws no random numbers at emission; its interactions draw from the
   // Sobol sequence of its index, as a path of the tracer's own emission does.
@@ -568,7 +619,6 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
   tbb::parallel_for(
       tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
         std::vector<PathVertex> verts;
-        std::vector<PhotonRecord> photons;
         for (uint32_t b = r.begin(); b != r.end(); ++b) {
           BlockOutput& o = outputs[b];
           const uint32_t end = uint32_t(std::min<uint64_t>(total, uint64_t(b + 1) * kBlockSize));
@@ -580,16 +630,16 @@ TraceStats EmbreePhotonTracer::trace_sampled(const TraceSettings& settings, Phot
             const EmissionRay ray = lights.emit(point.light, point.uv, point.direction);
             const PathTask task{point.light, i};
             verts.clear();
-            photons.clear();
+            const size_t first_photon = o.photons.size();
             verts.push_back(start_vertex(c, point.light, ray, point.photon_density));
             out.emitted_power[i] = mean3(verts.back().power);
-            o.rays += continue_path(c, task, point.id, verts, photons);
-            append_path(o, task, point.uv, point.direction, keep, verts, photons);
+            o.rays += continue_path(c, task, point.id, verts, o.photons);
+            append_path(o, task, point.uv, point.direction, keep, verts, first_photon);
           }
         }
       });
   TraceStats stats;
-  gather(outputs, blocks, 0, keep, out, stats);
+  out.photons.resize(gather(outputs, blocks, 0, keep, 0, out, stats));
   if (keep) {  // the snapshot; no paths_per_light: these are not the tracer's own emissions
     LightPaths& lp = out.paths;
     lp.object_to_world.resize(world_.object_count());
@@ -618,8 +668,9 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   std::vector<float> powers(lights.size());
   for (uint32_t e = 0; e < lights.size(); ++e) powers[e] = mean3(lights.emitter(e).power);
 
-  out.photons.clear();
-  out.paths = LightPaths{};
+  bool keep = settings.keep_light_paths;
+  reset_paths(out.paths, keep);
+  size_t stored = 0;  // photons gathered so far (out.photons is trimmed to it after the waves)
   TraceStats stats;
   const uint32_t seed = frame_seed(settings);
 
@@ -627,7 +678,6 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
   std::vector<uint32_t> emission_count = split_paths(powers, settings.paths);
   for (auto& n : emission_count) n = std::max(n, 1u);
   Context c = trace_context(settings, lights, seed, emission_count);
-  bool keep = settings.keep_light_paths;
   uint32_t wave = settings.paths, total = 0;
   for (;;) {
     std::vector<uint32_t> alloc = split_paths(powers, wave);
@@ -641,34 +691,34 @@ TraceStats EmbreePhotonTracer::trace(const TraceSettings& settings, PhotonBatch&
     tbb::parallel_for(
         tbb::blocked_range<uint32_t>(0, blocks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
           std::vector<PathVertex> verts;
-          std::vector<PhotonRecord> photons;
           for (uint32_t b = r.begin(); b != r.end(); ++b) {
             BlockOutput& o = outputs[b];
             uint32_t end = std::min<uint32_t>(uint32_t(tasks.size()), (b + 1) * kBlockSize);
             for (uint32_t t = b * kBlockSize; t < end; ++t) {
               verts.clear();
-              photons.clear();
+              const size_t first_photon = o.photons.size();
               glm::vec2 uv, dir;
               verts.push_back(emit(c, tasks[t], &uv, &dir));
               uint32_t local =
                   t - b * kBlockSize;  // path index within the wave, fixed up in gather
-              o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, photons);
-              append_path(o, tasks[t], uv, dir, keep, verts, photons);
+              o.rays += continue_path(c, tasks[t], b * kBlockSize + local, verts, o.photons);
+              append_path(o, tasks[t], uv, dir, keep, verts, first_photon);
             }
           }
         });
-    gather(outputs, blocks, total, keep, out, stats);
+    stored = gather(outputs, blocks, total, keep, stored, out, stats);
     for (uint32_t e = 0; e < lights.size(); ++e) emitted[e] += alloc[e];
     total += uint32_t(tasks.size());
-    if (settings.photon_target == 0 || out.photons.size() >= settings.photon_target ||
+    if (settings.photon_target == 0 || stored >= settings.photon_target ||
         total >= settings.max_paths || tasks.empty())
       break;
     // Next wave: enough paths for the photons still missing at the rate seen so far, plus 10%.
-    double rate = double(out.photons.size()) / std::max<uint32_t>(total, 1);
-    double need = (settings.photon_target - out.photons.size()) / std::max(rate, 1e-3) * 1.1 + 64;
+    double rate = double(stored) / std::max<uint32_t>(total, 1);
+    double need = (settings.photon_target - stored) / std::max(rate, 1e-3) * 1.1 + 64;
     wave = uint32_t(std::min<double>(need, double(settings.max_paths - total)));
     if (wave == 0) break;
   }
+  out.photons.resize(stored);
   // Photon-target mode: power and spacing were set for the first wave's path count; rescale to the
   // final count of each emitter.
   for (uint32_t e = 0; e < lights.size(); ++e) {

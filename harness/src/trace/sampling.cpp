@@ -56,7 +56,30 @@ constexpr SobolTables make_sobol_tables() {
 }
 constexpr SobolTables kSobolTables = make_sobol_tables();
 
+constexpr uint32_t reverse_bits_constexpr(uint32_t x) {
+  uint32_t r = 0;
+  for (int bit = 0; bit < 32; ++bit) r |= ((x >> bit) & 1u) << (31 - bit);
+  return r;
+}
+
+// reverse_bits o sobol_u32(., 1) o reverse_bits is linear over GF(2) too: bit j of its input is
+// bit 31 - j of Sobol's index, whose column is v[1][31 - j], read reversed.
+constexpr SobolReversedTables make_sobol1_reversed_tables() {
+  SobolReversedTables tables{};
+  auto v = make_sobol_matrices();
+  for (int byte = 0; byte < 4; ++byte)
+    for (uint32_t x = 0; x < 256; ++x) {
+      uint32_t r = 0;
+      for (int bit = 0; bit < 8; ++bit)
+        if ((x >> bit) & 1u) r ^= reverse_bits_constexpr(v[1][31 - (byte * 8 + bit)]);
+      tables.t[byte][x] = r;
+    }
+  return tables;
+}
+
 }  // namespace
+
+constexpr SobolReversedTables kSobol1ReversedTables = make_sobol1_reversed_tables();
 
 uint32_t sobol_u32(uint32_t index, int dimension) {
   const auto& t = kSobolTables.t[dimension];

@@ -74,14 +74,26 @@ inline uint32_t reverse_bits(uint32_t x) {
 
 // Nested uniform (Owen) scramble by hashing, Burley 2020 §3 (a Laine-Karras style permutation
 // applied to the bit-reversed value, so each bit is flipped depending only on the bits above it).
-inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
-  x = reverse_bits(x);
-  x += seed;
+inline uint32_t owen_hash(uint32_t x) {
   x ^= x * 0x6c50b47cu;
   x ^= x * 0xb82f1e52u;
   x ^= x * 0xc7afe638u;
   x ^= x * 0x8d22f6e6u;
-  return reverse_bits(x);
+  return x;
+}
+inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
+  return reverse_bits(owen_hash(reverse_bits(x) + seed));
+}
+
+// reverse_bits(sobol_u32(reverse_bits(x), 1)), by four byte lookups: Sobol dimension 1 as
+// sobol_group meets it, between the reversals of two Owen scrambles.
+struct SobolReversedTables {
+  uint32_t t[4][256];
+};
+extern const SobolReversedTables kSobol1ReversedTables;
+inline uint32_t sobol1_reversed(uint32_t x) {
+  const auto& t = kSobol1ReversedTables.t;
+  return t[0][x & 0xffu] ^ t[1][(x >> 8) & 0xffu] ^ t[2][(x >> 16) & 0xffu] ^ t[3][x >> 24];
 }
 
 inline float u32_to_unit(uint32_t x) {
@@ -106,12 +118,21 @@ inline SobolGroupSeeds sobol_group_seeds(uint32_t group, uint32_t seed) {
 // two independently shuffled and scrambled copies of Sobol dimensions (0, 1) (Burley 2020 §4,
 // padding): Sobol's first two dimensions form a (0,2)-sequence, so each pair (x, y) and (z, w) is a
 // (0,m,2)-net over every 2^m-point block, which no other pair of Sobol dimensions guarantees.
+//
+// Each value is owen_scramble(sobol_u32(owen_scramble(index, pair seed), d), digit seed); as
+// owen_scramble(x, s) = R(H(R(x) + s)) with R = reverse_bits (an involution) and H its hash, and
+// sobol_u32(., 0) = R, the reversals between the hashes cancel: with h = H(R(index) + pair seed),
+// dimension 0 is R(H(R(h) + s0)) and dimension 1 is R(H(sobol1_reversed(h) + s1)), the same bits
+// for four reversals and one table lookup fewer a pair (the photon tracer draws one group a
+// bounce). Sampling.SobolGroupIsTheScrambledSobolOfItsDefinition checks it against the definition.
 inline glm::vec4 sobol_group(uint32_t index, const SobolGroupSeeds& seeds) {
+  const uint32_t reversed_index = reverse_bits(index);
   glm::vec4 r;
   for (int pair = 0; pair < 2; ++pair) {
-    uint32_t shuffled = owen_scramble(index, seeds.pair[pair]);
-    for (int d = 0; d < 2; ++d)
-      r[2 * pair + d] = u32_to_unit(owen_scramble(sobol_u32(shuffled, d), seeds.digits[pair][d]));
+    const uint32_t h = owen_hash(reversed_index + seeds.pair[pair]);
+    r[2 * pair] = u32_to_unit(reverse_bits(owen_hash(reverse_bits(h) + seeds.digits[pair][0])));
+    r[2 * pair + 1] =
+        u32_to_unit(reverse_bits(owen_hash(sobol1_reversed(h) + seeds.digits[pair][1])));
   }
   return r;
 }
