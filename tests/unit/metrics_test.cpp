@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "io/image.h"
+#include "metrics/noise_floor.h"
 #include "photonbench/error.h"
 
 namespace pb::metrics {
@@ -618,6 +619,42 @@ TEST(Metrics, BadInputsThrowInputError) {
   EXPECT_THROW(flip(a, a, bad), InputError);
   EXPECT_THROW(parse_tonemapper("filmic"), InputError);
   EXPECT_EQ(parse_tonemapper("ACES"), Tonemapper::aces);
+}
+
+// Scoring leaves FLIP out when the config's metrics do not name it (MetricSelection): evaluate()
+// and noise_floor() then give FLIP zero, no error map, and every other score exactly as with FLIP.
+TEST(Metrics, SelectionWithoutFlipKeepsEveryOtherScore) {
+  io::Image half_a = card(48, 40, 1), half_b = card(48, 40, 2), test = card(48, 40, 3);
+  half_a.linear = half_b.linear = test.linear = true;
+  io::Image mean = half_a, variance = half_a;
+  for (size_t i = 0; i < mean.pixels.size(); ++i) {
+    const float d = 0.5f * (half_a.pixels[i] - half_b.pixels[i]);
+    mean.pixels[i] = 0.5f * (half_a.pixels[i] + half_b.pixels[i]);
+    variance.pixels[i] = d * d;
+  }
+  const MetricSelection without_flip{.flip = false};
+  io::Image error_map;
+  const Scores all = evaluate(mean, test);
+  const Scores some = evaluate(mean, test, {}, &error_map, without_flip);
+  EXPECT_GT(all.flip.mean, 0.0);
+  EXPECT_EQ(some.flip.mean, 0.0);
+  EXPECT_EQ(some.flip.max, 0.0);
+  EXPECT_TRUE(error_map.pixels.empty());
+  EXPECT_EQ(some.ssim, all.ssim);
+  EXPECT_EQ(some.psnr, all.psnr);
+  EXPECT_EQ(some.rmse, all.rmse);
+  EXPECT_EQ(some.mae, all.mae);
+  EXPECT_EQ(some.relmse, all.relmse);
+  const NoisyReference reference{mean, variance, half_a, half_b};
+  const NoiseFloor full = noise_floor(reference), part = noise_floor(reference, {}, without_flip);
+  EXPECT_GT(full.scores.flip.mean, 0.0);
+  EXPECT_EQ(part.scores.flip.mean, 0.0);
+  EXPECT_EQ(part.scores.ssim, full.scores.ssim);
+  EXPECT_EQ(part.scores.psnr, full.scores.psnr);
+  EXPECT_EQ(part.scores.rmse, full.scores.rmse);
+  EXPECT_EQ(part.scores.mae, full.scores.mae);
+  EXPECT_EQ(part.scores.relmse, full.scores.relmse);
+  EXPECT_EQ(part.mse_from_halves, full.mse_from_halves);
 }
 
 TEST(TemporalInstability, ZeroWhenTheTestChangesAsTheReference) {

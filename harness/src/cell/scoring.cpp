@@ -106,11 +106,15 @@ struct ScoredFrame {
   trace::ReferenceImage reference;
 };
 
+// FLIP and its floor only when the config names FLIP: they are three FLIP evaluations a row, which
+// were 29% and 54% of two techniques' tests under the sanitizers (perf samples of
+// Cluster.EveryVariantGivesTiledsImageOnCornellBox and RsmPhotons.GatheringAgreesWithSplatting,
+// both `metrics: [psnr]`), for columns that written_columns then dropped.
 Row score_row(const trace::ReferenceImage& reference, const io::Image& test, io::Image* error_map,
-              const ScoredFrame* previous) {
+              const ScoredFrame* previous, const metrics::MetricSelection& selection) {
   const metrics::NoisyReference noisy = noisy_reference(reference);
-  const metrics::Scores s = metrics::evaluate(reference.mean, test, {}, error_map);
-  const metrics::NoiseFloor f = metrics::noise_floor(noisy);
+  const metrics::Scores s = metrics::evaluate(reference.mean, test, {}, error_map, selection);
+  const metrics::NoiseFloor f = metrics::noise_floor(noisy, {}, selection);
   const metrics::UnbiasedErrors u = metrics::unbiased_errors(noisy, test);
   std::optional<metrics::Flicker> flicker;
   // Flicker is relative to the references' level: where both are black (a class with no light in
@@ -281,7 +285,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
         const bool consecutive = before != previous.end() && before->second.frame + 1 == f;
         const bool flip = named(config.metrics, "flip");
         Row row = written_columns(score_row(reference, test, full && flip ? &error_map : nullptr,
-                                            consecutive ? &before->second : nullptr),
+                                            consecutive ? &before->second : nullptr, {flip}),
                                   config.metrics);
         std::vector<std::string> fields = {std::to_string(f), name, ref.name};
         for (size_t k = 3; k < header.size(); ++k)

@@ -107,9 +107,18 @@ struct Scores {
   double rmse = 0, mae = 0, relmse = 0;
 };
 
-// Every metric of one pair. When flip_error_map is given, FLIP's error map is moved into it.
+// Which metrics evaluate() and noise_floor() compute. FLIP is the costly one (colour transforms and
+// spatial and feature filters over a neighbourhood of every pixel): a caller that reports no FLIP
+// (scoring, when the config's `metrics` do not name it) leaves it out, and Scores' flip then stays
+// zero. The others always come.
+struct MetricSelection {
+  bool flip = true;
+};
+
+// Every metric of one pair (FLIP as `selection` says). When flip_error_map is given and FLIP is
+// computed, FLIP's error map is moved into it.
 Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOptions& options = {},
-                io::Image* flip_error_map = nullptr);
+                io::Image* flip_error_map = nullptr, const MetricSelection& selection = {});
 
 // The magma colour map (matplotlib's, as the reference tool uses it) applied to an error map's
 // first channel: 3 channels, display-encoded (linear = false), ready for io::write_image(".png").

@@ -107,7 +107,8 @@ struct RelmseWeight {
 
 }  // namespace
 
-NoiseFloor noise_floor(const NoisyReference& reference, const FlipOptions& options) {
+NoiseFloor noise_floor(const NoisyReference& reference, const FlipOptions& options,
+                       const MetricSelection& selection) {
   check_reference(reference);
   const io::Image &r = reference.mean, &a = reference.half_a, &b = reference.half_b;
   const io::Image& v = reference.variance;
@@ -119,7 +120,8 @@ NoiseFloor noise_floor(const NoisyReference& reference, const FlipOptions& optio
   // n^2 / (n^2 - 1) for n samples in all: negligible.
   auto [plus, minus] =
       perturbed_pair(r, [&](size_t i) { return 0.5 * (double(a.pixels[i]) - b.pixels[i]); });
-  const Scores up = evaluate(r, plus, options), down = evaluate(r, minus, options);
+  const Scores up = evaluate(r, plus, options, nullptr, selection),
+               down = evaluate(r, minus, options, nullptr, selection);
   floor.scores.flip = mean_of_pair(up.flip, down.flip);
   floor.scores.mae = 0.5 * (up.mae + down.mae);
 

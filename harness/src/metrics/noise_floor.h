@@ -69,8 +69,10 @@ struct NoiseFloor {
 };
 
 // The floors of every metric for `reference` (throws pb::InputError on mismatched, non-finite or
-// LDR images). `options`: FLIP's, as scoring uses them.
-NoiseFloor noise_floor(const NoisyReference& reference, const FlipOptions& options = {});
+// LDR images); FLIP's only when `selection` asks for it (two FLIP evaluations: most of the floors'
+// time), else scores.flip stays zero. `options`: FLIP's, as scoring uses them.
+NoiseFloor noise_floor(const NoisyReference& reference, const FlipOptions& options = {},
+                       const MetricSelection& selection = {});
 
 // Squared errors of a test image X against the true image, estimated from the noisy reference.
 // For X independent of R's noise, E mean((X - R)^2) = mean((X - T)^2) + mean(Var R), so

@@ -166,12 +166,14 @@ double relmse(const io::Image& reference, const io::Image& test) {
 }
 
 Scores evaluate(const io::Image& reference, const io::Image& test, const FlipOptions& options,
-                io::Image* flip_error_map) {
+                io::Image* flip_error_map, const MetricSelection& selection) {
   detail::check_pair(reference, test, "metrics");
   Scores s;
-  FlipResult f = flip(reference, test, options);
-  s.flip = f.stats;
-  if (flip_error_map) *flip_error_map = std::move(f.error_map);
+  if (selection.flip) {
+    FlipResult f = flip(reference, test, options);
+    s.flip = f.stats;
+    if (flip_error_map) *flip_error_map = std::move(f.error_map);
+  }
   s.ssim = detail::ssim_unchecked(reference, test);
   const Psnr p = psnr_unchecked(reference, test);
   s.psnr = p.db;
