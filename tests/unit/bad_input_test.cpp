@@ -297,6 +297,24 @@ std::vector<BadInput> bad_inputs() {
                           "[cornell-box, {scene: pillars, params: {shadow_map_size: [64, 8]}}]"),
                  "bad.yaml:4:[0-9]+: scenes\\[1\\].params.shadow_map_size\\[1\\]: value 8 is out "
                  "of range"),
+      config_row("SceneReferenceUnknownKey",
+                 replaced(base_config(), "[cornell-box]",
+                          "[{scene: cornell-box, reference: {rel_eror: 0.05}}]"),
+                 "bad.yaml:4:[0-9]+: scenes\\[0\\].reference.rel_eror: unknown key; did you "
+                 "mean 'rel_error'"),
+      config_row("SceneReferenceWithoutAStopRule",
+                 replaced(base_config(), "[cornell-box]", "[{scene: cornell-box, reference: {}}]"),
+                 "bad.yaml:4:[0-9]+: scenes\\[0\\].reference: names no stop rule"),
+      config_row("SceneReferenceOfOneSample",
+                 replaced(base_config(), "[cornell-box]",
+                          "[{scene: cornell-box, reference: {samples: 1}}]"),
+                 "bad.yaml:4:[0-9]+: scenes\\[0\\].reference.samples: 0 \\(off\\) or at "
+                 "least 2"),
+      config_row("SceneListedTwiceWithOtherReferenceRules",
+                 replaced(base_config(), "[cornell-box]",
+                          "[{scene: cornell-box, reference: {rel_error: 0.05}}, cornell-box]"),
+                 "bad.yaml:4:[0-9]+: scenes\\[1\\]: scene 'cornell-box' is listed again with "
+                 "other reference stop rules"),
       {"SetWithABadValue",
        {{"bad.yaml", base_config()}},
        "bad.yaml",

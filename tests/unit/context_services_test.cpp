@@ -144,7 +144,7 @@ TEST(ClassOutput, ScoredAgainstItsClassReference) {
   // The row equals the metric computed here against the caustics reference (black on a lone floor),
   // and differs from the same image scored against the combined reference.
   trace::ReferenceCache cache(floor.dir / "cache");
-  const trace::ReferenceOptions options = reference_options(floor.config);
+  const trace::ReferenceOptions options = reference_options(floor.config, 0);
   const scene::Scene& scene = floor.scene;
   const auto own = cache.get_entry(scene, scene.at(1), trace::PathClass::caustics, 24, 16, options);
   const auto combined =

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <string>
 
@@ -41,7 +42,7 @@ TEST(ReferenceConfig, DefaultIsAnErrorTargetWithATimeLimit) {
   EXPECT_GT(c.reference.max_seconds, 0.0);
   EXPECT_EQ(c.reference.samples, 0u);
   EXPECT_EQ(c.reference.max_bounces, 0u);
-  trace::ReferenceOptions o = run::reference_options(c);
+  trace::ReferenceOptions o = run::reference_options(c, 0);
   EXPECT_FLOAT_EQ(o.rel_error, float(c.reference.rel_error));
   EXPECT_EQ(o.samples, 0u);
 }
@@ -53,11 +54,40 @@ TEST(ReferenceConfig, NamedStopRulesReplaceTheDefaults) {
   EXPECT_EQ(c.reference.max_seconds, 0.0);
   c = config::load_config(
       write_config("reference: {rel_error: 0.02, max_seconds: 90, max_bounces: 4}\n"), {});
-  trace::ReferenceOptions o = run::reference_options(c);
+  trace::ReferenceOptions o = run::reference_options(c, 0);
   EXPECT_FLOAT_EQ(o.rel_error, 0.02f);
   EXPECT_EQ(o.max_seconds, 90.0);
   EXPECT_EQ(o.samples, 0u);
   EXPECT_EQ(o.max_bounces, 4u);
+}
+
+// A scene entry's stop rules replace the config's for that scene's cells alone, as a reference
+// block's do (naming any uses those alone); the block's other keys hold for every scene.
+TEST(ReferenceConfig, ASceneEntrysStopRulesReplaceTheConfigsForItsCells) {
+  const std::string scenes =
+      "scenes: [{scene: " PB_SOURCE_DIR
+      "/scenes/cornell-box.yaml, reference: {rel_error: 0.03}}, " PB_SOURCE_DIR
+      "/scenes/cornell-spot.yaml]\n";
+  auto file = write_config("reference: {rel_error: 0.1, max_seconds: 60, estimator: pt}\n");
+  std::string text;
+  {
+    std::ifstream in(file);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const size_t at = text.find("scenes: [");
+  text.replace(at, text.find('\n', at) + 1 - at, scenes);
+  std::ofstream(file) << text;
+  const config::Config c = config::load_config(file, {});
+  ASSERT_EQ(c.scenes.size(), 2u);
+  const trace::ReferenceOptions own = run::reference_options(c, 0);
+  EXPECT_FLOAT_EQ(own.rel_error, 0.03f);
+  EXPECT_EQ(own.max_seconds, 0.0);  // named rules alone
+  EXPECT_EQ(own.samples, 0u);
+  EXPECT_EQ(own.estimator, trace::Estimator::pt);
+  const trace::ReferenceOptions other = run::reference_options(c, 1);
+  EXPECT_FLOAT_EQ(other.rel_error, 0.1f);
+  EXPECT_EQ(other.max_seconds, 60.0);
+  EXPECT_EQ(other.estimator, trace::Estimator::pt);
 }
 
 TEST(ReferenceConfig, BadValuesNameFileLineColumnAndKey) {
@@ -113,9 +143,9 @@ TEST(ReferenceConfig, EstimatorNamesAreTheRenderersEstimators) {
     std::optional<trace::Estimator> e = trace::parse_estimator(c.reference.estimator);
     ASSERT_TRUE(e) << name;
     EXPECT_EQ(trace::estimator_name(*e), name);
-    EXPECT_EQ(run::reference_options(c).estimator, *e);
+    EXPECT_EQ(run::reference_options(c, 0).estimator, *e);
   }
-  EXPECT_EQ(run::reference_options(config::load_config(write_config(""), {})).estimator,
+  EXPECT_EQ(run::reference_options(config::load_config(write_config(""), {}), 0).estimator,
             trace::Estimator::automatic);
   EXPECT_NE(load_error("reference: {estimator: bdtp}\n").find("did you mean 'bdpt'?"),
             std::string::npos);
@@ -132,9 +162,9 @@ TEST(ReferenceConfig, LightSamplerNamesAreTheRenderersLightChoices) {
         trace::parse_light_selection(c.reference.light_sampler);
     ASSERT_TRUE(s) << name;
     EXPECT_EQ(trace::light_selection_name(*s), name);
-    EXPECT_EQ(run::reference_options(c).light_selection, *s);
+    EXPECT_EQ(run::reference_options(c, 0).light_selection, *s);
   }
-  EXPECT_EQ(run::reference_options(config::load_config(write_config(""), {})).light_selection,
+  EXPECT_EQ(run::reference_options(config::load_config(write_config(""), {}), 0).light_selection,
             trace::LightSelection::power);
   std::string error = load_error("reference: {light_sampler: bhv}\n");
   EXPECT_NE(error.find("light_sampler"), std::string::npos) << error;

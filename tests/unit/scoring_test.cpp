@@ -91,10 +91,10 @@ TEST(Scoring, FlickerComparesConsecutiveFramesOnly) {
   ASSERT_EQ(csv[2][0], "1");
   trace::ReferenceCache cache(kTemp / "cache");
   // NoisyReference refers to the images: the entries stay alive here.
-  const auto before =
-      cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18, reference_options(c));
-  const auto after =
-      cache.get_entry(scene, scene.at(1), trace::PathClass::combined, 32, 18, reference_options(c));
+  const auto before = cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18,
+                                      reference_options(c, 0));
+  const auto after = cache.get_entry(scene, scene.at(1), trace::PathClass::combined, 32, 18,
+                                     reference_options(c, 0));
   ASSERT_TRUE(before && after);
   // The outputs as scored: read back from the files the cell wrote.
   const metrics::Flicker expected =
@@ -113,7 +113,8 @@ std::vector<std::string> names(const std::vector<ScoredReference>& refs) {
 }
 
 TEST(Scoring, BounceMatchedReferencesOnlyWhenAskedAndForTruncatedTechniques) {
-  const std::map<std::string, std::string> photon = {{"max_bounces", "4"}}, plain = {};
+  Cell photon, plain;
+  photon.params = {{"max_bounces", "4"}};
   config::Config c = load("reference: {samples: 8}\n");
   EXPECT_EQ(names(scored_references(c, photon)), std::vector<std::string>{"full"});
   c = load("reference: {samples: 8, bounce_matched: true}\n");
@@ -129,6 +130,27 @@ TEST(Scoring, BounceMatchedReferencesOnlyWhenAskedAndForTruncatedTechniques) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("reference.bounce_matched"), std::string::npos)
         << e.what();
+  }
+}
+
+// A cell is scored against references of its own scene entry's stop rules, both the full one and
+// the bounce-matched one.
+TEST(Scoring, ACellsReferencesFollowItsSceneEntrysStopRules) {
+  config::Config c = load("reference: {rel_error: 0.1, max_seconds: 60, bounce_matched: true}\n");
+  c.scenes.push_back(c.scenes[0]);
+  c.scenes[1].reference = config::ReferenceStopRules{0.02, 0, 0};
+  Cell shared, own;
+  shared.params = own.params = {{"max_bounces", "4"}};
+  own.scene_entry = 1;
+  for (const ScoredReference& ref : scored_references(c, shared)) {
+    EXPECT_FLOAT_EQ(ref.options.rel_error, 0.1f) << ref.name;
+    EXPECT_EQ(ref.options.max_seconds, 60.0) << ref.name;
+  }
+  const auto refs = scored_references(c, own);
+  ASSERT_EQ(refs.size(), 2u);
+  for (const ScoredReference& ref : refs) {
+    EXPECT_FLOAT_EQ(ref.options.rel_error, 0.02f) << ref.name;
+    EXPECT_EQ(ref.options.max_seconds, 0.0) << ref.name;
   }
 }
 
@@ -159,7 +181,7 @@ TEST(Scoring, RowsCarryFloorsAndUnbiasedErrorsAgainstBothReferences) {
   const size_t first_flicker_column = header.size() - 2;
 
   trace::ReferenceCache cache(kTemp / "cache");
-  for (const ScoredReference& ref : scored_references(c, cell.params)) {
+  for (const ScoredReference& ref : scored_references(c, cell)) {
     SCOPED_TRACE(ref.name);
     const auto entry =
         cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18, ref.options);
@@ -246,7 +268,7 @@ TEST(Scoring, OnlyTheNamedMetricsAreWritten) {
                                                   "flicker", "flicker_floor"}));
   trace::ReferenceCache cache(kTemp / "named");
   const auto entry = cache.get_entry(scene, scene.at(0), trace::PathClass::combined, 32, 18,
-                                     reference_options(load(reference)));
+                                     reference_options(load(reference), 0));
   ASSERT_TRUE(entry);
   const metrics::Scores s = metrics::evaluate(entry->mean, output);
   const metrics::NoiseFloor f =

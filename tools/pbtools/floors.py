@@ -92,3 +92,27 @@ def comparison_resolved(metric: str, a: float, floor_a: float, b: float, floor_b
 def unresolved_line(metric: str, floor: float, factor: float = RESOLVE_FACTOR) -> float:
     """The score at `factor` times the floor: scores on the floor's side of it are unresolved."""
     return from_distance(metric, factor * distance(metric, floor))
+
+
+def finer_reference(ratio: float, rel_error: float, seconds: float, stopped_by: str,
+                    factor: float = RESOLVE_FACTOR) -> str:
+    """Why a score at `ratio` x its floor is unresolved, and the reference that would resolve it,
+    from how its reference stopped (cell.json's `references`: its estimated relative error, its
+    seconds a frame, the stop rule that ended it).
+
+    A floor is the reference's own noise seen through the metric, so it scales with the reference's
+    relative error: exactly for the norms; FLIP's falls a little slower (on cornell-box, from 10% to
+    5%, as the error's 0.82th power), so for FLIP the error and time given are a lower bound. The
+    technique's distance from the true image t and the floor f add in quadrature (module docstring):
+    d^2 = t^2 + f^2, so t = f sqrt(ratio^2 - 1) stays and the score resolves once f' <= t /
+    sqrt(factor^2 - 1). A Monte Carlo reference's error falls as 1/sqrt(time): the new error costs
+    (f / f')^2 the time."""
+    limit = "its time limit" if stopped_by == "max_seconds" else (
+        "its error target" if stopped_by == "rel_error" else "its sample count")
+    how = f"reference at {100 * rel_error:.3g}% after {seconds:.3g} s a frame (stopped by {limit})"
+    if not (math.isfinite(ratio) and ratio > 1 and rel_error > 0):
+        return f"{how}; the score is within its floor, so no finer reference can be sized from it"
+    shrink = math.sqrt(ratio * ratio - 1) / math.sqrt(factor * factor - 1)
+    needed, time_factor = rel_error * shrink, 1 / (shrink * shrink)
+    return (f"{how}: about {100 * needed:.3g}% would resolve it, about {time_factor:.3g}x its time "
+            f"({seconds * time_factor:.3g} s a frame)")

@@ -286,6 +286,19 @@ def write_floors_csv(rows: pd.DataFrame, path: str) -> None:
     write_csv(path, rows[FLOOR_HEADER])
 
 
+def _unresolved_why(run: Run, row: dict) -> str:
+    """An unresolved score's reason from its reference's record in cell.json (the frame whose
+    reference stopped at the largest error), with the reference that would resolve it."""
+    records = [r for r in run.cell(row["cell"]).json.get("references", [])
+               if r.get("reference") == row["reference"] and r.get("path_class") == row["path_class"]]
+    if not records:
+        return "its reference's record is missing from cell.json"
+    worst = max(records, key=lambda r: r.get("rel_error", 0.0))
+    return floors.finer_reference(row["floor_ratio"], worst.get("rel_error", 0.0),
+                                  max(r.get("seconds", 0.0) for r in records),
+                                  worst.get("stopped_by", ""))
+
+
 def floors_view(run: Run, rows: pd.DataFrame) -> dict:
     """The report's noise-floor section: counts, the unresolved FLIP scores named up front (the
     issue's criterion), then every score against its floor, one row per cell, reference and
@@ -318,5 +331,6 @@ def floors_view(run: Run, rows: pd.DataFrame) -> dict:
         "flip_rows": [{"scene": r["scene"], "label": run.label(run.cell(r["cell"])),
                        "reference": r["reference"], "path_class": r["path_class"],
                        "mean": f"{r['mean']:.4f}", "floor": f"{r['floor']:.4f}",
-                       "ratio": f"{r['floor_ratio']:.2f}x"} for r in flip_loose.to_dict("records")],
+                       "ratio": f"{r['floor_ratio']:.2f}x", "why": _unresolved_why(run, r)}
+                      for r in flip_loose.to_dict("records")],
         "metrics": metrics, "groups": groups}

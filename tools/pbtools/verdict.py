@@ -75,11 +75,20 @@ class Step:
         return f"{a - b:.1f} ms ({a / b:.2f}x): better and not slower"
 
 
-def reference_rel_error(run: Run) -> Optional[float]:
-    """The config's reference.rel_error (run.json's resolved config), None when absent."""
+def reference_rel_error(run: Run, scene: str) -> Optional[float]:
+    """The relative error `scene`'s full references reached for the composed image (the largest over
+    its cells' frames, cell.json "references"); for a run without those records, the config's
+    reference.rel_error (run.json's resolved config); None when neither is there. What the scene's
+    references reached, not what the config asked: a scene entry can ask for its own stop rules,
+    and a reference stopped by its time limit falls short of its target."""
+    reached = [r.get("rel_error", 0.0) for c in run.cells if c.ok and c.scene == scene
+               for r in c.json.get("references", [])
+               if r.get("reference") == "full" and r.get("path_class") == PRIMARY_CLASS]
+    if any(e > 0 for e in reached):
+        return max(reached)
     config = run.info.get("config")
     if isinstance(config, str):
-        m = re.search(r"rel_error:\s*([0-9.eE+-]+)", config)
+        m = re.search(r"^reference:.*?\brel_error:\s*([0-9.eE+-]+)", config, re.MULTILINE | re.DOTALL)
         return float(m.group(1)) if m else None
     if isinstance(config, dict):
         value = (config.get("reference") or {}).get("rel_error")
@@ -133,7 +142,7 @@ def step(better: Entry, worse: Entry, rel_error: Optional[float]) -> Step:
         if gap <= 0:
             needs.append("nothing: the scores are equal")
         elif rel_error is not None:
-            needs.append(f"reference.rel_error <= {rel_error * gap / floor_sum:.2g} (now {rel_error:g}): "
+            needs.append(f"reference.rel_error <= {rel_error * gap / floor_sum:.2g} (now {rel_error:.3g}): "
                          f"floors summing under the gap {gap:.4f} (now {floor_sum:.4f})")
         else:
             needs.append(f"floors summing under the gap {gap:.4f} (now {floor_sum:.4f}): a finer "
@@ -168,7 +177,7 @@ class SceneVerdict:
 
 def scene_verdict(run: Run, scene: str) -> SceneVerdict:
     found = entries(run, scene)
-    rel_error = reference_rel_error(run)
+    rel_error = reference_rel_error(run, scene)
     steps = [step(a, b, rel_error) for a, b in zip(found, found[1:])]
     one_seed = all(len(e.seed_scores) < 2 for e in found)
     return SceneVerdict(scene, found, steps, one_seed)

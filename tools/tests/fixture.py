@@ -97,6 +97,9 @@ WARN = ("pillars", "tiled", {"photons": 200000, "radius": 0.05}, [5, 17],
 # FLIP floor of the combined class per scene; every metric's floor follows from it as the scores do
 # from FLIP (below), so each metric's floor ratio is FLIP's.
 FLIP_FLOOR = {"cornell-box": 0.01, "pillars": 0.033}
+# How each scene's references stopped (cell.json "references"): (relative error, seconds a frame,
+# stop rule); pillars' ran into its time limit, as a caustic scene's does.
+REFERENCE_STOP = {"cornell-box": (0.1, 2.0, "rel_error"), "pillars": (0.14, 60.0, "max_seconds")}
 METRICS_HEADER = ["frame", "path_class", "reference", "flip", "ssim", "psnr", "rmse", "relmse", "flip_floor",
                   "ssim_floor", "psnr_floor", "rmse_floor", "relmse_floor", "mse_unbiased", "relmse_unbiased"]
 
@@ -332,12 +335,17 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                 if "shadow_map_size" in params:  # smaller maps alias the shadow edges a little
                     flip_level *= (1024.0 / params["shadow_map_size"]) ** 0.05
                 flip_level *= 1.0 + 0.1 * scene_i
-                metric_rows = []
+                metric_rows, reference_records = [], []
                 mframes = [f for f in metric_frames if f < n_frames]
                 references = ["full", "bounce_matched"] if bounce_matched else ["full"]
                 for reference in references:
                     for f in mframes:
                         for ci, cls in enumerate(tech["classes"]):
+                            rel_error, seconds, stopped_by = REFERENCE_STOP[scene]
+                            reference_records.append({
+                                "frame": f, "path_class": cls, "reference": reference,
+                                "rel_error": rel_error, "seconds": seconds,
+                                "stopped_by": stopped_by})
                             fl = flip_level * (1 + 0.3 * ci) * (1 + 0.1 * math.sin(f / 7.0))
                             fl = float(np.clip(fl * float(layout.uniform(0.97, 1.03)), 0.001, 0.99))
                             if reference == "bounce_matched":
@@ -375,6 +383,7 @@ def make_run(out_dir: str, seed: int = 0, frames: int = 24, warmup: int = 4, met
                     "peak_host_memory_bytes": int(layout.uniform(2e8, 6e8)),
                     "gpu_memory_bytes": int(layout.uniform(5e7, 3e8)) if tech["passes"] else 0,
                     **({"timing": "fenced"} if load is not None else {}),
+                    **({"references": reference_records} if tech["passes"] else {}),
                 })
 
                 ft = np.asarray(per_pass.get("frame", []))

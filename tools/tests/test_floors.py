@@ -196,6 +196,35 @@ class FixtureFloorsTest(unittest.TestCase):
             self.assertAlmostEqual(float(r["floor_ratio"]) / floors.floor_ratio(
                 r["metric"], float(r["mean"]), float(r["floor"])), 1.0, places=4)
 
+    def test_each_unresolved_flip_score_says_why_and_what_reference_would_resolve_it(self):
+        section = self.html.split('id="floors"', 1)[1].split("<h2", 1)[0]
+        listed = section.split('<table class="unresolved-flip">', 1)[1].split("</table>", 1)[0]
+        rows = re.findall(r"<tr><td>(.*?)</td><td>.*?</td><td>(.*?)</td><td>(.*?)</td>"
+                          r"<td[^>]*>.*?</td><td[^>]*>.*?</td><td[^>]*>(.*?)x</td><td>(.*?)</td></tr>",
+                          listed)
+        self.assertTrue(rows)
+        for scene, reference, cls, ratio, why in rows:
+            # pillars' references stopped at their 60 s limit at 14% (fixture.REFERENCE_STOP).
+            self.assertIn("reference at 14% after 60 s a frame (stopped by its time limit)", why)
+            needed = re.search(r"about ([0-9.]+)% would resolve it, about ([0-9.]+)x its time", why)
+            self.assertIsNotNone(needed, why)
+            # Quadrature: t = f sqrt(r^2 - 1) stays, the floor must fall to t / sqrt(15); the ratio
+            # is printed to 2 decimals, the figures to 3 significant digits.
+            shrink = math.sqrt(float(ratio) ** 2 - 1) / math.sqrt(15)
+            self.assertAlmostEqual(float(needed.group(1)), 14 * shrink, delta=0.1)
+            self.assertAlmostEqual(float(needed.group(2)), 1 / shrink ** 2, delta=0.02)
+
+    def test_finer_reference_follows_the_floor_and_the_time(self):
+        # A score at 2x its floor with a 10% reference: t = f sqrt(3), the floor must fall to
+        # t / sqrt(15) = 0.4472 f, so 4.47% and (1 / 0.4472)^2 = 5x the time.
+        text = floors.finer_reference(2.0, 0.1, 2.0, "rel_error")
+        self.assertIn("reference at 10% after 2 s a frame (stopped by its error target)", text)
+        self.assertIn("about 4.47% would resolve it, about 5x its time (10 s a frame)", text)
+        # At 4x the floor (not unresolved) nothing changes: 1x.
+        self.assertIn("about 10% would resolve it, about 1x", floors.finer_reference(4.0, 0.1, 2.0, "rel_error"))
+        # Within the floor, the technique's own error is unknown.
+        self.assertIn("within its floor", floors.finer_reference(0.9, 0.1, 2.0, "max_seconds"))
+
     def test_claims_report_table2_against_both_references_with_floors(self):
         text = paper1.claims(self.rd)
         self.assertIn("against the full reference", text)

@@ -22,7 +22,7 @@ CELLS = [("box__direct__0", "direct", [("combined", 0.100, 0.005)], 300.0, 1),
          ("box__tiled__0", "tiled", [("combined", 0.207, 0.01), ("caustics", 0.40, 0.02)], 150.0, 1)]
 
 
-def write_run(path, cells, rel_error=0.1):
+def write_run(path, cells, rel_error=0.1, reached=None):
     os.makedirs(os.path.join(path, "cells"))
     with open(os.path.join(path, "summary.csv"), "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
@@ -34,15 +34,21 @@ def write_run(path, cells, rel_error=0.1):
         d = os.path.join(path, "cells", cell)
         os.makedirs(d)
         with open(os.path.join(d, "cell.json"), "w", encoding="utf-8") as f:
+            references = [] if reached is None else [
+                {"frame": 4, "path_class": "combined", "reference": "full", "rel_error": reached,
+                 "seconds": 60.0, "stopped_by": "max_seconds"}]
             json.dump({"cell": cell, "status": "ok", "seed": seed,
-                       "seed_group": cell.split("__seed")[0], "params": {}}, f)
+                       "seed_group": cell.split("__seed")[0], "params": {},
+                       "references": references}, f)
         with open(os.path.join(d, "metrics.csv"), "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
             w.writerow(["frame", "path_class", "reference", "flip", "flip_floor"])
             for cls, flip, floor in scores:
                 w.writerow([4, cls, "full", flip, floor])
     with open(os.path.join(path, "run.json"), "w", encoding="utf-8") as f:
-        json.dump({"name": "v", "config": f"reference: {{rel_error: {rel_error}}}\n"}, f)
+        # A scene entry's own stop rules come first in the text, as a config writes them.
+        json.dump({"name": "v", "config": "scenes:\n  - {scene: box, reference: {rel_error: 0.02}}\n"
+                   f"reference: {{rel_error: {rel_error}}}\n"}, f)
 
 
 class VerdictTest(unittest.TestCase):
@@ -69,6 +75,12 @@ class VerdictTest(unittest.TestCase):
         self.assertIn("reference.rel_error <= 0.005 (now 0.1)", second.needs[0])
         self.assertTrue(v.one_seed)
         self.assertTrue(v.best_resolved)
+
+    def test_the_reference_it_needs_starts_from_the_error_the_scenes_references_reached(self):
+        path = os.path.join(self.dir, "reached")
+        write_run(path, CELLS, reached=0.14)  # stopped by its time limit above the config's 0.1
+        second = verdict.scene_verdict(Run(path), "box").steps[1]
+        self.assertIn("reference.rel_error <= 0.007 (now 0.14)", second.needs[0])
 
     def test_each_techniques_own_class_is_beside_the_combined_score(self):
         rows = verdict.view(self.run_of(CELLS))[0]["rows"]

@@ -16,16 +16,17 @@ namespace pb::run {
 
 using json = nlohmann::json;
 
-trace::ReferenceOptions reference_options(const config::Config& config) {
+trace::ReferenceOptions reference_options(const config::Config& config, size_t scene_entry) {
+  const config::ReferenceSettings settings = config::reference_settings(config, scene_entry);
   trace::ReferenceOptions options;
-  options.rel_error = float(config.reference.rel_error);
-  options.max_seconds = config.reference.max_seconds;
-  options.samples = config.reference.samples;
-  options.max_bounces = config.reference.max_bounces;
+  options.rel_error = float(settings.rel_error);
+  options.max_seconds = settings.max_seconds;
+  options.samples = settings.samples;
+  options.max_bounces = settings.max_bounces;
   options.estimator =
-      trace::parse_estimator(config.reference.estimator).value_or(trace::Estimator::automatic);
-  options.light_selection = trace::parse_light_selection(config.reference.light_sampler)
-                                .value_or(trace::LightSelection::power);
+      trace::parse_estimator(settings.estimator).value_or(trace::Estimator::automatic);
+  options.light_selection =
+      trace::parse_light_selection(settings.light_sampler).value_or(trace::LightSelection::power);
   options.seed = uint32_t(config.seed);
   return options;
 }
@@ -51,12 +52,11 @@ std::vector<uint32_t> metric_frames(const config::Config& config) {
   return frames;
 }
 
-std::vector<ScoredReference> scored_references(
-    const config::Config& config, const std::map<std::string, std::string>& cell_params) {
-  std::vector<ScoredReference> out = {{"full", reference_options(config)}};
-  auto bounces = cell_params.find("max_bounces");
-  if (config.reference.bounce_matched && bounces != cell_params.end()) {
-    ScoredReference matched{"bounce_matched", reference_options(config)};
+std::vector<ScoredReference> scored_references(const config::Config& config, const Cell& cell) {
+  std::vector<ScoredReference> out = {{"full", reference_options(config, cell.scene_entry)}};
+  auto bounces = cell.params.find("max_bounces");
+  if (config.reference.bounce_matched && bounces != cell.params.end()) {
+    ScoredReference matched{"bounce_matched", reference_options(config, cell.scene_entry)};
     matched.options.max_bounces =
         trace::bounces_matching_photon_technique(uint32_t(std::stoul(bounces->second)));
     out.push_back(matched);
@@ -254,7 +254,7 @@ ScoreResult score_cell(const config::Config& config, const Cell& cell, const sce
   const std::vector<trace::PathClass> classes =
       scored_classes(path_class, class_outputs, result.warnings);
   trace::ReferenceCache cache(config.reference.cache_dir);
-  const std::vector<ScoredReference> references = scored_references(config, cell.params);
+  const std::vector<ScoredReference> references = scored_references(config, cell);
   // reference name -> class -> rows
   std::map<std::string, std::map<trace::PathClass, std::vector<Row>>> rows;
   std::map<std::pair<std::string, trace::PathClass>, ScoredFrame> previous;

@@ -30,17 +30,18 @@ struct ScoreResult {
 std::vector<uint32_t> metric_frames(const config::Config& config);
 // The reference images a technique's cells need: combined, plus its own class.
 uint32_t reference_classes(const std::string& technique_path_class);
-trace::ReferenceOptions reference_options(const config::Config& config);
+// The reference options of the cells of config.scenes[scene_entry] (config::reference_settings).
+trace::ReferenceOptions reference_options(const config::Config& config, size_t scene_entry);
 
-// A reference a cell is scored against: "full" (as the config's reference block sets it) and, with
-// reference.bounce_matched and a technique that has a max_bounces parameter, "bounce_matched"
-// (truncated at trace::bounces_matching_photon_technique of the cell's max_bounces).
+// A reference a cell is scored against: "full" (as the config's reference block and the cell's
+// scene entry set it) and, with reference.bounce_matched and a technique that has a max_bounces
+// parameter, "bounce_matched" (truncated at trace::bounces_matching_photon_technique of the cell's
+// max_bounces).
 struct ScoredReference {
   std::string name;
   trace::ReferenceOptions options;
 };
-std::vector<ScoredReference> scored_references(
-    const config::Config& config, const std::map<std::string, std::string>& cell_params);
+std::vector<ScoredReference> scored_references(const config::Config& config, const Cell& cell);
 // The file (in a cell's images/) holding a technique's estimate of one path class alone at
 // `frame`: its own class, when that class is not the whole output (an indirect class added to the
 // shared direct light), or a class it handed back (Context::class_output).

@@ -281,12 +281,23 @@ VideoSettings read_video(const YamlView& block, const Config& config) {
   return video;
 }
 
+const KeyTable kSceneReferenceTable{
+    "config.scene_reference",
+    "The stop rules of this scene's references, replacing the config's reference stop rules "
+    "(naming any uses those alone); the reference block's other keys hold for every scene.",
+    {{"rel_error", number_type(0, 1), false, 0, "stop at this estimated relative RMS error"},
+     {"max_seconds", number_type(0, 1e7), false, 0, "stop after this many seconds per frame"},
+     {"samples", integer_type(0, 1 << 24), false, 0,
+      "stop after this many iterations (0: off, else at least 2)"}}};
+
 const KeyTable kSceneEntryTable{
     "config.scene",
     "A scene with parameters of its own.",
     {{"scene", string_type(), true, nullptr, "a scene name (photonbench list) or a path"},
      {"params", table_type(kSceneParamsTable), false, nullptr,
-      "technique parameters for this scene's cells (photon radii are in scene units)"}}};
+      "technique parameters for this scene's cells (photon radii are in scene units)"},
+     {"reference", table_type(kSceneReferenceTable), false, nullptr,
+      "stop rules of this scene's references: a cheap scene rendered finer than the others"}}};
 
 const KeyTable kConfigTable{
     "config",
@@ -373,12 +384,44 @@ MatchSettings read_match(const YamlView& block, const Config& config) {
   return m;
 }
 
+// Each scene entry's `reference:` stop rules (kSceneReferenceTable). The plan checks that entries
+// of one scene file agree (plan/plan.cpp: the cache holds one reference per scene and frame).
+void read_scene_stop_rules(Config& config) {
+  for (SceneEntry& entry : config.scenes) {
+    if (!entry.node.is_map()) continue;
+    auto block = entry.node.get("reference");
+    if (!block) continue;
+    kSceneReferenceTable.allow(*block);
+    if (!block->has("rel_error") && !block->has("max_seconds") && !block->has("samples"))
+      block->fail("names no stop rule (rel_error, max_seconds or samples)");
+    ReferenceStopRules rules;
+    rules.rel_error = kSceneReferenceTable.number_or(*block, "rel_error", 0);
+    rules.max_seconds = kSceneReferenceTable.number_or(*block, "max_seconds", 0);
+    rules.samples =
+        block->has("samples") ? uint32_t(kSceneReferenceTable.integer(*block, "samples")) : 0;
+    if (auto problem = stop_rule_problem(rules.rel_error, rules.max_seconds, rules.samples))
+      (problem->key.empty() ? *block : (*block)[problem->key]).fail(problem->message);
+    entry.reference = rules;
+  }
+}
+
 }  // namespace
 
 const KeyTable& config_table() { return kConfigTable; }
 
 Config load_config(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
   return parse_config(read_text_file(file, kMaxYamlBytes, "config file"), file, overrides);
+}
+
+ReferenceSettings reference_settings(const Config& config, size_t scene_entry) {
+  ReferenceSettings settings = config.reference;
+  if (scene_entry < config.scenes.size())
+    if (const auto& rules = config.scenes[scene_entry].reference) {
+      settings.rel_error = rules->rel_error;
+      settings.max_seconds = rules->max_seconds;
+      settings.samples = rules->samples;
+    }
+  return settings;
 }
 
 Config parse_config(const std::string& text, const std::filesystem::path& file,
@@ -455,7 +498,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
     if (scene.is_map()) kSceneEntryTable.allow(scene);
     // (Constructed, never assigned: assigning a YAML::Node rebinds the node inside the tree.)
     const YamlView name_node = scene.is_map() ? scene["scene"] : scene;
-    config.scenes.push_back({name_node.as_string(), scene, name_node});
+    config.scenes.push_back({name_node.as_string(), scene, name_node, std::nullopt});
   }
 
   YamlView techniques = root["techniques"];
@@ -521,6 +564,7 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
     r.bounce_matched = kReferenceTable.boolean(reference, "bounce_matched");
     r.cache_dir = kReferenceTable.string(reference, "cache_dir");
   }
+  read_scene_stop_rules(config);
   const YamlView limits = section(root, "limits");
   kLimitsTable.allow(limits);
   config.limits.cell_seconds = kLimitsTable.number(limits, "cell_seconds");

@@ -101,10 +101,22 @@ struct VideoSettings {
   uint32_t crop[4] = {0, 0, 0, 0};
 };
 
+// The stop rules of one scene's references, where its entry names them (`reference:` in a scene
+// entry): a scene whose references are cheap can be rendered to a finer error than the config's
+// rule, so that its scores stand above their noise floors, without making every other scene's
+// references dearer. Naming any rule uses those alone, as the config's reference block does.
+struct ReferenceStopRules {
+  double rel_error = 0;
+  double max_seconds = 0;
+  uint32_t samples = 0;
+  bool operator==(const ReferenceStopRules&) const = default;
+};
+
 struct SceneEntry {
   std::string scene;   // a name under the scene folders, or a path
-  YamlView node;       // the entry itself: a name, or {scene, params}
+  YamlView node;       // the entry itself: a name, or {scene, params, reference}
   YamlView name_node;  // where the name is written, for errors about it
+  std::optional<ReferenceStopRules> reference;  // replaces the config's stop rules for this scene
 };
 
 struct TechniqueEntry {
@@ -152,6 +164,11 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
 // The same from the text of `file` (relative plugin_dirs are resolved against its folder).
 Config parse_config(const std::string& text, const std::filesystem::path& file,
                     const std::vector<std::string>& overrides);
+
+// The reference settings of the cells of config.scenes[scene_entry]: the config's reference
+// block, its stop rules replaced by the scene entry's where it names them (an index past the last
+// entry: the block alone).
+ReferenceSettings reference_settings(const Config& config, size_t scene_entry);
 
 // Applies one --set "key.path=value" (or "key+=value", appending to a list) to `root`: numeric
 // parts index lists, missing mapping keys are created. Returns the key path it set, as YamlView

@@ -303,6 +303,16 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
       scene.name_node.fail(e.what());
     }
   }
+  // Entries of one scene file share its references (the cache holds one per scene and frame), so
+  // they must not ask for different stop rules.
+  for (size_t s = 0; s < config.scenes.size(); ++s)
+    for (size_t o = 0; o < s; ++o)
+      if (scene_files[o] == scene_files[s] &&
+          config.scenes[o].reference != config.scenes[s].reference)
+        config.scenes[s].node.fail(fmt::format(
+            "scene '{}' is listed again with other reference stop rules; its references are "
+            "rendered once, so its entries must agree",
+            config.scenes[s].scene));
   std::vector<std::vector<ParamMap>> combos;  // per technique entry
   for (const config::TechniqueEntry& entry : config.techniques)
     combos.push_back(technique_combos(entry, plugins));
@@ -330,6 +340,7 @@ std::vector<Cell> expand_cells(const config::Config& config, PluginRegistry& plu
           check_together(*plugin->descriptor, config.scenes[s], config.techniques[t], params);
         Cell cell = make_cell(scene_files[s], config.techniques[t].technique, params);
         cell.entry = t;
+        cell.scene_entry = s;
         // Equal values (a scene's override of a swept parameter) make one cell.
         if (ids.insert(cell.id).second) cells.push_back(std::move(cell));
       }

@@ -33,6 +33,7 @@ struct Cell {
   uint32_t seed_index = 0;
   std::string seed_group;  // the id without the seed: the same for the K cells of one seed axis
   size_t entry = 0;        // the config's technique entry (config.techniques[entry]) it comes from
+  size_t scene_entry = 0;  // the config's scene entry (config.scenes[scene_entry]): its references
 };
 
 // A run has at most this many cells: a sweep beyond it is a slip of the keyboard or of a script

@@ -62,19 +62,28 @@ void render_needed_references(const config::Config& config, const std::vector<Ce
   if (frames.empty() || config.metrics.empty()) return;  // nothing to score against them
   // Classes per scene file and reference depth: the full reference and, when the config asks for
   // them, the bounce-matched ones of the cells' techniques (scored_references).
-  std::map<std::pair<std::filesystem::path, uint32_t>, uint32_t> masks;
+  // The options are the cells' own (a scene entry may set its stop rules; the plan checks that
+  // the entries of one scene file agree).
+  struct Needed {
+    uint32_t mask = 0;
+    trace::ReferenceOptions options;
+  };
+  std::map<std::pair<std::filesystem::path, uint32_t>, Needed> needed;
   for (const auto& cell : cells) {
     const Plugin* plugin = plugins.find(cell.technique);
     if (!plugin || !plugin->loaded()) continue;
     const uint32_t classes = reference_classes(plugin->descriptor->path_class);
-    for (const ScoredReference& ref : scored_references(config, cell.params))
-      masks[{cell.scene_file, ref.options.max_bounces}] |= classes;
+    for (const ScoredReference& ref : scored_references(config, cell)) {
+      Needed& n = needed[{cell.scene_file, ref.options.max_bounces}];
+      n.mask |= classes;
+      n.options = ref.options;
+    }
   }
   trace::ReferenceCache cache(config.reference.cache_dir);
-  for (const auto& [key, mask] : masks) {
+  for (const auto& [key, need] : needed) {
     const auto& [file, bounces] = key;
-    trace::ReferenceOptions options = reference_options(config);
-    options.max_bounces = bounces;
+    const uint32_t mask = need.mask;
+    const trace::ReferenceOptions& options = need.options;
     scene::Scene scene = scene::load_scene(file);
     const std::string label = bounces == config.reference.max_bounces
                                   ? scene.name

@@ -76,7 +76,7 @@ json summarise_group(const RunPlan& plan, const std::vector<const Cell*>& cells,
   std::filesystem::create_directories(out);
   const scene::Scene scene = scene::load_scene(first.scene_file);
   trace::ReferenceCache cache(plan.config.reference.cache_dir);
-  const trace::ReferenceOptions options = reference_options(plan.config);
+  const trace::ReferenceOptions options = reference_options(plan.config, first.scene_entry);
   json group = {{"group", first.seed_group},    {"scene", first.scene},
                 {"technique", first.technique}, {"params", first.params},
                 {"seeds", json::array()},       {"cells", json::array()},

@@ -53,7 +53,7 @@ int scored_classes(const config::Config& config, const Cell& cell, PluginRegistr
   const Plugin* plugin = plugins.find(cell.technique);
   if (!plugin || !plugin->loaded()) return 0;
   const uint32_t classes = reference_classes(plugin->descriptor->path_class);
-  return int(std::popcount(classes) * scored_references(config, cell.params).size());
+  return int(std::popcount(classes) * scored_references(config, cell).size());
 }
 
 }  // namespace
