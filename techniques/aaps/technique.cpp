@@ -274,6 +274,7 @@ class Aaps final : public pb::Technique {
     settings_.seed_per_frame = false;
     settings_.emission = &emission_;
     settings_.policy = &caustic_rule_;
+    settings_.footprints = true;  // each splat's ellipse is its photon's footprint (§1.6)
     emission_.set_jitter(p_.emission_jitter);
 
     pb::gpu::Device& gpu = ctx.gpu();

@@ -103,6 +103,7 @@ inline pb::trace::TraceSettings differential_trace_settings(pb::trace::TraceSett
                                                             const DifferentialRules& rules,
                                                             bool first_hit_roulette) {
   settings.policy = &rules;
+  settings.footprints = true;  // implied by the rules' hooks; the density estimate is the footprint
   settings.store |= pb::trace::kDirectPhotons;
   if (first_hit_roulette) settings.rr_start = 0;
   return settings;

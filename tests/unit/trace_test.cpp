@@ -433,6 +433,7 @@ TEST(PhotonTracer, FootprintMatchesTheAreaPerPhotonDirectAndThroughAMirror) {
   s.max_bounces = 2;
   s.rr_start = 5;
   s.seed_per_frame = false;
+  s.footprints = true;
   PhotonBatch batch;
   tracer.trace(s, batch);
   int checked[2] = {0, 0};
@@ -466,6 +467,7 @@ TEST(PhotonTracer, CausticFootprintsShrinkBehindAFocusingBall) {
   s.paths = 200000;
   s.store = kCausticPhotons;
   s.seed_per_frame = false;
+  s.footprints = true;
   PhotonBatch batch;
   tracer.trace(s, batch);
   double direct_area = 4 * M_PI * 9.0 / s.paths;  // straight below the light, unobstructed
@@ -486,6 +488,67 @@ TEST(PhotonTracer, CausticFootprintsShrinkBehindAFocusingBall) {
   double density_ratio = (near_axis / (M_PI * 0.05 * 0.05)) / (1.0 / direct_area);
   EXPECT_LT(mean_area, direct_area * 0.5);
   EXPECT_NEAR(direct_area / mean_area / density_ratio, 1.0, 0.35);
+}
+
+// Footprints are the trace's only output that depends on the differentials: without them every
+// other field of every photon keeps its bits (the same paths, powers and decisions), and the
+// footprints are zero; with them, every photon has one.
+TEST(PhotonTracer, FootprintsOffChangeNothingButTheFootprints) {
+  TestScene t;
+  uint32_t white = t.material(scene::MaterialType::diffuse, glm::vec3(0.7f));
+  t.object(box_mesh({-2, 0, -2}, {2, 3, 2}, true), white);
+  t.object(sphere_mesh({0.6f, 0.5f, 0}, 0.35f, 32), t.material(scene::MaterialType::dielectric));
+  t.object(quad_mesh({-1.9f, 0.2f, -1}, {0, 0, 2}, {0, 1.5f, 0}),
+           t.material(scene::MaterialType::mirror));
+  t.light(point_light({0, 2.5f, 0}, 1.f));
+  EmbreeScene world(t.scene, t.state);
+  EmbreePhotonTracer tracer(world);
+  TraceSettings s;
+  s.paths = 20000;
+  s.store = kAllPhotons;
+  s.seed_per_frame = false;
+  PhotonBatch with, without;
+  s.footprints = true;
+  tracer.trace(s, with);
+  s.footprints = false;
+  tracer.trace(s, without);
+  ASSERT_EQ(with.photons.size(), without.photons.size());
+  ASSERT_GT(with.photons.size(), 10000u);
+  uint32_t caustic = 0, with_area = 0;
+  for (size_t i = 0; i < with.photons.size(); ++i) {
+    PhotonRecord a = with.photons[i], b = without.photons[i];
+    with_area += glm::length(glm::cross(a.footprint_u, a.footprint_v)) > 0;
+    ASSERT_EQ(b.footprint_u, glm::vec3(0.f)) << "photon " << i;
+    ASSERT_EQ(b.footprint_v, glm::vec3(0.f)) << "photon " << i;
+    a.footprint_u = a.footprint_v = glm::vec3(0.f);
+    ASSERT_EQ(std::memcmp(&a, &b, sizeof a), 0) << "photon " << i;
+    caustic += (a.specular_mask & 1u) != 0;
+  }
+  EXPECT_EQ(with_area, with.photons.size());
+  EXPECT_GT(caustic, 100u);  // paths through the glass and off the mirror are among them
+  EXPECT_EQ(with.stats.rays, without.stats.rays);
+}
+
+// A trace that stores a few more photons than the last keeps the batch's memory: moving a batch
+// of a million photons to fresh pages cost twice the trace itself.
+TEST(PhotonTracer, ABatchThatGrowsALittleKeepsItsMemory) {
+  TestScene t;
+  t.object(box_mesh({-2, 0, -2}, {2, 3, 2}, true),
+           t.material(scene::MaterialType::diffuse, glm::vec3(0.7f)));
+  t.light(point_light({0, 2.5f, 0}, 1.f));
+  EmbreeScene world(t.scene, t.state);
+  EmbreePhotonTracer tracer(world);
+  TraceSettings s;
+  s.paths = 20000;
+  s.store = kAllPhotons;
+  PhotonBatch batch;
+  tracer.trace(s, batch);
+  const size_t first = batch.photons.size();
+  const PhotonRecord* memory = batch.photons.data();
+  s.paths = 21000;  // 5% more paths, about 5% more photons
+  tracer.trace(s, batch);
+  ASSERT_GT(batch.photons.size(), first);
+  EXPECT_EQ(batch.photons.data(), memory);
 }
 
 // ---- path re-validation

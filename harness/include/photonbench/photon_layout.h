@@ -36,7 +36,7 @@ struct PhotonRecord {
                           // pb::trace::photon_kind.
   PB_VEC3 footprint_u;    // ray-differential footprint: the displacement of the hit point when the
                           // path's first emission parameter moves by one photon spacing
-                          // (parallelogram edge, m)
+                          // (parallelogram edge, m); zero unless the trace asks for footprints
   PB_UINT light;          // index of the emitting light (scene lights, then emissive objects)
   PB_VEC3 footprint_v;    // the same for the second emission parameter; |u x v| ~ area per photon,
                           // m^2

@@ -157,6 +157,7 @@ struct Interaction {
   uint32_t state = 0;  // the policy's own bits, carried along the path (0 at emission)
   glm::vec3 position{0.0f}, normal{0.0f}, direction{0.0f}, power{0.0f};
   const Footprint* footprint = nullptr;  // arriving differentials, transferred to this hit
+                                         // (null unless TraceSettings::footprints)
   const TraceSettings* settings = nullptr;
 };
 
@@ -209,6 +210,12 @@ struct TraceSettings {
   // can re-trace any subset and get the same paths (toolkit/selective_emission.h); the reuse
   // service re-validates only the tracer's own emission and traces a sampler's paths afresh.
   bool keep_light_paths = false;
+  // Carry ray differentials along the paths (Igehy 1999) and store each photon's footprint
+  // (PhotonRecord::footprint_u/v; Interaction::footprint for the policy). Off, footprints are zero,
+  // Interaction::footprint is null, and the trace skips the differentials' transfer and scattering
+  // (on cornell-box about a tenth of its time, bench_trace). A policy that shapes_footprints()
+  // implies it.
+  bool footprints = false;
   // The technique's policies (owned by it, alive through the trace; null: the tracer's own).
   // With an emission sampler, `paths`, `photon_target` and the seed are unused.
   EmissionSampler* emission = nullptr;

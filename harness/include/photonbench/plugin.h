@@ -30,11 +30,12 @@
 #include <cstdint>
 
 #ifndef PB_PLUGIN_API_VERSION  // a test plugin defines another to play a module of another day
-#define PB_PLUGIN_API_VERSION 5u
+#define PB_PLUGIN_API_VERSION 6u
 #endif
-// The oldest module version a host loads: version 5 changed the public photon tracer's types, which
-// every module's build record holds, so no older module can run in this host.
-#define PB_PLUGIN_API_OLDEST_LOADED 5u
+// The oldest module version a host loads: version 6 made the tracer's footprints a request
+// (TraceSettings::footprints), which a version-5 module that reads them never makes, and its
+// TraceSettings keeps its size, so the build record's sizes cannot tell.
+#define PB_PLUGIN_API_OLDEST_LOADED 6u
 #define PB_TECHNIQUE_ENTRY_SYMBOL "photonbench_technique"
 
 extern "C" {

@@ -144,6 +144,9 @@ std::string_view version_change(uint32_t version) {
              "and keep_paths, PhotonBatch's texel_power) became tracer policies a technique "
              "supplies: TraceSettings' emission (an EmissionSampler) and policy (a VertexPolicy), "
              "keep_light_paths, and PhotonBatch's emitted_power (photonbench/photons.h)";
+    case 6:
+      return "the photon tracer computes ray differentials and footprints only for a trace that "
+             "asks (TraceSettings' footprints, or a policy that shapes them)";
     default:
       return "";
   }

@@ -504,6 +504,9 @@ TraceStats EmbreePhotonTracer::retrace_marked(const TraceSettings& settings, Pho
   Context c{&world_,   &lights,      &densities_,     old.seed, old.max_bounces,
             old.store, old.rr_start, &emission_count, nullptr,  nullptr,
             {}};
+  // The reuse service re-validates the tracer's own decisions only (no policy): footprints where
+  // the trace asks for them.
+  c.differentials = settings.footprints;
   prepare_sample_seeds(c, lights.size());
   uint32_t blocks = (n_paths + kBlockSize - 1) / kBlockSize;
   std::vector<BlockOutput>& outputs = scratch.blocks;

@@ -40,6 +40,9 @@ struct Context {
   // Each light's sobol_group seeds for groups 0..max_bounces (prepare_sample_seeds), so that a
   // vertex's sample hashes no seed: [light * (max_bounces + 1) + group].
   std::vector<SobolGroupSeeds> sample_seeds;
+  // Carry ray differentials along the paths and store footprints (TraceSettings::footprints, or a
+  // policy that shapes them); off, both stay zero and their bookkeeping is skipped.
+  bool differentials = false;
   // The 4D sample of `group` (0: emission, 1 + k: interaction k) of the path `task`.
   glm::vec4 sample(const PathTask& task, uint32_t group) const {
     return sobol_group(task.sample, sample_seeds[task.light * (max_bounces + 1) + group]);

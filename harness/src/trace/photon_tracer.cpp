@@ -152,6 +152,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
   float restart_spacing = 1.f / std::sqrt(float(std::max(1u, (*c.emission_count)[task.light])));
   const VertexPolicy* policy = c.policy;
   const bool footprint_hooks = policy && policy->shapes_footprints();
+  const bool differentials = c.differentials;
   // The part being traced: its interaction count, the policy's bits, how it left its last vertex.
   // A split leaves its other part waiting (a part splits at most once per vertex; a policy that
   // splits again at a later vertex keeps one waiting part per split).
@@ -203,8 +204,11 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
     next.normal = ng;
     next.spacing = v.spacing;
     next.specular_mask = v.specular_mask;
-    glm::vec3 dp_du = transfer_differential(dir, ng, hit.t, v.dp_du, v.dd_du);
-    glm::vec3 dp_dv = transfer_differential(dir, ng, hit.t, v.dp_dv, v.dd_dv);
+    glm::vec3 dp_du(0.f), dp_dv(0.f);
+    if (differentials) {
+      dp_du = transfer_differential(dir, ng, hit.t, v.dp_du, v.dd_du);
+      dp_dv = transfer_differential(dir, ng, hit.t, v.dp_dv, v.dd_dv);
+    }
     if (world.is_light_object(hit.object)) {  // a luminaire absorbs what reaches it
       next.flags = PathVertex::kTerminated;
       verts.push_back(next);
@@ -227,7 +231,7 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       at.arrived_by = arrived_by;
       at.state = state;
       at.position = hit.position, at.normal = ng, at.direction = dir, at.power = v.power;
-      at.footprint = &arriving;
+      at.footprint = differentials ? &arriving : nullptr;
       at.settings = c.settings;
       decision = policy->decide(at);
       decision.store = decision.store && diffuse;
@@ -262,7 +266,8 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
       // dielectric, its power scaled by that lobe's Fresnel share; no roulette.
       const bool dielectric = material.type == scene::MaterialType::dielectric;
       const bool delta = dielectric || material.type == scene::MaterialType::mirror;
-      Triangle tri = delta ? world.triangle(hit.object, hit.primitive) : Triangle{};
+      Triangle tri =
+          delta && differentials ? world.triangle(hit.object, hit.primitive) : Triangle{};
       auto leave = [&](bool reflect, PathVertex& out, Scatter& left_by) {
         BsdfSample s;
         bool ok = bsdf.sample(-dir, {0.5f, 0.5f, reflect ? 0.f : 1.f}, Transport::importance, s);
@@ -272,10 +277,12 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
         out.power = v.power * s.weight * (dielectric ? s.pdf : 1.f);
         if (!(max3(out.power) > 0)) return false;
         out.direction = s.wi;
-        out.dp_du = dp_du;
-        out.dp_dv = dp_dv;
-        out.dd_du = scatter_differential(tri, hit, s, dir, dp_du, v.dd_du);
-        out.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, v.dd_dv);
+        if (differentials) {
+          out.dp_du = dp_du;
+          out.dp_dv = dp_dv;
+          out.dd_du = scatter_differential(tri, hit, s, dir, dp_du, v.dd_du);
+          out.dd_dv = scatter_differential(tri, hit, s, dir, dp_dv, v.dd_dv);
+        }
         left_by = s.transmitted ? Scatter::refract : Scatter::reflect;
         return true;
       };
@@ -322,6 +329,8 @@ uint64_t continue_path(const Context& c, const PathTask& task, uint32_t path_ind
           Footprint f = arriving;
           policy->scattered_diffusely(s.normal, s.wi, f);
           set_footprint(next, f);
+        } else if (!differentials) {
+          // Nothing to carry: the vertex's differentials stay zero.
         } else if (diffuse) {
           // The new direction depends on this bounce's two sample dimensions only: restart the
           // differentials from the cosine map (finite differences) about this point.
@@ -378,6 +387,16 @@ void append_path(BlockOutput& out, const PathTask& task, glm::vec2 uv, glm::vec2
   }
 }
 
+// Resizes `v` to n; past its capacity, with an eighth more room. The number of photons a trace
+// stores varies from frame to frame: with an exact fit the whole batch moved to fresh memory (and
+// faulted it in) whenever a trace stored a few more than any before, which on cornell-glass (1.3
+// million photons) cost 0.37 s, twice the trace itself (bench_trace).
+template <class T>
+void resize_with_room(std::vector<T>& v, size_t n) {
+  if (n > v.capacity()) v.reserve(n + n / 8);
+  v.resize(n);
+}
+
 size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t path_offset, bool keep,
               size_t photons_before, PhotonBatch& out, TraceStats& stats) {
   std::vector<size_t> photon_at(block_count + 1), vertex_at(block_count + 1),
@@ -397,11 +416,11 @@ size_t gather(std::vector<BlockOutput>& blocks, size_t block_count, uint32_t pat
     // Past the capacity the vector moves: carry the photons gathered so far, not the rest of the
     // last trace's.
     if (photon_at[block_count] > out.photons.capacity()) out.photons.resize(photons_before);
-    out.photons.resize(photon_at[block_count]);
+    resize_with_room(out.photons, photon_at[block_count]);
   }
   if (keep) {
-    out.paths.vertices.resize(vertex_at[block_count]);
-    out.paths.paths.resize(path_at[block_count]);
+    resize_with_room(out.paths.vertices, vertex_at[block_count]);
+    resize_with_room(out.paths.paths, path_at[block_count]);
   }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, block_count, 4),
                     [&](const tbb::blocked_range<size_t>& r) {
@@ -559,6 +578,8 @@ Context EmbreePhotonTracer::trace_context(const TraceSettings& settings, const L
             settings.policy,
             &settings,
             {}};
+  c.differentials =
+      settings.footprints || (settings.policy && settings.policy->shapes_footprints());
   prepare_sample_seeds(c, lights.size());
   return c;
 }
