@@ -1,4 +1,4 @@
-// Photon mapping's time to a given error against the truth, before and after (issue 30): the
+// Photon mapping's time to a given error against the truth, before and after its speed-up: the
 // caustic class of each scene's frame rendered by the reference renderer (estimator pt; with the
 // caustics class alone nearly all the work is probabilistic progressive photon mapping,
 // reference.h) with the old photon-mapping settings (uniform emission, 200000 photon paths an
@@ -248,7 +248,7 @@ int main(int argc, char** argv) {
     uint32_t seed = uint32_t(std::stoul(a["--seed"]));
     double max_cpu = std::stod(a["--max-cpu"]);
 
-    trace::ReferenceOptions before;  // the settings before issue 30
+    trace::ReferenceOptions before;  // the settings before the speed-up
     before.estimator = trace::Estimator::pt;
     before.photon_mapping.photons = 200000;
     before.photon_mapping.alpha = 2.f / 3.f;

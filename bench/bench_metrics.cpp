@@ -1,7 +1,7 @@
 // bench_metrics: our metrics next to their anchors, measured in the same run. FLIP (LDR and HDR)
 // runs against NVIDIA's reference FLIP tool (the C++ CPU tool, v1.6 defaults), SSIM and PSNR
 // against scikit-image (Debian python3-skimage) with the settings of the conformance set
-// (tests/unit/metrics_test.cpp). Targets (issues 11 and 30): FLIP LDR at least 4x the tool, FLIP
+// (tests/unit/metrics_test.cpp). Targets: FLIP LDR at least 4x the tool, FLIP
 // HDR at least 2x, SSIM at least 10x scikit-image, on AVX2 as on AVX-512, each value within 1e-4 of
 // the anchor's.
 //

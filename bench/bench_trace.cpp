@@ -23,7 +23,7 @@
 // next-event estimation, the tutorial's own algorithm: the reference renderer's automatic choice
 // picks bidirectional path tracing for a render this short, whose rays cost more each (its
 // Mrays/s are 0.5-0.8 of path tracing's, harness/src/reference/README.md), and which this bench
-// measured from the estimators' landing until issue 30 (0.48x).
+// measured from the estimators' landing until the wavefront (0.48x).
 #include <fmt/format.h>
 #include <malloc.h>
 #include <unistd.h>

@@ -2,7 +2,7 @@
 # Measures `photonbench compare` on real runs of this machine: its false-alarm rate on A/A pairs and
 # whether it catches one pass made slower by the test-only delay injection (testing.slow_pass and
 # testing.slow_factor, harness/src/cell/cell_runner.cpp). A measurement, not a test: it prints a table
-# and the two counts (issue 6: "A/A flags no regression in 10 of 10 tries; a pass made 25% slower is
+# and the two counts (the criterion: "A/A flags no regression in 10 of 10 tries; a pass made 25% slower is
 # flagged").
 #
 # Design: N independent pairs. Pair i makes K replicate runs of each of three sides, interleaved in time

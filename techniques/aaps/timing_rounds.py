@@ -3,7 +3,7 @@
 technique's own passes (photon-trace, rasterize, apply, task-update; max of gpu_ms and cpu_ms, as
 pbtools' claims read it); the ratio of each mode to `none` per round; after each round the mean
 ratio's 90% interval (Student t); stops when every interval is within +-10% of its mean or at
-max_rounds (issue 25's timing ratios). Ratios, not times: the machine is shared, and a load that
+max_rounds (the study scenes' timing ratios). Ratios, not times: the machine is shared, and a load that
 slows one round slows its three modes alike.
 
     python3 techniques/aaps/timing_rounds.py build/photonbench OUT_DIR [MAX_ROUNDS]

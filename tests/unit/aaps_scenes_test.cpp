@@ -1,4 +1,4 @@
-// AAPS's study scenes (configs/aaps.yaml, issue 25): AAPS splats its caustic photons onto the
+// AAPS's study scenes (configs/aaps.yaml): AAPS splats its caustic photons onto the
 // receiver the G-buffer holds, so its MSAA modes can only be compared where the caustic's
 // receiver is seen directly. Measured on the CPU, over the study's 320x160 camera rays at its
 // measured frames (12-19): the share of pixels whose camera ray first meets a diffuse surface

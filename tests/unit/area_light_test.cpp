@@ -1,4 +1,4 @@
-// Area lights in the near field (issue 17): the reference renderer's direct light from a quad light
+// Area lights in the near field: the reference renderer's direct light from a quad light
 // against closed forms at distance/size ratios 0.1..10 and light sizes 0.1..10 m, at the point
 // below the light's centre and below a corner, on a receiver parallel to the light and on a tilted
 // one; next-event estimation alone, BSDF sampling alone and their MIS combination on the same

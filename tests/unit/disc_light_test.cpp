@@ -1,4 +1,4 @@
-// Disc area lights (issue 13; every experiment of Paper II uses one) against closed forms: the
+// Disc area lights (every experiment of Paper II uses one) against closed forms: the
 // equal-area emission mapping, the irradiance on the disc's axis, E = pi L r^2 / (h^2 + r^2), by
 // both estimators of the reference renderer, the photon tracer's power delivered to a coaxial
 // circle (the disc-to-disc configuration factor) and its total power pi L A, and the radiance a

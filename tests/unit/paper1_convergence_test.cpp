@@ -1,4 +1,4 @@
-// Paper I's splatting techniques converge like photon mapping (issue 5): with more photons of a
+// Paper I's splatting techniques converge like photon mapping: with more photons of a
 // smaller radius, each technique's indirect-diffuse estimate (the image it hands to the shared
 // shade pass, scored alone against the path-traced `indirect` reference) gets closer to the
 // reference. Three steps, photons x8 and radius / 2 a step (variance ~ 1 / (N r^2) halves, bias ~

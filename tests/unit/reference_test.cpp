@@ -246,7 +246,7 @@ TEST(Reference, MirrorCausticMatchesTheImageSource) {
 // -----------------------------------------------------------------------------------
 
 // Path tracing is unbiased with independent samples: RMSE against a 16x longer render of another
-// seed falls as samples^-1/2 (issue 4: log-log slope in [-0.6, -0.4]).
+// seed falls as samples^-1/2 (log-log slope in [-0.6, -0.4]).
 TEST(Reference, PathTracerRmseFallsAsInverseSquareRootOfSamples) {
   scene::Scene scene = load("cornell-box.yaml");
   scene::FrameState state = scene.at(0);

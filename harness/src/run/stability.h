@@ -1,5 +1,5 @@
 // `photonbench stability`: every technique through every stress scenario, each cell classified ok,
-// degraded or failed with its reason (issue 15). A stability file (configs/stress/stability.yaml)
+// degraded or failed with its reason. A stability file (configs/stress/stability.yaml)
 // is a benchmark config without `scenes`, plus `stability` (the rules and the baseline) and
 // `scenarios` (each a scene entry with the weakness it aims at). It becomes one generated benchmark
 // config, run by the ordinary run machinery into the run folder; the cells' records are then
@@ -24,9 +24,9 @@ struct CellOutcome {
   std::vector<std::pair<uint32_t, std::string>> frame_warnings;
   std::optional<double> flip;        // mean FLIP against the combined full reference
   std::optional<double> flip_floor;  // its noise floor (the reference's own noise)
-  // The hook for the temporal half of issue 15 (the `seeds` helper's flicker metric): when a cell
-  // record carries metrics.combined.flicker, a value above StabilityRules::flicker_bound makes the
-  // cell degraded. Nothing here computes it.
+  // The hook for the temporal half of the stress suite (the `seeds` helper's flicker metric): when
+  // a cell record carries metrics.combined.flicker, a value above StabilityRules::flicker_bound
+  // makes the cell degraded. Nothing here computes it.
   std::optional<double> flicker;
 };
 
