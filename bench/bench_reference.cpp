@@ -121,8 +121,8 @@ int main(int argc, char** argv) {
     int w = args.width ? args.width : int(quick.width);
     int h = args.height ? args.height : int(quick.height);
     uint32_t frame = quick.frames.warmup;  // the first metric frame
-    // The config's reference block alone (an index past its scene entries: no entry's own rules).
-    trace::ReferenceOptions base = run::reference_options(quick, quick.scenes.size());
+    // The config's reference block alone, without any scene entry's own stop rules.
+    trace::ReferenceOptions base = run::reference_options(quick, config::kNoSceneEntry);
     base.samples = 0;
     if (args.rel_errors.empty()) args.rel_errors.push_back(base.rel_error);
     if (args.max_seconds >= 0) base.max_seconds = args.max_seconds;

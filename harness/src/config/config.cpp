@@ -384,6 +384,26 @@ MatchSettings read_match(const YamlView& block, const Config& config) {
   return m;
 }
 
+// The stop rules a reference block names (rel_error, max_seconds, samples), checked; none when it
+// names none. Naming any replaces every rule: {samples: 1024} means exactly 1024.
+std::optional<ReferenceStopRules> named_stop_rules(const KeyTable& table, const YamlView& block) {
+  if (!block.has("rel_error") && !block.has("max_seconds") && !block.has("samples"))
+    return std::nullopt;
+  ReferenceStopRules rules;
+  rules.rel_error = table.number_or(block, "rel_error", 0);
+  rules.max_seconds = table.number_or(block, "max_seconds", 0);
+  rules.samples = block.has("samples") ? uint32_t(table.integer(block, "samples")) : 0;
+  if (auto problem = stop_rule_problem(rules.rel_error, rules.max_seconds, rules.samples))
+    (problem->key.empty() ? block : block[problem->key]).fail(problem->message);
+  return rules;
+}
+
+void set_stop_rules(ReferenceSettings& settings, const ReferenceStopRules& rules) {
+  settings.rel_error = rules.rel_error;
+  settings.max_seconds = rules.max_seconds;
+  settings.samples = rules.samples;
+}
+
 // Each scene entry's `reference:` stop rules (kSceneReferenceTable). The plan checks that entries
 // of one scene file agree (plan/plan.cpp: the cache holds one reference per scene and frame).
 void read_scene_stop_rules(Config& config) {
@@ -392,16 +412,8 @@ void read_scene_stop_rules(Config& config) {
     auto block = entry.node.get("reference");
     if (!block) continue;
     kSceneReferenceTable.allow(*block);
-    if (!block->has("rel_error") && !block->has("max_seconds") && !block->has("samples"))
-      block->fail("names no stop rule (rel_error, max_seconds or samples)");
-    ReferenceStopRules rules;
-    rules.rel_error = kSceneReferenceTable.number_or(*block, "rel_error", 0);
-    rules.max_seconds = kSceneReferenceTable.number_or(*block, "max_seconds", 0);
-    rules.samples =
-        block->has("samples") ? uint32_t(kSceneReferenceTable.integer(*block, "samples")) : 0;
-    if (auto problem = stop_rule_problem(rules.rel_error, rules.max_seconds, rules.samples))
-      (problem->key.empty() ? *block : (*block)[problem->key]).fail(problem->message);
-    entry.reference = rules;
+    entry.reference = named_stop_rules(kSceneReferenceTable, *block);
+    if (!entry.reference) block->fail("names no stop rule (rel_error, max_seconds or samples)");
   }
 }
 
@@ -416,11 +428,7 @@ Config load_config(const std::filesystem::path& file, const std::vector<std::str
 ReferenceSettings reference_settings(const Config& config, size_t scene_entry) {
   ReferenceSettings settings = config.reference;
   if (scene_entry < config.scenes.size())
-    if (const auto& rules = config.scenes[scene_entry].reference) {
-      settings.rel_error = rules->rel_error;
-      settings.max_seconds = rules->max_seconds;
-      settings.samples = rules->samples;
-    }
+    if (const auto& rules = config.scenes[scene_entry].reference) set_stop_rules(settings, *rules);
   return settings;
 }
 
@@ -545,19 +553,13 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
     const YamlView reference = section(root, "reference");
     kReferenceTable.allow(reference);
     ReferenceSettings& r = config.reference;
-    // Naming any stop rule replaces the default rules: {samples: 1024} means exactly 1024.
-    if (reference.has("rel_error") || reference.has("max_seconds") || reference.has("samples")) {
-      r.rel_error = kReferenceTable.number_or(reference, "rel_error", 0);
-      r.max_seconds = kReferenceTable.number_or(reference, "max_seconds", 0);
-      r.samples =
-          reference.has("samples") ? uint32_t(kReferenceTable.integer(reference, "samples")) : 0;
-    } else {
+    if (auto rules = named_stop_rules(kReferenceTable, reference)) {
+      set_stop_rules(r, *rules);
+    } else {  // the defaults
       r.rel_error = kReferenceTable.number(reference, "rel_error");
       r.max_seconds = kReferenceTable.number(reference, "max_seconds");
       r.samples = uint32_t(kReferenceTable.integer(reference, "samples"));
     }
-    if (auto problem = stop_rule_problem(r.rel_error, r.max_seconds, r.samples))
-      (problem->key.empty() ? reference : reference[problem->key]).fail(problem->message);
     r.max_bounces = uint32_t(kReferenceTable.integer(reference, "max_bounces"));
     r.estimator = kReferenceTable.string(reference, "estimator");
     r.light_sampler = kReferenceTable.string(reference, "light_sampler");

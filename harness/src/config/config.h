@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -166,8 +167,9 @@ Config parse_config(const std::string& text, const std::filesystem::path& file,
                     const std::vector<std::string>& overrides);
 
 // The reference settings of the cells of config.scenes[scene_entry]: the config's reference
-// block, its stop rules replaced by the scene entry's where it names them (an index past the last
-// entry: the block alone).
+// block, its stop rules replaced by the scene entry's where it names them (kNoSceneEntry, or any
+// index past the last entry: the block alone).
+inline constexpr size_t kNoSceneEntry = std::numeric_limits<size_t>::max();
 ReferenceSettings reference_settings(const Config& config, size_t scene_entry);
 
 // Applies one --set "key.path=value" (or "key+=value", appending to a list) to `root`: numeric
