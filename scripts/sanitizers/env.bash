@@ -14,8 +14,9 @@
 # than ASan's report and exit 1; the runner must report a crashing cell as "crashed with signal 11"
 # (tests/plugins/crash_on_frame.cpp, e2e.cell_isolation), and a crash still fails any test.
 #
-# intercept_tls_get_addr=0: GCC 12's sanitizer runtime (up to GCC 13 and LLVM 16) takes a dynamic
-# TLS block for one with a glibc 2.19 header when its address modulo 4096 happens to equal that
+# intercept_tls_get_addr=0: the sanitizer runtime (GCC's up to 13, LLVM's up to 16: clang-14's,
+# which builds the sanitized tree, and GCC 12's, which built it before) takes a dynamic TLS
+# block for one with a glibc 2.19 header when its address modulo 4096 happens to equal that
 # header's size, and reads the two words before it as an address and a length; LeakSanitizer's
 # tracer then dies at exit with "Tracer caught signal 11". Dynamic TLS is what libraries loaded by
 # dlopen use, and the image codec module (OpenImageIO's 260 libraries) is one: every cell that had

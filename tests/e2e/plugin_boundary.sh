@@ -19,7 +19,7 @@ techniques:
   - technique: undeclared_counter
   - technique: direct
 YAML
-wrong_version="wrong_api_version.so was built for plugin API version 42 \\(GCC .*, Vulkan-Hpp [0-9]+\\), this photonbench has [0-9]+ \\(GCC .*, Vulkan-Hpp [0-9]+\\)"
+wrong_version="wrong_api_version.so was built for plugin API version 42 \\((GCC|clang) .*, Vulkan-Hpp [0-9]+\\), this photonbench has [0-9]+ \\((GCC|clang) .*, Vulkan-Hpp [0-9]+\\)"
 unknown_class="unknown_path_class.so \('unknown_path_class'\) declares path class 'C D D L', which is none of: direct \(C L \| C D L\)"
 
 expect_exit 1 "validate: the config is valid (not exit 2) but cells will fail (exit 1)" -- "$PB" validate "$cfg"

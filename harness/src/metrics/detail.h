@@ -38,8 +38,13 @@
 //
 // Functions defined before this pragma (std::sqrt, std::fabs, std::min, ...) have other options,
 // and GCC does not inline across that difference, so the hot loops use the helpers below and
-// compiler builtins only.
+// compiler builtins only. Clang (the sanitized build) takes the standard pragma for the first and
+// does not trap by default.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#else
 #pragma GCC optimize("fp-contract=off", "no-trapping-math")
+#endif
 
 namespace pb::metrics::detail {
 
