@@ -21,9 +21,9 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   shift
   source scripts/sanitizers/env.bash
   flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1"
-  # Clang (Debian's clang-14, which the fuzz targets use too), while the Release build is GCC's: so
-  # two compilers check the code, and Clang builds the sanitized tree in less than half GCC's time, and
-  # its sanitized shared library carries an eighth of GCC's relocations, which every process
+  # Clang (Debian's clang-14, which the fuzz targets use too), while the Release build is GCC's:
+  # so two compilers check the code; Clang builds the sanitized tree in less than half GCC's time,
+  # and its sanitized shared library carries an eighth of GCC's relocations, which every process
   # applies at its start (README "CI time and its phases": 82 thousand against 695 thousand).
   # -O1, as AddressSanitizer's documentation advises (and a third less compile time than Release on
   # 2 cores); -g1, line tables only: enough for the reports' file:line stack traces, without full
