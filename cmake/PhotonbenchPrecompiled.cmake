@@ -32,18 +32,19 @@ set(PB_PRECOMPILED_HEADERS
 if(PB_PRECOMPILE_HEADERS)
   set(pb_precompiled_source ${CMAKE_BINARY_DIR}/generated/precompiled_holder.cpp)
   file(WRITE ${pb_precompiled_source} "// the holder of the shared precompiled headers\n")
-  # FMT_SHARED comes with fmt::fmt (every target of ours has it); the include paths are the
-  # system's, so the holder links nothing else.
-  add_library(pb_precompiled_pic OBJECT ${pb_precompiled_source})
-  set_target_properties(pb_precompiled_pic PROPERTIES POSITION_INDEPENDENT_CODE ON)
-  target_link_libraries(pb_precompiled_pic PRIVATE fmt::fmt)
-  target_precompile_headers(pb_precompiled_pic PRIVATE ${PB_PRECOMPILED_HEADERS})
+  # A holder: an object library of the empty file that makes the headers with PROPERTIES (besides
+  # position independence). FMT_SHARED comes with fmt::fmt (every target of ours has it); the
+  # include paths are the system's, so the holder links nothing else.
+  function(pb_add_precompiled_holder name)
+    add_library(${name} OBJECT ${pb_precompiled_source})
+    set_target_properties(${name} PROPERTIES POSITION_INDEPENDENT_CODE ON ${ARGN})
+    target_link_libraries(${name} PRIVATE fmt::fmt)
+    target_precompile_headers(${name} PRIVATE ${PB_PRECOMPILED_HEADERS})
+  endfunction()
+  pb_add_precompiled_holder(pb_precompiled_pic)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
-    add_library(pb_precompiled_hidden OBJECT ${pb_precompiled_source})
-    set_target_properties(pb_precompiled_hidden PROPERTIES POSITION_INDEPENDENT_CODE ON
-                          CXX_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON)
-    target_link_libraries(pb_precompiled_hidden PRIVATE fmt::fmt)
-    target_precompile_headers(pb_precompiled_hidden PRIVATE ${PB_PRECOMPILED_HEADERS})
+    pb_add_precompiled_holder(pb_precompiled_hidden CXX_VISIBILITY_PRESET hidden
+                              VISIBILITY_INLINES_HIDDEN ON)
   endif()
 endif()
 
