@@ -43,7 +43,8 @@ import subprocess
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-SANITIZED_PASS_EXCLUDES = "statistical|python"  # scripts/test.sh --sanitize's -LE
+# scripts/test.sh --sanitize's -LE (tools/tests/test_select_by_coverage.py checks they agree).
+SANITIZED_PASS_EXCLUDES = "statistical|python"
 
 
 def configure_and_build(build: pathlib.Path) -> None:
@@ -213,15 +214,15 @@ def main() -> int:
             if code != 0:
                 failed.append(name)
             coverage[name] = regions
-    ours = our_code(args.build, profiles)
-    print(f"{len(ours)} functions of our code under test", flush=True)
-    coverage = {name: {r for r in regions if r[0].split("#")[0] in ours}
-                for name, regions in coverage.items()}
     if failed:
         # A failing test's profile is cut short: choosing from it could drop a test that matters.
         print("not choosing: these tests failed under coverage: " + ", ".join(failed),
               file=sys.stderr)
         return 1
+    ours = our_code(args.build, profiles)
+    print(f"{len(ours)} functions of our code under test", flush=True)
+    coverage = {name: {r for r in regions if r[0].split("#")[0] in ours}
+                for name, regions in coverage.items()}
 
     left_out = choose(coverage, costs)
     kept = [n for n in tests if n not in left_out]

@@ -59,5 +59,13 @@ class Choose(unittest.TestCase):
         self.assertEqual(select_by_coverage.choose({"empty": set(), "x": {1}}, {"empty": 9}), [])
 
 
+class SanitizedPass(unittest.TestCase):
+    def test_the_labels_left_out_are_those_of_scripts_test_sh(self):
+        # The script lists the tests of the pass by the same -LE as the pass itself; with another,
+        # it would choose among tests the pass does not run, or miss some it does.
+        test_sh = (_SCRIPT.parents[1] / "test.sh").read_text()
+        self.assertIn(f"set -- -LE '{select_by_coverage.SANITIZED_PASS_EXCLUDES}'", test_sh)
+
+
 if __name__ == "__main__":
     unittest.main()
