@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The tests: installs what is missing (scripts/setup.sh --tests), builds, runs the unit and
-# end-to-end tests with CTest (Vulkan validation layers on: any validation error fails the test
-# that caused it). Extra arguments go to ctest, e.g. -L unit (a label: tests/CMakeLists.txt, README
-# "Testing") or -R REGEX.
+# end-to-end tests with CTest (Vulkan validation layers on, except in the sanitized pass: any
+# validation error fails the test that caused it). Extra arguments go to ctest, e.g. -L unit (a
+# label: tests/CMakeLists.txt, README "Testing") or -R REGEX.
 #
 #   scripts/test.sh [CTEST ARGS...]              build/, Release: every test
 #   scripts/test.sh --sanitize [CTEST ARGS...]   build-asan/, AddressSanitizer and
@@ -27,13 +27,11 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   # applies at its start (README "CI time and its phases": 82 thousand against 695 thousand).
   # -O1, as AddressSanitizer's documentation advises (and a third less compile time than Release on
   # 2 cores); -g1, line tables only: enough for the reports' file:line stack traces, without full
-  # debug info of every header (the sanitized build's compile and link time); the test program at
-  # -O0 (its files are assertions around calls into the library; its largest unity file took 60
-  # CPU-s at -O1, 33 at -O0 even without its precompiled header); no bench programs (not tests).
+  # debug info of every header (the sanitized build's compile and link time). The test program's
+  # options (-O0, no bench programs, a process per unit suite, no validation layers) are in
+  # scripts/sanitizers/tests.cmake, with their reasons, shared with select_by_coverage.py.
   # Executables not position-independent (-no-pie): the sanitizers' metadata made the test program's
   # 1.36 million relative relocations, applied by the loader at every start of every test process.
-  # The unit tests one process per GoogleTest suite (PB_UNIT_TEST_PROCESS, tests/CMakeLists.txt):
-  # a sanitized process takes about half a second to start.
   # UndefinedBehaviorSanitizer's vptr check stays on: without it (-fno-sanitize=vptr) the core
   # library's largest unity file compiled in 68.9 CPU-s instead of 80.0, but it is the check that
   # catches a member call or downcast on an object of the wrong dynamic type, which our plugin and
@@ -48,7 +46,8 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   [[ -f "$lavapipe" ]] || { echo "test.sh: the lavapipe driver (mesa-vulkan-drivers) is not installed" >&2; exit 1; }
   cmake -S . -B build-asan -G Ninja -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DPB_TEST_COMPILE_OPTIONS=-O0 -DPB_BUILD_BENCH=OFF -DPB_UNIT_TEST_PROCESS=suite -DPB_IMAGE_CODEC_MODULE=ON -DCMAKE_CXX_FLAGS="$flags" \
+    -C scripts/sanitizers/tests.cmake -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
+    -DCMAKE_CXX_FLAGS="$flags" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined -no-pie -Wl,--no-as-needed $lavapipe -Wl,--as-needed" \
     -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" > build-asan.log 2>&1 ||
     { cat build-asan.log; exit 1; }

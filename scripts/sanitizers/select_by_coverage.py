@@ -56,8 +56,7 @@ def configure_and_build(build: pathlib.Path) -> None:
          "-DCMAKE_BUILD_TYPE=RelWithDebInfo", "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -DNDEBUG",
          f"-DCMAKE_CXX_FLAGS={flags}", f"-DCMAKE_EXE_LINKER_FLAGS={link}",
          f"-DCMAKE_SHARED_LINKER_FLAGS={link}", f"-DCMAKE_MODULE_LINKER_FLAGS={link}",
-         "-DPB_TEST_COMPILE_OPTIONS=-O0",
-         "-DPB_BUILD_BENCH=OFF", "-DPB_UNIT_TEST_PROCESS=suite", "-DPB_IMAGE_CODEC_MODULE=ON"],
+         "-C", str(ROOT / "scripts/sanitizers/tests.cmake")],
         check=True, stdout=subprocess.DEVNULL)
     subprocess.run(["cmake", "--build", str(build), "-j", str(os.cpu_count())], check=True)
 

@@ -1,5 +1,6 @@
 // Helpers for tests that run `photonbench run` end to end (technique tests): a scratch folder, a
-// run of a YAML text with Vulkan validation, and readers for the run's cells, counters and images.
+// run of a YAML text (with Vulkan validation where CTest asks for it), and readers for the run's
+// cells, counters and images.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -25,6 +26,12 @@ namespace pb::testing {
 
 namespace fs = std::filesystem;
 
+// Whether this test runs with Vulkan's validation layers: CTest sets PB_VALIDATION for every test
+// of a build configured with PB_TEST_VALIDATION (tests/CMakeLists.txt; on, except in the sanitized
+// pass). Devices a test creates and runs it starts follow it, and so do its checks of a cell
+// record's "validation".
+inline bool validation_on() { return std::getenv("PB_VALIDATION") != nullptr; }
+
 // An empty folder under the temp dir, unique to this test process.
 inline fs::path work_dir(const std::string& suite, const std::string& name) {
   fs::path dir =
@@ -47,13 +54,14 @@ inline std::string plan_error(const fs::path& dir, const std::string& yaml) {
   return "";
 }
 
-// Writes `yaml` to DIR/config.yaml and runs it into DIR/run with validation; the console output
-// goes to DIR/log.txt. Returns the exit status as std::system does.
+// Writes `yaml` to DIR/config.yaml and runs it into DIR/run, with validation where validation_on();
+// the console output goes to DIR/log.txt. Returns the exit status as std::system does.
 inline int run_config(const fs::path& dir, const std::string& yaml) {
   std::ofstream(dir / "config.yaml") << yaml;
   std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") +
                     (dir / "config.yaml").string() + " --out " + (dir / "run").string() +
-                    " --validation > " + (dir / "log.txt").string() + " 2>&1";
+                    (validation_on() ? " --validation" : "") + " > " + (dir / "log.txt").string() +
+                    " 2>&1";
   return std::system(cmd.c_str());
 }
 

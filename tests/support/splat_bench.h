@@ -4,7 +4,7 @@
 // lying on the floor. For the splatters' tests that need no scene, tracer or reference (list
 // capacities, the count / insert consistency check, loop budgets, an estimate that must not depend
 // on the photon count): a function call each, where `photonbench run` needed a process, a scene
-// and a cell folder. Vulkan validation is on (validation_errors()).
+// and a cell folder. Vulkan validation as validation_on() says (validation_errors()).
 #pragma once
 
 #include <glm/glm.hpp>
@@ -29,7 +29,7 @@ class SplatBench {
   static constexpr float kAlbedo = 0.5f;
 
   SplatBench(uint32_t width, uint32_t height)
-      : gpu_(gpu::Device::Options{"", true}),
+      : gpu_(gpu::Device::Options{"", validation_on()}),
         gbuffer_(gpu_, width, height),
         ctx_(gpu_, gbuffer_),
         width_(width),

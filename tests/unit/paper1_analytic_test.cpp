@@ -139,7 +139,7 @@ class Paper1Analytic : public ::testing::Test {
     if (cell.empty()) return {};
     auto record = read_json(cell / "cell.json");
     EXPECT_EQ(record["status"], "ok") << record.dump();
-    EXPECT_EQ(record["validation"], true);
+    EXPECT_EQ(record["validation"], validation_on());
     return blocks_of(frame_image(cell, 0, "indirect"));
   }
 

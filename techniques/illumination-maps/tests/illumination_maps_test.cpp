@@ -298,7 +298,7 @@ TEST(IlluminationMapsRender, CornellBoxIndirectIsOfTheReferencesOrder) {
     if (cell.empty()) return 0.0;
     const auto record = pb::testing::read_json(cell / "cell.json");
     EXPECT_EQ(record["status"], "ok") << record.dump();
-    EXPECT_EQ(record["validation"], true) << name;
+    EXPECT_EQ(record["validation"], pb::testing::validation_on()) << name;
     const pb::io::Image image = pb::testing::frame_image(cell, frame, "indirect");
     EXPECT_TRUE(pb::testing::all_finite(image)) << name;
     auto sums = pb::testing::counters(cell);

@@ -371,7 +371,7 @@ TEST(PhotonDifferentials, FootprintKernelIntegratesToTheFlux) {
 }
 
 pb::gpu::Device& device() {
-  static pb::gpu::Device d({"", std::getenv("PB_VALIDATION") != nullptr});
+  static pb::gpu::Device d({"", validation_on()});
   return d;
 }
 
