@@ -21,16 +21,11 @@
 #include "io/image.h"
 #include "photonbench/error.h"
 #include "plan/plan.h"
+#include "validation.h"
 
 namespace pb::testing {
 
 namespace fs = std::filesystem;
-
-// Whether this test runs with Vulkan's validation layers: CTest sets PB_VALIDATION for every test
-// of a build configured with PB_TEST_VALIDATION (tests/CMakeLists.txt; on, except in the sanitized
-// pass). Devices a test creates and runs it starts follow it, and so do its checks of a cell
-// record's "validation".
-inline bool validation_on() { return std::getenv("PB_VALIDATION") != nullptr; }
 
 // An empty folder under the temp dir, unique to this test process.
 inline fs::path work_dir(const std::string& suite, const std::string& name) {

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "gpu_context.h"
+#include "validation.h"
 
 namespace hierarchy_test {
 
@@ -27,7 +28,7 @@ using toolkit::Hierarchy;
 using toolkit::HierarchyOptions;
 
 gpu::Device& device() {
-  static gpu::Device d({"", std::getenv("PB_VALIDATION") != nullptr});
+  static gpu::Device d({"", pb::testing::validation_on()});
   return d;
 }
 

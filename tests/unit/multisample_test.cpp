@@ -8,13 +8,14 @@
 
 #include "multisample_test_shaders.h"
 #include "photonbench/gpu.h"
+#include "validation.h"
 
 namespace multisample_test {
 
 using namespace pb;
 
 gpu::Device& device() {
-  static gpu::Device d({"", std::getenv("PB_VALIDATION") != nullptr});
+  static gpu::Device d({"", pb::testing::validation_on()});
   return d;
 }
 

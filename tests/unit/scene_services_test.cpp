@@ -23,6 +23,7 @@
 #include "scene_services_test_shaders.h"
 #include "trace/embree_scene.h"
 #include "trace/photon_tracer.h"
+#include "validation.h"
 
 namespace pb {
 namespace scene_services_test {
@@ -42,10 +43,10 @@ uint32_t object_named(const scene::Scene& scene, const std::string& name) {
 }
 
 // The scene's passes on a device of their own, recording into one command stream; with the
-// validation layers where CTest runs the test (PB_VALIDATION), whose errors fail it.
+// validation layers where the test runs with them (validation_on()), whose errors fail it.
 struct Passes {
   explicit Passes(const scene::Scene& scene, uint32_t width = 96, uint32_t height = 72)
-      : device({"", std::getenv("PB_VALIDATION") != nullptr}),
+      : device({"", pb::testing::validation_on()}),
         commands(device),
         profiler(device, [this] { return commands.cmd(); }),
         passes(device, scene, width, height, {}, profiler, [this] { return commands.cmd(); }) {}

@@ -16,6 +16,7 @@
 #include "photonbench/toolkit/gpu_scan.h"
 #include "photonbench/toolkit/technique.h"
 #include "toolkit_test_shaders.h"
+#include "validation.h"
 
 namespace toolkit_test {
 
@@ -23,7 +24,7 @@ using namespace pb;
 using toolkit::FluxScale;
 
 gpu::Device& device() {
-  static gpu::Device d({"", std::getenv("PB_VALIDATION") != nullptr});
+  static gpu::Device d({"", pb::testing::validation_on()});
   return d;
 }
 
