@@ -3,7 +3,9 @@
 // ratio (target: at least 1.0x), plus the photon tracer's throughput on the same scene, traced in
 // the same alternating rounds without and with footprints, its cost per ray over the path
 // tracer's (the median of the per-round ratios; target at most 1.3x) and what the footprints
-// cost. `--pathtracer none` leaves the tutorial out.
+// cost; and the photon tracer's own rays replayed through Embree alone, which splits that ratio
+// into Embree's cost on those rays and our code around the queries. `--pathtracer none` leaves
+// the tutorial out.
 // The tutorial's OBJ materials are diffuse (Kd) and its light here is one point light, so both
 // renderers get the scene as the tutorial can render it (make_comparable): every material diffuse
 // with its albedo, and the lights replaced by one point light of their total power at the first
@@ -26,6 +28,7 @@
 // measured from the estimators' landing until the wavefront (0.48x).
 #include <fmt/format.h>
 #include <malloc.h>
+#include <tbb/parallel_for.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -46,6 +49,7 @@
 #include "scene/scene.h"
 #include "trace/embree_scene.h"
 #include "trace/lights.h"
+#include "trace/photon_paths.h"
 #include "trace/photon_tracer.h"
 
 namespace fs = std::filesystem;
@@ -142,6 +146,46 @@ std::string find_pathtracer() {
   return listed;
 }
 
+// The segments the photon tracer traced, rebuilt from its kept light paths: from each vertex
+// that has a successor (its segment hit it) or that escaped (its segment hit nothing), the ray
+// continue_path gave Embree. Exact for a trace without a policy (no split part starts a vertex
+// without a segment); the caller checks the count against the trace's own.
+std::vector<pb::trace::Ray> traced_segments(const pb::trace::LightPaths& paths) {
+  std::vector<pb::trace::Ray> rays;
+  for (const auto& path : paths.paths)
+    for (uint32_t i = 0; i < path.vertex_count; ++i) {
+      const pb::trace::PathVertex& v = paths.vertices[path.first_vertex + i];
+      if (i + 1 < path.vertex_count || (v.flags & pb::trace::PathVertex::kEscapes))
+        rays.push_back({pb::trace::detail::spawn_origin(v), v.direction});
+    }
+  return rays;
+}
+
+// Seconds Embree (with our hit completion, EmbreeScene::intersect) takes for `rays` on every
+// hardware thread: one call a ray, as the photon tracer traces them, or as streams of
+// `stream_size` (intersect_stream, incoherent).
+double replay_seconds(const pb::trace::EmbreeScene& world, const std::vector<pb::trace::Ray>& rays,
+                      size_t stream_size) {
+  auto t0 = std::chrono::steady_clock::now();
+  const size_t chunk = 256;
+  tbb::parallel_for(size_t(0), (rays.size() + chunk - 1) / chunk, [&](size_t c) {
+    const size_t begin = c * chunk, end = std::min(rays.size(), begin + chunk);
+    std::array<pb::trace::Hit, chunk> hits;
+    std::array<uint8_t, chunk> found;
+    if (stream_size == 1) {
+      for (size_t i = begin; i < end; ++i)
+        world.intersect(rays[i].origin, rays[i].dir, rays[i].tmax, hits[i - begin]);
+      return;
+    }
+    for (size_t s = begin; s < end; s += stream_size) {
+      const size_t n = std::min(stream_size, end - s);
+      world.intersect_stream(std::span(rays).subspan(s, n), std::span(hits).subspan(s - begin, n),
+                             std::span(found).subspan(s - begin, n), false);
+    }
+  });
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -203,6 +247,26 @@ int main(int argc, char** argv) {
   ts_footprints.footprints = true;
   std::vector<double> photon_rates, photon_cost_ratios, footprint_rates, footprint_cost_ratios;
   double photon_rays_per_path = 0;
+  // The photon tracer's own rays, replayed through Embree alone: what its cost per ray would be
+  // with nothing of ours around the queries. Its rays are incoherent (emission over the sphere,
+  // diffuse bounces), where the path tracer's first segments are the camera's coherent rows and
+  // its shadow rays end at any hit: Embree's own cost per ray differs between the two before any
+  // of our code runs, and this splits the ratio into that and ours.
+  std::vector<pb::trace::Ray> photon_rays;
+  {
+    pb::trace::TraceSettings keep = ts;
+    keep.keep_light_paths = true;
+    pb::trace::PhotonBatch kept;
+    const pb::trace::TraceStats stats = tracer.trace(keep, kept);
+    photon_rays = traced_segments(kept.paths);
+    if (photon_rays.size() != stats.rays) {
+      std::fprintf(stderr, "bench_trace: rebuilt %zu segments of the photon trace's %llu rays\n",
+                   photon_rays.size(), static_cast<unsigned long long>(stats.rays));
+      return 1;
+    }
+    replay_seconds(world, photon_rays, 1);  // warm-up
+  }
+  std::vector<double> replay_rates, replay_stream_rates, replay_shares;
 
   // ---- ours (the reference path tracer, NEE + MIS), Embree's tutorial and the photon tracer, in
   // ---- alternating rounds. The machine may be shared: alternating them and taking the median of
@@ -248,6 +312,12 @@ int main(int argc, char** argv) {
     photon_rays_per_path = double(photon_stats.rays) / double(photon_stats.paths);
     // Cost per ray: the photon tracer's seconds a ray over the path tracer's.
     photon_cost_ratios.push_back(mine / photon_rates.back());
+    const double replayed = double(photon_rays.size()) * 1e-6;
+    replay_rates.push_back(replayed / replay_seconds(world, photon_rays, 1));
+    replay_stream_rates.push_back(replayed / replay_seconds(world, photon_rays, 64));
+    // Embree's share of the photon tracer's cost per ray (its rays of this round's seed differ
+    // from the replayed ones only in their random numbers).
+    replay_shares.push_back(photon_rates.back() / replay_rates.back());
     ts_footprints.seed = ts.seed;
     footprint_rates.push_back(tracer.trace(ts_footprints, batch).mrays_per_second());
     footprint_cost_ratios.push_back(photon_rates.back() / footprint_rates.back());
@@ -277,10 +347,22 @@ int main(int argc, char** argv) {
               photon_rays_per_path);
   std::printf("%-34s %10.2f %14.2f\n", "photonbench photon tracer, footprints",
               median(footprint_rates), photon_rays_per_path);
+  std::printf("%-34s %10.2f %14.2f\n", "embree alone, photon tracer's rays", median(replay_rates),
+              photon_rays_per_path);
+  std::printf("%-34s %10.2f %14.2f\n", "  the same rays as streams of 64",
+              median(replay_stream_rates), photon_rays_per_path);
   std::printf(
       "photon tracer / path tracer, cost per ray: %.2fx  (median of %zu alternating rounds; "
       "target <= 1.3x)\n",
       median(photon_cost_ratios), photon_cost_ratios.size());
+  std::printf(
+      "  of which Embree's queries (with our hit completion) on the photon tracer's own rays: "
+      "%.2fx the path tracer's cost per ray (%.2fx as streams of 64); the photon tracer's code "
+      "around them: %.2fx\n",
+      median(ours) / median(replay_rates), median(ours) / median(replay_stream_rates),
+      median(photon_cost_ratios) - median(ours) / median(replay_rates));
+  std::printf("  Embree's share of the photon tracer's time: %.0f%%\n",
+              100 * median(replay_shares));
   std::printf(
       "photon tracer with footprints / without, cost per ray: %.2fx  (the same photons; median "
       "of %zu alternating rounds)\n",
