@@ -41,23 +41,30 @@ struct ProbeQuery {
   glm::vec4 origin, direction;
 };
 
+// The brute force below runs 24 million box tests a walk check; written on plain floats, without
+// GLM's and the standard library's function calls, as the sanitized build compiles the test
+// program unoptimised (scripts/sanitizers/tests.cmake).
 bool contains(const BvhBox& b, glm::vec3 x) {
-  return glm::all(glm::greaterThanEqual(x, b.lo)) && glm::all(glm::lessThanEqual(x, b.hi));
+  return x.x >= b.lo.x && x.y >= b.lo.y && x.z >= b.lo.z && x.x <= b.hi.x && x.y <= b.hi.y &&
+         x.z <= b.hi.z;
 }
 // The slab test as bvh_walk.glsl makes it: the margin leave - enter by which the segment
 // origin + t d, t in [0, t1], meets the box (negative: it misses; -inf: parallel and outside,
 // or the box is empty).
-float meets(const BvhBox& b, glm::vec3 o, glm::vec3 d, float t1) {
-  if (glm::any(glm::greaterThan(b.lo, b.hi))) return -INFINITY;  // empty
+float meets(const BvhBox& b, glm::vec3 origin, glm::vec3 direction, float t1) {
+  const float lo[3] = {b.lo.x, b.lo.y, b.lo.z}, hi[3] = {b.hi.x, b.hi.y, b.hi.z};
+  const float o[3] = {origin.x, origin.y, origin.z}, d[3] = {direction.x, direction.y, direction.z};
+  if (lo[0] > hi[0] || lo[1] > hi[1] || lo[2] > hi[2]) return -INFINITY;  // empty
   float enter = 0, leave = t1;
   for (int k = 0; k < 3; ++k) {
     if (d[k] == 0) {
-      if (o[k] < b.lo[k] || o[k] > b.hi[k]) return -INFINITY;
+      if (o[k] < lo[k] || o[k] > hi[k]) return -INFINITY;
       continue;
     }
-    const float a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
-    enter = std::max(enter, std::min(a, c));
-    leave = std::min(leave, std::max(a, c));
+    const float a = (lo[k] - o[k]) / d[k], c = (hi[k] - o[k]) / d[k];
+    const float near = a < c ? a : c, far = a < c ? c : a;
+    enter = near > enter ? near : enter;
+    leave = far < leave ? far : leave;
   }
   return leave - enter;
 }
@@ -136,35 +143,47 @@ void expect_tree_bounds(const pb::toolkit::BoxBvh& bvh, const std::vector<BvhBox
   EXPECT_EQ(bad_items, 0u) << "item boxes outside their leaf's box";
 }
 
-// Each query's walk (record_probe's results) against a brute-force search over `boxes`: the hook
-// called for exactly the items brute force finds, each once. Returns the item boxes the walks
-// tested per query.
-double expect_walks_match(const std::vector<BvhBox>& boxes, const std::vector<ProbeQuery>& queries,
-                          const pb::gpu::Buffer& found, const pb::gpu::Buffer& counts,
-                          uint32_t per_query) {
-  const auto* f = static_cast<const uint32_t*>(found.mapped());
-  const auto* n = static_cast<const uint32_t*>(counts.mapped());
-  size_t total = 0, wrong = 0, tested = 0;
-  // Points are compared exactly. A segment that grazes a box (|leave - enter| within 1e-5: the
-  // device's reciprocal may round otherwise than the CPU's division) may go either way.
+// What a brute-force search over `boxes` finds for each query: the items it surely meets, and
+// those a segment grazes (|leave - enter| within 1e-5: the device's reciprocal may round otherwise
+// than the CPU's division), which a walk may find or not. Points are decided exactly.
+struct BruteForce {
+  std::vector<std::set<uint32_t>> surely, maybe;
   size_t grazing = 0;
-  const auto count = uint32_t(queries.size());
-  for (uint32_t q = 0; q < count; ++q) {
-    std::multiset<uint32_t> got;
-    std::set<uint32_t> surely, maybe;
+};
+BruteForce brute_force(const std::vector<BvhBox>& boxes, const std::vector<ProbeQuery>& queries) {
+  BruteForce r;
+  r.surely.resize(queries.size());
+  r.maybe.resize(queries.size());
+  for (size_t q = 0; q < queries.size(); ++q) {
     const glm::vec3 o(queries[q].origin);
     for (uint32_t i = 0; i < boxes.size(); ++i) {
       if (queries[q].origin.w == 0) {
-        if (contains(boxes[i], o)) surely.insert(i);
+        if (contains(boxes[i], o)) r.surely[q].insert(i);
         continue;
       }
       const float margin =
           meets(boxes[i], o, glm::vec3(queries[q].direction), queries[q].direction.w);
       if (margin > 1e-5f)
-        surely.insert(i);
+        r.surely[q].insert(i);
       else if (margin >= -1e-5f)
-        maybe.insert(i), ++grazing;
+        r.maybe[q].insert(i), ++r.grazing;
     }
+  }
+  return r;
+}
+
+// Each query's walk (record_probe's results) against the brute-force search: the hook called for
+// exactly the items brute force finds, each once. Returns the item boxes the walks tested per
+// query.
+double expect_walks_match(const BruteForce& expected, const pb::gpu::Buffer& found,
+                          const pb::gpu::Buffer& counts, uint32_t per_query) {
+  const auto* f = static_cast<const uint32_t*>(found.mapped());
+  const auto* n = static_cast<const uint32_t*>(counts.mapped());
+  size_t total = 0, wrong = 0, tested = 0;
+  const auto count = uint32_t(expected.surely.size());
+  for (uint32_t q = 0; q < count; ++q) {
+    std::multiset<uint32_t> got;
+    const std::set<uint32_t>&surely = expected.surely[q], &maybe = expected.maybe[q];
     EXPECT_EQ(n[8 * q + 1], 1u) << "query " << q << " ran out of its budget";
     EXPECT_LE(n[8 * q], per_query);
     tested += n[8 * q + 3];
@@ -178,7 +197,7 @@ double expect_walks_match(const std::vector<BvhBox>& boxes, const std::vector<Pr
                     << got.size() << ", brute force " << surely.size() << " (+" << maybe.size()
                     << " grazing; nodes " << n[8 * q + 2] << ", boxes " << n[8 * q + 3] << ")";
   }
-  EXPECT_LT(grazing, size_t(count / 4)) << "grazing pairs";
+  EXPECT_LT(expected.grazing, size_t(count / 4)) << "grazing pairs";
   EXPECT_EQ(wrong, 0u);
   EXPECT_GT(total, size_t(count)) << "the queries must find something to compare";
   return double(tested) / count;
@@ -243,7 +262,8 @@ TEST(CollectionPointsBvh, PointAndSegmentWalksFindWhatBruteForceFinds) {
   EXPECT_EQ(stats.inner + 1, stats.leaves) << "a binary tree over the runs";
   EXPECT_EQ(stats.long_runs, 0u);
   expect_tree_bounds(t.bvh, t.boxes);
-  expect_walks_match(t.boxes, t.queries, t.probe.found, t.probe.counts, Probe::kPerQuery);
+  expect_walks_match(brute_force(t.boxes, t.queries), t.probe.found, t.probe.counts,
+                     Probe::kPerQuery);
 }
 
 // The point walk as bvh_walk.glsl makes it, on the tree read back: (nodes popped, nodes met, items
@@ -278,6 +298,7 @@ TEST(CollectionPointsBvh, WalkingSmallNodesAsLeavesFindsTheSameItemsWithFewerNod
   constexpr uint32_t kBoxes = 6000, kQueries = 2000;
   BuiltOverRandomBoxes t(kBoxes, kQueries, 31);
   t.ctx.submit();
+  const BruteForce expected = brute_force(t.boxes, t.queries);
   struct Walk {
     uint32_t leaf_size;
     bool test_item_boxes;
@@ -289,7 +310,7 @@ TEST(CollectionPointsBvh, WalkingSmallNodesAsLeavesFindsTheSameItemsWithFewerNod
     t.probe.record(t.ctx.cmd(), t.bvh, kQueries, walk.leaf_size, walk.test_item_boxes);
     t.ctx.submit();
     if (walk.test_item_boxes)
-      expect_walks_match(t.boxes, t.queries, t.probe.found, t.probe.counts, Probe::kPerQuery);
+      expect_walks_match(expected, t.probe.found, t.probe.counts, Probe::kPerQuery);
     const auto* n = static_cast<const uint32_t*>(t.probe.counts.mapped());
     size_t off = 0, met = 0, wrong_slots = 0;
     double nodes = 0, items = 0;
@@ -356,8 +377,8 @@ TEST(CollectionPointsBvh, RefitOverMovedBoxesBoundsEveryChildAndFindsWhatBruteFo
   bvh.record_build(ctx.cmd(), probe.boxes, kBoxes);
   probe.record(ctx.cmd(), bvh, kQueries);
   ctx.submit();
-  const double built =
-      expect_walks_match(after, queries, probe.found, probe.counts, Probe::kPerQuery);
+  const BruteForce expected = brute_force(after, queries);
+  const double built = expect_walks_match(expected, probe.found, probe.counts, Probe::kPerQuery);
   // The build over `before`, then the refit over `after`.
   probe.load(before, queries);
   bvh.record_build(ctx.cmd(), probe.boxes, kBoxes);
@@ -374,8 +395,7 @@ TEST(CollectionPointsBvh, RefitOverMovedBoxesBoundsEveryChildAndFindsWhatBruteFo
   EXPECT_EQ(stats.inner + 1, stats.leaves) << "every inner node joined again";
   EXPECT_EQ(stats.long_runs, 0u);
   expect_tree_bounds(bvh, after);
-  const double refitted =
-      expect_walks_match(after, queries, probe.found, probe.counts, Probe::kPerQuery);
+  const double refitted = expect_walks_match(expected, probe.found, probe.counts, Probe::kPerQuery);
   std::printf("boxes tested per query: build %.1f, refit %.1f\n", built, refitted);
   EXPECT_GT(refitted, built) << "a third of the boxes moved anywhere: the refitted tree is looser";
 }
