@@ -5,26 +5,28 @@
 #
 #   scripts/fuzz.sh [--seconds N] [--runs N] [TARGET...]   (default: --seconds 30, all five)
 #
-# With both limits a target stops at whichever comes first.
+# --seconds N: N seconds of one core for each target. With both limits a target stops at whichever
+# comes first.
 # .ci/run runs each target for a bounded time. A finding (a crash, a sanitizer report, an exception
-# other than pb::InputError, an input slower than 30 s or one using more than 4 GiB) stops that
-# target, leaves the input in build-fuzz/findings/<target>/ and makes the script exit 1; reproduce
-# it with build-fuzz/fuzz_<target> FILE.
+# other than pb::InputError, an input slower than 30 s of a core or one using more than 4 GiB)
+# stops that target, leaves the input in build-fuzz/findings/<target>/ and makes the script exit 1;
+# reproduce it with build-fuzz/fuzz_<target> FILE.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 limit=()
+seconds=
 targets=()
 while (($#)); do
   case "$1" in
-    --seconds) limit+=(-max_total_time="$2"); shift 2 ;;
+    --seconds) seconds=$2; shift 2 ;;
     --runs) limit+=(-runs="$2"); shift 2 ;;
     -h | --help) sed -n '2,13p' "$0"; exit 0 ;;
     *) targets+=("$1"); shift ;;
   esac
 done
-((${#limit[@]})) || limit=(-max_total_time=30)
 ((${#targets[@]})) || targets=(config set scene obj gltf)
+[[ -n "$seconds" || ${#limit[@]} -gt 0 ]] || seconds=30
 
 cmake -S tests/fuzz -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++-14 > build-fuzz.log 2>&1 ||
   { cat build-fuzz.log; exit 1; }
@@ -36,14 +38,23 @@ cmake --build build-fuzz -j "$(nproc)" >> build-fuzz.log 2>&1 || { cat build-fuz
 # a finding. 64 MiB still holds thousands of recent frees.
 export ASAN_OPTIONS="${ASAN_OPTIONS:-quarantine_size_mb=64}"
 
-# The targets run side by side, one a core (each fuzzer is one process on one core): N seconds of
-# fuzzing each, in N x ceil(targets / cores) seconds of wall time.
+# The targets run side by side, all at once (each fuzzer is one process on one core). With more
+# targets than cores each gets a core's share, so its time limit and its slow-input limit (both
+# wall time in libFuzzer) grow by targets / cores: N seconds of one core each, in N x targets /
+# cores seconds of wall time. (In rounds of one target a core, five targets on two cores took
+# 3 N, the last round leaving a core idle.)
+cores=$(nproc)
+share=(1 1)  # wall seconds per core-second: numerator, denominator
+((${#targets[@]} <= cores)) || share=("${#targets[@]}" "$cores")
+wall() { echo $((($1 * share[0] + share[1] - 1) / share[1])); }
+[[ -z "$seconds" ]] || limit+=(-max_total_time="$(wall "$seconds")")
+slow=$(wall 30)
 fuzz_one() {
   local target=$1 corpus="build-fuzz/corpus/$1" findings="build-fuzz/findings/$1"
   local log="build-fuzz/$1.log" start=$SECONDS outcome runs
   mkdir -p "$corpus" "$findings"
   cp -n tests/fuzz/corpus/"$target"/* "$corpus"/
-  if "build-fuzz/fuzz_$target" "${limit[@]}" -timeout=30 -rss_limit_mb=4096 -print_final_stats=1 \
+  if "build-fuzz/fuzz_$target" "${limit[@]}" -timeout=$slow -rss_limit_mb=4096 -print_final_stats=1 \
     -artifact_prefix="$findings/" "$corpus" > "$log" 2>&1; then
     outcome="no finding"
   else
@@ -55,15 +66,10 @@ fuzz_one() {
 }
 
 status=0
-cores=$(nproc)
 pids=()
 for target in "${targets[@]}"; do
   fuzz_one "$target" &
   pids+=($!)
-  if ((${#pids[@]} >= cores)); then
-    wait "${pids[0]}" || status=1
-    pids=("${pids[@]:1}")
-  fi
 done
 for pid in "${pids[@]}"; do wait "$pid" || status=1; done
 exit "$status"
