@@ -26,64 +26,55 @@ struct Step {
 const Step kSteps[] = {{4000, 0.16}, {32000, 0.08}, {256000, 0.04}};
 const std::vector<std::string> kTechniques = {"tiled", "cluster", "directional"};
 
-fs::path g_dir;
-int g_exit = -1;
+// One test over the three techniques, not one per technique: CTest runs every GoogleTest test in
+// a process of its own, so each of three would render all nine cells and the references again.
+TEST(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
+  const fs::path dir = fs::temp_directory_path() / ("pb_convergence_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::string yaml =
+      "name: paper1-convergence\nresolution: [96, 54]\nseed: 3\nscenes: [cornell-box]\n"
+      "frames: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [relmse]\n"
+      "limits: {cell_seconds: 600}\n"
+      "reference: {samples: 1024, cache_dir: " +
+      (dir / "refs").string() + "}\ntechniques:\n";
+  for (const std::string& technique : kTechniques)
+    for (const Step& step : kSteps)
+      yaml += "  - technique: " + technique +
+              "\n    params: {photons: " + std::to_string(step.photons) +
+              ", radius: " + std::to_string(step.radius) + ", max_bounces: 12}\n";
+  std::ofstream(dir / "config.yaml") << yaml;
+  const std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") +
+                          (dir / "config.yaml").string() + " --out " + (dir / "run").string() +
+                          " > " + (dir / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "log.txt");
 
-// indirect-class relMSE of each cell, by (technique, photons).
-std::map<std::pair<std::string, int>, double> g_relmse;
-
-class Paper1Convergence : public ::testing::TestWithParam<std::string> {
- public:
-  static void SetUpTestSuite() {
-    g_dir = fs::temp_directory_path() / ("pb_convergence_" + std::to_string(::getpid()));
-    fs::remove_all(g_dir);
-    fs::create_directories(g_dir);
-    std::string yaml =
-        "name: paper1-convergence\nresolution: [96, 54]\nseed: 3\nscenes: [cornell-box]\n"
-        "frames: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [relmse]\n"
-        "limits: {cell_seconds: 600}\n"
-        "reference: {samples: 1024, cache_dir: " +
-        (g_dir / "refs").string() + "}\ntechniques:\n";
-    for (const std::string& technique : kTechniques)
-      for (const Step& step : kSteps)
-        yaml += "  - technique: " + technique +
-                "\n    params: {photons: " + std::to_string(step.photons) +
-                ", radius: " + std::to_string(step.radius) + ", max_bounces: 12}\n";
-    std::ofstream(g_dir / "config.yaml") << yaml;
-    std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") +
-                      (g_dir / "config.yaml").string() + " --out " + (g_dir / "run").string() +
-                      " > " + (g_dir / "log.txt").string() + " 2>&1";
-    g_exit = std::system(cmd.c_str());
-    for (const auto& entry : fs::directory_iterator(g_dir / "run" / "cells")) {
-      std::ifstream in(entry.path() / "cell.json");
-      auto cell = nlohmann::json::parse(in);
-      if (cell["status"] != "ok" || !cell["metrics"].contains("indirect")) continue;
-      g_relmse[{cell["technique"].get<std::string>(),
-                std::stoi(cell["params"]["photons"].get<std::string>())}] =
-          cell["metrics"]["indirect"]["relmse"].get<double>();
+  // indirect-class relMSE of each cell, by (technique, photons).
+  std::map<std::pair<std::string, int>, double> relmse;
+  for (const auto& entry : fs::directory_iterator(dir / "run" / "cells")) {
+    std::ifstream in(entry.path() / "cell.json");
+    auto cell = nlohmann::json::parse(in);
+    if (cell["status"] != "ok" || !cell["metrics"].contains("indirect")) continue;
+    relmse[{cell["technique"].get<std::string>(),
+            std::stoi(cell["params"]["photons"].get<std::string>())}] =
+        cell["metrics"]["indirect"]["relmse"].get<double>();
+  }
+  for (const std::string& technique : kTechniques) {
+    SCOPED_TRACE(technique);
+    std::vector<double> errors;
+    for (const Step& step : kSteps) {
+      auto it = relmse.find({technique, step.photons});
+      ASSERT_NE(it, relmse.end()) << technique << " with " << step.photons
+                                  << " photons has no indirect score (see " << dir << ")";
+      errors.push_back(it->second);
     }
+    std::printf("%s indirect relMSE: %.4f -> %.4f -> %.4f\n", technique.c_str(), errors[0],
+                errors[1], errors[2]);
+    for (size_t i = 1; i < errors.size(); ++i)
+      EXPECT_LT(errors[i], errors[i - 1])
+          << technique << ": relMSE " << errors[0] << " -> " << errors[1] << " -> " << errors[2];
   }
-  static void TearDownTestSuite() {
-    if (!::testing::Test::HasFailure()) fs::remove_all(g_dir);
-  }
-};
-
-TEST_P(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
-  ASSERT_EQ(g_exit, 0) << "see " << (g_dir / "log.txt");
-  std::vector<double> errors;
-  for (const Step& step : kSteps) {
-    auto it = g_relmse.find({GetParam(), step.photons});
-    ASSERT_NE(it, g_relmse.end()) << GetParam() << " with " << step.photons
-                                  << " photons has no indirect score (see " << g_dir << ")";
-    errors.push_back(it->second);
-  }
-  std::printf("%s indirect relMSE: %.4f -> %.4f -> %.4f\n", GetParam().c_str(), errors[0],
-              errors[1], errors[2]);
-  for (size_t i = 1; i < errors.size(); ++i)
-    EXPECT_LT(errors[i], errors[i - 1])
-        << GetParam() << ": relMSE " << errors[0] << " -> " << errors[1] << " -> " << errors[2];
+  if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
-
-INSTANTIATE_TEST_SUITE_P(Techniques, Paper1Convergence, ::testing::ValuesIn(kTechniques));
 
 }  // namespace paper1_convergence_test
