@@ -25,9 +25,9 @@ struct ClusterPush {
 static_assert(sizeof(ClusterPush) == 128);
 
 // Stats words (cluster_common.glsl).
-constexpr uint32_t kStatRead = 0, kStatRejected = 2, kStatTrivial = 4, kStatCone = 5,
-                   kStatTruncated = 6, kStatWords = 8;
-constexpr uint32_t kModeCount = 0, kModeInsert = 1;
+constexpr uint32_t kClusterStatRead = 0, kClusterStatRejected = 2, kClusterStatTrivial = 4,
+                   kClusterStatCone = 5, kClusterStatTruncated = 6, kClusterStatWords = 8;
+constexpr uint32_t kClusterModeCount = 0, kClusterModeInsert = 1;
 
 }  // namespace
 
@@ -53,7 +53,7 @@ void ClusterSplat::setup(Context& ctx, const Params& params, const PhotonParams&
   lists_.setup(gpu, list_capacity, "cluster");
   const bool profile = options_.profile;
   profile_.setup(gpu, {"top", "count", "insert"}, profile);
-  stats_ = storage_buffer(gpu, "cluster/stats", kStatWords * 4, gpu::Memory::host_visible);
+  stats_ = storage_buffer(gpu, "cluster/stats", kClusterStatWords * 4, gpu::Memory::host_visible);
   node_flux_.setup(gpu);
 
   auto B = gpu::Binding::storage_buffer;
@@ -132,7 +132,7 @@ const gpu::Image& ClusterSplat::render(Context& ctx, const PhotonSet& photons) {
     gpu::full_barrier(ctx.cmd());
     // The leaf passes, twice (Paper I §4.3).
     lists_.record_runs(ctx, scan_, [&](vk::CommandBuffer cmd, bool insert) {
-      push.mode = insert ? kModeInsert : kModeCount;
+      push.mode = insert ? kClusterModeInsert : kClusterModeCount;
       push.radius = insert ? radius_ * options_.insert_radius_scale : radius_;
       leaf_pipeline_.bind(cmd, resources, push);
       jobs_.dispatch_consumers(cmd);
@@ -160,11 +160,12 @@ void ClusterSplat::report(Context& ctx, const PhotonSet&) {
   auto wide = [&](uint32_t at) { return double(uint64_t(s[at]) | (uint64_t(s[at + 1]) << 32)); };
   lists_.report(ctx, "cluster: per-node photon lists", "max_list_entries");
   jobs_.report(ctx, "cluster");
-  report_truncated(ctx, "cluster", s[kStatTruncated], options_.loop_budget);
-  pb::count(ctx, kPhotonsReadCounter, wide(kStatRead));
-  pb::count(ctx, kPhotonsRejectedCounter, wide(kStatRejected));
-  if (options_.variant == kTrivial) pb::count(ctx, kTrivialAcceptsCounter, double(s[kStatTrivial]));
-  if (options_.variant != kPlain) pb::count(ctx, kConeRejectsCounter, double(s[kStatCone]));
+  report_truncated(ctx, "cluster", s[kClusterStatTruncated], options_.loop_budget);
+  pb::count(ctx, kPhotonsReadCounter, wide(kClusterStatRead));
+  pb::count(ctx, kPhotonsRejectedCounter, wide(kClusterStatRejected));
+  if (options_.variant == kTrivial)
+    pb::count(ctx, kTrivialAcceptsCounter, double(s[kClusterStatTrivial]));
+  if (options_.variant != kPlain) pb::count(ctx, kConeRejectsCounter, double(s[kClusterStatCone]));
   uint64_t nodes = 0;
   for (uint32_t l = 0; l < hierarchy_.levels(); ++l) nodes += hierarchy_.occupied(l);
   pb::count(ctx, kHierarchyNodesCounter, double(nodes));

@@ -34,7 +34,8 @@ struct BlurPush {
 
 // Flags and stats words of directional_common.glsl.
 constexpr uint32_t kFlagDepositPaper = 1, kFlagWeightClip = 2, kFlagDebugNormal = 4;
-constexpr uint32_t kStatDeposits = 0, kStatTruncated = 2, kStatMissed = 3, kStatWords = 4;
+constexpr uint32_t kDirectionalStatDeposits = 0, kDirectionalStatTruncated = 2,
+                   kDirectionalStatMissed = 3, kDirectionalStatWords = 4;
 constexpr uint32_t kBucketWords = 24;  // 8 octants x RGB (Paper I §5.2: "24 floats per node")
 
 }  // namespace
@@ -60,7 +61,8 @@ void DirectionalSplat::setup(Context& ctx, const Params& params, const PhotonPar
   scan_.setup(gpu);
   jobs_.setup(gpu, job_capacity, kJobsPerThread, "directional");
   profile_.setup(gpu, {"top", "deposit"}, profile);
-  stats_ = storage_buffer(gpu, "directional/stats", kStatWords * 4, gpu::Memory::host_visible);
+  stats_ = storage_buffer(gpu, "directional/stats", kDirectionalStatWords * 4,
+                          gpu::Memory::host_visible);
   flux_.setup(gpu);
 
   auto B = gpu::Binding::storage_buffer;
@@ -211,10 +213,11 @@ const gpu::Image& DirectionalSplat::render(Context& ctx, const PhotonSet& photon
 void DirectionalSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
   pb::count(ctx, kNodeDepositsCounter,
-            double(uint64_t(s[kStatDeposits]) | (uint64_t(s[kStatDeposits + 1]) << 32)));
-  pb::count(ctx, kPhotonsMissedCounter, double(s[kStatMissed]));
+            double(uint64_t(s[kDirectionalStatDeposits]) |
+                   (uint64_t(s[kDirectionalStatDeposits + 1]) << 32)));
+  pb::count(ctx, kPhotonsMissedCounter, double(s[kDirectionalStatMissed]));
   jobs_.report(ctx, "directional");
-  report_truncated(ctx, "directional", s[kStatTruncated], options_.loop_budget);
+  report_truncated(ctx, "directional", s[kDirectionalStatTruncated], options_.loop_budget);
   pb::count(ctx, kBytesClusterHierarchyCounter, double(hierarchy_.bytes_hierarchy()));
   pb::count(ctx, kBytesFinalBoundsCounter, double(hierarchy_.bytes_final_bounds()));
   pb::count(ctx, kBytesAccumFluxCounter, double(flux_.bytes()));

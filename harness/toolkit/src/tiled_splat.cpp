@@ -23,8 +23,8 @@ struct TiledPush {
 };
 static_assert(sizeof(TiledPush) == 128);
 
-constexpr uint32_t kStatRead = 0, kStatRejected = 2, kStatWords = 4;
-constexpr uint32_t kModeCount = 0, kModeInsert = 1;
+constexpr uint32_t kTiledStatRead = 0, kTiledStatRejected = 2, kTiledStatWords = 4;
+constexpr uint32_t kTiledModeCount = 0, kTiledModeInsert = 1;
 
 }  // namespace
 
@@ -47,7 +47,7 @@ void TiledSplat::setup(Context& ctx, const Params& params, const PhotonParams& p
                       fmt::format("tiled: max_list_entries = {} (4 bytes each)", capacity));
   scan_.setup(gpu);
   lists_.setup(gpu, capacity, "tiled");
-  stats_ = storage_buffer(gpu, "tiled/stats", kStatWords * 4, gpu::Memory::host_visible);
+  stats_ = storage_buffer(gpu, "tiled/stats", kTiledStatWords * 4, gpu::Memory::host_visible);
 
   auto B = gpu::Binding::storage_buffer;
   auto I = gpu::Binding::storage_image;
@@ -121,7 +121,7 @@ const gpu::Image& TiledSplat::render(Context& ctx, const PhotonSet& photons) {
   {
     auto splat = ctx.pass("splat");
     lists_.record_runs(ctx, scan_, [&](vk::CommandBuffer cmd, bool insert) {
-      push.mode = insert ? kModeInsert : kModeCount;
+      push.mode = insert ? kTiledModeInsert : kTiledModeCount;
       push.radius = insert ? radius_ * options_.insert_radius_scale : radius_;
       splat_pipeline_.bind(cmd, resources, push);
       cmd.dispatch(photon_groups, 1, 1);
@@ -145,8 +145,8 @@ void TiledSplat::report(Context& ctx, const PhotonSet&) {
   auto s = stats_.view<uint32_t>();
   auto wide = [&](uint32_t at) { return double(uint64_t(s[at]) | (uint64_t(s[at + 1]) << 32)); };
   lists_.report(ctx, "tiled: per-tile photon lists", "max_list_entries");
-  pb::count(ctx, kPhotonsReadCounter, wide(kStatRead));
-  pb::count(ctx, kPhotonsRejectedCounter, wide(kStatRejected));
+  pb::count(ctx, kPhotonsReadCounter, wide(kTiledStatRead));
+  pb::count(ctx, kPhotonsRejectedCounter, wide(kTiledStatRejected));
   pb::count(ctx, kBytesTileBoundsCounter, double(bounds_.size()));
   pb::count(ctx, kBytesPhotonListsCounter, double(lists_.bytes()));
 }
