@@ -7,17 +7,15 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-namespace fs = std::filesystem;
+#include "run_fixture.h"
 
 namespace paper1_convergence_test {
+
+using namespace pb::testing;
 
 struct Step {
   int photons;
@@ -29,9 +27,7 @@ const std::vector<std::string> kTechniques = {"tiled", "cluster", "directional"}
 // One test over the three techniques, not one per technique: CTest runs every GoogleTest test in
 // a process of its own, so each of three would render all nine cells and the references again.
 TEST(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
-  const fs::path dir = fs::temp_directory_path() / ("pb_convergence_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = work_dir("paper1", "convergence");
   std::string yaml =
       "name: paper1-convergence\nresolution: [96, 54]\nseed: 3\nscenes: [cornell-box]\n"
       "frames: {warmup: 0, count: 1, metrics_every: 1}\nmetrics: [relmse]\n"
@@ -43,17 +39,12 @@ TEST(Paper1Convergence, IndirectRelMseFallsAsPhotonsGrowAndRadiusShrinks) {
       yaml += "  - technique: " + technique +
               "\n    params: {photons: " + std::to_string(step.photons) +
               ", radius: " + std::to_string(step.radius) + ", max_bounces: 12}\n";
-  std::ofstream(dir / "config.yaml") << yaml;
-  const std::string cmd = std::string(PB_BINARY_DIR "/photonbench run ") +
-                          (dir / "config.yaml").string() + " --out " + (dir / "run").string() +
-                          " > " + (dir / "log.txt").string() + " 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "log.txt");
+  ASSERT_EQ(run_config(dir, yaml), 0) << "see " << (dir / "log.txt");
 
   // indirect-class relMSE of each cell, by (technique, photons).
   std::map<std::pair<std::string, int>, double> relmse;
   for (const auto& entry : fs::directory_iterator(dir / "run" / "cells")) {
-    std::ifstream in(entry.path() / "cell.json");
-    auto cell = nlohmann::json::parse(in);
+    const auto cell = read_json(entry.path() / "cell.json");
     if (cell["status"] != "ok" || !cell["metrics"].contains("indirect")) continue;
     relmse[{cell["technique"].get<std::string>(),
             std::stoi(cell["params"]["photons"].get<std::string>())}] =
